@@ -1,0 +1,47 @@
+"""The one exception tree of MAPR.
+
+Every error MAPR raises on purpose derives from :class:`MaprError`, so a caller can catch
+the whole family in one clause and still tell the kinds apart::
+
+    MaprError
+    ├── EncodeError            a word list or impairment the encoder cannot produce
+    ├── CaptureFormatError     a capture file that cannot be read at all (names file and cause)
+    └── MonitorError           bus-monitor failures
+        ├── BackendUnavailable the backend is unknown or its optional dependency is missing
+        ├── BackendError       a backend failed while running (card unplugged, read error)
+        └── MonitorClosed      recv() on a monitor that has been closed
+
+Bad *signal* is never an exception: a malformed word or message is data, returned with
+error flags. Exceptions are for files that cannot be opened, wrong arguments and dead
+hardware. :mod:`mapr_daemon.errors` extends this tree for configuration and ICD errors.
+"""
+
+from __future__ import annotations
+
+
+class MaprError(Exception):
+    """Root of every error MAPR raises on purpose."""
+
+
+class EncodeError(MaprError, ValueError):
+    """The encoder was asked for something it cannot produce (bad value, rate, fault)."""
+
+
+class CaptureFormatError(MaprError):
+    """A capture file cannot be read: wrong format, missing metadata, unreadable."""
+
+
+class MonitorError(MaprError):
+    """Base of the bus-monitor errors."""
+
+
+class BackendUnavailable(MonitorError):
+    """The backend name is unknown, or an optional dependency it needs is missing."""
+
+
+class BackendError(MonitorError):
+    """A backend failed while running; the monitor keeps what it already received."""
+
+
+class MonitorClosed(MonitorError):
+    """The monitor was closed; no more records will come."""

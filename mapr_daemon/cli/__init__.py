@@ -1,0 +1,1 @@
+"""The ``mapr`` command line: one module per subcommand, each with ``add_subparser``."""

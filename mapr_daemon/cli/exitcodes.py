@@ -1,0 +1,13 @@
+"""Exit codes of ``mapr``, distinct per cause so scripts and systemd can tell them apart."""
+
+OK = 0
+FAILURE = 1
+"""An unexpected internal error (a bug): the traceback is logged."""
+USAGE = 2
+"""A bad argument, or an input file that cannot be read (one line names it)."""
+CONFIG = 78
+"""A configuration or ICD error (sysexits EX_CONFIG); listed in RestartPreventExitStatus=."""
+UNAVAILABLE = 69
+"""A backend or device that cannot be opened (sysexits EX_UNAVAILABLE)."""
+INTERRUPTED = 130
+"""Stopped by Ctrl-C."""

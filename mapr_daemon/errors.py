@@ -1,0 +1,32 @@
+"""Errors of the daemon side, grafted onto the one tree rooted at :class:`drivers.errors.MaprError`.
+
+::
+
+    MaprError (drivers.errors)
+    └── ConfigError       a configuration or ICD file is wrong; names file, line and field
+        └── IcdError      an interface-control-document (message table) error
+"""
+
+from __future__ import annotations
+
+from drivers.errors import MaprError
+
+
+class ConfigError(MaprError):
+    """A configuration file is invalid. ``str()`` is one line: ``file:line: field: problem``."""
+
+    def __init__(self, message: str, *, path: str | None = None, line: int | None = None,
+                 field: str | None = None) -> None:
+        self.path = path
+        self.line = line
+        self.field = field
+        self.detail = message
+        where = ""
+        if path is not None:
+            where = f"{path}:{line}: " if line is not None else f"{path}: "
+        what = f"{field}: " if field else ""
+        super().__init__(f"{where}{what}{message}")
+
+
+class IcdError(ConfigError):
+    """The message table (ICD YAML) is invalid or a value does not fit it."""
