@@ -7,13 +7,13 @@ public API of the monitor, the CLI's JSON output and what the Chapter 10 reader 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from enum import Enum
+from enum import StrEnum
 from typing import Any
 
 from drivers.mil1553.words import BROADCAST_RT, MODE_SUBADDRESSES, CommandWord, StatusWord
 
 
-class TransferFormat(str, Enum):
+class TransferFormat(StrEnum):
     """The ten information-transfer formats of MIL-STD-1553B, plus words that fit none."""
 
     BC_RT = "BC_RT"

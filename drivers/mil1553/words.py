@@ -91,7 +91,8 @@ UIntArray = npt.NDArray[np.unsignedinteger[Any]]
 def field(values: UIntArray, table: dict[str, tuple[int, int]], name: str) -> UIntArray:
     """Extract one field from an array of 16-bit words (vectorized shift and mask)."""
     shift, mask = table[name]
-    return (values >> shift) & mask  # type: ignore[no-any-return]
+    out: UIntArray = ((values >> shift) & mask).astype(values.dtype)
+    return out
 
 
 # --- parity --------------------------------------------------------------------------------

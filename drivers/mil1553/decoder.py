@@ -1,0 +1,354 @@
+"""Streaming, vectorized Manchester-II decoder: capture samples in, word batches out.
+
+Feed it chunks of any size (a chunk may split a word anywhere); the words come out once they
+are complete, and :meth:`ManchesterDecoder.flush` finishes the capture. The result is the same
+as one call on the whole capture.
+
+How a word is found and read (all steps are numpy operations over every word at once):
+
+1. *Sync.* A crossing with at least ~1 µs of one polarity before it and of the other after it
+   is a sync candidate (data bits never hold a level for more than 1 µs).
+2. *Anchor.* Every crossing of a word lies near a multiple of the 0.5 µs half-bit from the
+   sync's start, each displaced by its own jitter. The circular mean of the crossings' phases
+   on that 0.5 µs grid gives the start to a few ns even when every crossing is off by
+   ±150 ns, which no single crossing could.
+3. *Validation.* A real sync holds its level for three half-bits on each side: the segment
+   before the middle crossing must start at or before grid slot 0 and the one after it end at
+   or after slot 6; anything else (a long data run) is not a sync.
+4. *Bits.* Crossings are counted per half-bit slot. A good bit has exactly one crossing at
+   its middle slot (its direction is the bit: positive-to-negative = 1) and at most one at its
+   start slot; a missing mid-bit transition leaves the middle empty, a glitch adds a pair.
+   Either way the word is flagged ``manchester``.
+5. *Length.* Where activity stops (or the next sync starts) gives the number of bits sent:
+   fewer than 17 is ``bit_count_low``, more is ``bit_count_high``. Parity is odd over 17 bits.
+6. *Leftovers.* Activity that no valid sync accounts for (noise, a mangled sync) is reported
+   as a word flagged ``sync`` at the time it starts, so nothing on the line vanishes silently.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+from drivers.errors import EncodeError
+from drivers.mil1553.edges import (
+    FloatArray,
+    IntArray,
+    Segments,
+    bus_runs,
+    byte_changes,
+    clean_runs,
+    segments,
+)
+from drivers.mil1553.encoder import MAX_RATE_HZ, MIN_RATE_HZ
+from drivers.mil1553.wordbatch import (
+    BUS_A,
+    BUS_B,
+    ERR_BIT_COUNT_HIGH,
+    ERR_BIT_COUNT_LOW,
+    ERR_MANCHESTER,
+    ERR_PARITY,
+    ERR_SYNC,
+    SYNC_CMD,
+    SYNC_DATA,
+    WordBatch,
+    empty_words,
+)
+
+SLOTS = 44
+"""Half-bit grid slots examined per word: sync 0-5, bits 0-16 at 6-39, two extra bits."""
+_MID_SLOTS = np.arange(7, 40, 2)
+_START_SLOTS = np.arange(6, 40, 2)
+_BIT_WEIGHTS = (1 << np.arange(15, -1, -1)).astype(np.int64)
+
+
+@dataclass(frozen=True, slots=True)
+class DecoderSettings:
+    """Tolerances, in µs unless named otherwise. The defaults accept the standard's receiver
+    tolerances (±150 ns crossing deviation, ±0.1 % bit rate) plus a 100 ns dead band with room
+    to spare, at 8-50 MS/s."""
+
+    sync_half_min_us: float = 0.95
+    """Shortest level held on each side of a sync candidate's middle crossing."""
+    dead_band_max_us: float = 0.3
+    """Longest silence between opposite polarities that still counts as a crossing."""
+    burst_join_us: float = 2.0
+    """Unexplained activity closer than this is one burst (one ``sync``-flagged word)."""
+    burst_min_us: float = 0.5
+    """Unexplained activity shorter than this in total is ignored as line noise."""
+    glitch_filter: bool | None = None
+    """Remove single-sample glitches; None = on when a sample is at most 50 ns (>= 20 MS/s),
+    where no legitimate segment can be a single sample."""
+
+
+class ManchesterDecoder:
+    """Decode a capture stream (DESIGN.md's bit-level format) into words, both buses at once.
+
+    >>> from drivers.mil1553.wordbatch import make_words
+    >>> from drivers.mil1553.encoder import encode_words
+    >>> samples = encode_words(make_words([(1000, 0, 1, 0x2822)]), 10e6)
+    >>> dec = ManchesterDecoder(10e6)
+    >>> words = np.concatenate([dec.feed(samples), dec.flush()])
+    >>> hex(int(words["value"][0])), int(words["t_ns"][0]), int(words["errors"][0])
+    ('0x2822', 1000, 0)
+    """
+
+    def __init__(self, sample_rate: float, settings: DecoderSettings | None = None) -> None:
+        if not MIN_RATE_HZ <= sample_rate <= MAX_RATE_HZ:
+            raise EncodeError(f"sample rate {sample_rate:g} Hz is outside "
+                              f"{MIN_RATE_HZ:g}-{MAX_RATE_HZ:g}")
+        self.sample_rate = float(sample_rate)
+        self.settings = settings or DecoderSettings()
+        spus = self.sample_rate / 1e6
+        self._spus = spus
+        self._half = spus / 2
+        self._tail = math.ceil(32 * spus)
+        self._horizon = math.ceil(25 * spus)
+        self._min_batch = math.ceil(64 * spus)
+        glitch = self.settings.glitch_filter
+        if glitch is None:
+            glitch = self.sample_rate >= 20e6
+        self._glitch_max = 1 if glitch else 0
+        self._dropout_max = max(1, math.floor(self.settings.dead_band_max_us * spus))
+        # Below ~12.5 MS/s (a sample of 80 ns or more) a squeezed half-bit pulse can fall
+        # between two samples; two or more silent samples between one polarity mark one.
+        self._missed_pulse_min = 2 if self.sample_rate <= 12.5e6 else 0
+        self._buf = np.zeros(0, dtype=np.uint8)
+        self._base = 0
+        self._last_sync = {BUS_A: -math.inf, BUS_B: -math.inf}
+        self._last_burst = {BUS_A: -math.inf, BUS_B: -math.inf}
+        self._covered_until = {BUS_A: -math.inf, BUS_B: -math.inf}
+        self.samples_seen = 0
+
+    # --- public API --------------------------------------------------------------------
+    def feed(self, samples: npt.NDArray[np.uint8] | bytes) -> WordBatch:
+        """Add samples; return the words completed so far (sorted by time)."""
+        chunk = np.frombuffer(samples, dtype=np.uint8) if isinstance(samples, bytes) else \
+            np.asarray(samples, dtype=np.uint8)
+        self.samples_seen += chunk.size
+        self._buf = np.concatenate([self._buf, chunk]) if self._buf.size else chunk
+        if self._buf.size < self._min_batch + self._tail:
+            return empty_words()
+        words = self._decode(self._buf, self._buf.size - self._horizon)
+        keep_from = self._buf.size - self._tail
+        self._base += keep_from
+        self._buf = self._buf[keep_from:].copy()
+        return words
+
+    def flush(self) -> WordBatch:
+        """End of capture: decode what is left. A word cut off by the end is flagged."""
+        real = self._buf.size
+        padded = np.concatenate([self._buf, np.zeros(self._tail, dtype=np.uint8)])
+        words = self._decode(padded, real)
+        self._base += real
+        self._buf = np.zeros(0, dtype=np.uint8)
+        return words
+
+    def decode_all(self, samples: npt.NDArray[np.uint8]) -> WordBatch:
+        """Decode a whole capture in one call (``feed`` then ``flush``)."""
+        return np.concatenate([self.feed(samples), self.flush()])
+
+    # --- internals -----------------------------------------------------------------------
+    def _decode(self, buf: npt.NDArray[np.uint8], horizon: int) -> WordBatch:
+        changes = byte_changes(buf)
+        out = [self._decode_bus(buf, changes, bus, horizon) for bus in (BUS_A, BUS_B)]
+        words = np.concatenate(out)
+        return words[np.argsort(words["t_ns"], kind="stable")]
+
+    def _decode_bus(self, buf: npt.NDArray[np.uint8], changes: IntArray, bus: int,
+                    horizon: int) -> WordBatch:
+        n = buf.size
+        starts, levels = bus_runs(buf, changes, bus)
+        starts, levels = clean_runs(starts, levels, n, dropout_max=self._dropout_max,
+                                    glitch_max=self._glitch_max,
+                                    missed_pulse_min=self._missed_pulse_min)
+        seg = segments(starts, levels, n, dead_band_max=self._dropout_max)
+        if seg.start.size == 0:
+            return empty_words()
+        anchors, first_level = self._find_syncs(seg)
+        # Only words whose sync lies before the horizon are complete in this buffer; the
+        # ones already emitted from an earlier buffer come again in the kept tail: skip them.
+        absolute = anchors + self._base
+        fresh = (anchors < horizon) & (absolute > self._last_sync[bus] + 2 * self._spus)
+        if np.any(anchors < horizon):
+            self._last_sync[bus] = max(self._last_sync[bus],
+                                       float(absolute[anchors < horizon].max()))
+        words = self._read_words(seg, anchors, first_level, n)
+        words = words[fresh]
+        words["bus"] = bus
+        span_end = self._spans_end(seg, anchors, n)
+        bursts = self._bursts(seg, anchors, span_end, horizon=horizon, bus=bus)
+        decided = anchors < horizon
+        if np.any(decided):
+            self._covered_until[bus] = max(self._covered_until[bus],
+                                           float(span_end[decided].max()) + self._base)
+        return np.concatenate([words, bursts])
+
+    def _find_syncs(self, seg: Segments) -> tuple[FloatArray, npt.NDArray[np.int8]]:
+        """Anchors (sync start, in samples) of valid syncs, and each sync's first polarity."""
+        half_min = self.settings.sync_half_min_us * self._spus
+        length = seg.right - seg.left
+        k = np.flatnonzero(seg.adjacent_prev)
+        k = k[(length[k - 1] >= half_min) & (length[k] >= half_min)]
+        if k.size == 0:
+            return np.zeros(0), np.zeros(0, np.int8)
+        middle = seg.left[k]
+        anchors = middle - 3 * self._half + self._phase_correction(seg, middle)
+        # The first half may follow idle (any length before it is silence), or follow the
+        # previous word's last half-bit (slot -1); a longer level before a crossing is data
+        # with a missing transition, not a sync.
+        before = seg.left[k - 1]
+        first_ok = ~seg.adjacent_prev[k - 1] | (before >= anchors - 1.6 * self._half)
+        valid = first_ok & (before <= anchors + 0.5 * self._half) & \
+            (seg.right[k] >= anchors + 5.5 * self._half)
+        anchors, first = anchors[valid], seg.level[k - 1][valid]
+        # Two syncs cannot overlap: a sync-like pattern starting inside the previous sync
+        # (its second half continued by a bit without its transition) is data.
+        overlaps = np.zeros(anchors.size, dtype=bool)
+        overlaps[1:] = np.diff(anchors) < 5.5 * self._half
+        return anchors[~overlaps], first[~overlaps]
+
+    def _phase_correction(self, seg: Segments, middle: FloatArray) -> FloatArray:
+        """Per candidate, the offset (samples) of the 0.5 µs grid that best fits its crossings.
+
+        Two steps: the circular mean of the crossings' grid phases, then the circular midrange
+        (the middle of the shortest arc holding every phase). With n crossings each displaced
+        by a bounded jitter, the midrange's error shrinks like 1/n where the mean's shrinks
+        like 1/sqrt(n); it also bounds every crossing's distance to its grid slot by half the
+        spread of the phases, which is what slot assignment needs.
+        """
+        crossings = seg.crossings
+        omega = 2 * np.pi / self._half
+        # The window ends before slot 40, where a contiguous next word's sync would start;
+        # candidates inside a word (long data runs) are not used to cut it short.
+        lo = np.searchsorted(crossings, middle - 0.5 * self._half)
+        hi = np.searchsorted(crossings, middle + 36.5 * self._half)
+        phasor = np.concatenate([[0j], np.cumsum(np.exp(1j * omega * crossings))])
+        total = (phasor[hi] - phasor[lo]) * np.exp(-1j * omega * middle)
+        mean = np.angle(total) / omega
+        midrange = self._midrange(crossings, lo, hi, middle + mean)
+        correction: FloatArray = mean + midrange * self._half
+        return correction
+
+    def _midrange(self, crossings: FloatArray, lo: IntArray, hi: IntArray, centre: FloatArray
+                  ) -> FloatArray:
+        """Circular midrange of each window's grid phases relative to ``centre``, in slots."""
+        count = hi - lo
+        width = int(count.max()) if count.size else 0
+        if width < 2:
+            return np.zeros(centre.size)
+        cand = np.repeat(np.arange(centre.size), count)
+        rank = np.arange(cand.size) - np.repeat(np.cumsum(count) - count, count)
+        rel = (crossings[np.repeat(lo, count) + rank] - centre[cand]) / self._half
+        pad = 2.0  # sorts after every folded phase
+        phase = np.full((centre.size, width), pad)
+        phase[cand, rank] = rel - np.floor(rel + 0.5)  # folded into [-0.5, 0.5)
+        phase.sort(axis=1)
+        rows = np.arange(centre.size)
+        last = phase[rows, np.maximum(count - 1, 0)]
+        # Gaps between neighbouring phases, and the one that wraps round the circle.
+        gaps = np.diff(phase, axis=1)
+        gaps[np.arange(width - 1)[None, :] >= (count - 1)[:, None]] = -np.inf
+        inner = np.argmax(gaps, axis=1)
+        inner_gap = gaps[rows, inner]
+        wrap_gap = phase[:, 0] + 1.0 - last
+        use_wrap = wrap_gap >= inner_gap
+        # The shortest arc holding every phase lies opposite the largest gap.
+        mid_wrap = (phase[:, 0] + last) / 2
+        mid_inner = (phase[rows, inner + 1] + phase[rows, inner] + 1.0) / 2
+        mid = np.where(use_wrap, mid_wrap, mid_inner)
+        mid = mid - np.floor(mid + 0.5)
+        out: FloatArray = np.where(count >= 2, mid, 0.0).astype(np.float64)
+        return out
+
+    def _spans_end(self, seg: Segments, anchors: FloatArray, n: int) -> FloatArray:
+        """Where each word's activity stops: the next silence or the next sync, whichever is
+        first."""
+        silent_after = seg.right[np.append(~seg.adjacent_prev[1:], True)]
+        idx = np.searchsorted(silent_after, anchors)
+        stop = np.where(idx < silent_after.size,
+                        silent_after[np.minimum(idx, silent_after.size - 1)], float(n))
+        next_sync = np.append(anchors[1:], np.inf)
+        end: FloatArray = np.minimum(stop, next_sync)
+        return end
+
+    def _read_words(self, seg: Segments, anchors: FloatArray, first_level: npt.NDArray[np.int8],
+                    n: int) -> WordBatch:
+        """Bits, length and errors of every anchored word."""
+        count = anchors.size
+        words = empty_words(count)
+        if count == 0:
+            return words
+        crossings = seg.crossings
+        direction = seg.crossing_level.astype(np.int64)
+        owner = np.searchsorted(anchors - 0.5 * self._half, crossings, side="right") - 1
+        slot = np.rint((crossings - anchors[np.maximum(owner, 0)]) / self._half).astype(np.int64)
+        inside = (owner >= 0) & (slot >= 0) & (slot < SLOTS)
+        flat = owner[inside] * SLOTS + slot[inside]
+        hits = np.bincount(flat, minlength=count * SLOTS).reshape(count, SLOTS)
+        dirs = np.bincount(flat, weights=direction[inside],
+                           minlength=count * SLOTS).reshape(count, SLOTS)
+        stop = self._spans_end(seg, anchors, n)
+        bits_sent = np.floor((stop - anchors) / self._spus - 3 + 0.25).astype(np.int64)
+        present = np.arange(17)[None, :] < np.minimum(bits_sent, 17)[:, None]
+        bad = (hits[:, _MID_SLOTS] != 1) | (hits[:, _START_SLOTS] > 1)
+        manchester = np.any(bad & present, axis=1)
+        ones = (dirs[:, _MID_SLOTS] < 0).astype(np.int64)
+        parity_ok = (ones.sum(axis=1) & 1) == 1
+        errors = np.where(manchester, ERR_MANCHESTER, 0)
+        errors |= np.where(bits_sent < 17, ERR_BIT_COUNT_LOW, 0)
+        errors |= np.where(bits_sent > 17, ERR_BIT_COUNT_HIGH, 0)
+        errors |= np.where((bits_sent >= 17) & ~manchester & ~parity_ok, ERR_PARITY, 0)
+        base_ns = self._base
+        words["t_ns"] = np.rint((anchors + base_ns) * 1e9 / self.sample_rate).astype(np.int64)
+        last_mid = anchors + (3.5 + np.maximum(bits_sent, 1) - 1) * self._spus
+        words["end_ns"] = np.rint((last_mid + base_ns) * 1e9 / self.sample_rate).astype(np.int64)
+        words["sync"] = np.where(first_level > 0, SYNC_CMD, SYNC_DATA)
+        words["value"] = (ones[:, :16] @ _BIT_WEIGHTS).astype(np.uint16)
+        words["errors"] = errors.astype(np.uint16)
+        return words
+
+    def _bursts(self, seg: Segments, anchors: FloatArray, words_span_end: FloatArray,
+                horizon: int, bus: int) -> WordBatch:
+        """Activity no valid sync explains, as ``sync``-flagged words (see module doc)."""
+        margin = 0.5 * self._half
+        covered = np.zeros(seg.start.size, dtype=bool)
+        if anchors.size:
+            # A segment is explained when it overlaps some word's span (spans are disjoint
+            # and sorted, so the last span starting before the segment ends decides).
+            idx = np.searchsorted(anchors - margin, seg.right, side="right") - 1
+            hi = words_span_end[np.maximum(idx, 0)] + margin
+            covered = (idx >= 0) & (hi > seg.left)
+        loose = np.flatnonzero(~covered)
+        if loose.size == 0:
+            return empty_words()
+        left, right = seg.left[loose], seg.right[loose]
+        join = self.settings.burst_join_us * self._spus
+        new_burst = np.ones(loose.size, dtype=bool)
+        new_burst[1:] = left[1:] - right[:-1] > join
+        first = np.flatnonzero(new_burst)
+        last = np.append(first[1:], loose.size) - 1
+        active = np.add.reduceat(right - left, first)
+        b_start, b_end = left[first], right[last]
+        keep = (active >= self.settings.burst_min_us * self._spus) & (b_end + join < horizon)
+        # Skip what an earlier buffer already reported: its bursts and the tails of its words.
+        keep &= b_start + self._base > max(self._last_burst[bus], self._covered_until[bus])
+        if not np.any(keep):
+            return empty_words()
+        self._last_burst[bus] = float(b_end[keep].max()) + self._base
+        out = empty_words(int(keep.sum()))
+        out["t_ns"] = np.rint((b_start[keep] + self._base) * 1e9 / self.sample_rate)
+        out["end_ns"] = np.rint((b_end[keep] + self._base) * 1e9 / self.sample_rate)
+        out["errors"] = ERR_SYNC
+        out["sync"] = SYNC_DATA
+        out["bus"] = bus
+        return out
+
+
+def decode_capture(samples: npt.NDArray[np.uint8], sample_rate: float,
+                   settings: DecoderSettings | None = None) -> WordBatch:
+    """Decode a whole capture in memory."""
+    return ManchesterDecoder(sample_rate, settings).decode_all(samples)
