@@ -32,6 +32,11 @@ class Fields:
     def line(self) -> int:
         return self.node.line
 
+    @property
+    def lines(self) -> dict[str, int]:
+        """Line of each key of the mapping."""
+        return dict(self.node.key_lines)
+
     def name(self, key: str) -> str:
         return f"{self.where}.{key}" if self.where else key
 

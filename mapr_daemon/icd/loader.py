@@ -14,6 +14,7 @@ import struct
 from dataclasses import dataclass
 from typing import Any
 
+from mapr_daemon.errors import IcdError
 from mapr_daemon.icd.fields import Fields
 from mapr_daemon.icd.model import (
     INTEGER_CODE_TYPES,
@@ -56,9 +57,15 @@ def parse_table(tree: Any, path: str) -> Table:
     name = top.string("name")
     description = top.string("description", "")
     buses = tuple(_names(top, "buses", ["A", "B"]))
-    terminals = tuple(_terminal(top.child_at("terminals", i))
-                      for i in range(len(top.listing("terminals"))))
-    by_name = {t.name: t for t in terminals}
+    by_name: dict[str, Terminal] = {}
+    for i in range(len(top.listing("terminals"))):
+        terminal = _terminal(top.child_at("terminals", i))
+        if terminal.name in by_name:
+            raise IcdError(f"name {terminal.name!r} already used by the terminal on line "
+                           f"{by_name[terminal.name].line}", path=path,
+                           line=terminal.line_of("name"), field="terminals.name")
+        by_name[terminal.name] = terminal
+    terminals = tuple(by_name.values())
     messages = tuple(_message(top.child_at("messages", i), by_name)
                      for i in range(len(top.listing("messages"))))
     schedule = _schedule(top.child("schedule")) if top.has("schedule") else None
@@ -86,7 +93,7 @@ def _terminal(f: Fields) -> Terminal:
         address=f.integer("address", lo=0, hi=30),
         name=_identifier(f, "name"),
         description=f.string("description", ""),
-        line=f.line,
+        line=f.line, key_lines=f.lines,
     )
     f.done()
     return terminal
@@ -141,7 +148,8 @@ def _message(f: Fields, terminals: dict[str, Terminal]) -> Message:
     message = Message(
         name=name, rt=terminal.address, rt_name=terminal.name, transmit=tr == "T",
         subaddress=sa, word_count=wc, rate_hz=rate, parameters=parameters, group=group,
-        source=source, description=f.string("description", ""), line=f.line)
+        source=source, description=f.string("description", ""), line=f.line,
+        key_lines=f.lines)
     f.done()
     return message
 
@@ -165,7 +173,7 @@ def _group(f: Fields) -> Group:
         f.fail("latency_s", f"must be 0 or more, got {latency}")
     group = Group(start=start, samples=samples, stride=stride, sample_rate_hz=rate,
                   channels=channels, counter=f.string("counter", None), latency_s=latency,
-                  line=f.line)
+                  line=f.line, key_lines=f.lines)
     f.done()
     return group
 
@@ -216,7 +224,8 @@ def _parameter(f: Fields) -> Parameter:
     parameter = Parameter(
         name=name, type=ptype, word=word, msb=msb, lsb=lsb, words=words, word_order=order,
         scale=scale, offset=offset, unit=f.string("unit", ""), minimum=minimum,
-        maximum=maximum, labels=labels, description=f.string("description", ""), line=f.line)
+        maximum=maximum, labels=labels, description=f.string("description", ""), line=f.line,
+        key_lines=f.lines)
     _check_fit(f, parameter)
     f.done()
     return parameter
@@ -310,7 +319,7 @@ def _schedule(f: Fields) -> Schedule:
         every = e.integer("every", lo=1)
         entries.append(ScheduleEntry(message=e.string("message"), every=every,
                                      offset=e.integer("offset", 0, lo=0, hi=every - 1),
-                                     line=e.line))
+                                     line=e.line, key_lines=e.lines))
         e.done()
     schedule = Schedule(
         minor_frame_us=f.integer("minor_frame_us", lo=100),
@@ -318,6 +327,6 @@ def _schedule(f: Fields) -> Schedule:
         entries=tuple(entries),
         response_time_us=f.number("response_time_us", 10.0),
         intermessage_gap_us=f.number("intermessage_gap_us", 10.0),
-        line=f.line)
+        line=f.line, key_lines=f.lines)
     f.done()
     return schedule

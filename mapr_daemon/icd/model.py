@@ -83,6 +83,11 @@ class Parameter:
     labels: Mapping[int, str] = field(default_factory=dict)
     description: str = ""
     line: int = 0
+    key_lines: Mapping[str, int] = field(default_factory=dict, compare=False, repr=False)
+
+    def line_of(self, key: str) -> int:
+        """The YAML line of ``key`` in this parameter's mapping (its own line if absent)."""
+        return self.key_lines.get(key, self.line)
 
     @property
     def width(self) -> int:
@@ -156,6 +161,10 @@ class Group:
     counter: str | None = None
     latency_s: float | None = None
     line: int = 0
+    key_lines: Mapping[str, int] = field(default_factory=dict, compare=False, repr=False)
+
+    def line_of(self, key: str) -> int:
+        return self.key_lines.get(key, self.line)
 
     @property
     def period_ns(self) -> float:
@@ -179,6 +188,10 @@ class Terminal:
     name: str
     description: str = ""
     line: int = 0
+    key_lines: Mapping[str, int] = field(default_factory=dict, compare=False, repr=False)
+
+    def line_of(self, key: str) -> int:
+        return self.key_lines.get(key, self.line)
 
 
 @dataclass(frozen=True, slots=True)
@@ -202,6 +215,10 @@ class Message:
     source: tuple[int, int] | None = None
     description: str = ""
     line: int = 0
+    key_lines: Mapping[str, int] = field(default_factory=dict, compare=False, repr=False)
+
+    def line_of(self, key: str) -> int:
+        return self.key_lines.get(key, self.line)
 
     @property
     def tr(self) -> str:
@@ -241,6 +258,10 @@ class ScheduleEntry:
     every: int
     offset: int = 0
     line: int = 0
+    key_lines: Mapping[str, int] = field(default_factory=dict, compare=False, repr=False)
+
+    def line_of(self, key: str) -> int:
+        return self.key_lines.get(key, self.line)
 
 
 @dataclass(frozen=True, slots=True)
@@ -257,6 +278,10 @@ class Schedule:
     response_time_us: float = 10.0
     intermessage_gap_us: float = 10.0
     line: int = 0
+    key_lines: Mapping[str, int] = field(default_factory=dict, compare=False, repr=False)
+
+    def line_of(self, key: str) -> int:
+        return self.key_lines.get(key, self.line)
 
     @property
     def major_frame_us(self) -> int:

@@ -30,14 +30,13 @@ def _fail(table: Table, line: int, field: str, problem: str) -> None:
 
 
 def _terminals(table: Table) -> None:
-    seen: dict[object, int] = {}
+    """Addresses are unique (names are checked while loading: messages refer to them)."""
+    seen: dict[int, int] = {}
     for t in table.terminals:
-        for key, label in ((("address", t.address), f"address {t.address}"),
-                           (("name", t.name), f"name {t.name!r}")):
-            if key in seen:
-                _fail(table, t.line, f"terminals.{key[0]}",
-                      f"{label} already used by the terminal on line {seen[key]}")
-            seen[key] = t.line
+        if t.address in seen:
+            _fail(table, t.line_of("address"), "terminals.address",
+                  f"address {t.address} already used by the terminal on line {seen[t.address]}")
+        seen[t.address] = t.line
 
 
 def _names(table: Table) -> None:
@@ -45,13 +44,13 @@ def _names(table: Table) -> None:
     parameters: dict[str, tuple[str, int]] = {}
     for m in table.messages:
         if m.name in messages:
-            _fail(table, m.line, f"{m.name}.name",
+            _fail(table, m.line_of("name"), f"{m.name}.name",
                   f"message name {m.name!r} already used on line {messages[m.name]}")
         messages[m.name] = m.line
         for p in m.all_parameters():
             if p.name in parameters:
                 other, line = parameters[p.name]
-                _fail(table, p.line, f"{m.name}.{p.name}.name",
+                _fail(table, p.line_of("name"), f"{m.name}.{p.name}.name",
                       f"parameter name {p.name!r} already used in {other} on line {line}")
             parameters[p.name] = (m.name, p.line)
 
@@ -65,7 +64,7 @@ def _subaddresses(table: Table) -> None:
         for key, field in keys:
             if key in used:
                 rt, tr, sa = key
-                _fail(table, m.line, f"{m.name}.{field}",
+                _fail(table, m.line_of(field.split(".")[0]), f"{m.name}.{field}",
                       f"RT{rt:02d} {tr} SA{sa:02d} is already used by message "
                       f"{used[key].name!r} (line {used[key].line})")
             used[key] = m
@@ -91,7 +90,7 @@ def _layout(path: str, m: Message) -> None:
     if g is not None:
         end = g.start + g.samples * g.stride
         if end > m.word_count:
-            fail(g.line, "group.samples",
+            fail(g.line_of("samples"), "group.samples",
                  f"{g.samples} samples of {g.stride} words from word {g.start} end at word "
                  f"{end - 1}, past the word count {m.word_count}")
         for i in range(g.samples):
@@ -100,17 +99,17 @@ def _layout(path: str, m: Message) -> None:
         if g.counter is not None:
             counters = {p.name: p for p in m.parameters}
             if g.counter not in counters or counters[g.counter].type is not ParamType.COUNTER:
-                fail(g.line, "group.counter",
+                fail(g.line_of("counter"), "group.counter",
                      f"{g.counter!r} is not a counter parameter of this message")
     for p, base, label in placed:
         last = max(p.word_indices(base))
         if last >= m.word_count:
-            fail(p.line, f"{label}.word",
+            fail(p.line_of("word"), f"{label}.word",
                  f"word {last} is past the word count {m.word_count} (words 0-{m.word_count - 1})")
         for cell in _cells(p, base):
             other = owner.get(cell)
             if other is not None:
-                fail(p.line, f"{label}.bits",
+                fail(p.line_of("bits"), f"{label}.bits",
                      f"bit {cell[1]} of word {cell[0]} overlaps {other.name!r} "
                      f"(line {other.line})")
             owner[cell] = p
@@ -125,25 +124,26 @@ def _schedule(table: Table) -> None:
     for e in s.entries:
         where = f"schedule.{e.message}"
         if e.message not in by_name:
-            _fail(table, e.line, "schedule.message", f"no message named {e.message!r}")
+            _fail(table, e.line_of("message"), "schedule.message",
+                  f"no message named {e.message!r}")
         if e.message in seen:
-            _fail(table, e.line, where, "message scheduled twice")
+            _fail(table, e.line_of("message"), where, "message scheduled twice")
         seen.add(e.message)
         if s.minor_frames % e.every:
-            _fail(table, e.line, f"{where}.every",
+            _fail(table, e.line_of("every"), f"{where}.every",
                   f"every {e.every} does not divide the {s.minor_frames} minor frames")
         rate = s.rate_hz(e)
         declared = by_name[e.message].rate_hz
         if not math.isclose(rate, declared, rel_tol=1e-9):
-            _fail(table, e.line, f"{where}.every",
+            _fail(table, e.line_of("every"), f"{where}.every",
                   f"runs at {rate:g} Hz but the message declares rate_hz {declared:g}")
     for m in table.messages:
         if m.rate_hz > 0 and m.name not in seen:
-            _fail(table, m.line, f"{m.name}.rate_hz",
+            _fail(table, m.line_of("rate_hz"), f"{m.name}.rate_hz",
                   f"periodic ({m.rate_hz:g} Hz) but not in the schedule")
     load = bus_load(s, by_name)
     for k, used in enumerate(load.frame_us):
         if used > s.minor_frame_us:
-            _fail(table, s.line, "schedule.minor_frame_us",
+            _fail(table, s.line_of("minor_frame_us"), "schedule.minor_frame_us",
                   f"minor frame {k} needs {used:g} µs of bus time, more than its "
                   f"{s.minor_frame_us} µs ({', '.join(s.frame(k))})")
