@@ -222,10 +222,12 @@ class ManchesterDecoder:
         """
         crossings = seg.crossings
         omega = 2 * np.pi / self._half
-        # The window ends before slot 40, where a contiguous next word's sync would start;
+        # The window ends before slot 40, where a contiguous next word's sync would start,
+        # or where the line falls silent, so a later word's crossings never pull the grid;
         # candidates inside a word (long data runs) are not used to cut it short.
         lo = np.searchsorted(crossings, middle - 0.5 * self._half)
-        hi = np.searchsorted(crossings, middle + 36.5 * self._half)
+        silent = self._silence_after(seg, middle)
+        hi = np.searchsorted(crossings, np.minimum(middle + 36.5 * self._half, silent))
         phasor = np.concatenate([[0j], np.cumsum(np.exp(1j * omega * crossings))])
         total = (phasor[hi] - phasor[lo]) * np.exp(-1j * omega * middle)
         mean = np.angle(total) / omega
@@ -264,13 +266,19 @@ class ManchesterDecoder:
         out: FloatArray = np.where(count >= 2, mid, 0.0).astype(np.float64)
         return out
 
+    @staticmethod
+    def _silence_after(seg: Segments, times: FloatArray) -> FloatArray:
+        """For each time, when the line next falls silent (inf if it never does here)."""
+        silent_after = seg.right[np.append(~seg.adjacent_prev[1:], True)]
+        idx = np.searchsorted(silent_after, times)
+        stop: FloatArray = np.where(idx < silent_after.size,
+                                    silent_after[np.minimum(idx, silent_after.size - 1)], np.inf)
+        return stop
+
     def _spans_end(self, seg: Segments, anchors: FloatArray, n: int) -> FloatArray:
         """Where each word's activity stops: the next silence or the next sync, whichever is
         first."""
-        silent_after = seg.right[np.append(~seg.adjacent_prev[1:], True)]
-        idx = np.searchsorted(silent_after, anchors)
-        stop = np.where(idx < silent_after.size,
-                        silent_after[np.minimum(idx, silent_after.size - 1)], float(n))
+        stop = np.minimum(self._silence_after(seg, anchors), float(n))
         next_sync = np.append(anchors[1:], np.inf)
         end: FloatArray = np.minimum(stop, next_sync)
         return end

@@ -212,8 +212,9 @@ def _change_points(words: WordBatch, faults: Sequence[WordFault] | None, half: f
         # Split each crossing into "line goes quiet" then "line takes the new polarity".
         quiet = times[is_cross] - imp.dead_band_ns / 2
         times = np.where(is_cross, times + imp.dead_band_ns / 2, times)
-        times = np.concatenate([times, quiet])
-        levels = np.concatenate([levels, np.zeros(quiet.size, np.int8)])
+        # Quiet points first: where a dead band rounds to nothing, the new level must win.
+        times = np.concatenate([quiet, times])
+        levels = np.concatenate([np.zeros(quiet.size, np.int8), levels])
     # Each word returns the line to idle at its end; listed first so that, where the next
     # word starts at that very instant, the stable sort lets the new level win.
     times = np.concatenate([word_end, times])

@@ -19,6 +19,9 @@ from mapr_daemon.cli import exitcodes
 from mapr_daemon.errors import ConfigError
 
 SUBCOMMANDS: tuple[str, ...] = (
+    "demo",
+    "decode",
+    "encode",
     "icd",
 )
 """Modules of :mod:`mapr_daemon.cli` that add a subcommand, in help order."""
