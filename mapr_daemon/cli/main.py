@@ -12,6 +12,7 @@ import argparse
 import importlib
 import sys
 from collections.abc import Sequence
+from typing import NoReturn
 
 from drivers.errors import BackendUnavailable, CaptureFormatError, EncodeError, MaprError
 from mapr_daemon import __version__
@@ -27,8 +28,15 @@ SUBCOMMANDS: tuple[str, ...] = (
 """Modules of :mod:`mapr_daemon.cli` that add a subcommand, in help order."""
 
 
+class OneLineParser(argparse.ArgumentParser):
+    """An argument parser whose errors are one line (``mapr decode: error: ...``), exit 2."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(exitcodes.USAGE, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = OneLineParser(
         prog="mapr",
         description="Model-based Avionic Prognostic Reasoner: passive MIL-STD-1553B monitor "
                     "and EMA fault reasoner.",
