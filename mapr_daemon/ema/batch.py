@@ -1,0 +1,219 @@
+"""Per-run parameters of a batch as numpy arrays, so many runs integrate in one array pass.
+
+A :class:`RunSpec` is one actuator file plus its seeded faults and noise seed. :func:`build`
+turns a sequence of them into :class:`BatchArrays`: every scalar parameter becomes an array of
+shape ``(n_runs,)`` and every per-switch value an array of shape ``(3, n_runs)`` (phase A, B, C),
+after the faults of :mod:`mapr_daemon.ema.faults` have been applied. Runs of one batch must
+share the integrator step and the output sample rate; everything else may differ.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Sequence
+
+import numpy as np
+import numpy.typing as npt
+
+from mapr_daemon.ema import faults as fl
+from mapr_daemon.ema.params import CHANNELS, ActuatorParams
+from mapr_daemon.errors import ConfigError
+
+FloatArray = npt.NDArray[np.float64]
+BoolArray = npt.NDArray[np.bool_]
+
+
+@dataclasses.dataclass(frozen=True)
+class RunSpec:
+    """One simulated run: actuator parameters, seeded faults and the noise seed."""
+
+    params: ActuatorParams
+    faults: fl.FaultSet = dataclasses.field(default_factory=fl.FaultSet)
+    seed: int = 0
+
+
+def _arr(values: Sequence[float]) -> FloatArray:
+    return np.asarray(values, dtype=np.float64)
+
+
+@dataclasses.dataclass(frozen=True)
+class BatchArrays:
+    """Every parameter the integrator reads, one entry (or column) per run."""
+
+    n: int
+    step_s: float
+    samples_per_block: int
+    # SMPS
+    v_ref: FloatArray
+    l_smps: FloatArray
+    r_dcr: FloatArray
+    c_total: FloatArray
+    esr_eff: FloatArray
+    c_elec: FloatArray
+    esr: FloatArray
+    c_ceramic: FloatArray
+    ron_hi: FloatArray
+    ron_lo: FloatArray
+    f_sw: FloatArray
+    d_max: FloatArray
+    i_lim_smps: FloatArray
+    soft_start: FloatArray
+    kp_v: FloatArray
+    ki_v: FloatArray
+    kd_v: FloatArray
+    tf_v: FloatArray
+    p_sw: FloatArray
+    # inverter, (3, n): per phase
+    r_high: FloatArray
+    r_low: FloatArray
+    short_high: FloatArray
+    short_low: FloatArray
+    open_high: FloatArray
+    open_low: FloatArray
+    v_diode: FloatArray
+    r_diode: FloatArray
+    f_pwm: FloatArray
+    # motor and mechanics
+    r_w0: FloatArray
+    l_w: FloatArray
+    k_e: FloatArray
+    pole_pairs: FloatArray
+    j_eq: FloatArray
+    b_visc: FloatArray
+    t_coul: FloatArray
+    w_coul: FloatArray
+    ratio: FloatArray
+    eta: FloatArray
+    area_chord: FloatArray
+    ch0: FloatArray
+    ch_delta: FloatArray
+    travel_rad: FloatArray
+    # control
+    kp_pos: FloatArray
+    ki_pos: FloatArray
+    kd_pos: FloatArray
+    i_lim: FloatArray
+    kp_i: FloatArray
+    ki_i: FloatArray
+    # thermal
+    t_amb: FloatArray
+    rth_m: FloatArray
+    tau_m: FloatArray
+    rth_s: FloatArray
+    tau_s: FloatArray
+    # aircraft bus
+    bus_nominal: FloatArray
+    bus_mean_sd: FloatArray
+    bus_drift_sd: FloatArray
+    bus_tau: FloatArray
+    bus_ripple: FloatArray
+    bus_min: FloatArray
+    bus_max: FloatArray
+    r_source: FloatArray
+    # sensors, (n_channels, n)
+    full_scale: FloatArray
+    lsb: FloatArray
+    noise: FloatArray
+
+
+def _switch_masks(specs: Sequence[RunSpec], kind: str) -> tuple[FloatArray, FloatArray]:
+    high = np.zeros((3, len(specs)))
+    low = np.zeros((3, len(specs)))
+    for r, spec in enumerate(specs):
+        for name in spec.faults.switches(kind):
+            phase = "ABC".index(name[0])
+            (high if name.endswith("high") else low)[phase, r] = 1.0
+    return high, low
+
+
+def build(specs: Sequence[RunSpec]) -> BatchArrays:
+    """Arrays for a batch of runs; raises ConfigError if the runs cannot share one integrator."""
+    if not specs:
+        raise ConfigError("a batch needs at least one run", field="runs")
+    step = specs[0].params.sensors.step_s
+    rate = specs[0].params.sensors.sample_rate_hz
+    for s in specs:
+        if s.params.sensors.step_s != step or s.params.sensors.sample_rate_hz != rate:
+            raise ConfigError("runs of one batch must share step_s and sample_rate_hz",
+                              field="sensors")
+    ps = [fl.apply(s.params, s.faults) for s in specs]
+
+    def col(get: object) -> FloatArray:
+        return _arr([get(p) for p in ps])  # type: ignore[operator]
+
+    sm = [p.smps for p in ps]
+    c_elec = _arr([s.capacitance_f for s in sm])
+    c_cer = _arr([s.ceramic_capacitance_f for s in sm])
+    esr = _arr([s.esr_ohm for s in sm])
+    short_h, short_l = _switch_masks(specs, "short")
+    open_h, open_l = _switch_masks(specs, "open")
+    r_high = np.tile(col(lambda p: p.inverter.ron_ohm), (3, 1))
+    r_high[0] = col(lambda p: p.inverter.ron_a_high_ohm)
+    r_low = np.tile(col(lambda p: p.inverter.ron_ohm), (3, 1))
+    r_short = col(lambda p: p.inverter.short_resistance_ohm)
+    r_high = np.where(short_h > 0, r_short, r_high)
+    r_low = np.where(short_l > 0, r_short, r_low)
+
+    ratio = col(lambda p: p.gear.ratio)
+    j_eq = col(lambda p: p.motor.inertia_kg_m2) + col(lambda p: p.surface.inertia_kg_m2) / ratio**2
+    kt = 2.0 * col(lambda p: p.motor.back_emf_v_s_per_rad)
+    wn = 2 * math.pi * col(lambda p: p.control.position_bandwidth_hz)
+    zeta = col(lambda p: p.control.position_damping)
+    kp_pos = j_eq * wn**2 / kt
+    wc = 2 * math.pi * col(lambda p: p.control.current_bandwidth_hz)
+    r_loop = 2.0 * (col(lambda p: p.motor.resistance_ohm) + col(lambda p: p.inverter.ron_ohm))
+    l_loop = 2.0 * col(lambda p: p.motor.inductance_h)
+
+    chans = [[p.sensors.channels[c] for c in CHANNELS] for p in ps]
+    fs = np.array([[c.full_scale for c in row] for row in chans]).T
+    bits = np.array([[c.bits for c in row] for row in chans]).T
+    per_block = round(1.0 / (rate * step))
+    return BatchArrays(
+        n=len(specs), step_s=step, samples_per_block=per_block,
+        v_ref=_arr([s.output_voltage_v for s in sm]),
+        l_smps=_arr([s.inductance_h for s in sm]),
+        r_dcr=_arr([s.inductor_resistance_ohm for s in sm]),
+        c_total=c_elec + c_cer, esr_eff=esr * c_elec / (c_elec + c_cer),
+        c_elec=c_elec, esr=esr, c_ceramic=c_cer,
+        ron_hi=_arr([s.ron_high_ohm for s in sm]), ron_lo=_arr([s.ron_low_ohm for s in sm]),
+        f_sw=_arr([s.switching_frequency_hz for s in sm]), d_max=_arr([s.max_duty for s in sm]),
+        i_lim_smps=_arr([s.current_limit_a for s in sm]),
+        soft_start=_arr([s.soft_start_s for s in sm]),
+        kp_v=_arr([s.loop_kp for s in sm]), ki_v=_arr([s.loop_ki for s in sm]),
+        kd_v=_arr([s.loop_kd for s in sm]), tf_v=_arr([s.loop_derivative_filter_s for s in sm]),
+        p_sw=_arr([s.switching_loss_w for s in sm]),
+        r_high=r_high, r_low=r_low, short_high=short_h, short_low=short_l,
+        open_high=open_h * (1 - short_h), open_low=open_l * (1 - short_l),
+        v_diode=col(lambda p: p.inverter.diode_drop_v),
+        r_diode=col(lambda p: p.inverter.diode_resistance_ohm),
+        f_pwm=col(lambda p: p.inverter.pwm_frequency_hz),
+        r_w0=col(lambda p: p.motor.resistance_ohm), l_w=col(lambda p: p.motor.inductance_h),
+        k_e=col(lambda p: p.motor.back_emf_v_s_per_rad),
+        pole_pairs=col(lambda p: p.motor.pole_pairs), j_eq=j_eq,
+        b_visc=col(lambda p: p.motor.viscous_friction_nm_s),
+        t_coul=col(lambda p: p.motor.coulomb_friction_nm),
+        w_coul=col(lambda p: p.motor.coulomb_speed_rad_s),
+        ratio=ratio, eta=col(lambda p: p.gear.efficiency),
+        area_chord=col(lambda p: p.surface.area_m2 * p.surface.chord_m),
+        ch0=col(lambda p: p.surface.ch0), ch_delta=col(lambda p: p.surface.ch_delta_per_rad),
+        travel_rad=np.radians(col(lambda p: p.surface.travel_deg)),
+        kp_pos=kp_pos, kd_pos=2.0 * zeta * wn * j_eq / kt,
+        ki_pos=kp_pos * 2 * math.pi * col(lambda p: p.control.position_integral_hz),
+        i_lim=col(lambda p: p.control.current_limit_a),
+        kp_i=l_loop * wc, ki_i=r_loop * wc,
+        t_amb=col(lambda p: p.thermal.ambient_c),
+        rth_m=col(lambda p: p.thermal.motor_thermal_resistance_k_per_w),
+        tau_m=col(lambda p: p.thermal.motor_time_constant_s),
+        rth_s=col(lambda p: p.thermal.stage_thermal_resistance_k_per_w),
+        tau_s=col(lambda p: p.thermal.stage_time_constant_s),
+        bus_nominal=col(lambda p: p.bus.nominal_v),
+        bus_mean_sd=col(lambda p: p.bus.flight_mean_sd_v),
+        bus_drift_sd=col(lambda p: p.bus.drift_sd_v),
+        bus_tau=col(lambda p: p.bus.drift_time_constant_s),
+        bus_ripple=col(lambda p: p.bus.ripple_rms_v),
+        bus_min=col(lambda p: p.bus.min_v), bus_max=col(lambda p: p.bus.max_v),
+        r_source=col(lambda p: p.bus.source_resistance_ohm),
+        full_scale=fs, lsb=2.0 * fs / 2.0**bits,
+        noise=np.array([[c.noise_rms for c in row] for row in chans]).T,
+    )

@@ -1,0 +1,315 @@
+"""Actuator parameters: one frozen dataclass per physical block, loaded from one YAML per actuator.
+
+The YAML (``configs/actuators/*.yaml``) has one mapping per block — ``smps``, ``inverter``,
+``motor``, ``gear``, ``surface``, ``control``, ``thermal``, ``bus``, ``sensors`` — whose keys are
+the field names below, SI units spelled in the name (``_ohm``, ``_h``, ``_f``, ``_hz``...).
+Every key is required and no unknown key is allowed, so a typo is a :class:`ConfigError`
+naming ``file:line: section.key``, never a silently ignored value.
+
+Example::
+
+    params = load_actuator("configs/actuators/aileron-uav.yaml")
+    params.smps.capacitance_f      # 288e-6
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from pathlib import Path
+from typing import Any, TypeVar
+
+import yaml
+
+from mapr_daemon.errors import ConfigError
+
+
+@dataclasses.dataclass(frozen=True)
+class SmpsParams:
+    """Synchronous buck from the aircraft bus to the 24 V DC link (paper Fig. 3, Table 1)."""
+
+    output_voltage_v: float
+    inductance_h: float
+    inductor_resistance_ohm: float
+    capacitance_f: float
+    esr_ohm: float
+    ceramic_capacitance_f: float
+    ron_high_ohm: float
+    ron_low_ohm: float
+    switching_frequency_hz: float
+    max_duty: float
+    current_limit_a: float
+    soft_start_s: float
+    loop_kp: float
+    loop_ki: float
+    loop_kd: float
+    loop_derivative_filter_s: float
+    switching_loss_w: float
+
+
+@dataclasses.dataclass(frozen=True)
+class InverterParams:
+    """Three-phase MOSFET bridge with body diodes, six-step commutation from Hall sectors."""
+
+    ron_a_high_ohm: float
+    ron_ohm: float
+    diode_drop_v: float
+    diode_resistance_ohm: float
+    short_resistance_ohm: float
+    pwm_frequency_hz: float
+
+
+@dataclasses.dataclass(frozen=True)
+class MotorParams:
+    """BLDC motor, per-phase values, trapezoidal back-EMF (120 degree flat tops)."""
+
+    resistance_ohm: float
+    inductance_h: float
+    back_emf_v_s_per_rad: float
+    pole_pairs: float
+    inertia_kg_m2: float
+    viscous_friction_nm_s: float
+    coulomb_friction_nm: float
+    coulomb_speed_rad_s: float
+
+
+@dataclasses.dataclass(frozen=True)
+class GearParams:
+    """Gear train between motor and surface hinge (rigid)."""
+
+    ratio: float
+    efficiency: float
+
+
+@dataclasses.dataclass(frozen=True)
+class SurfaceParams:
+    """Control surface: hinge moment H = q * area * chord * (ch0 + ch_delta * delta)."""
+
+    area_m2: float
+    chord_m: float
+    ch0: float
+    ch_delta_per_rad: float
+    inertia_kg_m2: float
+    travel_deg: float
+
+
+@dataclasses.dataclass(frozen=True)
+class ControlParams:
+    """Servo drive: position loop (PID) -> current command with limit -> current PI -> duty."""
+
+    position_bandwidth_hz: float
+    position_damping: float
+    position_integral_hz: float
+    current_limit_a: float
+    current_bandwidth_hz: float
+
+
+@dataclasses.dataclass(frozen=True)
+class ThermalParams:
+    """First-order thermal models of the motor winding and the power stage."""
+
+    ambient_c: float
+    motor_thermal_resistance_k_per_w: float
+    motor_time_constant_s: float
+    stage_thermal_resistance_k_per_w: float
+    stage_time_constant_s: float
+
+
+@dataclasses.dataclass(frozen=True)
+class BusParams:
+    """Aircraft 28 V DC bus feeding the SMPS (MIL-STD-704 normal band 22-29 V)."""
+
+    nominal_v: float
+    flight_mean_sd_v: float
+    drift_sd_v: float
+    drift_time_constant_s: float
+    ripple_rms_v: float
+    min_v: float
+    max_v: float
+    source_resistance_ohm: float
+
+
+@dataclasses.dataclass(frozen=True)
+class ChannelSpec:
+    """One ADC channel: signed full scale, resolution bits and white-noise RMS (in units)."""
+
+    full_scale: float
+    bits: float
+    noise_rms: float
+
+
+@dataclasses.dataclass(frozen=True)
+class SensorParams:
+    """Sensor channels as the testbed samples them (all averaged over the sample period)."""
+
+    sample_rate_hz: float
+    step_s: float
+    channels: dict[str, ChannelSpec]
+
+
+@dataclasses.dataclass(frozen=True)
+class ActuatorParams:
+    """Every parameter of one EMA; the faults module derives seeded copies from it."""
+
+    name: str
+    smps: SmpsParams
+    inverter: InverterParams
+    motor: MotorParams
+    gear: GearParams
+    surface: SurfaceParams
+    control: ControlParams
+    thermal: ThermalParams
+    bus: BusParams
+    sensors: SensorParams
+
+
+CHANNELS: tuple[str, ...] = (
+    "dc_link_current_a", "phase_a_current_a", "phase_b_current_a", "phase_c_current_a",
+    "dc_bus_voltage_v", "position_deg", "motor_temperature_c", "smps_input_voltage_v",
+    "smps_input_current_a", "stage_temperature_c", "ripple_rms_v",
+)
+"""Sensor channels every actuator file must specify, in output order."""
+
+_T = TypeVar("_T")
+_SECTIONS: dict[str, type[Any]] = {
+    "smps": SmpsParams, "inverter": InverterParams, "motor": MotorParams, "gear": GearParams,
+    "surface": SurfaceParams, "control": ControlParams, "thermal": ThermalParams,
+    "bus": BusParams,
+}
+_MAY_BE_ZERO_OR_NEGATIVE = {
+    "ch0", "ch_delta_per_rad", "ambient_c", "loop_kd", "soft_start_s", "noise_rms",
+    "drift_sd_v", "flight_mean_sd_v", "ripple_rms_v", "source_resistance_ohm",
+    "switching_loss_w", "position_integral_hz",
+}
+
+
+def _line(node: yaml.Node) -> int:
+    return int(node.start_mark.line) + 1
+
+
+def _mapping(node: yaml.Node, path: str, field: str) -> dict[str, tuple[yaml.Node, yaml.Node]]:
+    if not isinstance(node, yaml.MappingNode):
+        raise ConfigError("expected a mapping", path=path, line=_line(node), field=field)
+    out: dict[str, tuple[yaml.Node, yaml.Node]] = {}
+    for key, value in node.value:
+        out[str(key.value)] = (key, value)
+    return out
+
+
+def _number(node: yaml.Node, path: str, field: str, key: str) -> float:
+    text = node.value if isinstance(node, yaml.ScalarNode) else None
+    try:
+        value = float(str(text))
+    except (TypeError, ValueError):
+        raise ConfigError(f"expected a number, got {text!r}", path=path, line=_line(node),
+                          field=field) from None
+    if not math.isfinite(value):
+        raise ConfigError("must be finite", path=path, line=_line(node), field=field)
+    if value <= 0.0 and key not in _MAY_BE_ZERO_OR_NEGATIVE:
+        raise ConfigError(f"must be > 0, got {value}", path=path, line=_line(node), field=field)
+    return value
+
+
+def _section(cls: type[_T], node: yaml.Node, path: str, name: str) -> _T:
+    items = _mapping(node, path, name)
+    wanted = [f.name for f in dataclasses.fields(cls)]  # type: ignore[arg-type]
+    for key, (key_node, _) in items.items():
+        if key not in wanted:
+            raise ConfigError("unknown key", path=path, line=_line(key_node),
+                              field=f"{name}.{key}")
+    values: dict[str, float] = {}
+    for key in wanted:
+        if key not in items:
+            raise ConfigError("missing key", path=path, line=_line(node), field=f"{name}.{key}")
+        values[key] = _number(items[key][1], path, f"{name}.{key}", key)
+    return cls(**values)
+
+
+def _sensors(node: yaml.Node, path: str) -> SensorParams:
+    items = _mapping(node, path, "sensors")
+    for key in ("sample_rate_hz", "step_s", "channels"):
+        if key not in items:
+            raise ConfigError("missing key", path=path, line=_line(node), field=f"sensors.{key}")
+    rate = _number(items["sample_rate_hz"][1], path, "sensors.sample_rate_hz", "sample_rate_hz")
+    step = _number(items["step_s"][1], path, "sensors.step_s", "step_s")
+    chan_node = items["channels"][1]
+    chans = _mapping(chan_node, path, "sensors.channels")
+    specs: dict[str, ChannelSpec] = {}
+    for name in CHANNELS:
+        if name not in chans:
+            raise ConfigError("missing channel", path=path, line=_line(chan_node),
+                              field=f"sensors.channels.{name}")
+        specs[name] = _section(ChannelSpec, chans[name][1], path, f"sensors.channels.{name}")
+    for key, (key_node, _) in chans.items():
+        if key not in CHANNELS:
+            raise ConfigError("unknown channel", path=path, line=_line(key_node),
+                              field=f"sensors.channels.{key}")
+    return SensorParams(sample_rate_hz=rate, step_s=step, channels=specs)
+
+
+def parse_actuator(text: str, path: str = "<string>") -> ActuatorParams:
+    """Parse an actuator YAML document; raises :class:`ConfigError` naming file:line: field."""
+    try:
+        root = yaml.compose(text)
+    except yaml.YAMLError as error:
+        mark = getattr(error, "problem_mark", None)
+        line = int(mark.line) + 1 if mark is not None else None
+        raise ConfigError(f"not valid YAML: {getattr(error, 'problem', error)}", path=path,
+                          line=line) from None
+    if root is None:
+        raise ConfigError("empty file", path=path, line=1)
+    items = _mapping(root, path, "<top>")
+    name_item = items.get("name")
+    if name_item is None or not isinstance(name_item[1], yaml.ScalarNode):
+        raise ConfigError("missing or not a string", path=path, line=_line(root), field="name")
+    for key, (key_node, _) in items.items():
+        if key not in _SECTIONS and key not in ("name", "sensors"):
+            raise ConfigError("unknown section", path=path, line=_line(key_node), field=key)
+    built: dict[str, Any] = {}
+    for section, cls in _SECTIONS.items():
+        if section not in items:
+            raise ConfigError("missing section", path=path, line=_line(root), field=section)
+        built[section] = _section(cls, items[section][1], path, section)
+    if "sensors" not in items:
+        raise ConfigError("missing section", path=path, line=_line(root), field="sensors")
+    built["sensors"] = _sensors(items["sensors"][1], path)
+    params = ActuatorParams(name=str(name_item[1].value), **built)
+    _check_consistency(params, path)
+    return params
+
+
+def _check_consistency(p: ActuatorParams, path: str) -> None:
+    """Cross-field checks that a per-key range cannot express."""
+    if not 0.0 < p.smps.max_duty < 1.0:
+        raise ConfigError("must be in (0, 1)", path=path, field="smps.max_duty")
+    if not 0.0 < p.gear.efficiency <= 1.0:
+        raise ConfigError("must be in (0, 1]", path=path, field="gear.efficiency")
+    samples = 1.0 / (p.sensors.sample_rate_hz * p.sensors.step_s)
+    if abs(samples - round(samples)) > 1e-6 or round(samples) < 1:
+        raise ConfigError("1/(sample_rate_hz*step_s) must be a whole number of steps",
+                          path=path, field="sensors.step_s")
+    if p.bus.min_v >= p.bus.max_v:
+        raise ConfigError("min_v must be below max_v", path=path, field="bus.min_v")
+
+
+def load_actuator(path: str | Path) -> ActuatorParams:
+    """Load one actuator YAML file (see ``configs/actuators/``)."""
+    p = Path(path)
+    try:
+        text = p.read_text(encoding="utf-8")
+    except OSError as error:
+        raise ConfigError(f"cannot read: {error.strerror}", path=str(p)) from None
+    return parse_actuator(text, str(p))
+
+
+def default_actuator_path() -> Path:
+    """The shipped small-UAV aileron actuator file."""
+    return Path(__file__).resolve().parents[2] / "configs" / "actuators" / "aileron-uav.yaml"
+
+
+def with_sample_rate(params: ActuatorParams, sample_rate_hz: float) -> ActuatorParams:
+    """A copy streaming sensor blocks at another rate (must divide the step rate evenly)."""
+    sensors = dataclasses.replace(params.sensors, sample_rate_hz=float(sample_rate_hz))
+    out = dataclasses.replace(params, sensors=sensors)
+    _check_consistency(out, "<sample rate>")
+    return out

@@ -1,0 +1,185 @@
+"""The EMA plant: a batch of runs integrated together, stepped in chunks of sensor samples.
+
+Integration is a fixed step (``sensors.step_s``, 25 us by default) with numpy vectorised
+*across runs*: every state is an array with one entry per run, so a 416-run fault dictionary
+costs one Python loop over time whose every operation handles all runs at once. Why this and
+not scipy's compiled integrators: the plant switches (six Hall sectors per electrical turn,
+PWM-averaged legs, diodes that start and stop conducting, a saturating voltage loop), so an
+adaptive solver would be cut at every event and still call back into Python for each
+right-hand side; a fixed step at ~1/30 of the 0.83 ms winding time constant with the stiff
+parts taken exactly (the SMPS 2x2 system) or implicitly (winding resistance) is stable and
+lets the per-step Python overhead be shared by the whole batch. The cost of that choice: a
+*single* run pays the full per-step overhead alone (see ``bench/plant.py``).
+
+Example — a remote terminal pulling sensor blocks as simulated time goes on::
+
+    plant = EmaBatch([RunSpec(params, FaultSet.of([Fault("esr", 0.5)]), seed=1)])
+    while flying:
+        block = plant.advance(20, command_deg=cmd, dynamic_pressure_pa=q)   # 10 ms at 2 kHz
+        block.channels["dc_link_current_a"]      # shape (1, 20)
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Sequence
+
+import numpy as np
+import numpy.typing as npt
+
+from mapr_daemon.ema import inverter as inv
+from mapr_daemon.ema import motor, sensors, smps
+from mapr_daemon.ema.batch import BatchArrays, FloatArray, RunSpec, build
+from mapr_daemon.ema.control import ControlState, control
+from mapr_daemon.ema.params import CHANNELS
+from mapr_daemon.errors import ConfigError
+
+TRUTH: tuple[str, ...] = (
+    "position_true_deg", "command_deg", "motor_speed_rad_s", "motor_torque_nm",
+    "hinge_moment_nm", "current_command_a", "torque_current_a", "smps_duty",
+    "inductor_current_a", "aircraft_bus_v", "dynamic_pressure_pa", "winding_resistance_ohm",
+)
+"""Noise-free signals recorded alongside the sensors (block means), for ground truth."""
+
+# rows of the per-step accumulator
+_ACC = ("i_dc", "i_a", "i_b", "i_c", "v_out", "delta", "v_in", "i_in", "v_out2", "ripple2",
+        "p_motor", "p_stage", "torque", "omega", "hinge", "i_cmd", "i_q", "duty", "i_l")
+_ROW = {name: k for k, name in enumerate(_ACC)}
+
+
+@dataclasses.dataclass(frozen=True)
+class SensorBlock:
+    """Sensor samples of a chunk: ``channels[name]`` and ``truth[name]`` are ``(n_runs, n)``."""
+
+    time_s: FloatArray
+    channels: dict[str, FloatArray]
+    truth: dict[str, FloatArray]
+
+
+def _per_run(value: float | npt.ArrayLike, n_runs: int, n: int, name: str) -> FloatArray:
+    arr = np.asarray(value, dtype=np.float64)
+    try:
+        return np.broadcast_to(arr, (n_runs, n)) if arr.ndim != 1 or arr.shape[0] != n_runs \
+            else np.broadcast_to(arr[:, None], (n_runs, n))
+    except ValueError:
+        raise ConfigError(f"shape {arr.shape} does not fit ({n_runs}, {n})", field=name) from None
+
+
+class EmaBatch:
+    """A batch of EMA runs sharing one clock. ``advance`` returns the next sensor samples."""
+
+    def __init__(self, runs: Sequence[RunSpec], *, powered: bool = True) -> None:
+        """``powered=False`` starts with the SMPS off, so every run begins with its soft start."""
+        self.specs = tuple(runs)
+        self.p: BatchArrays = build(self.specs)
+        p = self.p
+        self.rngs = [np.random.default_rng(s.seed) for s in self.specs]
+        self.t = 0.0
+        self.sample_index = 0
+        self.smps = smps.SmpsState.powered(p) if powered else smps.SmpsState.cold(p.n)
+        self.ctl = ControlState.zero(p.n)
+        self.slow = sensors.SlowState.start(p, self.rngs)
+        self.i = np.zeros((3, p.n))
+        self.vn = np.zeros(p.n)
+        self.omega = np.zeros(p.n)
+        self.theta = np.zeros(p.n)
+        self.i_in = np.zeros(p.n)
+        self.z_sw = smps.bank_impedance(p, p.f_sw)
+        self.z_pwm = smps.bank_impedance(p, p.f_pwm)
+
+    @property
+    def n_runs(self) -> int:
+        return self.p.n
+
+    @property
+    def sample_period_s(self) -> float:
+        return self.p.step_s * self.p.samples_per_block
+
+    def advance(self, n_samples: int, command_deg: float | npt.ArrayLike = 0.0,
+                dynamic_pressure_pa: float | npt.ArrayLike = 0.0,
+                ambient_c: float | npt.ArrayLike | None = None) -> SensorBlock:
+        """Simulate ``n_samples`` output samples; inputs are held over each sample period.
+
+        Inputs are scalars, ``(n_samples,)`` (shared by all runs), ``(n_runs,)`` (constant per
+        run) or ``(n_runs, n_samples)``.
+        """
+        p = self.p
+        n = int(n_samples)
+        cmd = np.radians(_per_run(command_deg, p.n, n, "command_deg"))
+        q = _per_run(dynamic_pressure_pa, p.n, n, "dynamic_pressure_pa")
+        amb = (np.broadcast_to(p.t_amb[:, None], (p.n, n)) if ambient_c is None
+               else _per_run(ambient_c, p.n, n, "ambient_c"))
+        z = sensors.draw(self.rngs, n, len(CHANNELS))
+        means = np.empty((len(_ACC), p.n, n))
+        bus = np.empty((p.n, n))
+        rw = np.empty((p.n, n))
+        for k in range(n):
+            r_w = sensors.winding_resistance(p, self.slow)
+            means[:, :, k] = self._sample(cmd[:, k], q[:, k], r_w)
+            bus[:, k] = self.slow.bus_v
+            rw[:, k] = r_w
+            sensors.advance_slow(self.slow, p, self.sample_period_s,
+                                 means[_ROW["p_motor"], :, k], means[_ROW["p_stage"], :, k],
+                                 amb[:, k], z[-2, :, k], z[-1, :, k])
+            means[_ROW["p_motor"], :, k] = self.slow.motor_c  # reuse rows for temperatures
+            means[_ROW["p_stage"], :, k] = self.slow.stage_c
+        return self._block(means, z, cmd, q, bus, rw, n)
+
+    def _sample(self, cmd: FloatArray, q: FloatArray, r_w: FloatArray) -> FloatArray:
+        """Integrate one sample period; returns the step means of the accumulator rows."""
+        p = self.p
+        acc = np.zeros((len(_ACC), p.n))
+        h = p.step_s
+        for _ in range(p.samples_per_block):
+            theta_e = p.pole_pairs * self.theta
+            sec = inv.sector(theta_e)
+            shape = inv.trapezoid(theta_e)
+            e = p.k_e * self.omega * shape
+            vdc = self.smps.v_out
+            vin = self.slow.bus_v - p.r_source * self.i_in
+            duty = smps.voltage_loop(self.smps, p, self.t, vin)
+            u = control(self.ctl, p, cmd, self.theta, self.omega, self.i, sec, vdc)
+            a_high, a_low = inv.on_fractions(p, sec, u)
+            lg = inv.legs(p, a_high, a_low, vdc, self.i)
+            i_ext = inv.dc_link_current(p, lg, self.i)
+            p_inv = inv.conduction_loss(p, lg, self.i, vdc)
+            i_dc = i_ext + lg.g_shoot * vdc
+            ripple2 = smps.ripple_sq(self.smps, p, vin, i_dc, np.abs(u), self.z_sw, self.z_pwm)
+            i_l = self.smps.i_l
+            p_smps = i_l * i_l * (duty * p.ron_hi + (1.0 - duty) * p.ron_lo) + p.p_sw
+            smps.step(self.smps, p, vin, i_ext, lg.g_shoot)
+            self.i_in = duty * self.smps.i_l
+            self.i, self.vn = motor.solve_windings(p, lg, self.i, e, r_w, vdc)
+            torque = p.k_e * np.add.reduce(shape * self.i, axis=0)
+            delta = self.theta / p.ratio
+            hinge = motor.hinge_moment(p, q, delta)
+            self.omega, self.theta = motor.mechanics(p, self.omega, self.theta, torque, hinge)
+            v_out = self.smps.v_out
+            acc += np.stack((
+                i_dc, self.i[0], self.i[1], self.i[2], v_out, delta, vin, self.i_in,
+                v_out * v_out, ripple2, r_w * np.add.reduce(self.i * self.i, axis=0),
+                p_smps + p_inv,
+                torque, self.omega, hinge, self.ctl.i_cmd, self.ctl.i_q, duty, i_l))
+            self.t += h
+        self.sample_index += 1
+        out: FloatArray = acc / p.samples_per_block
+        return out
+
+    def _block(self, m: FloatArray, z: FloatArray, cmd: FloatArray, q: FloatArray,
+               bus: FloatArray, rw: FloatArray, n: int) -> SensorBlock:
+        p = self.p
+        r = _ROW
+        var = np.maximum(m[r["v_out2"]] - m[r["v_out"]] ** 2, 0.0)
+        clean = np.stack((
+            m[r["i_dc"]], m[r["i_a"]], m[r["i_b"]], m[r["i_c"]], m[r["v_out"]],
+            np.degrees(m[r["delta"]]), m[r["p_motor"]], m[r["v_in"]], m[r["i_in"]],
+            m[r["p_stage"]], np.sqrt(var + m[r["ripple2"]])))
+        noisy = sensors.adc(p, clean, z[: len(CHANNELS)])
+        first = self.sample_index - n
+        time_s = (np.arange(first, first + n, dtype=np.float64) + 1.0) * self.sample_period_s
+        channels = {name: noisy[k] for k, name in enumerate(CHANNELS)}
+        truth = dict(zip(TRUTH, (
+            np.degrees(m[r["delta"]]), np.degrees(cmd), m[r["omega"]], m[r["torque"]],
+            m[r["hinge"]], m[r["i_cmd"]], m[r["i_q"]], m[r["duty"]], m[r["i_l"]], bus,
+            np.array(q), rw), strict=True))
+        return SensorBlock(time_s=time_s, channels=channels, truth=truth)

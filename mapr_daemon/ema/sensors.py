@@ -1,0 +1,84 @@
+"""What the instrumentation adds: ADC noise and quantisation, the aircraft bus, temperatures.
+
+Every sensor channel is the mean of the integrator steps of its sample period (an integrating,
+anti-aliased ADC), plus white noise, then quantised to ``2*full_scale/2**bits`` and clipped to
+``[-full_scale, full_scale)``. The RMS detector channel reports the AC content of the DC-link
+voltage: the within-sample variance of the averaged model plus the analytic sub-step ripple.
+
+The aircraft bus is the 28 V supply of MIL-STD-704: each flight draws its own mean around the
+nominal value, drifts slowly (an Ornstein-Uhlenbeck process), carries generator ripple, sags
+by the feeder resistance times the SMPS input current and is clipped to the normal band.
+
+Random numbers come from one generator per run, drawn sample-major, so a run's noise depends
+only on its seed and not on how the simulation is chunked or which batch it shares.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from mapr_daemon.ema.batch import BatchArrays, FloatArray
+
+COPPER_ALPHA = 0.00393
+"""Temperature coefficient of copper resistance, 1/K."""
+EXTRA_DRAWS = 2
+"""Random columns per sample besides the channels: bus drift and bus ripple."""
+
+
+@dataclasses.dataclass
+class SlowState:
+    """States updated once per output sample: temperatures and the aircraft bus."""
+
+    motor_c: FloatArray
+    stage_c: FloatArray
+    bus_offset: FloatArray
+    bus_drift: FloatArray
+    bus_v: FloatArray
+
+    @classmethod
+    def start(cls, p: BatchArrays, rngs: list[np.random.Generator]) -> SlowState:
+        offset = np.array([g.standard_normal() for g in rngs]) * p.bus_mean_sd
+        drift = np.array([g.standard_normal() for g in rngs]) * p.bus_drift_sd
+        bus = np.clip(p.bus_nominal + offset + drift, p.bus_min, p.bus_max)
+        return cls(p.t_amb.copy(), p.t_amb.copy(), offset, drift, bus)
+
+
+def draw(rngs: list[np.random.Generator], n_samples: int, n_channels: int) -> FloatArray:
+    """Standard normal draws ``(n_channels + EXTRA_DRAWS, n_runs, n_samples)``."""
+    cols = n_channels + EXTRA_DRAWS
+    per_run = [g.standard_normal((n_samples, cols)) for g in rngs]
+    out: FloatArray = np.stack(per_run, axis=0).transpose(2, 0, 1)
+    return out
+
+
+def winding_resistance(p: BatchArrays, s: SlowState) -> FloatArray:
+    """Per-phase winding resistance at the present motor temperature."""
+    out: FloatArray = p.r_w0 * (1.0 + COPPER_ALPHA * (s.motor_c - 25.0))
+    return out
+
+
+def advance_slow(s: SlowState, p: BatchArrays, dt: float, motor_loss_w: FloatArray,
+                 stage_loss_w: FloatArray, ambient_c: FloatArray, z_drift: FloatArray,
+                 z_ripple: FloatArray) -> None:
+    """Advance temperatures (exact first-order) and the aircraft bus by one sample period."""
+    am = np.exp(-dt / p.tau_m)
+    s.motor_c = ambient_c + p.rth_m * motor_loss_w + (s.motor_c - ambient_c
+                                                      - p.rth_m * motor_loss_w) * am
+    ast = np.exp(-dt / p.tau_s)
+    s.stage_c = ambient_c + p.rth_s * stage_loss_w + (s.stage_c - ambient_c
+                                                      - p.rth_s * stage_loss_w) * ast
+    ab = np.exp(-dt / p.bus_tau)
+    s.bus_drift = s.bus_drift * ab + p.bus_drift_sd * np.sqrt(1.0 - ab * ab) * z_drift
+    raw = p.bus_nominal + s.bus_offset + s.bus_drift + p.bus_ripple * z_ripple
+    s.bus_v = np.clip(raw, p.bus_min, p.bus_max)
+
+
+def adc(p: BatchArrays, values: FloatArray, z: FloatArray) -> FloatArray:
+    """Noise and quantisation; ``values`` and ``z`` are ``(n_channels, n_runs, n_samples)``."""
+    fs = p.full_scale[:, :, None]
+    lsb = p.lsb[:, :, None]
+    noisy = values + p.noise[:, :, None] * z
+    out: FloatArray = np.clip(np.round(noisy / lsb) * lsb, -fs, fs - lsb)
+    return out

@@ -1,0 +1,1 @@
+"""The testbed: profiles (built-in test, JSBSim flights) and, later, the simulated RTs."""
