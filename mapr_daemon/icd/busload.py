@@ -37,6 +37,23 @@ def message_time_us(message: Message, *, response_time_us: float,
     return words * WORD_US + responses * response_time_us + intermessage_gap_us
 
 
+def frame_slots(schedule: Schedule, messages: Mapping[str, Message],
+                index: int) -> tuple[tuple[float, Message], ...]:
+    """What the bus controller sends in minor frame ``index``: (start µs in the frame, message).
+
+    Messages go back to back from the frame's start in schedule order, each taking
+    :func:`message_time_us`. The loopback bus controller and the benches replay this.
+    """
+    slots = []
+    t = 0.0
+    for name in schedule.frame(index):
+        message = messages[name]
+        slots.append((t, message))
+        t += message_time_us(message, response_time_us=schedule.response_time_us,
+                             intermessage_gap_us=schedule.intermessage_gap_us)
+    return tuple(slots)
+
+
 @dataclass(frozen=True, slots=True)
 class BusLoad:
     """The load a schedule puts on the bus."""

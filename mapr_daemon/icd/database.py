@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from drivers.mil1553.record import MonitorRecord, TransferFormat
-from mapr_daemon.icd.busload import BusLoad, bus_load
+from mapr_daemon.icd.busload import BusLoad, bus_load, frame_slots
 from mapr_daemon.icd.decoder import U16, IntP, MessageDecoder
 from mapr_daemon.icd.encoder import build_record, encode_message
 from mapr_daemon.icd.errors import IcdError
@@ -103,6 +103,12 @@ class Icd:
         if self.schedule is None:
             return None
         return bus_load(self.schedule, self._by_name)
+
+    def frame_slots(self, index: int) -> tuple[tuple[float, Message], ...]:
+        """(start µs within the frame, message) for minor frame ``index`` of the schedule."""
+        if self.schedule is None:
+            return ()
+        return frame_slots(self.schedule, self._by_name, index)
 
     # --- decode -------------------------------------------------------------------------
     def decode(self, record: MonitorRecord) -> DecodedMessage | None:

@@ -20,6 +20,7 @@ only says which blocks are missing or repeated, so a time series stays honest ab
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 from itertools import islice
@@ -29,8 +30,11 @@ import numpy as np
 from drivers.mil1553.record import MonitorRecord
 from mapr_daemon.icd.database import Icd
 from mapr_daemon.icd.flags import FLAG_AFTER_GAP
-from mapr_daemon.icd.model import Message
-from mapr_daemon.icd.values import Series
+from mapr_daemon.icd.model import Group, Message
+from mapr_daemon.icd.values import I64, Series
+
+CLOCK_SLACK = 50e-6
+"""How fast (s/s) the counter timebase may move forward to follow a terminal's clock drift."""
 
 
 @dataclass(slots=True)
@@ -49,12 +53,19 @@ class StreamStats:
 class SignalStream:
     """Decode records into per-parameter series, chunk after chunk, tracking block counters.
 
-    ``parameters`` limits the output to those names (all by default).
+    ``parameters`` limits the output to those names (all by default). ``timebase`` says how
+    samples of a group with a block counter are timed: ``"counter"`` (default) spaces them
+    uniformly on the counter, anchored to the record time tags; ``"record"`` keeps the
+    per-record times of :class:`~mapr_daemon.icd.model.Group` (which carry the bus
+    controller's polling jitter).
     """
 
     def __init__(self, icd: Icd, *, parameters: Iterable[str] | None = None,
-                 chunk: int = 4096) -> None:
+                 chunk: int = 4096, timebase: str = "counter") -> None:
+        if timebase not in ("counter", "record"):
+            raise ValueError(f"timebase must be 'counter' or 'record', got {timebase!r}")
         self.icd = icd
+        self.timebase = timebase
         self.chunk = chunk
         self.stats = StreamStats()
         wanted = None if parameters is None else set(parameters)
@@ -63,7 +74,7 @@ class SignalStream:
             if unknown:
                 raise KeyError(f"no parameter named {', '.join(sorted(unknown))}")
         self._wanted = wanted
-        self._last_counter: dict[str, int] = {}
+        self._blocks: dict[str, _BlockState] = {}
 
     def feed(self, records: Iterable[MonitorRecord]) -> dict[str, Series]:
         """Decode ``records`` (in time order) and return their series."""
@@ -95,22 +106,23 @@ class SignalStream:
     def _check_counter(self, message: Message, n: int, series: dict[str, Series]) -> None:
         group = message.group
         assert group is not None and group.counter is not None
-        counter = series[group.counter]
-        modulus = 1 << counter.parameter.width
-        raw = counter.raw
+        state = self._blocks.setdefault(message.name, _BlockState())
+        raw = series[group.counter].raw
+        modulus = 1 << series[group.counter].parameter.width
         previous = np.empty(n, dtype=np.int64)
         previous[1:] = raw[:-1]
-        last = self._last_counter.get(message.name)
-        previous[0] = raw[0] - 1 if last is None else last
+        previous[0] = raw[0] - 1 if state.last is None else state.last
         step = (raw - previous) % modulus
-        self._last_counter[message.name] = int(raw[-1])
+        index = state.index + np.cumsum(step)
+        state.last = int(raw[-1])
+        state.index = int(index[-1])
         repeat = step == 0
         gap = step > 1
-        if not repeat.any() and not gap.any():
-            return
         self.stats.repeated_blocks += int(repeat.sum())
         self.stats.lost_blocks += int((step[gap] - 1).sum())
-        keep = ~repeat
+        channels = {c.name for c in group.channels}
+        if self.timebase == "counter":
+            self._counter_times(group, state, index, series, channels)
         for p in message.all_parameters():
             s = series[p.name]
             per = len(s) // n
@@ -119,14 +131,52 @@ class SignalStream:
                 first[np.flatnonzero(gap) * per] = True
                 s.flags[first] |= FLAG_AFTER_GAP
             if repeat.any():
-                series[p.name] = s.take(np.repeat(keep, per))
+                series[p.name] = s.take(np.repeat(~repeat, per))
+
+    def _counter_times(self, group: Group, state: _BlockState, index: I64,
+                       series: dict[str, Series], channels: set[str]) -> None:
+        """Re-time group samples on the block counter: uniform periods, no bus jitter.
+
+        Block k's first sample is at ``k * block + offset``. The offset is the smallest
+        (record-derived first-sample time - k * block) seen so far — the bus controller reads
+        a block late, never early — allowed to creep forward by :data:`CLOCK_SLACK` to follow
+        a terminal clock that runs slow against ours. The first chunk seeds it with its best
+        block, so the stream's first samples are timed like the rest.
+        """
+        period = group.period_ns
+        block = group.samples * period
+        sample = series[group.channels[0].name]
+        t_first = sample.t_ns[:: group.samples].astype(np.float64)
+        late = t_first - index * block           # offset seen by each block, >= the true one
+        if state.anchor is None:                 # bootstrap on the first chunk's best block
+            state.anchor = float(t_first[0])
+            state.floor = float(late.min())
+        since = t_first - state.anchor
+        lead = late - CLOCK_SLACK * since
+        floor = np.minimum.accumulate(np.concatenate(([state.floor], lead)))[1:]
+        state.floor = float(floor[-1])
+        start = index * block + floor + CLOCK_SLACK * since
+        times = np.round(start[:, None] + np.arange(group.samples) * period).astype(np.int64)
+        for name in channels:
+            s = series[name]
+            series[name] = Series(s.parameter, times.ravel(), s.value, s.raw, s.flags)
+
+
+@dataclass(slots=True)
+class _BlockState:
+    """Per message: last counter value, unwrapped block index, timing floor."""
+
+    last: int | None = None
+    index: int = -1
+    anchor: float | None = None
+    floor: float = math.inf
 
 
 def collect(icd: Icd, records: Iterable[MonitorRecord], *,
-            parameters: Iterable[str] | None = None,
-            chunk: int = 4096) -> tuple[dict[str, Series], StreamStats]:
+            parameters: Iterable[str] | None = None, chunk: int = 4096,
+            timebase: str = "counter") -> tuple[dict[str, Series], StreamStats]:
     """Decode everything in ``records`` into one series per parameter, and the counts."""
-    stream = SignalStream(icd, parameters=parameters, chunk=chunk)
+    stream = SignalStream(icd, parameters=parameters, chunk=chunk, timebase=timebase)
     parts: dict[str, list[Series]] = {}
     for piece in stream.stream(records):
         for name, s in piece.items():
