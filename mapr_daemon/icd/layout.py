@@ -71,7 +71,7 @@ def _row(word: int, placed: list[tuple[Parameter, int]]) -> str:
     """One word drawn as cells, with the names of the fields it holds."""
     cells: list[Parameter | None] = [None] * 16   # index = 15 - bit
     bases: dict[str, int] = {}
-    names = []
+    names: list[tuple[int, str]] = []
     for p, base in placed:
         indices = p.word_indices(base)
         if word not in indices:
@@ -89,7 +89,7 @@ def _row(word: int, placed: list[tuple[Parameter, int]]) -> str:
         for bit in range(lsb, msb + 1):
             cells[15 - bit] = p
         bases[p.name] = base
-        names.append(p.name + part)
+        names.append((-msb, p.name + part))
     text = ""
     i = 0
     while i < 16:
@@ -113,11 +113,11 @@ def _row(word: int, placed: list[tuple[Parameter, int]]) -> str:
         text += body + "|"
         i = j + 1
     label = f"{word:>6} |"
-    return (label + text + " " + ", ".join(names)).rstrip()
+    return (label + text + " " + ", ".join(name for _, name in sorted(names))).rstrip()
 
 
 def _table(m: Message) -> list[str]:
-    header = (f"  {'parameter':<24}{'word':>5} {'bits':>6}  {'type':<9}{'lsb':>12} "
+    header = (f"  {'parameter':<24}{'word':>5} {'bits':>6}  {'type':<13}{'lsb':>12} "
               f"{'offset':>8}  {'unit':<7}{'min':>10}{'max':>10}")
     out = [header]
     g = m.group
@@ -134,7 +134,7 @@ def _table(m: Message) -> list[str]:
         offset = f"{p.offset:g}" if scaled else ""
         lo = "" if p.minimum is None else f"{p.minimum:g}"
         hi = "" if p.maximum is None else f"{p.maximum:g}"
-        out.append(f"  {p.name:<24}{word:>5} {bits:>6}  {kind:<9}{lsb:>12} {offset:>8}  "
+        out.append(f"  {p.name:<24}{word:>5} {bits:>6}  {kind:<13}{lsb:>12} {offset:>8}  "
                    f"{p.unit:<7}{lo:>10}{hi:>10}".rstrip())
         if p.labels:
             out.append("      " + " ".join(f"{c}={v}" for c, v in sorted(p.labels.items())))

@@ -30,7 +30,8 @@ class _LineLoader(yaml.SafeLoader):
     """A SafeLoader whose mappings are :class:`Node` objects carrying line numbers.
 
     Booleans are YAML 1.2's ``true``/``false`` only: in YAML 1.1 an enumeration label such as
-    ``OFF`` or ``NO`` would silently turn into a boolean.
+    ``OFF`` or ``NO`` would silently turn into a boolean. Floats also take YAML 1.2's
+    exponent forms (``1e7``), which YAML 1.1 would read as strings.
     """
 
 
@@ -41,6 +42,9 @@ _LineLoader.yaml_implicit_resolvers = {
 }
 _LineLoader.add_implicit_resolver(
     _BOOL_TAG, re.compile(r"^(?:true|True|TRUE|false|False|FALSE)$"), list("tTfF"))
+_LineLoader.add_implicit_resolver(   # YAML 1.2 floats too: 1e7, 2.5E-3 (1.1 wants 1.0e+7)
+    "tag:yaml.org,2002:float",
+    re.compile(r"^[-+]?[0-9][0-9_]*(?:\.[0-9_]*)?[eE][-+]?[0-9]+$"), list("-+0123456789"))
 
 
 def _construct_node(loader: _LineLoader, node: yaml.MappingNode) -> Node:

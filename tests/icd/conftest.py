@@ -48,6 +48,12 @@ def ema() -> Icd:
 
 
 @pytest.fixture(scope="session")
+def ema_path() -> Path:
+    """configs/icd/ema-testbed.yaml."""
+    return EMA_TABLE
+
+
+@pytest.fixture(scope="session")
 def data_dir() -> Path:
     """tests/data/icd: fixture tables and golden outputs."""
     return DATA
