@@ -54,3 +54,11 @@ def test_the_console_script_exits_78_on_a_bad_table(data_dir):
     assert done.returncode == 78
     assert len(done.stderr.splitlines()) == 1
     assert ":14: nav_state.valid.bits: " in done.stderr
+
+
+def test_the_bench_runs_and_reports_words_per_second(ema_path):
+    bench = ema_path.parents[2] / "bench" / "icd.py"
+    done = subprocess.run([sys.executable, str(bench), "--seconds", "1"], capture_output=True,
+                          text=True, check=True)
+    assert "16343 data words in 782 records" in done.stdout     # one second of the schedule
+    assert done.stdout.rstrip().endswith("M words/s (target >= 1 M words/s)")

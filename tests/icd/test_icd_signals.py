@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import random
 
 import numpy as np
@@ -134,3 +135,21 @@ def test_format_values_flags_out_of_range_and_skips_unknown_records(ema):
     mode = MonitorRecord(t_ns=0, bus="A", format=TransferFormat.MODE,
                          command=5 << 11 | 1 << 10 | 2, status=(5 << 11,))
     assert format_values(ema, mode) == ""
+
+
+def test_batch_decoding_of_ragged_records_equals_one_by_one(ema):
+    """Short and long records take the slow stacking path; results must not change."""
+    values = {"position_feedback": 1.25, "surface_rate": -3.5, "ema_ready": 1, "ema_fault": 0,
+              "at_stop": 0, "mode_echo": "HOLD", "feedback_seq": 9, "command_echo": 1.0}
+    good = ema.build_record("ema_position_feedback", values, 1_000)
+    short = dataclasses.replace(good, t_ns=2_000, data=good.data[:2], errors=("word_count_low",))
+    long = dataclasses.replace(good, t_ns=3_000, data=(*good.data, 0xFFFF),
+                               errors=("word_count_high",))
+    batch = ema.decode_batch([good, short, long]).series
+    for k, record in enumerate((good, short, long)):
+        alone = ema.decode(record).values
+        for name, s in alone.items():
+            np.testing.assert_array_equal(batch[name].value[k:k + 1], s.value)
+            np.testing.assert_array_equal(batch[name].flags[k:k + 1], s.flags)
+    assert batch["surface_rate"].value[1] == -3.5 and np.isnan(batch["mode_echo"].value[1])
+    assert batch["mode_echo"].flag_names(1) == ("missing", "record_error")
