@@ -1,0 +1,151 @@
+"""``mapr simulate``: fault-seeded EMA runs written as one ``.npz`` (see docs/simulate.md).
+
+Single run (or a few faults at once, a compound fault)::
+
+    mapr simulate --fault esr=0.5 --fault friction=3 --profile bit --condition cruise -o run.npz
+
+A whole dictionary from a spec file, with a progress bar on stderr::
+
+    mapr simulate --batch configs/profiles/dictionary-416.yaml -o dictionary.npz
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from mapr_daemon.ema import dataset
+from mapr_daemon.ema.batch import RunSpec
+from mapr_daemon.ema.faults import FaultSet, at_severity, parse_fault
+from mapr_daemon.ema.params import (
+    ActuatorParams,
+    default_actuator_path,
+    load_actuator,
+    with_sample_rate,
+)
+from mapr_daemon.ema.run import RunResult, run_batch
+from mapr_daemon.errors import ConfigError
+from mapr_daemon.testbed.profiles import Profile, bit_profile
+
+
+def add_subparser(subparsers: Any) -> None:
+    p = subparsers.add_parser("simulate", help="simulate fault-seeded EMA runs into an .npz",
+                              description=__doc__,
+                              formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("-o", "--output", required=True, type=Path, help="output .npz file")
+    p.add_argument("--batch", type=Path, help="YAML spec of many runs (overrides the rest)")
+    p.add_argument("--actuator", type=Path, help="actuator YAML (default: aileron-uav)")
+    p.add_argument("--fault", action="append", default=[],
+                   help="kind=value, kind@severity or short|open=SWITCH; repeat for compound")
+    p.add_argument("--profile", choices=("bit", "jsbsim"), default="bit")
+    p.add_argument("--condition", default="cruise", help="ground, approach, climb, cruise, dash")
+    p.add_argument("--duration", type=float, default=30.0, help="JSBSim flight length (s)")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--sample-rate", type=float, help="sensor output rate, Hz (default: file)")
+    p.add_argument("--cold", action="store_true", help="start with the SMPS off (soft start)")
+    p.set_defaults(func=run)
+
+
+def _profile(kind: str, cond: str, rate: float, duration: float, seed: int) -> Profile:
+    if kind == "bit":
+        return bit_profile(rate, cond)
+    if kind == "jsbsim":
+        from mapr_daemon.testbed.profiles_jsbsim import jsbsim_flight
+        return jsbsim_flight(rate, cond, duration, seed=seed)
+    raise ConfigError(f"unknown profile {kind!r} (bit, jsbsim)", field="profile")
+
+
+def _params(path: Path | None, rate: float | None) -> ActuatorParams:
+    params = load_actuator(path or default_actuator_path())
+    return with_sample_rate(params, rate) if rate else params
+
+
+class _Progress:
+    """A one-line text progress bar on stderr, only when stderr is a terminal or forced."""
+
+    def __init__(self, total_runs: int, enabled: bool) -> None:
+        self.total, self.done, self.enabled = total_runs, 0, enabled
+        self.start = time.monotonic()
+
+    def group(self, n_runs: int) -> Any:
+        def update(fraction: float) -> None:
+            if not self.enabled:
+                return
+            runs = self.done + fraction * n_runs
+            bar = "#" * int(30 * runs / self.total)
+            elapsed = time.monotonic() - self.start
+            sys.stderr.write(f"\r[{bar:<30}] {runs:6.1f}/{self.total} runs {elapsed:6.1f} s")
+            sys.stderr.flush()
+        return update
+
+    def finish_group(self, n_runs: int) -> None:
+        self.done += n_runs
+
+    def close(self) -> None:
+        if self.enabled:
+            sys.stderr.write("\n")
+
+
+def _batch_groups(spec_path: Path) -> tuple[list[tuple[Profile, list[RunSpec]]], dict[str, Any]]:
+    try:
+        spec = yaml.safe_load(spec_path.read_text(encoding="utf-8"))
+    except OSError as error:
+        raise ConfigError(f"cannot read: {error.strerror}", path=str(spec_path)) from None
+    except yaml.YAMLError as error:
+        raise ConfigError(f"not valid YAML: {error}", path=str(spec_path)) from None
+    if not isinstance(spec, dict) or "runs" not in spec:
+        raise ConfigError("a batch spec is a mapping with 'runs'", path=str(spec_path),
+                          field="runs")
+    actuator = spec.get("actuator")
+    params = _params(Path(actuator) if actuator else None, spec.get("sample_rate_hz"))
+    fault_sets: list[FaultSet] = []
+    for entry in spec["runs"]:
+        if entry == "healthy":
+            fault_sets.append(FaultSet())
+        elif isinstance(entry, dict) and "severities" in entry:
+            fault_sets += [FaultSet.of([at_severity(params, entry["fault"], float(s))])
+                           for s in entry["severities"]]
+        elif isinstance(entry, dict) and "faults" in entry:
+            fault_sets.append(FaultSet.of([parse_fault(str(f), params) for f in entry["faults"]]))
+        else:
+            raise ConfigError(f"bad run entry {entry!r}", path=str(spec_path), field="runs")
+    seeds = [int(s) for s in spec.get("seeds", [0])]
+    groups = []
+    for k, cond in enumerate(spec.get("conditions", ["cruise"])):
+        prof = _profile(spec.get("profile", "bit"), str(cond), params.sensors.sample_rate_hz,
+                        float(spec.get("duration_s", 30.0)), seed=k)
+        runs = [RunSpec(params, fs, seed=1000 * k + 17 * i + s)
+                for s in seeds for i, fs in enumerate(fault_sets)]
+        groups.append((prof, runs))
+    return groups, {"actuator": params.name, "spec": str(spec_path)}
+
+
+def run(args: argparse.Namespace) -> int:
+    if args.batch:
+        groups, meta = _batch_groups(args.batch)
+    else:
+        params = _params(args.actuator, args.sample_rate)
+        faults = FaultSet.of([parse_fault(f, params) for f in args.fault])
+        prof = _profile(args.profile, args.condition, params.sensors.sample_rate_hz,
+                        args.duration, args.seed)
+        groups = [(prof, [RunSpec(params, faults, seed=args.seed)])]
+        meta = {"actuator": params.name}
+    total = sum(len(runs) for _, runs in groups)
+    bar = _Progress(total, enabled=sys.stderr.isatty() or total > 1)
+    results: list[RunResult] = []
+    for prof, runs in groups:
+        results.append(run_batch(runs, prof, powered=not args.cold,
+                                 progress=bar.group(len(runs))))
+        bar.finish_group(len(runs))
+    bar.close()
+    first = groups[0][1][0].params.sensors
+    meta.update(sample_rate_hz=first.sample_rate_hz, step_s=first.step_s,
+                cold_start=bool(args.cold))
+    dataset.save(args.output, results, meta)
+    print(f"wrote {args.output}: {total} runs x {results[0].time_s.size} samples")
+    return 0
