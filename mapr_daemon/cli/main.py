@@ -24,6 +24,7 @@ SUBCOMMANDS: tuple[str, ...] = (
     "decode",
     "encode",
     "icd",
+    "simulate",
 )
 """Modules of :mod:`mapr_daemon.cli` that add a subcommand, in help order."""
 
