@@ -73,6 +73,8 @@ class DecoderSettings:
 
     sync_half_min_us: float = 0.95
     """Shortest level held on each side of a sync candidate's middle crossing."""
+    sync_span_min_us: float = 2.5
+    """Shortest span of both sides together (3 µs nominal, 2 µs for two long data runs)."""
     dead_band_max_us: float = 0.3
     """Longest silence between opposite polarities that still counts as a crossing."""
     burst_join_us: float = 2.0
@@ -192,7 +194,12 @@ class ManchesterDecoder:
         half_min = self.settings.sync_half_min_us * self._spus
         length = seg.right - seg.left
         k = np.flatnonzero(seg.adjacent_prev)
-        k = k[(length[k - 1] >= half_min) & (length[k] >= half_min)]
+        # Both sides of a sync's middle hold ~1.5 µs; the two together span 3 µs between
+        # the outer crossings (each off by at most 150 ns), where two long data runs span
+        # 2 µs: the sum separates them even when every crossing is at its tolerance.
+        both = self.settings.sync_span_min_us * self._spus
+        k = k[(length[k - 1] >= half_min) & (length[k] >= half_min) &
+              (length[k - 1] + length[k] >= both)]
         if k.size == 0:
             return np.zeros(0), np.zeros(0, np.int8)
         middle = seg.left[k]
@@ -205,6 +212,21 @@ class ManchesterDecoder:
         valid = first_ok & (before <= anchors + 0.5 * self._half) & \
             (seg.right[k] >= anchors + 5.5 * self._half)
         anchors, first = anchors[valid], seg.level[k - 1][valid]
+        # At the tolerance limits, the end of a word can look like a sync (a long data run,
+        # then the parity bit or the next sync's first half). Such a candidate lies inside the
+        # previous word's 20 µs and is not followed by the mid-bit crossings of bits 0 and 1,
+        # which every real word has (a word with a missing transition there does not start
+        # inside another word, so it is kept).
+        crossings = seg.crossings
+        followed = np.ones(anchors.size, dtype=bool)
+        for bit in (0, 1):
+            centre = anchors + (3.5 + bit) * self._spus
+            followed &= np.searchsorted(crossings, centre + 0.3 * self._spus) > \
+                np.searchsorted(crossings, centre - 0.3 * self._spus)
+        inside_previous = np.zeros(anchors.size, dtype=bool)
+        inside_previous[1:] = np.diff(anchors) < 39.5 * self._half
+        keep = followed | ~inside_previous
+        anchors, first = anchors[keep], first[keep]
         # Two syncs cannot overlap: a sync-like pattern starting inside the previous sync
         # (its second half continued by a bit without its transition) is data.
         overlaps = np.zeros(anchors.size, dtype=bool)
@@ -214,57 +236,31 @@ class ManchesterDecoder:
     def _phase_correction(self, seg: Segments, middle: FloatArray) -> FloatArray:
         """Per candidate, the offset (samples) of the 0.5 µs grid that best fits its crossings.
 
-        Two steps: the circular mean of the crossings' grid phases, then the circular midrange
-        (the middle of the shortest arc holding every phase). With n crossings each displaced
-        by a bounded jitter, the midrange's error shrinks like 1/n where the mean's shrinks
-        like 1/sqrt(n); it also bounds every crossing's distance to its grid slot by half the
-        spread of the phases, which is what slot assignment needs.
+        This is the circular midrange of the crossings' phases on the 0.5 µs grid: the middle
+        of the shortest arc of the circle holding every phase. With n crossings each displaced
+        by a bounded jitter, its error shrinks like 1/n where a mean's shrinks like
+        1/sqrt(n), and it bounds every crossing's distance to its grid slot by half the spread
+        of the phases, which is what slot assignment needs. Working on the circle, it needs
+        no first guess: the sync's own middle crossing serves as the reference.
         """
         crossings = seg.crossings
-        omega = 2 * np.pi / self._half
         # The window ends before slot 40, where a contiguous next word's sync would start,
         # or where the line falls silent, so a later word's crossings never pull the grid;
         # candidates inside a word (long data runs) are not used to cut it short.
         lo = np.searchsorted(crossings, middle - 0.5 * self._half)
         silent = self._silence_after(seg, middle)
         hi = np.searchsorted(crossings, np.minimum(middle + 36.5 * self._half, silent))
-        phasor = np.concatenate([[0j], np.cumsum(np.exp(1j * omega * crossings))])
-        total = (phasor[hi] - phasor[lo]) * np.exp(-1j * omega * middle)
-        mean = np.angle(total) / omega
-        midrange = self._midrange(crossings, lo, hi, middle + mean)
-        correction: FloatArray = mean + midrange * self._half
+        correction: FloatArray = self._midrange(crossings, lo, hi, middle) * self._half
         return correction
 
     def _midrange(self, crossings: FloatArray, lo: IntArray, hi: IntArray, centre: FloatArray
                   ) -> FloatArray:
         """Circular midrange of each window's grid phases relative to ``centre``, in slots."""
         count = hi - lo
-        width = int(count.max()) if count.size else 0
-        if width < 2:
-            return np.zeros(centre.size)
         cand = np.repeat(np.arange(centre.size), count)
         rank = np.arange(cand.size) - np.repeat(np.cumsum(count) - count, count)
         rel = (crossings[np.repeat(lo, count) + rank] - centre[cand]) / self._half
-        pad = 2.0  # sorts after every folded phase
-        phase = np.full((centre.size, width), pad)
-        phase[cand, rank] = rel - np.floor(rel + 0.5)  # folded into [-0.5, 0.5)
-        phase.sort(axis=1)
-        rows = np.arange(centre.size)
-        last = phase[rows, np.maximum(count - 1, 0)]
-        # Gaps between neighbouring phases, and the one that wraps round the circle.
-        gaps = np.diff(phase, axis=1)
-        gaps[np.arange(width - 1)[None, :] >= (count - 1)[:, None]] = -np.inf
-        inner = np.argmax(gaps, axis=1)
-        inner_gap = gaps[rows, inner]
-        wrap_gap = phase[:, 0] + 1.0 - last
-        use_wrap = wrap_gap >= inner_gap
-        # The shortest arc holding every phase lies opposite the largest gap.
-        mid_wrap = (phase[:, 0] + last) / 2
-        mid_inner = (phase[rows, inner + 1] + phase[rows, inner] + 1.0) / 2
-        mid = np.where(use_wrap, mid_wrap, mid_inner)
-        mid = mid - np.floor(mid + 0.5)
-        out: FloatArray = np.where(count >= 2, mid, 0.0).astype(np.float64)
-        return out
+        return circular_midrange(rel - np.floor(rel), cand, centre.size)
 
     @staticmethod
     def _silence_after(seg: Segments, times: FloatArray) -> FloatArray:
@@ -292,7 +288,7 @@ class ManchesterDecoder:
             return words
         crossings = seg.crossings
         direction = seg.crossing_level.astype(np.int64)
-        owner = np.searchsorted(anchors - 0.5 * self._half, crossings, side="right") - 1
+        owner = _owners(anchors - 0.5 * self._half, crossings)
         slot = np.rint((crossings - anchors[np.maximum(owner, 0)]) / self._half).astype(np.int64)
         inside = (owner >= 0) & (slot >= 0) & (slot < SLOTS)
         flat = owner[inside] * SLOTS + slot[inside]
@@ -327,7 +323,7 @@ class ManchesterDecoder:
         if anchors.size:
             # A segment is explained when it overlaps some word's span (spans are disjoint
             # and sorted, so the last span starting before the segment ends decides).
-            idx = np.searchsorted(anchors - margin, seg.right, side="right") - 1
+            idx = _owners(anchors - margin, seg.right)
             hi = words_span_end[np.maximum(idx, 0)] + margin
             covered = (idx >= 0) & (hi > seg.left)
         loose = np.flatnonzero(~covered)
@@ -354,6 +350,63 @@ class ManchesterDecoder:
         out["sync"] = SYNC_DATA
         out["bus"] = bus
         return out
+
+
+PHASE_BINS = 64
+"""Resolution of the circular midrange: 1/64 of a half-bit, 7.8 ns."""
+
+
+_BIN_ANGLE = 2 * np.pi * (np.arange(PHASE_BINS) + 0.5) / PHASE_BINS
+_BIN_COS, _BIN_SIN = np.cos(_BIN_ANGLE), np.sin(_BIN_ANGLE)
+CLEAR_GAP = 0.3
+"""The midrange is used when the phases leave a gap of at least this share of the circle."""
+
+
+def circular_midrange(phase: FloatArray, group: IntArray, groups: int) -> FloatArray:
+    """Per group, the centre of its phases on the unit circle, in [-0.5, 0.5).
+
+    The estimate is the middle of the shortest arc holding all the group's phases (the
+    circular midrange) when they leave a clear gap; when they spread round most of the circle
+    (a low sample rate quantizes them into a few values, all occupied) the widest gap says
+    nothing, and the circular mean (the densest region) is used instead.
+
+    ``phase`` in [0, 1), ``group`` sorted. The circle is cut into :data:`PHASE_BINS` bins; the
+    occupied bins of every group come out of ``np.nonzero`` already in order, so the widest
+    empty gap is found with a diff and a ``reduceat``, and the mean with a small matrix
+    product; no sort, no trigonometry per phase. Groups with no phase get 0.
+    """
+    nb = PHASE_BINS
+    bins = np.minimum((phase * nb).astype(np.int64), nb - 1)
+    counts = np.bincount(group * nb + bins, minlength=groups * nb).reshape(groups, nb)
+    mean = np.arctan2(counts @ _BIN_SIN, counts @ _BIN_COS) / (2 * np.pi)
+    flat = np.flatnonzero(counts.reshape(-1))
+    if flat.size == 0:
+        return np.zeros(groups)
+    row, col = flat // nb, flat % nb
+    first = np.flatnonzero(np.r_[True, row[1:] != row[:-1]])
+    last = np.r_[first[1:], flat.size] - 1
+    # The gap after each occupied bin, to the next one of its group (wrapping round).
+    gap = np.empty(flat.size, dtype=np.int64)
+    gap[:-1] = col[1:] - col[:-1]
+    gap[last] = col[first] + nb - col[last]
+    widest = np.maximum.reduceat(gap, first)
+    at_widest = np.flatnonzero(gap == np.repeat(widest, last - first + 1))
+    pick = at_widest[np.r_[True, row[at_widest][1:] != row[at_widest][:-1]]]
+    middle = (col[pick] + 0.5 + (nb + gap[pick]) / 2) / nb
+    out = mean - np.floor(mean + 0.5)
+    clear = gap[pick] >= CLEAR_GAP * nb
+    out[row[pick][clear]] = (middle - np.floor(middle + 0.5))[clear]
+    return out
+
+
+def _owners(starts: FloatArray, times: FloatArray) -> IntArray:
+    """For sorted ``times``, the index of the last of the sorted ``starts`` at or before each
+    (-1 before the first). Same as ``searchsorted(starts, times, 'right') - 1``, but linear:
+    the few starts are placed among the many times, and a running count does the rest."""
+    marks = np.zeros(times.size + 1, dtype=np.int64)
+    np.add.at(marks, np.searchsorted(times, starts, side="left"), 1)
+    owners: IntArray = np.cumsum(marks[:-1]) - 1
+    return owners
 
 
 def decode_capture(samples: npt.NDArray[np.uint8], sample_rate: float,

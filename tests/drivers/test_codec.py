@@ -115,27 +115,51 @@ def test_every_injected_fault_is_flagged_with_its_class(
             assert near["value"][0] == word["value"]
 
 
-@FAST
-@given(seed=st.integers(0, 2**32 - 1), rate=st.floats(8e6, 50e6),
-       jitter=st.floats(0, 150), dead_band=st.floats(0, 100),
-       glitches=st.floats(0, 0.5), fault_rate=st.floats(0, 0.5))
-def test_a_corrupted_word_is_never_reported_clean(
-        seed: int, rate: float, jitter: float, dead_band: float, glitches: float,
-        fault_rate: float) -> None:
-    rng = np.random.default_rng(seed)
-    words = random_words(seed, 40, min_gap_ns=24_000)
-    faults = [FAULTS[int(rng.integers(len(FAULTS)))][0] if rng.random() < fault_rate
-              else WordFault() for _ in range(words.size)]
-    imp = Impairments(jitter_ns=jitter, dead_band_ns=dead_band, rate_error=-1e-3,
-                      glitch_probability=glitches, seed=seed)
-    decoded = decode_capture(encode_words(words, rate, impairments=imp, faults=faults), rate)
+def clean_words_match_what_was_sent(words: WordBatch, faults: list[WordFault],
+                                    decoded: WordBatch, faulted_may_be_clean: bool) -> None:
     for row in decoded[decoded["errors"] == 0]:
         k = np.flatnonzero((np.abs(words["t_ns"] - row["t_ns"]) < 400) &
                            (words["bus"] == row["bus"]))
         assert k.size == 1, f"clean word at {row['t_ns']} ns was never sent"
         sent = words[k[0]]
-        assert not faults[k[0]].any, f"{faults[k[0]]} reported clean"
+        assert faulted_may_be_clean or not faults[k[0]].any, f"{faults[k[0]]} reported clean"
         assert (row["value"], row["sync"]) == (sent["value"], sent["sync"])
+
+
+def faulted_words(seed: int, fault_rate: float) -> tuple[WordBatch, list[WordFault]]:
+    rng = np.random.default_rng(seed)
+    words = random_words(seed, 40, min_gap_ns=24_000)
+    faults = [FAULTS[int(rng.integers(len(FAULTS)))][0] if rng.random() < fault_rate
+              else WordFault() for _ in range(words.size)]
+    return words, faults
+
+
+@FAST
+@given(seed=st.integers(0, 2**32 - 1), rate=st.floats(8e6, 50e6),
+       jitter=st.floats(0, 150), dead_band=st.floats(0, 100), fault_rate=st.floats(0, 0.5))
+def test_a_corrupted_word_is_never_reported_clean(
+        seed: int, rate: float, jitter: float, dead_band: float, fault_rate: float) -> None:
+    words, faults = faulted_words(seed, fault_rate)
+    imp = Impairments(jitter_ns=jitter, dead_band_ns=dead_band, rate_error=-1e-3, seed=seed)
+    decoded = decode_capture(encode_words(words, rate, impairments=imp, faults=faults), rate)
+    clean_words_match_what_was_sent(words, faults, decoded, faulted_may_be_clean=False)
+
+
+@FAST
+@given(seed=st.integers(0, 2**32 - 1), rate=st.floats(8e6, 50e6),
+       jitter=st.floats(0, 150), dead_band=st.floats(0, 100), glitches=st.floats(0, 0.5),
+       fault_rate=st.floats(0, 0.5))
+def test_with_glitches_a_clean_word_is_always_the_word_sent(
+        seed: int, rate: float, jitter: float, dead_band: float, glitches: float,
+        fault_rate: float) -> None:
+    """Below 20 MS/s a one-sample glitch can fall where a missing transition should be and
+    restore it; what must never happen is a clean word with another value than was sent."""
+    words, faults = faulted_words(seed, fault_rate)
+    imp = Impairments(jitter_ns=jitter, dead_band_ns=dead_band, rate_error=-1e-3,
+                      glitch_probability=glitches, seed=seed)
+    decoded = decode_capture(encode_words(words, rate, impairments=imp, faults=faults), rate)
+    clean_words_match_what_was_sent(words, faults, decoded,
+                                    faulted_may_be_clean=rate < 20e6)
 
 
 def test_glitches_are_removed_from_20_msps() -> None:
