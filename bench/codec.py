@@ -25,11 +25,11 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).parent))
 
-from naive_decoder import decode_naive  # noqa: E402
+from naive_decoder import decode_naive
 
-from drivers.mil1553.decoder import ManchesterDecoder  # noqa: E402
-from drivers.mil1553.encoder import CLEAN, Impairments, encode_words  # noqa: E402
-from drivers.mil1553.wordbatch import empty_words  # noqa: E402
+from drivers.mil1553.decoder import ManchesterDecoder
+from drivers.mil1553.encoder import CLEAN, Impairments, encode_words
+from drivers.mil1553.wordbatch import empty_words
 
 CHUNK = 1 << 20
 
