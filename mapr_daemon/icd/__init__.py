@@ -28,6 +28,9 @@ from mapr_daemon.icd.model import (
     Terminal,
     WordOrder,
 )
+from mapr_daemon.icd.render import format_decoded, format_values
+from mapr_daemon.icd.signals import SignalStream, StreamStats, collect
+from mapr_daemon.icd.traffic import pattern_values, schedule_records
 from mapr_daemon.icd.values import DecodedMessage, Series
 
 __all__ = [
@@ -45,11 +48,18 @@ __all__ = [
     "Schedule",
     "ScheduleEntry",
     "Series",
+    "SignalStream",
+    "StreamStats",
     "Terminal",
     "WordOrder",
     "bus_load",
+    "collect",
     "flag_names",
+    "format_decoded",
+    "format_values",
     "load_icd",
     "loads_icd",
     "message_time_us",
+    "pattern_values",
+    "schedule_records",
 ]
