@@ -193,8 +193,15 @@ def write_sigrok(path: str | Path, samples: npt.NDArray[np.uint8], sample_rate: 
     lines += [f"probe{i + 1}={name}" for i, name in enumerate(names)]
     lines += ["unitsize=1", ""]
     data = np.ascontiguousarray(samples, dtype=np.uint8)
-    with zipfile.ZipFile(path, "w", compression=zipfile.ZIP_DEFLATED) as archive:
-        archive.writestr("version", "2")
-        archive.writestr("metadata", "\n".join(lines))
+
+    def member(name: str) -> zipfile.ZipInfo:
+        # A fixed date makes the same capture give the same file, byte for byte.
+        info = zipfile.ZipInfo(name, date_time=(1980, 1, 1, 0, 0, 0))
+        info.compress_type = zipfile.ZIP_DEFLATED
+        return info
+
+    with zipfile.ZipFile(path, "w") as archive:
+        archive.writestr(member("version"), "2")
+        archive.writestr(member("metadata"), "\n".join(lines))
         for index, start in enumerate(range(0, max(data.size, 1), chunk)):
-            archive.writestr(f"logic-1-{index + 1}", data[start:start + chunk].tobytes())
+            archive.writestr(member(f"logic-1-{index + 1}"), data[start:start + chunk].tobytes())

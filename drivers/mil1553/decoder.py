@@ -60,8 +60,6 @@ from drivers.mil1553.wordbatch import (
 
 SLOTS = 44
 """Half-bit grid slots examined per word: sync 0-5, bits 0-16 at 6-39, two extra bits."""
-_MID_SLOTS = np.arange(7, 40, 2)
-_START_SLOTS = np.arange(6, 40, 2)
 _BIT_WEIGHTS = (1 << np.arange(15, -1, -1)).astype(np.int64)
 
 
@@ -123,6 +121,8 @@ class ManchesterDecoder:
         self._last_sync = {BUS_A: -math.inf, BUS_B: -math.inf}
         self._last_burst = {BUS_A: -math.inf, BUS_B: -math.inf}
         self._covered_until = {BUS_A: -math.inf, BUS_B: -math.inf}
+        self._open_burst: dict[int, tuple[float, float, float]] = {}
+        self._held = empty_words()
         self.samples_seen = 0
 
     # --- public API --------------------------------------------------------------------
@@ -138,30 +138,44 @@ class ManchesterDecoder:
         keep_from = self._buf.size - self._tail
         self._base += keep_from
         self._buf = self._buf[keep_from:].copy()
-        return words
+        return self._in_time_order(words)
 
     def flush(self) -> WordBatch:
         """End of capture: decode what is left. A word cut off by the end is flagged."""
         real = self._buf.size
         padded = np.concatenate([self._buf, np.zeros(self._tail, dtype=np.uint8)])
-        words = self._decode(padded, real)
+        words = self._decode(padded, real, final=True)
         self._base += real
         self._buf = np.zeros(0, dtype=np.uint8)
-        return words
+        return self._in_time_order(words)
+
+    def _in_time_order(self, words: WordBatch) -> WordBatch:
+        """Release words in time order across calls: a noise burst still open on one bus
+        holds back the other bus's later words until it is reported."""
+        held = np.concatenate([self._held, words]) if self._held.size else words
+        held = held[np.argsort(held["t_ns"], kind="stable")]
+        if not self._open_burst:
+            self._held = empty_words()
+            return held
+        limit = min(start for start, _, _ in self._open_burst.values()) * 1e9 / self.sample_rate
+        cut = int(np.searchsorted(held["t_ns"], limit, side="left"))
+        self._held = held[cut:]
+        return held[:cut]
 
     def decode_all(self, samples: npt.NDArray[np.uint8]) -> WordBatch:
         """Decode a whole capture in one call (``feed`` then ``flush``)."""
         return np.concatenate([self.feed(samples), self.flush()])
 
     # --- internals -----------------------------------------------------------------------
-    def _decode(self, buf: npt.NDArray[np.uint8], horizon: int) -> WordBatch:
+    def _decode(self, buf: npt.NDArray[np.uint8], horizon: int, final: bool = False
+                ) -> WordBatch:
         changes = byte_changes(buf)
-        out = [self._decode_bus(buf, changes, bus, horizon) for bus in (BUS_A, BUS_B)]
+        out = [self._decode_bus(buf, changes, bus, horizon, final) for bus in (BUS_A, BUS_B)]
         words = np.concatenate(out)
         return words[np.argsort(words["t_ns"], kind="stable")]
 
     def _decode_bus(self, buf: npt.NDArray[np.uint8], changes: IntArray, bus: int,
-                    horizon: int) -> WordBatch:
+                    horizon: int, final: bool) -> WordBatch:
         n = buf.size
         starts, levels = bus_runs(buf, changes, bus)
         starts, levels = clean_runs(starts, levels, n, dropout_max=self._dropout_max,
@@ -178,11 +192,14 @@ class ManchesterDecoder:
         if np.any(anchors < horizon):
             self._last_sync[bus] = max(self._last_sync[bus],
                                        float(absolute[anchors < horizon].max()))
-        words = self._read_words(seg, anchors, first_level, n)
+        # Each segment belongs to the last word whose sync starts (less a quarter bit) before it.
+        owner = _owners(anchors - 0.5 * self._half, seg.left)
+        span_end = self._spans_end(seg, anchors, n)
+        words = self._read_words(seg, owner[seg.adjacent_prev], anchors, span_end, first_level)
         words = words[fresh]
         words["bus"] = bus
-        span_end = self._spans_end(seg, anchors, n)
-        bursts = self._bursts(seg, anchors, span_end, horizon=horizon, bus=bus)
+        bursts = self._bursts(seg, owner, span_end, horizon=math.inf if final else horizon,
+                              bus=bus)
         decided = anchors < horizon
         if np.any(decided):
             self._covered_until[bus] = max(self._covered_until[bus],
@@ -259,8 +276,9 @@ class ManchesterDecoder:
         count = hi - lo
         cand = np.repeat(np.arange(centre.size), count)
         rank = np.arange(cand.size) - np.repeat(np.cumsum(count) - count, count)
-        rel = (crossings[np.repeat(lo, count) + rank] - centre[cand]) / self._half
-        return circular_midrange(rel - np.floor(rel), cand, centre.size)
+        scale = PHASE_BINS / self._half
+        bins = np.floor((crossings[np.repeat(lo, count) + rank] - centre[cand]) * scale)
+        return circular_midrange(bins.astype(np.int64) & (PHASE_BINS - 1), cand, centre.size)
 
     @staticmethod
     def _silence_after(seg: Segments, times: FloatArray) -> FloatArray:
@@ -279,8 +297,8 @@ class ManchesterDecoder:
         end: FloatArray = np.minimum(stop, next_sync)
         return end
 
-    def _read_words(self, seg: Segments, anchors: FloatArray, first_level: npt.NDArray[np.int8],
-                    n: int) -> WordBatch:
+    def _read_words(self, seg: Segments, owner: IntArray, anchors: FloatArray,
+                    stop: FloatArray, first_level: npt.NDArray[np.int8]) -> WordBatch:
         """Bits, length and errors of every anchored word."""
         count = anchors.size
         words = empty_words(count)
@@ -288,19 +306,17 @@ class ManchesterDecoder:
             return words
         crossings = seg.crossings
         direction = seg.crossing_level.astype(np.int64)
-        owner = _owners(anchors - 0.5 * self._half, crossings)
         slot = np.rint((crossings - anchors[np.maximum(owner, 0)]) / self._half).astype(np.int64)
         inside = (owner >= 0) & (slot >= 0) & (slot < SLOTS)
         flat = owner[inside] * SLOTS + slot[inside]
         hits = np.bincount(flat, minlength=count * SLOTS).reshape(count, SLOTS)
         dirs = np.bincount(flat, weights=direction[inside],
                            minlength=count * SLOTS).reshape(count, SLOTS)
-        stop = self._spans_end(seg, anchors, n)
         bits_sent = np.floor((stop - anchors) / self._spus - 3 + 0.25).astype(np.int64)
         present = np.arange(17)[None, :] < np.minimum(bits_sent, 17)[:, None]
-        bad = (hits[:, _MID_SLOTS] != 1) | (hits[:, _START_SLOTS] > 1)
+        bad = (hits[:, 7:40:2] != 1) | (hits[:, 6:40:2] > 1)
         manchester = np.any(bad & present, axis=1)
-        ones = (dirs[:, _MID_SLOTS] < 0).astype(np.int64)
+        ones = (dirs[:, 7:40:2] < 0).astype(np.int64)
         parity_ok = (ones.sum(axis=1) & 1) == 1
         errors = np.where(manchester, ERR_MANCHESTER, 0)
         errors |= np.where(bits_sent < 17, ERR_BIT_COUNT_LOW, 0)
@@ -315,37 +331,55 @@ class ManchesterDecoder:
         words["errors"] = errors.astype(np.uint16)
         return words
 
-    def _bursts(self, seg: Segments, anchors: FloatArray, words_span_end: FloatArray,
-                horizon: int, bus: int) -> WordBatch:
-        """Activity no valid sync explains, as ``sync``-flagged words (see module doc)."""
+    def _bursts(self, seg: Segments, owner: IntArray, words_span_end: FloatArray,
+                horizon: float, bus: int) -> WordBatch:
+        """Activity no valid sync explains, as ``sync``-flagged words (see module doc).
+
+        Only activity well before the horizon is judged (later segments may still turn out
+        to be a word whose sync lies past it). A burst still going on there is held open and
+        its start remembered, so a burst longer than the kept tail comes out once, whole, as
+        it would from a single call.
+        """
         margin = 0.5 * self._half
-        covered = np.zeros(seg.start.size, dtype=bool)
-        if anchors.size:
-            # A segment is explained when it overlaps some word's span (spans are disjoint
-            # and sorted, so the last span starting before the segment ends decides).
-            idx = _owners(anchors - margin, seg.right)
-            hi = words_span_end[np.maximum(idx, 0)] + margin
-            covered = (idx >= 0) & (hi > seg.left)
-        loose = np.flatnonzero(~covered)
-        if loose.size == 0:
-            return empty_words()
-        left, right = seg.left[loose], seg.right[loose]
+        base = self._base
         join = self.settings.burst_join_us * self._spus
+        limit = horizon - self._spus
+        # A segment is explained when it starts inside its owner word's span; activity an
+        # earlier buffer already accounted for (its words' tails, its bursts) is skipped.
+        covered = np.zeros(seg.start.size, dtype=bool)
+        if words_span_end.size:
+            covered = (owner >= 0) & \
+                (seg.left < words_span_end[np.maximum(owner, 0)] + margin)
+        seen = max(self._last_burst[bus], self._covered_until[bus]) - base
+        loose = np.flatnonzero(~covered & (seg.left > seen) & (seg.left < limit))
+        left, right = seg.left[loose] + base, seg.right[loose] + base
         new_burst = np.ones(loose.size, dtype=bool)
         new_burst[1:] = left[1:] - right[:-1] > join
         first = np.flatnonzero(new_burst)
-        last = np.append(first[1:], loose.size) - 1
-        active = np.add.reduceat(right - left, first)
+        last = np.append(first[1:], loose.size) - 1 if loose.size else first
+        active = np.add.reduceat(right - left, first) if loose.size else np.zeros(0)
         b_start, b_end = left[first], right[last]
-        keep = (active >= self.settings.burst_min_us * self._spus) & (b_end + join < horizon)
-        # Skip what an earlier buffer already reported: its bursts and the tails of its words.
-        keep &= b_start + self._base > max(self._last_burst[bus], self._covered_until[bus])
-        if not np.any(keep):
+        pending = self._open_burst.pop(bus, None)
+        if pending is not None:
+            p_start, p_active, p_end = pending
+            if b_start.size and b_start[0] <= p_end + join:
+                b_start[0], active[0] = p_start, active[0] + p_active
+            else:
+                b_start = np.r_[p_start, b_start]
+                b_end = np.r_[p_end, b_end]
+                active = np.r_[p_active, active]
+        if b_start.size == 0:
             return empty_words()
-        self._last_burst[bus] = float(b_end[keep].max()) + self._base
+        done = b_end + join < limit + base
+        if not done[-1]:
+            self._open_burst[bus] = (float(b_start[-1]), float(active[-1]), float(b_end[-1]))
+        if not np.any(done):
+            return empty_words()
+        self._last_burst[bus] = max(self._last_burst[bus], float(b_end[done].max()))
+        keep = done & (active >= self.settings.burst_min_us * self._spus)
         out = empty_words(int(keep.sum()))
-        out["t_ns"] = np.rint((b_start[keep] + self._base) * 1e9 / self.sample_rate)
-        out["end_ns"] = np.rint((b_end[keep] + self._base) * 1e9 / self.sample_rate)
+        out["t_ns"] = np.rint(b_start[keep] * 1e9 / self.sample_rate)
+        out["end_ns"] = np.rint(b_end[keep] * 1e9 / self.sample_rate)
         out["errors"] = ERR_SYNC
         out["sync"] = SYNC_DATA
         out["bus"] = bus
@@ -362,7 +396,7 @@ CLEAR_GAP = 0.3
 """The midrange is used when the phases leave a gap of at least this share of the circle."""
 
 
-def circular_midrange(phase: FloatArray, group: IntArray, groups: int) -> FloatArray:
+def circular_midrange(bins: IntArray, group: IntArray, groups: int) -> FloatArray:
     """Per group, the centre of its phases on the unit circle, in [-0.5, 0.5).
 
     The estimate is the middle of the shortest arc holding all the group's phases (the
@@ -370,15 +404,14 @@ def circular_midrange(phase: FloatArray, group: IntArray, groups: int) -> FloatA
     (a low sample rate quantizes them into a few values, all occupied) the widest gap says
     nothing, and the circular mean (the densest region) is used instead.
 
-    ``phase`` in [0, 1), ``group`` sorted. The circle is cut into :data:`PHASE_BINS` bins; the
+    ``bins`` are phases as bins of the circle cut into :data:`PHASE_BINS`; ``group`` is sorted.
+    The
     occupied bins of every group come out of ``np.nonzero`` already in order, so the widest
     empty gap is found with a diff and a ``reduceat``, and the mean with a small matrix
     product; no sort, no trigonometry per phase. Groups with no phase get 0.
     """
     nb = PHASE_BINS
-    bins = np.minimum((phase * nb).astype(np.int64), nb - 1)
     counts = np.bincount(group * nb + bins, minlength=groups * nb).reshape(groups, nb)
-    mean = np.arctan2(counts @ _BIN_SIN, counts @ _BIN_COS) / (2 * np.pi)
     flat = np.flatnonzero(counts.reshape(-1))
     if flat.size == 0:
         return np.zeros(groups)
@@ -393,9 +426,13 @@ def circular_midrange(phase: FloatArray, group: IntArray, groups: int) -> FloatA
     at_widest = np.flatnonzero(gap == np.repeat(widest, last - first + 1))
     pick = at_widest[np.r_[True, row[at_widest][1:] != row[at_widest][:-1]]]
     middle = (col[pick] + 0.5 + (nb + gap[pick]) / 2) / nb
-    out = mean - np.floor(mean + 0.5)
-    clear = gap[pick] >= CLEAR_GAP * nb
-    out[row[pick][clear]] = (middle - np.floor(middle + 0.5))[clear]
+    out = np.zeros(groups)
+    out[row[pick]] = middle - np.floor(middle + 0.5)
+    unclear = row[pick][gap[pick] < CLEAR_GAP * nb]
+    if unclear.size:
+        sub = counts[unclear].astype(np.float64)
+        mean = np.arctan2(sub @ _BIN_SIN, sub @ _BIN_COS) / (2 * np.pi)
+        out[unclear] = mean - np.floor(mean + 0.5)
     return out
 
 

@@ -76,6 +76,25 @@ def test_round_trip_within_tolerances_any_rate_any_chunking(
 
 
 @FAST
+@given(seed=st.integers(0, 2**32 - 1), rate=st.floats(8e6, 50e6), data=st.data())
+def test_chunked_decoding_equals_one_call(seed: int, rate: float, data: st.DataObject) -> None:
+    """Streaming gives exactly the words one call on the whole capture gives, errors and
+    noise bursts included, wherever the chunks split the capture."""
+    rng = np.random.default_rng(seed)
+    words = random_words(seed, 30, min_gap_ns=24_000)
+    faults = [WordFault(parity=True) if rng.random() < 0.2 else WordFault()
+              for _ in range(words.size)]
+    imp = Impairments(jitter_ns=150, dead_band_ns=100, rate_error=1e-3, glitch_probability=0.3,
+                      seed=seed)
+    samples = encode_words(words, rate, impairments=imp, faults=faults)
+    noise = np.random.default_rng(seed).integers(0, 16, 400, dtype=np.uint8)
+    samples = np.concatenate([samples, noise, samples])
+    cuts = data.draw(st.lists(st.integers(0, samples.size), max_size=20))
+    whole = decode_capture(samples, rate)
+    assert np.array_equal(decode_in_chunks(samples, rate, cuts), whole)
+
+
+@FAST
 @given(seed=st.integers(0, 2**32 - 1), rate=st.floats(16e6, 50e6),
        rate_error=st.sampled_from([-1e-3, 1e-3]))
 def test_worst_case_stack_is_exact_from_16_msps(seed: int, rate: float, rate_error: float) -> None:
