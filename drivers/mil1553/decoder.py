@@ -386,8 +386,8 @@ class ManchesterDecoder:
         return out
 
 
-PHASE_BINS = 64
-"""Resolution of the circular midrange: 1/64 of a half-bit, 7.8 ns."""
+PHASE_BINS = 32
+"""Resolution of the circular midrange: 1/32 of a half-bit, 15.6 ns."""
 
 
 _BIN_ANGLE = 2 * np.pi * (np.arange(PHASE_BINS) + 0.5) / PHASE_BINS
