@@ -98,6 +98,8 @@ class BatchArrays:
     ki_i: FloatArray
     # thermal
     t_amb: FloatArray
+    t_amb_sd: FloatArray
+    friction_sd: FloatArray
     rth_m: FloatArray
     tau_m: FloatArray
     rth_s: FloatArray
@@ -203,6 +205,8 @@ def build(specs: Sequence[RunSpec]) -> BatchArrays:
         i_lim=col(lambda p: p.control.current_limit_a),
         kp_i=l_loop * wc, ki_i=r_loop * wc,
         t_amb=col(lambda p: p.thermal.ambient_c),
+        t_amb_sd=col(lambda p: p.thermal.ambient_flight_sd_k),
+        friction_sd=col(lambda p: p.motor.friction_flight_sd),
         rth_m=col(lambda p: p.thermal.motor_thermal_resistance_k_per_w),
         tau_m=col(lambda p: p.thermal.motor_time_constant_s),
         rth_s=col(lambda p: p.thermal.stage_thermal_resistance_k_per_w),

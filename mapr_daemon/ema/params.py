@@ -71,6 +71,7 @@ class MotorParams:
     viscous_friction_nm_s: float
     coulomb_friction_nm: float
     coulomb_speed_rad_s: float
+    friction_flight_sd: float
 
 
 @dataclasses.dataclass(frozen=True)
@@ -109,6 +110,7 @@ class ThermalParams:
     """First-order thermal models of the motor winding and the power stage."""
 
     ambient_c: float
+    ambient_flight_sd_k: float
     motor_thermal_resistance_k_per_w: float
     motor_time_constant_s: float
     stage_thermal_resistance_k_per_w: float
@@ -179,7 +181,7 @@ _SECTIONS: dict[str, type[Any]] = {
 _MAY_BE_ZERO_OR_NEGATIVE = {
     "ch0", "ch_delta_per_rad", "ambient_c", "loop_kd", "soft_start_s", "noise_rms",
     "drift_sd_v", "flight_mean_sd_v", "ripple_rms_v", "source_resistance_ohm",
-    "switching_loss_w", "position_integral_hz",
+    "switching_loss_w", "position_integral_hz", "friction_flight_sd", "ambient_flight_sd_k",
 }
 
 

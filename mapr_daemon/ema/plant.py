@@ -65,15 +65,45 @@ def _per_run(value: float | npt.ArrayLike, n_runs: int, n: int, name: str) -> Fl
         raise ConfigError(f"shape {arr.shape} does not fit ({n_runs}, {n})", field=name) from None
 
 
+RON_TEMPCO = 0.006
+"""MOSFET Ron rise per kelvin (datasheet normalised-Ron curves: ~1.6x from 25 to 125 C)."""
+ESR_TEMPCO = 0.02
+"""Electrolytic ESR: exp(-0.02*(T-25)), about doubling from 25 to -10 C."""
+CAP_TEMPCO = 0.002
+"""Electrolytic capacitance change per kelvin."""
+
+
+def _flight_scatter(p: BatchArrays, rngs: list[np.random.Generator]) -> BatchArrays:
+    """This flight's ambient temperature and friction (grease) scatter, from each run's seed.
+
+    The ambient temperature moves what physically depends on it — winding resistance (via the
+    motor temperature), MOSFET Ron, the capacitor's ESR and capacitance — so healthy flights
+    differ as real ones do. Without this two healthy flights at one condition would differ only
+    by bus voltage and sensor noise, and every fault would look visible from its first percent.
+    """
+    z = np.array([g.standard_normal(2) for g in rngs]).T
+    friction = np.exp(p.friction_sd * z[1])
+    t_amb = p.t_amb + p.t_amb_sd * z[0]
+    dt = t_amb - 25.0
+    ron = 1.0 + RON_TEMPCO * dt
+    esr = np.exp(-ESR_TEMPCO * dt)
+    return dataclasses.replace(
+        p, t_amb=t_amb, b_visc=p.b_visc * friction, t_coul=p.t_coul * friction,
+        ron_hi=p.ron_hi * ron, ron_lo=p.ron_lo * ron, r_high=p.r_high * ron,
+        r_low=p.r_low * ron, esr=p.esr * esr, esr_eff=p.esr_eff * esr,
+        c_elec=p.c_elec * (1.0 + CAP_TEMPCO * dt),
+        c_total=p.c_elec * (1.0 + CAP_TEMPCO * dt) + p.c_ceramic)
+
+
 class EmaBatch:
     """A batch of EMA runs sharing one clock. ``advance`` returns the next sensor samples."""
 
     def __init__(self, runs: Sequence[RunSpec], *, powered: bool = True) -> None:
         """``powered=False`` starts with the SMPS off, so every run begins with its soft start."""
         self.specs = tuple(runs)
-        self.p: BatchArrays = build(self.specs)
-        p = self.p
         self.rngs = [np.random.default_rng(s.seed) for s in self.specs]
+        self.p: BatchArrays = _flight_scatter(build(self.specs), self.rngs)
+        p = self.p
         self.t = 0.0
         self.sample_index = 0
         self.smps = smps.SmpsState.powered(p) if powered else smps.SmpsState.cold(p.n)
