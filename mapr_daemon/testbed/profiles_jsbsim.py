@@ -76,6 +76,7 @@ def jsbsim_flight(sample_rate_hz: float, cond: str = "cruise", duration_s: float
         fdm.set_debug_level(0)
         if not fdm.load_model(AIRCRAFT):
             raise ConfigError(f"JSBSim cannot load {AIRCRAFT}", field="aircraft")
+        fdm.set_output_filename(0, os.devnull)  # the c172x asks for a CSV log in the cwd
         fdm.disable_output()
         fdm["ic/h-sl-ft"] = c.altitude_m / FT
         fdm["ic/vt-kts"] = c.airspeed_mps / 0.514444

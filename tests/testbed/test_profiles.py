@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -42,3 +44,9 @@ def test_flight_conditions_change_the_air_load() -> None:
     slow = jsbsim_flight(500.0, "approach", duration_s=2.0)
     fast = jsbsim_flight(500.0, "dash", duration_s=2.0)
     assert fast.dynamic_pressure_pa.mean() > 2.5 * slow.dynamic_pressure_pa.mean()
+
+
+def test_flight_leaves_no_log_file_behind(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.chdir(tmp_path)
+    jsbsim_flight(200.0, "cruise", duration_s=0.5)
+    assert list(tmp_path.iterdir()) == []
