@@ -123,6 +123,7 @@ class ManchesterDecoder:
         self._covered_until = {BUS_A: -math.inf, BUS_B: -math.inf}
         self._open_burst: dict[int, tuple[float, float, float]] = {}
         self._held = empty_words()
+        self._complete_until = -math.inf
         self.samples_seen = 0
 
     # --- public API --------------------------------------------------------------------
@@ -135,6 +136,8 @@ class ManchesterDecoder:
         if self._buf.size < self._min_batch + self._tail:
             return empty_words()
         words = self._decode(self._buf, self._buf.size - self._horizon)
+        self._complete_until = (self._base + self._buf.size - self._horizon) * 1e9 / \
+            self.sample_rate
         keep_from = self._buf.size - self._tail
         self._base += keep_from
         self._buf = self._buf[keep_from:].copy()
@@ -145,6 +148,7 @@ class ManchesterDecoder:
         real = self._buf.size
         padded = np.concatenate([self._buf, np.zeros(self._tail, dtype=np.uint8)])
         words = self._decode(padded, real, final=True)
+        self._complete_until = math.inf
         self._base += real
         self._buf = np.zeros(0, dtype=np.uint8)
         return self._in_time_order(words)
@@ -161,6 +165,15 @@ class ManchesterDecoder:
         cut = int(np.searchsorted(held["t_ns"], limit, side="left"))
         self._held = held[cut:]
         return held[:cut]
+
+    @property
+    def complete_until_ns(self) -> float:
+        """Every word that starts before this time (ns) has been returned: the horizon to
+        give a message assembler. ``inf`` after :meth:`flush`."""
+        if self._open_burst:
+            first_open = min(start for start, _, _ in self._open_burst.values())
+            return min(self._complete_until, first_open * 1e9 / self.sample_rate)
+        return self._complete_until
 
     def decode_all(self, samples: npt.NDArray[np.uint8]) -> WordBatch:
         """Decode a whole capture in one call (``feed`` then ``flush``)."""

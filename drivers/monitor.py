@@ -1,0 +1,236 @@
+"""The bus-monitor abstraction: :class:`BusMonitor`, :func:`open_monitor`, the backend table.
+
+Shaped after python-can's ``Bus``: a backend implements only ``_recv_internal(timeout)``
+(a batch of records, ``[]`` when nothing came in time, ``None`` at the end of the stream);
+the base class gives ``recv(timeout)``, iteration, filtering, running statistics, the context
+manager and an idempotent ``close()``.
+
+    >>> with open_monitor("loopback", duration_s=0.01) as monitor:   # doctest: +SKIP
+    ...     for record in monitor:
+    ...         print(record.to_json())
+
+Backends are found by name in :data:`BACKENDS` and in the entry-point group ``mapr.backends``
+(``name = "package.module:Class"``), and imported only when opened, so a missing optional
+dependency disables its backend (:class:`~drivers.errors.BackendUnavailable`), never the
+package. A read error inside a backend reaches the caller as
+:class:`~drivers.errors.BackendError`; records already received stay queued and the monitor
+stays usable.
+"""
+
+from __future__ import annotations
+
+import importlib
+import time
+from abc import ABC, abstractmethod
+from collections import Counter, deque
+from collections.abc import Iterable, Iterator, Sequence
+from dataclasses import dataclass, field
+from importlib.metadata import entry_points
+from types import TracebackType
+from typing import Any
+
+from drivers.errors import BackendError, BackendUnavailable, MaprError, MonitorClosed
+from drivers.mil1553.record import MonitorRecord, TransferFormat
+from drivers.mil1553.wordbatch import WORD_TIME_NS
+
+__all__ = ["BACKENDS", "BusMonitor", "BusStatistics", "MonitorFilter", "MonitorRecord",
+           "available_backends", "open_monitor"]
+
+BACKENDS: dict[str, tuple[str, str]] = {
+    "loopback": ("drivers.backends.loopback", "LoopbackMonitor"),
+    "capture": ("drivers.backends.capture", "CaptureMonitor"),
+}
+"""Built-in backends: name -> (module, class)."""
+
+
+@dataclass(frozen=True, slots=True)
+class MonitorFilter:
+    """Which records to keep. Every field given must match (AND); a monitor keeps a record
+    that matches any of its filters (OR), or every record when it has none.
+
+    ``error`` is True (any error), False (clean only) or an error name.
+    """
+
+    rt: int | None = None
+    sa: int | None = None
+    tr: str | None = None
+    format: str | None = None
+    error: bool | str | None = None
+
+    def matches(self, record: MonitorRecord) -> bool:
+        if self.rt is not None and self.rt not in (record.rt, record.rt2):
+            return False
+        if self.sa is not None and self.sa not in (record.sa, record.sa2):
+            return False
+        if self.tr is not None and record.tr != self.tr.upper():
+            return False
+        if self.format is not None and str(record.format) != self.format.upper():
+            return False
+        if self.error is True and not record.errors:
+            return False
+        if self.error is False and record.errors:
+            return False
+        return not (isinstance(self.error, str) and self.error not in record.errors)
+
+
+@dataclass
+class BusStatistics:
+    """Running counts per bus: messages, words, errors by class, and bus load."""
+
+    messages: Counter[str] = field(default_factory=Counter)
+    words: Counter[str] = field(default_factory=Counter)
+    errors: dict[str, Counter[str]] = field(default_factory=dict)
+    busy_ns: Counter[str] = field(default_factory=Counter)
+    first_ns: dict[str, int] = field(default_factory=dict)
+    last_ns: dict[str, int] = field(default_factory=dict)
+
+    def add(self, record: MonitorRecord) -> None:
+        bus = record.bus
+        words = (record.command is not None) + (record.command2 is not None) + \
+            len(record.data) + len(record.status)
+        self.messages[bus] += 1
+        self.words[bus] += words
+        self.busy_ns[bus] += words * WORD_TIME_NS
+        self.errors.setdefault(bus, Counter()).update(record.errors)
+        self.first_ns.setdefault(bus, record.t_ns)
+        self.last_ns[bus] = max(self.last_ns.get(bus, 0), record.end_ns or record.t_ns)
+
+    def load(self, bus: str) -> float:
+        """Share of time the bus carried words, in % (between its first and last record)."""
+        span = self.last_ns.get(bus, 0) - self.first_ns.get(bus, 0)
+        return 100.0 * self.busy_ns[bus] / span if span > 0 else 0.0
+
+    def as_dict(self) -> dict[str, Any]:
+        return {bus: {"messages": self.messages[bus], "words": self.words[bus],
+                      "load_percent": round(self.load(bus), 2),
+                      "errors": dict(sorted(self.errors.get(bus, Counter()).items()))}
+                for bus in sorted(self.messages)}
+
+    def table(self) -> str:
+        """The statistics as a fixed-width table a bus engineer reads at a glance."""
+        lines = [f"{'bus':<4}{'messages':>10}{'words':>10}{'load %':>8}  errors"]
+        for bus, row in self.as_dict().items():
+            errs = ", ".join(f"{k} {v}" for k, v in row["errors"].items()) or "-"
+            lines.append(f"{bus:<4}{row['messages']:>10}{row['words']:>10}"
+                         f"{row['load_percent']:>8.1f}  {errs}")
+        return "\n".join(lines)
+
+
+class BusMonitor(ABC):
+    """A passive 1553 bus monitor: records out, never anything onto the bus."""
+
+    def __init__(self, *, filters: Sequence[MonitorFilter] | None = None, **config: Any
+                 ) -> None:
+        if config:
+            raise TypeError(f"unknown option(s) {', '.join(sorted(config))}")
+        self.filters: list[MonitorFilter] = list(filters or [])
+        self.stats = BusStatistics()
+        self._queue: deque[MonitorRecord] = deque()
+        self._closed = False
+        self._ended = False
+
+    # --- what a backend implements --------------------------------------------------------
+    @abstractmethod
+    def _recv_internal(self, timeout: float | None) -> list[MonitorRecord] | None:
+        """Wait up to ``timeout`` s (None: as long as it takes) for records; return them
+        (``[]`` when none came in time), or ``None`` when the stream has ended."""
+
+    def _close(self) -> None:
+        """Release the backend's resources (called once)."""
+
+    # --- the API ----------------------------------------------------------------------------
+    def recv(self, timeout: float | None = None) -> MonitorRecord | None:
+        """The next record that passes the filters, or None on time-out or end of stream."""
+        deadline = None if timeout is None else time.monotonic() + timeout
+        while True:
+            while self._queue:
+                record = self._queue.popleft()
+                if self._wanted(record):
+                    return record
+            if self._closed:
+                raise MonitorClosed("the monitor is closed")
+            if self._ended:
+                return None
+            remaining = None if deadline is None else max(0.0, deadline - time.monotonic())
+            try:
+                batch = self._recv_internal(remaining)
+            except MaprError:
+                raise
+            except Exception as error:  # a backend fault must reach the caller, named
+                raise BackendError(f"{type(self).__name__}: {error}") from error
+            if batch is None:
+                self._ended = True
+                continue
+            for record in batch:
+                self.stats.add(record)
+            self._queue.extend(batch)
+            if not batch and deadline is not None and time.monotonic() >= deadline:
+                return None
+
+    def __iter__(self) -> Iterator[MonitorRecord]:
+        while (record := self.recv()) is not None:
+            yield record
+
+    def set_filters(self, filters: Iterable[MonitorFilter] | None) -> None:
+        self.filters = list(filters or [])
+
+    def _wanted(self, record: MonitorRecord) -> bool:
+        return not self.filters or any(f.matches(record) for f in self.filters)
+
+    def close(self) -> None:
+        """Stop monitoring; safe to call more than once."""
+        if not self._closed:
+            self._closed = True
+            self._close()
+
+    @property
+    def closed(self) -> bool:
+        return self._closed
+
+    def __enter__(self) -> BusMonitor:
+        return self
+
+    def __exit__(self, kind: type[BaseException] | None, value: BaseException | None,
+                 traceback: TracebackType | None) -> None:
+        self.close()
+
+
+def _entry_point_backends() -> dict[str, str]:
+    return {ep.name: ep.value for ep in entry_points(group="mapr.backends")}
+
+
+def available_backends() -> list[str]:
+    """Names of every known backend (whether or not its dependencies are installed)."""
+    return sorted({*BACKENDS, *_entry_point_backends()})
+
+
+def backend_class(name: str) -> type[BusMonitor]:
+    """Import and return a backend's class; unknown or unusable backends raise
+    :class:`~drivers.errors.BackendUnavailable` with the reason."""
+    if name in BACKENDS:
+        module_name, class_name = BACKENDS[name]
+    else:
+        target = _entry_point_backends().get(name)
+        if target is None:
+            raise BackendUnavailable(
+                f"unknown backend {name!r}; known: {', '.join(available_backends())}")
+        module_name, _, class_name = target.partition(":")
+    try:
+        module = importlib.import_module(module_name)
+    except ImportError as error:
+        raise BackendUnavailable(
+            f"backend {name!r} is unavailable: {error} (install its dependency)") from error
+    cls = getattr(module, class_name, None)
+    if not (isinstance(cls, type) and issubclass(cls, BusMonitor)):
+        raise BackendUnavailable(f"backend {name!r}: {module_name}.{class_name} is not a "
+                                 "BusMonitor")
+    return cls
+
+
+def open_monitor(backend: str, **config: Any) -> BusMonitor:
+    """Open a monitor on the named backend; ``config`` goes to the backend (``filters=`` to
+    the base class)."""
+    return backend_class(backend)(**config)
+
+
+FORMAT_NAMES = tuple(str(f) for f in TransferFormat)
