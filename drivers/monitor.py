@@ -135,7 +135,7 @@ class BusMonitor(ABC):
         """Wait up to ``timeout`` s (None: as long as it takes) for records; return them
         (``[]`` when none came in time), or ``None`` when the stream has ended."""
 
-    def _close(self) -> None:
+    def _close(self) -> None:  # noqa: B027 - optional hook, most backends hold nothing
         """Release the backend's resources (called once)."""
 
     # --- the API ----------------------------------------------------------------------------
