@@ -82,6 +82,8 @@ class MessageAssembler:
         """False for word cards without time tags: response times are then not judged."""
         self._pending: dict[int, WordBatch] = {0: empty_words(), 1: empty_words()}
         self._previous_end: dict[int, int | None] = {0: None, 1: None}
+        self._superseded = {0: False, 1: False}
+        self._recent: dict[str, list[tuple[int, int]]] = {bus: [] for bus in BUS_NAMES}
 
     def feed(self, words: WordBatch, horizon_ns: int | None = None) -> list[MonitorRecord]:
         """Add words (sorted by time); return the messages completed, sorted by time."""
@@ -95,7 +97,7 @@ class MessageAssembler:
             done, used = self._assemble(batch, bus, horizon_ns)
             self._pending[bus] = batch[used:]
             records += done
-        return _mark_both_buses(sorted(records, key=lambda r: r.t_ns))
+        return self._mark_both_buses(records)
 
     def flush(self) -> list[MonitorRecord]:
         """End of stream: close every message still open."""
@@ -104,11 +106,28 @@ class MessageAssembler:
             done, _ = self._assemble(self._pending[bus], bus, None, final=True)
             self._pending[bus] = empty_words()
             records += done
-        return _mark_both_buses(sorted(records, key=lambda r: r.t_ns))
+        return self._mark_both_buses(records)
+
+    def _mark_both_buses(self, records: list[MonitorRecord]) -> list[MonitorRecord]:
+        """Flag messages overlapping in time with one on the other bus, this call's or a
+        recent one's (an earlier message already returned cannot be flagged afterwards)."""
+        records.sort(key=lambda r: r.t_ns)
+        spans = {bus: [*self._recent[bus], *((r.t_ns, r.end_ns) for r in records
+                                             if r.bus == bus)] for bus in BUS_NAMES}
+        out = []
+        for rec in records:
+            other = spans["B" if rec.bus == "A" else "A"]
+            if any(start < rec.end_ns and end > rec.t_ns for start, end in other[-64:]):
+                rec = _with_error(rec, "both_buses_active")
+            out.append(rec)
+        for bus in BUS_NAMES:
+            self._recent[bus] = spans[bus][-8:]
+        return out
 
     def assemble(self, words: WordBatch) -> list[MonitorRecord]:
-        """All messages of a complete word stream (``feed`` then ``flush``)."""
-        return self.feed(words) + self.flush()
+        """All messages of a complete word stream (``feed`` then ``flush``); here every
+        message on either side of a both-buses overlap is flagged."""
+        return self._mark_both_buses(self.feed(words) + self.flush())
 
     # --- one bus ---------------------------------------------------------------------------
     def _assemble(self, batch: WordBatch, bus: int, horizon_ns: int | None,
@@ -124,6 +143,9 @@ class MessageAssembler:
             if not complete:
                 break
             previous = self._previous_end[bus]
+            if self._superseded[bus]:
+                previous = None  # a superseding command follows its victim without a gap
+            self._superseded[bus] = "superseded" in msg.errors
             if previous is not None and msg.fmt is not TransferFormat.UNKNOWN and \
                     w.t[i] + SYNC_MID_NS - previous < self.timing.intermessage_min_ns and \
                     self.time_tags:
@@ -194,9 +216,17 @@ class MessageAssembler:
                 bc_data = words
                 responses.append((rt, 0))
         # The BC's data words, which may continue past a break (non-contiguous data).
-        k, stop, ok = self._take_data(w, msg, k, stop, bc_data, n, horizon, final)
+        k, stop, ok = self._take_data(w, msg, k, stop, bc_data, n, horizon, final, from_bc=True)
         if not ok:
             return msg, k, False
+        if "superseded" in msg.errors:
+            return msg, k, True
+        if k < stop and bc_data == len(msg.data):
+            # The BC went on sending after the words its command calls for.
+            msg.errors.add("word_count_high")
+            msg.data += w.value[k:stop]
+            msg.positions += range(k, stop)
+            k = stop
         for expected_rt, data_words in responses:
             if k >= n:
                 if not final and not _closed(w, k, wait_ns=timing.no_response_ns,
@@ -245,10 +275,20 @@ class MessageAssembler:
         return msg, k, True
 
     def _take_data(self, w: _Words, msg: _Message, k: int, stop: int, wanted: int, n: int,
-                   horizon: int | None, final: bool) -> tuple[int, int, bool]:
-        """Append up to ``wanted`` data words from ``k``; returns (next, stop, complete)."""
+                   horizon: int | None, final: bool, from_bc: bool = False
+                   ) -> tuple[int, int, bool]:
+        """Append up to ``wanted`` data words from ``k``; returns (next, stop, complete).
+
+        In the BC's data, a command word that the rest of the transmission fits exactly
+        (the data words it calls for, no more, no less) is a new command superseding this
+        message (the standard: a new valid command supersedes one in progress); any other
+        command-sync word there is a data word with the wrong sync.
+        """
         taken = 0
         while taken < wanted:
+            if from_bc and k < stop and w.sync[k] and _fits_as_command(w, k, stop):
+                msg.errors.update(("superseded", "word_count_low"))
+                return k, stop, True
             if k >= stop:
                 # The transmission broke off: data continuing within the time-out is
                 # non-contiguous; anything else means words are missing.
@@ -270,6 +310,20 @@ class MessageAssembler:
             taken += 1
             k += 1
         return k, stop, True
+
+
+def _fits_as_command(w: _Words, k: int, stop: int) -> bool:
+    """Whether word ``k`` read as a command is followed by exactly its BC data words."""
+    cmd = w.value[k]
+    tx, sa, count = cmd >> 10 & 1, cmd >> 5 & 31, cmd & 31
+    if sa in (0, 31):
+        follows = 1 if MODE_CODES[count].has_data and not tx else 0
+    else:
+        follows = 0 if tx else (count or 32)
+    rest = stop - k - 1
+    if rest == 1 and not tx and follows != 1 and w.sync[k + 1] and w.value[k + 1] >> 10 & 1:
+        return True  # an RT-RT pair: receive command then transmit command
+    return rest == follows
 
 
 def _closed(w: _Words, k: int, *, wait_ns: int, horizon: int | None) -> bool:
@@ -312,27 +366,6 @@ def _record(msg: _Message, w: _Words, bus: int, j: int) -> MonitorRecord:
         command=None if msg.command < 0 else msg.command, data=tuple(msg.data),
         status=tuple(msg.status), gaps_ns=tuple(msg.gaps), errors=tuple(sorted(errors)),
         command2=msg.command2, word_errors=tuple(word_errors), end_ns=w.end[j - 1])
-
-
-def _mark_both_buses(records: list[MonitorRecord]) -> list[MonitorRecord]:
-    """Flag messages that overlap in time with a message on the other bus."""
-    if len(records) < 2 or len({r.bus for r in records}) < 2:
-        return records
-    spans = {bus: sorted((r.t_ns, r.end_ns) for r in records if r.bus == bus)
-             for bus in BUS_NAMES}
-    starts = {bus: np.array([s for s, _ in spans[bus]] or [0], dtype=np.int64)
-              for bus in BUS_NAMES}
-    ends = {bus: np.array([e for _, e in spans[bus]] or [0], dtype=np.int64)
-            for bus in BUS_NAMES}
-    out = []
-    for rec in records:
-        other = "B" if rec.bus == "A" else "A"
-        if spans[other]:
-            k = int(np.searchsorted(starts[other], rec.end_ns, side="right"))
-            if k > 0 and ends[other][:k].max(initial=-1) > rec.t_ns:
-                rec = _with_error(rec, "both_buses_active")
-        out.append(rec)
-    return out
 
 
 def _with_error(rec: MonitorRecord, name: str) -> MonitorRecord:
