@@ -187,6 +187,11 @@ class BusMonitor(ABC):
     def closed(self) -> bool:
         return self._closed
 
+    @property
+    def ended(self) -> bool:
+        """True once the source has no more records (a file replayed to its end)."""
+        return self._ended and not self._queue
+
     def __enter__(self) -> BusMonitor:
         return self
 

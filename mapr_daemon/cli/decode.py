@@ -1,11 +1,17 @@
-"""``mapr decode``: decode a capture file and print JSON lines.
+"""``mapr decode``: decode a capture file and print JSON lines, one per message.
 
-With ``--words``, one object per word, as the codec sees it::
+    {"t_ns": 1997, "bus": "A", "format": "BC_RT", "rt": 5, "tr": "R", "sa": 1, "wc": 2,
+     "data": [32768, 32767], "status": [10240], "gaps_ns": [7953], "errors": []}
 
-    {"t_ns": 1000, "bus": "A", "sync": "cmd", "value": 10274, "errors": []}
+``t_ns`` is the leading edge of the first command word's sync; for RT-RT, ``rt``/``sa`` are
+the receiving terminal's and ``rt2``/``sa2`` the transmitting one's; ``data`` and ``status``
+list words in bus order; ``gaps_ns`` are response gaps, mid-crossing to mid-crossing.
+With ``--icd FILE`` each message the table describes also carries ``"values"`` (engineering
+values, and ``"flags"`` for values out of range). With ``--words``, one object per word as
+the codec sees it: ``{"t_ns", "bus", "sync", "value", "errors"}``.
 
 A truncated capture decodes what is there; the word cut by the end is flagged. A file that
-cannot be read gives one line on stderr and exit code 2.
+cannot be read gives one line on stderr and exit code 2; an invalid ICD, exit code 78.
 """
 
 from __future__ import annotations
@@ -13,13 +19,16 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-from typing import Any
+from typing import Any, TextIO
 
-from drivers.capturefile import open_capture
+from drivers.capturefile import open_capture, parse_samplerate
 from drivers.errors import CaptureFormatError
-from drivers.mil1553.decoder import ManchesterDecoder
+from drivers.mil1553.record import MonitorRecord
 from drivers.mil1553.wordbatch import WordBatch, word_to_json
+from drivers.pipeline import SamplePipeline
 from mapr_daemon.cli import exitcodes
+from mapr_daemon.cli.icdview import IcdView
+from mapr_daemon.cli.render import record_json
 
 
 def add_subparser(subparsers: Any) -> None:
@@ -35,11 +44,11 @@ def add_subparser(subparsers: Any) -> None:
                         help="the .sr channel names holding our four receiver outputs")
     parser.add_argument("--words", action="store_true",
                         help="print one JSON object per word (the codec's output)")
+    parser.add_argument("--icd", metavar="FILE", help="message table: add engineering values")
     parser.set_defaults(func=run)
 
 
 def _rate(text: str) -> float:
-    from drivers.capturefile import parse_samplerate
     try:
         return parse_samplerate(text)
     except ValueError as error:
@@ -51,25 +60,32 @@ def _channels(text: str) -> list[str]:
 
 
 def run(args: argparse.Namespace) -> int:
-    if not args.words:
-        print("mapr decode: message-level decoding comes with the bus monitor; "
-              "use --words for the word level", file=sys.stderr)
-        return exitcodes.USAGE
+    view = IcdView(args.icd)
     source = open_capture(args.capture, args.samplerate, args.channels)
-    decoder = ManchesterDecoder(source.sample_rate)
+    pipeline = SamplePipeline(source.sample_rate)
     out = sys.stdout
+
+    def emit(records: list[MonitorRecord]) -> None:
+        if args.words:
+            _print_words(pipeline.last_words, out)
+        else:
+            for record in records:
+                out.write(record_json(record, view.values(record)) + "\n")
+
     try:
         for chunk in source.chunks:
-            _print_words(decoder.feed(chunk), out)
+            emit(pipeline.feed(chunk))
+    except BrokenPipeError:
+        raise  # the reader went away (`| head`): not a read error
     except (OSError, ValueError) as error:
         # A read error mid-file: keep what was decoded, say what went wrong.
-        _print_words(decoder.flush(), out)
+        emit(pipeline.flush())
         raise CaptureFormatError(f"{source.name}: read failed: {error}") from error
-    _print_words(decoder.flush(), out)
+    emit(pipeline.flush())
     out.flush()
     return exitcodes.OK
 
 
-def _print_words(words: WordBatch, out: Any) -> None:
+def _print_words(words: WordBatch, out: TextIO) -> None:
     for row in words:
         out.write(json.dumps(word_to_json(row)) + "\n")

@@ -22,6 +22,7 @@ from mapr_daemon.errors import ConfigError
 SUBCOMMANDS: tuple[str, ...] = (
     "demo",
     "decode",
+    "monitor",
     "encode",
     "icd",
     "simulate",

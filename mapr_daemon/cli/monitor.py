@@ -1,0 +1,105 @@
+"""``mapr monitor``: watch a bus live, one line per message (like candump).
+
+    mapr monitor --backend loopback
+    mapr monitor --backend capture -o path=flight.sr --rt 5 --errors
+    mapr monitor --backend loopback --json --count 100
+    mapr monitor --backend loopback --stats --duration 2
+
+Filters (all given must match): ``--rt``, ``--sa``, ``--tr``, ``--format``, ``--errors``
+(only messages with errors) or ``--error NAME``. ``-o KEY=VALUE`` passes an option to the
+backend (numbers and true/false are converted). ``--icd FILE`` shows engineering values under
+each message the table describes. ``--stats`` prints the per-bus statistics table at the end
+(and every ``--stats-every`` seconds).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from typing import Any
+
+from drivers.monitor import MonitorFilter, available_backends, open_monitor
+from mapr_daemon.cli import exitcodes
+from mapr_daemon.cli.icdview import IcdView
+from mapr_daemon.cli.render import record_json, record_line
+
+
+def add_subparser(subparsers: Any) -> None:
+    parser = subparsers.add_parser("monitor", help="watch a bus live (one line per message)",
+                                   description=__doc__,
+                                   formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--backend", default="loopback",
+                        help=f"one of: {', '.join(available_backends())} (default loopback)")
+    parser.add_argument("-o", "--option", action="append", default=[], metavar="KEY=VALUE",
+                        help="backend option, repeatable")
+    parser.add_argument("--rt", type=int)
+    parser.add_argument("--sa", type=int)
+    parser.add_argument("--tr", choices=["T", "R", "t", "r"])
+    parser.add_argument("--format", dest="fmt", metavar="FORMAT", help="e.g. BC_RT, RT_RT")
+    errors = parser.add_mutually_exclusive_group()
+    errors.add_argument("--errors", action="store_true", help="only messages with errors")
+    errors.add_argument("--error", metavar="NAME", help="only messages with this error")
+    parser.add_argument("--json", action="store_true", help="JSON lines instead of text")
+    parser.add_argument("--icd", metavar="FILE", help="message table: show engineering values")
+    parser.add_argument("--stats", action="store_true", help="print bus statistics at the end")
+    parser.add_argument("--stats-every", type=float, default=0.0, metavar="S")
+    parser.add_argument("--count", type=int, help="stop after this many messages")
+    parser.add_argument("--duration", type=float, help="stop after this many seconds")
+    parser.set_defaults(func=run)
+
+
+def parse_option(text: str) -> tuple[str, Any]:
+    """``key=value`` with the value read as int, float, bool or string."""
+    key, sep, raw = text.partition("=")
+    if not sep or not key:
+        raise argparse.ArgumentTypeError(f"option {text!r} is not KEY=VALUE")
+    value: Any = raw
+    if raw.lower() in ("true", "false"):
+        value = raw.lower() == "true"
+    else:
+        for kind in (int, float):
+            try:
+                value = kind(raw)
+                break
+            except ValueError:
+                pass
+    return key.strip(), value
+
+
+def run(args: argparse.Namespace) -> int:
+    view = IcdView(args.icd)
+    options = dict(parse_option(o) for o in args.option)
+    wanted = MonitorFilter(rt=args.rt, sa=args.sa, tr=args.tr, format=args.fmt,
+                           error=args.error or (True if args.errors else None))
+    filters = [wanted] if wanted != MonitorFilter() else None
+    try:
+        monitor = open_monitor(args.backend, filters=filters, **options)
+    except TypeError as error:
+        print(f"mapr monitor: backend {args.backend!r}: {error}", file=sys.stderr)
+        return exitcodes.USAGE
+    shown = 0
+    start = last_stats = time.monotonic()
+    out = sys.stdout
+    with monitor:
+        while args.count is None or shown < args.count:
+            left = None if args.duration is None else args.duration - (time.monotonic() - start)
+            if left is not None and left <= 0:
+                break
+            record = monitor.recv(timeout=0.5 if left is None else min(left, 0.5))
+            if record is None:
+                if monitor.ended:
+                    break
+                continue
+            shown += 1
+            if args.json:
+                out.write(record_json(record, view.values(record)) + "\n")
+            else:
+                out.write(record_line(record, view.text(record)) + "\n")
+            if args.stats_every and time.monotonic() - last_stats >= args.stats_every:
+                last_stats = time.monotonic()
+                print(monitor.stats.table(), file=sys.stderr)
+        out.flush()
+        if args.stats:
+            print(monitor.stats.table(), file=sys.stderr if args.json else out)
+    return exitcodes.OK

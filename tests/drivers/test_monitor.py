@@ -1,0 +1,119 @@
+"""The BusMonitor API: filters, statistics, errors, the backend table, the capture backend."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from drivers.errors import BackendError, BackendUnavailable, MonitorClosed
+from drivers.mil1553.record import MonitorRecord, TransferFormat
+from drivers.monitor import (
+    BACKENDS,
+    BusMonitor,
+    MonitorFilter,
+    available_backends,
+    backend_class,
+    open_monitor,
+)
+
+GOLDEN = Path(__file__).parents[1] / "data" / "codec" / "golden-10MSps.bin"
+
+
+def rec(t: int, bus: str = "A", command: int = 0x2822, errors: tuple[str, ...] = (),
+        fmt: TransferFormat = TransferFormat.BC_RT) -> MonitorRecord:
+    return MonitorRecord(t_ns=t, bus=bus, format=fmt, command=command, data=(1, 2),
+                         status=(0x2800,), errors=errors, end_ns=t + 80_000)
+
+
+class ScriptedMonitor(BusMonitor):
+    """A backend that hands out prepared batches, then fails, then ends."""
+
+    def __init__(self, batches: list[object], **kw: object) -> None:
+        super().__init__(**kw)  # type: ignore[arg-type]
+        self.batches = list(batches)
+        self.closes = 0
+
+    def _recv_internal(self, timeout: float | None) -> list[MonitorRecord] | None:
+        if not self.batches:
+            return None
+        item = self.batches.pop(0)
+        if isinstance(item, Exception):
+            raise item
+        return item  # type: ignore[return-value]
+
+    def _close(self) -> None:
+        self.closes += 1
+
+
+def test_iteration_statistics_and_end_of_stream() -> None:
+    monitor = ScriptedMonitor([[rec(0), rec(100_000, "B")], [], [rec(200_000)]])
+    assert [r.t_ns for r in monitor] == [0, 100_000, 200_000]
+    assert monitor.ended
+    assert monitor.stats.messages == {"A": 2, "B": 1}
+    assert monitor.stats.words["A"] == 8  # command, two data words, status, twice
+    assert 0 < monitor.stats.load("A") <= 100
+
+
+def test_filters_combine_as_python_can_does() -> None:
+    records = [rec(0, command=0x2822), rec(1, command=0x3022, errors=("no_response",)),
+               rec(2, command=0x2C22, fmt=TransferFormat.RT_BC)]
+    monitor = ScriptedMonitor([records], filters=[MonitorFilter(rt=6), MonitorFilter(tr="T")])
+    assert [r.t_ns for r in monitor] == [1, 2]
+    only_errors = ScriptedMonitor([records], filters=[MonitorFilter(error=True)])
+    assert [r.t_ns for r in only_errors] == [1]
+    by_name = ScriptedMonitor([records], filters=[MonitorFilter(error="no_response", rt=6)])
+    assert [r.t_ns for r in by_name] == [1]
+    clean_bc_rt = ScriptedMonitor([records], filters=[MonitorFilter(format="bc_rt",
+                                                                    error=False)])
+    assert [r.t_ns for r in clean_bc_rt] == [0]
+    assert monitor.stats.messages["A"] == 3, "statistics count every record, filtered or not"
+
+
+def test_a_backend_failure_reaches_the_caller_and_keeps_what_was_received() -> None:
+    monitor = ScriptedMonitor([[rec(0), rec(1)], OSError("device unplugged"), [rec(2)]])
+    assert monitor.recv().t_ns == 0  # type: ignore[union-attr]
+    assert monitor.recv().t_ns == 1  # type: ignore[union-attr]
+    with pytest.raises(BackendError, match="device unplugged"):
+        monitor.recv()
+    assert monitor.recv().t_ns == 2  # type: ignore[union-attr]
+
+
+def test_timeout_returns_none_and_close_is_idempotent() -> None:
+    monitor = ScriptedMonitor([[], [], [rec(5)]])
+    assert monitor.recv(timeout=0) is None
+    with monitor:
+        pass
+    monitor.close()
+    assert monitor.closes == 1 and monitor.closed
+    with pytest.raises(MonitorClosed):
+        monitor.recv()
+
+
+def test_backend_table_and_unknown_backends() -> None:
+    assert {"loopback", "capture"} <= set(available_backends())
+    assert set(BACKENDS) <= set(available_backends())
+    with pytest.raises(BackendUnavailable, match="unknown backend 'nosuch'"):
+        open_monitor("nosuch")
+    with pytest.raises(TypeError, match="bogus"):
+        open_monitor("capture", path=str(GOLDEN), sample_rate=10e6, bogus=1)
+
+
+def test_a_backend_whose_dependency_is_missing_is_unavailable_not_fatal(monkeypatch) -> None:
+    monkeypatch.setitem(BACKENDS, "needs-missing",
+                        ("drivers.backends.module_that_does_not_exist", "X"))
+    with pytest.raises(BackendUnavailable, match="needs-missing"):
+        backend_class("needs-missing")
+    assert backend_class("capture").__name__ == "CaptureMonitor"
+
+
+def test_capture_backend_replays_a_file_like_the_bus() -> None:
+    with open_monitor("capture", path=str(GOLDEN), sample_rate=10e6) as monitor:
+        records = list(monitor)
+    first = records[0]
+    assert (str(first.format), first.rt, first.sa, list(first.data)) == \
+        ("BC_RT", 5, 1, [0x8000, 0x7FFF])
+    assert first.errors == ()
+    assert str(records[1].format) == "RT_BC" and records[1].bus == "B"
+    flagged = {e for r in records for e in r.errors}
+    assert {"parity", "manchester", "bit_count_low", "bit_count_high"} <= flagged
