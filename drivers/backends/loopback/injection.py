@@ -9,6 +9,10 @@ retry clean). With no selector an injection hits the next message::
     Injection("no_response", rt=5, count=2)            # the next two messages to RT 5
     Injection("late_response", gap_ns=13_000)          # the next message, answered late
     Injection("noise", count=None, format="RT_BC")     # a burst before every RT -> BC message
+    Injection("manchester", rt=5, skip=9)              # the tenth message to RT 5
+
+Several injections of different kinds may hit the same message; of one kind, the first
+pending one that matches is used.
 
 Kinds and what a monitor must then report (:data:`EXPECTED_ERRORS`):
 
@@ -71,8 +75,11 @@ class Injection:
     source: Literal["bc", "rt"] | None = None
     gap_ns: int | None = None
     duration_ns: int | None = None
+    skip: int = 0
+    """Let this many matching messages pass first (``skip=4``: hit the fifth)."""
     hits: int = 0
     """How many messages this injection has hit so far."""
+    skipped: int = 0
 
     def __post_init__(self) -> None:
         if self.kind not in INJECTION_KINDS:
@@ -128,6 +135,9 @@ class Injector:
         chosen: dict[str, Injection] = {}
         for injection in self.pending:
             if injection.kind not in chosen and injection.matches(command, command2, fmt):
+                if injection.skipped < injection.skip:
+                    injection.skipped += 1
+                    continue
                 chosen[injection.kind] = injection
                 injection.hits += 1
         for injection in chosen.values():
