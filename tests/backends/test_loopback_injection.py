@@ -120,7 +120,7 @@ def test_noise_everywhere_and_jitter_are_flagged_without_hiding_messages() -> No
 
 @pytest.mark.xfail(strict=False, reason="assembler at 60abbe8: an RT-RT transmitter's extra "
                    "data word is read as the receiver's status (early_response, sync, "
-                   "wrong_rt_address) instead of word_count_high + no_response; reported to the lead")
+                   "wrong_rt_address) instead of word_count_high + no_response; reported")
 def test_rt_rt_transmitter_word_count_high(run_bus: Runner) -> None:
     records, _ = run_bus([rt_rt(6, 3, 5, 3, 3)], retries=0,
                          injections=[Injection("word_count_high")])
