@@ -260,6 +260,16 @@ class MessageAssembler:
             k, stop, ok = self._take_data(w, msg, k + 1, stop, data_words, n, horizon, final)
             if not ok:
                 return msg, k, False
+            if k < stop:
+                # The terminal went on after the words it owed: they are its, not the next
+                # terminal's status (which, having received too many, will not come).
+                if stop >= n and not final and not _closed(w, stop, wait_ns=timing.break_ns,
+                                                           horizon=horizon):
+                    return msg, stop, False
+                msg.errors.add("word_count_high")
+                msg.data += w.value[k:stop]
+                msg.positions += range(k, stop)
+                k = stop
             if w.end[k - 1] - w.t[start_rt] > timing.babble_ns:
                 msg.errors.add("babbling")
         # Words still in the last transmission belong to it: too many words.

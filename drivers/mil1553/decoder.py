@@ -405,8 +405,9 @@ PHASE_BINS = 32
 
 _BIN_ANGLE = 2 * np.pi * (np.arange(PHASE_BINS) + 0.5) / PHASE_BINS
 _BIN_COS, _BIN_SIN = np.cos(_BIN_ANGLE), np.sin(_BIN_ANGLE)
-CLEAR_GAP = 0.3
-"""The midrange is used when the phases leave a gap of at least this share of the circle."""
+CLEAR_GAP = 0.24
+"""The midrange is used when the phases leave one widest gap of at least this share of the
+circle (0.3 less the bins' quantization); otherwise the circular mean."""
 
 
 def circular_midrange(bins: IntArray, group: IntArray, groups: int) -> FloatArray:
@@ -441,7 +442,8 @@ def circular_midrange(bins: IntArray, group: IntArray, groups: int) -> FloatArra
     middle = (col[pick] + 0.5 + (nb + gap[pick]) / 2) / nb
     out = np.zeros(groups)
     out[row[pick]] = middle - np.floor(middle + 0.5)
-    unclear = row[pick][gap[pick] < CLEAR_GAP * nb]
+    ties = np.bincount(row[at_widest], minlength=groups) > 1
+    unclear = row[pick][(gap[pick] < CLEAR_GAP * nb) | ties[row[pick]]]
     if unclear.size:
         sub = counts[unclear].astype(np.float64)
         mean = np.arctan2(sub @ _BIN_SIN, sub @ _BIN_COS) / (2 * np.pi)
