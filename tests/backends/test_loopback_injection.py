@@ -51,6 +51,7 @@ CASES: list[tuple[str, dict[str, Any], ScheduledMessage, set[str], str]] = [
     ("noise", {}, rt_bc(5, 3, 3), {"orphan_words", "sync"} | WORD, "AA"),
     ("wrong_rt_address", {}, rt_bc(5, 3, 3), {"wrong_rt_address"}, "A"),
     ("reserved_status_bits", {}, bc_rt(5, 3, 3), {"reserved_status_bits"}, "A"),
+    ("superseded", {}, bc_rt(5, 4, 4), {"superseded", "word_count_low"}, "AA"),
 ]
 
 

@@ -218,7 +218,14 @@ class BusController:
                     else old.no_transition,
                     bit_count=old.bit_count + new.bit_count,
                     inverted_sync=old.inverted_sync or new.inverted_sync)
-        att = _Attempt(bus, t, self.word_ns, faults)
+        supersede = "superseded" in injected and len(data) > 1
+        att = _Attempt(bus, t, self.word_ns, {} if supersede else faults)
+        if supersede:
+            # Broken off halfway: the command and some data, then the message again.
+            att.emit(cmd, SYNC_CMD)
+            for d in data[:len(data) // 2]:
+                att.emit(d, SYNC_DATA)
+            att.faults = {p + len(att.words): f for p, f in faults.items()}
         first = att.emit(cmd, SYNC_CMD)
         second = att.emit(cmd2, SYNC_CMD) if cmd2 is not None else None
         sent = [att.emit(d, SYNC_DATA) for d in data]

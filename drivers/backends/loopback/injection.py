@@ -37,6 +37,9 @@ Kinds and what a monitor must then report (:data:`EXPECTED_ERRORS`):
     A burst of random line states of ``duration_ns`` (default 6 µs) just before the message.
 ``wrong_rt_address``, ``reserved_status_bits``
     The status word carries another address, or a reserved bit.
+``superseded``
+    The BC breaks off its data words halfway and sends the whole message again at once (the
+    new valid command supersedes the first; only messages with BC data words).
 """
 
 from __future__ import annotations
@@ -49,7 +52,7 @@ from drivers.mil1553.record import TransferFormat
 WORD_FAULT_KINDS = ("parity", "manchester", "bit_count_low", "bit_count_high", "sync")
 INJECTION_KINDS = (*WORD_FAULT_KINDS, "no_response", "late_response", "early_response",
                    "word_count_low", "word_count_high", "babbling", "noise",
-                   "wrong_rt_address", "reserved_status_bits")
+                   "wrong_rt_address", "reserved_status_bits", "superseded")
 
 EXPECTED_ERRORS: dict[str, str] = {kind: kind for kind in INJECTION_KINDS}
 """The error name (:data:`~drivers.mil1553.record.MESSAGE_ERROR_NAMES`) a monitor reports for
