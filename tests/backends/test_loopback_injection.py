@@ -119,18 +119,12 @@ def test_noise_everywhere_and_jitter_are_flagged_without_hiding_messages() -> No
     assert (len(messages), len(noise)) == (len(sent), len(rt_bc_sent))
 
 
-@pytest.mark.xfail(strict=False, reason="assembler at 60abbe8: an RT-RT transmitter's extra "
-                   "data word is read as the receiver's status (early_response, sync, "
-                   "wrong_rt_address) instead of word_count_high + no_response; reported")
 def test_rt_rt_transmitter_word_count_high(run_bus: Runner) -> None:
     records, _ = run_bus([rt_rt(6, 3, 5, 3, 3)], retries=0,
                          injections=[Injection("word_count_high")])
     assert set(records[0].errors) == {"word_count_high", "no_response"}, records[0].to_json()
 
 
-@pytest.mark.xfail(strict=False, reason="assembler at 60abbe8: babbling is measured from the "
-                   "first extra word, not from the start of the RT's transmission, so a "
-                   "30-word reply running 850 µs in all is not flagged; reported to the lead")
 def test_babbling_counts_the_whole_transmission(run_bus: Runner) -> None:
     rt = terminal(5)
     records, _ = run_bus([rt_bc(5, 30, 30)], terminals=[rt], frame_ns=2_000_000,
