@@ -3,8 +3,9 @@
 ::
 
     MaprError (drivers.errors)
-    └── ConfigError       a configuration or ICD file is wrong; names file, line and field
-        └── IcdError      an interface-control-document (message table) error
+    ├── ConfigError       a configuration or ICD file is wrong; names file, line and field
+    │   └── IcdError      an interface-control-document (message table) error
+    └── CatalogError      the fault catalog file is missing, corrupt, newer than us, or unusable
 """
 
 from __future__ import annotations
@@ -30,3 +31,12 @@ class ConfigError(MaprError):
 
 class IcdError(ConfigError):
     """The message table (ICD YAML) is invalid or a value does not fit it."""
+
+
+class CatalogError(MaprError):
+    """The SQLite fault catalog cannot be used. ``str()`` is one line that names the file."""
+
+    def __init__(self, message: str, *, path: str | None = None) -> None:
+        self.path = path
+        self.detail = message
+        super().__init__(f"catalog {path}: {message}" if path is not None else message)

@@ -9,5 +9,8 @@ CONFIG = 78
 """A configuration or ICD error (sysexits EX_CONFIG); listed in RestartPreventExitStatus=."""
 UNAVAILABLE = 69
 """A backend or device that cannot be opened (sysexits EX_UNAVAILABLE)."""
+NOINPUT = 66
+"""The fault catalog is missing, unreadable, corrupt or written by a newer MAPR (sysexits
+EX_NOINPUT); ``mapr catalog`` prints one line naming the file."""
 INTERRUPTED = 130
 """Stopped by Ctrl-C."""

@@ -1,0 +1,33 @@
+"""The SQLite fault catalog: what the daemon found, kept for maintainers to query.
+
+One file (default :data:`DEFAULT_CATALOG`, the service's StateDirectory) holds monitoring
+sessions, anomaly events, per-interval bus statistics and monitoring gaps. The daemon writes
+through :class:`CatalogWriter` (WAL, batched transactions, durable on return); the CLI reads
+through :class:`CatalogReader` (read-only, also when the daemon is stopped). The schema is
+versioned with ``PRAGMA user_version`` and migrated forward (:mod:`.schema`).
+"""
+
+from __future__ import annotations
+
+import os
+
+from mapr_daemon.catalog.model import Event, EventFilter, Gap, Session, StatsRow
+from mapr_daemon.catalog.reader import CatalogReader
+from mapr_daemon.catalog.schema import LATEST as SCHEMA_VERSION
+from mapr_daemon.catalog.writer import CatalogWriter
+
+DEFAULT_CATALOG = "/var/lib/mapr/catalog.sqlite"
+"""Where the service keeps the catalog (systemd ``StateDirectory=mapr``)."""
+ENV_CATALOG = "MAPR_CATALOG"
+"""Environment variable that overrides :data:`DEFAULT_CATALOG` for the CLI."""
+
+
+def default_path() -> str:
+    """``$MAPR_CATALOG`` if set, else :data:`DEFAULT_CATALOG`."""
+    return os.environ.get(ENV_CATALOG) or DEFAULT_CATALOG
+
+
+__all__ = [
+    "DEFAULT_CATALOG", "ENV_CATALOG", "SCHEMA_VERSION", "CatalogReader", "CatalogWriter",
+    "Event", "EventFilter", "Gap", "Session", "StatsRow", "default_path",
+]

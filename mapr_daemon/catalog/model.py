@@ -1,0 +1,139 @@
+"""The records the fault catalog stores, as plain typed values.
+
+The daemon builds :class:`Event` values from the reasoner's decisions and hands them to the
+writer in batches; the reader gives the same class back with ``id`` and ``session_id`` filled
+in. Times are Unix epoch nanoseconds (UTC) everywhere, so a row sorts and compares as one
+integer and no time zone is ever stored.
+
+Severity has two faces, both kept: ``severity`` is the fraction of the fault's range
+(0 nominal, 1 the end of the paper's Table 1 range; ``None`` for a terminal fault such as a
+shorted or open switch, which the filters count as 1.0) so one ``--min-severity`` means the
+same for every fault mode; ``severity_value`` with ``severity_unit`` is the faulted parameter
+in physical units (``0.45`` ``ohm``) for the maintainer.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Mapping
+from typing import Any
+
+
+@dataclasses.dataclass(frozen=True)
+class Event:
+    """One detected anomaly: what, where, how bad, how sure, and what is left of the part."""
+
+    t_ns: int
+    """When the anomaly was detected (Unix epoch ns, UTC)."""
+    asset: str
+    """The monitored unit, e.g. ``EMA1`` (the name the daemon config gives the actuator)."""
+    fault: str
+    """Fault mode (``esr``, ``capacitance``, ``friction``, ``short``, ``open``, ...)."""
+    confidence: float
+    """Classifier confidence in [0, 1]."""
+    severity: float | None = None
+    severity_value: float | None = None
+    severity_unit: str | None = None
+    rt: int | None = None
+    """Remote-terminal address the asset talks through, when known."""
+    switch: str | None = None
+    """Faulted inverter switch for short/open (``A_high`` ...), else None."""
+    soh: float | None = None
+    """State of health in [0, 1] (1 = new)."""
+    rul: float | None = None
+    rul_low: float | None = None
+    rul_high: float | None = None
+    rul_unit: str | None = None
+    """Unit of the three RUL figures, e.g. ``h`` (flight hours) or ``cycles``."""
+    params: Mapping[str, Any] = dataclasses.field(default_factory=dict)
+    """Parameter estimates (name -> value), stored as JSON."""
+    evidence: Mapping[str, Any] = dataclasses.field(default_factory=dict)
+    """Why the reasoner decided so (scores, thresholds, windows), stored as JSON."""
+    id: int | None = None
+    session_id: int | None = None
+
+    def as_dict(self) -> dict[str, Any]:
+        """A JSON-ready dict (the CLI's ``--json`` and ``export --format json`` rows)."""
+        out = dataclasses.asdict(self)
+        out["params"] = dict(self.params)
+        out["evidence"] = dict(self.evidence)
+        return out
+
+    @property
+    def severity_rank(self) -> float:
+        """The severity the filters compare: the fraction, or 1.0 for a terminal fault."""
+        return 1.0 if self.severity is None else self.severity
+
+
+@dataclasses.dataclass(frozen=True)
+class Session:
+    """One run of the daemon: from start to stop, on one backend with one configuration."""
+
+    id: int
+    started_ns: int
+    stopped_ns: int | None
+    backend: str
+    config_hash: str
+    software_version: str
+    stop_reason: str | None = None
+    """``stopped``, ``SIGTERM``..., or ``unclean`` when the run was killed or lost power."""
+
+
+@dataclasses.dataclass(frozen=True)
+class StatsRow:
+    """Bus health of one bus over one interval (counts are for that interval only)."""
+
+    session_id: int
+    start_ns: int
+    end_ns: int
+    bus: str
+    messages: int
+    words: int
+    load_percent: float
+    errors: Mapping[str, int]
+    """Error counts by class, with the monitor's class names (``parity``, ``no_response``...)."""
+
+    @property
+    def errors_total(self) -> int:
+        return sum(self.errors.values())
+
+    def as_dict(self) -> dict[str, Any]:
+        out = dataclasses.asdict(self)
+        out["errors"] = dict(self.errors)
+        out["errors_total"] = self.errors_total
+        return out
+
+
+@dataclasses.dataclass(frozen=True)
+class Gap:
+    """A stretch of time when nothing was monitored, and why (card unplugged, reasoner behind)."""
+
+    id: int
+    session_id: int | None
+    start_ns: int
+    end_ns: int | None
+    """None while the gap is still open."""
+    reason: str
+
+    def as_dict(self) -> dict[str, Any]:
+        return dataclasses.asdict(self)
+
+
+@dataclasses.dataclass(frozen=True)
+class EventFilter:
+    """What ``list``/``export`` keep; every field given must match (None: any).
+
+    ``since`` is inclusive, ``until`` exclusive, both epoch ns. ``min_severity`` compares
+    :attr:`Event.severity_rank`.
+    """
+
+    since_ns: int | None = None
+    until_ns: int | None = None
+    asset: str | None = None
+    fault: str | None = None
+    min_severity: float | None = None
+
+    def __post_init__(self) -> None:
+        if self.min_severity is not None and not math.isfinite(self.min_severity):
+            raise ValueError("min_severity must be a finite number")

@@ -1,0 +1,181 @@
+"""The CLI's side of the catalog: read-only queries with filters.
+
+::
+
+    with CatalogReader("/var/lib/mapr/catalog.sqlite") as catalog:
+        for event in catalog.events(EventFilter(asset="EMA1", min_severity=0.3), limit=20):
+            ...
+
+The connection is read-only (see :mod:`mapr_daemon.catalog.connect` for the fallback when
+the daemon has stopped). Every query is a fixed SQL text; filters add fixed ``WHERE``
+fragments and pass the user's values as parameters, never as SQL. ``list`` queries walk an
+index in time order (newest first) and stop at ``limit``, so they stay fast on a catalog of
+millions of events.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import sqlite3
+from collections.abc import Iterator
+from types import TracebackType
+from typing import Any
+
+from mapr_daemon.catalog.connect import describe, open_reader
+from mapr_daemon.catalog.model import Event, EventFilter, Gap, Session, StatsRow
+from mapr_daemon.errors import CatalogError
+
+_EVENT_COLUMNS = ("id, session_id, t_ns, asset, rt, fault, switch, severity, severity_value, "
+                  "severity_unit, confidence, params, soh, rul, rul_low, rul_high, rul_unit, "
+                  "evidence")
+
+
+def _event(row: tuple[Any, ...]) -> Event:
+    (eid, sid, t_ns, asset, rt, fault, switch, sev, sev_value, sev_unit, conf, params, soh,
+     rul, rul_low, rul_high, rul_unit, evidence) = row
+    return Event(t_ns=t_ns, asset=asset, fault=fault, confidence=conf, severity=sev,
+                 severity_value=sev_value, severity_unit=sev_unit, rt=rt, switch=switch,
+                 soh=soh, rul=rul, rul_low=rul_low, rul_high=rul_high, rul_unit=rul_unit,
+                 params=json.loads(params), evidence=json.loads(evidence), id=eid,
+                 session_id=sid)
+
+
+def _where(flt: EventFilter) -> tuple[str, list[Any]]:
+    """``WHERE ...`` from fixed fragments, and the values to bind to them."""
+    clauses: list[str] = []
+    values: list[Any] = []
+    if flt.since_ns is not None:
+        clauses.append("t_ns >= ?")
+        values.append(int(flt.since_ns))
+    if flt.until_ns is not None:
+        clauses.append("t_ns < ?")
+        values.append(int(flt.until_ns))
+    if flt.asset is not None:
+        clauses.append("asset = ?")
+        values.append(flt.asset)
+    if flt.fault is not None:
+        clauses.append("fault = ?")
+        values.append(flt.fault)
+    if flt.min_severity is not None:
+        clauses.append("coalesce(severity, 1.0) >= ?")  # terminal faults count as 1.0
+        values.append(float(flt.min_severity))
+    return (" WHERE " + " AND ".join(clauses) if clauses else ""), values
+
+
+class CatalogReader:
+    """A read-only view of a catalog file."""
+
+    def __init__(self, path: str | os.PathLike[str]) -> None:
+        self.path = os.fspath(path)
+        self._conn, self.mode, self.schema_version = open_reader(self.path)
+
+    def _rows(self, sql: str, values: list[Any] | tuple[Any, ...] = ()
+              ) -> Iterator[tuple[Any, ...]]:
+        try:
+            yield from self._conn.execute(sql, values)
+        except sqlite3.DatabaseError as error:
+            raise CatalogError(f"read failed: {describe(error)}", path=self.path) from error
+
+    # --- events ------------------------------------------------------------------------
+    def iter_events(self, flt: EventFilter | None = None, *, limit: int | None = None,
+                    newest_first: bool = True) -> Iterator[Event]:
+        """Events matching ``flt`` in time order (newest first by default), lazily."""
+        where, values = _where(flt or EventFilter())
+        order = "DESC" if newest_first else "ASC"
+        sql = f"SELECT {_EVENT_COLUMNS} FROM events{where} ORDER BY t_ns {order}, id {order}"
+        if limit is not None:
+            sql += " LIMIT ?"
+            values.append(int(limit))
+        for row in self._rows(sql, values):
+            yield _event(row)
+
+    def events(self, flt: EventFilter | None = None, *, limit: int | None = None,
+               newest_first: bool = True) -> list[Event]:
+        return list(self.iter_events(flt, limit=limit, newest_first=newest_first))
+
+    def count(self, flt: EventFilter | None = None) -> int:
+        where, values = _where(flt or EventFilter())
+        return int(next(self._rows(f"SELECT count(*) FROM events{where}", values))[0])
+
+    def event(self, event_id: int) -> Event | None:
+        """One event by id, or None."""
+        rows = list(self._rows(f"SELECT {_EVENT_COLUMNS} FROM events WHERE id = ?",
+                               (int(event_id),)))
+        return _event(rows[0]) if rows else None
+
+    def trend(self, asset: str, since_ns: int | None = None, until_ns: int | None = None
+              ) -> list[Event]:
+        """The asset's events that carry SoH or RUL, oldest first (for ``mapr catalog trend``)."""
+        flt = EventFilter(since_ns=since_ns, until_ns=until_ns, asset=asset)
+        return [e for e in self.iter_events(flt, newest_first=False)
+                if e.soh is not None or e.rul is not None]
+
+    def assets(self) -> list[str]:
+        return [r[0] for r in self._rows("SELECT DISTINCT asset FROM events ORDER BY asset")]
+
+    # --- sessions, statistics, gaps ------------------------------------------------------
+    def sessions(self) -> list[Session]:
+        reason = "stop_reason" if self.schema_version >= 2 else "NULL"
+        return [Session(*row) for row in self._rows(
+            "SELECT id, started_ns, stopped_ns, backend, config_hash, software_version, "
+            f"{reason} FROM sessions ORDER BY started_ns, id")]
+
+    def session(self, session_id: int) -> Session | None:
+        found = [s for s in self.sessions() if s.id == session_id]
+        return found[0] if found else None
+
+    def stats(self, since_ns: int | None = None, until_ns: int | None = None,
+              bus: str | None = None, limit: int | None = None) -> list[StatsRow]:
+        """Per-interval bus statistics, oldest first (the last ``limit`` intervals)."""
+        clauses: list[str] = []
+        values: list[Any] = []
+        if since_ns is not None:
+            clauses.append("start_ns >= ?")
+            values.append(int(since_ns))
+        if until_ns is not None:
+            clauses.append("start_ns < ?")
+            values.append(int(until_ns))
+        if bus is not None:
+            clauses.append("bus = ?")
+            values.append(bus)
+        where = " WHERE " + " AND ".join(clauses) if clauses else ""
+        sql = ("SELECT session_id, start_ns, end_ns, bus, messages, words, load_percent, "
+               f"errors FROM bus_stats{where} ORDER BY start_ns DESC, bus DESC")
+        if limit is not None:
+            sql += " LIMIT ?"
+            values.append(int(limit))
+        rows = [StatsRow(session_id=r[0], start_ns=r[1], end_ns=r[2], bus=r[3], messages=r[4],
+                         words=r[5], load_percent=r[6], errors=json.loads(r[7]))
+                for r in self._rows(sql, values)]
+        return rows[::-1]
+
+    def gaps(self, since_ns: int | None = None, until_ns: int | None = None) -> list[Gap]:
+        """Monitoring gaps overlapping the range, oldest first."""
+        clauses: list[str] = []
+        values: list[Any] = []
+        if since_ns is not None:
+            clauses.append("coalesce(end_ns, start_ns) >= ?")
+            values.append(int(since_ns))
+        if until_ns is not None:
+            clauses.append("start_ns < ?")
+            values.append(int(until_ns))
+        where = " WHERE " + " AND ".join(clauses) if clauses else ""
+        return [Gap(*row) for row in self._rows(
+            f"SELECT id, session_id, start_ns, end_ns, reason FROM gaps{where} "
+            "ORDER BY start_ns, id", values)]
+
+    def integrity(self) -> str:
+        """``PRAGMA quick_check``'s verdict (``ok`` for a sound file)."""
+        return "; ".join(str(r[0]) for r in self._rows("PRAGMA quick_check"))
+
+    # --- lifetime ----------------------------------------------------------------------
+    def close(self) -> None:
+        self._conn.close()
+
+    def __enter__(self) -> CatalogReader:
+        return self
+
+    def __exit__(self, kind: type[BaseException] | None, value: BaseException | None,
+                 tb: TracebackType | None) -> None:
+        self.close()

@@ -1,0 +1,145 @@
+"""The catalog's schema, versioned with ``PRAGMA user_version`` and migrated forward.
+
+:data:`MIGRATIONS` is the whole history: step *n* takes a file from version *n-1* to *n*.
+A step is only ever appended, never edited, so a file written by any earlier MAPR is brought
+up to date by running the steps it lacks, each in its own transaction together with the
+``user_version`` bump (SQLite keeps the header in the same transaction, so a crash mid-step
+leaves the file at the previous version, never half-migrated). A file from a *newer* MAPR is
+refused rather than guessed at. ``PRAGMA application_id`` marks the file as a MAPR catalog so
+an unrelated SQLite file is told apart from an empty one.
+
+History:
+
+1. sessions, events, bus_stats, gaps.
+2. indexes for the CLI filters (time, asset, fault; stats and gaps by time) and
+   ``sessions.stop_reason`` (why a run ended; ``unclean`` when it was killed).
+"""
+
+from __future__ import annotations
+
+import sqlite3
+from collections.abc import Sequence
+
+from mapr_daemon.errors import CatalogError
+
+APPLICATION_ID = 0x4D415052
+"""``PRAGMA application_id`` of a MAPR catalog: "MAPR" in ASCII."""
+
+MIGRATIONS: tuple[tuple[str, ...], ...] = (
+    (  # 1: the tables
+        f"PRAGMA application_id = {APPLICATION_ID}",
+        """CREATE TABLE sessions (
+            id INTEGER PRIMARY KEY,
+            started_ns INTEGER NOT NULL,
+            stopped_ns INTEGER,
+            backend TEXT NOT NULL,
+            config_hash TEXT NOT NULL,
+            software_version TEXT NOT NULL)""",
+        """CREATE TABLE events (
+            id INTEGER PRIMARY KEY,
+            session_id INTEGER NOT NULL REFERENCES sessions(id),
+            t_ns INTEGER NOT NULL,
+            asset TEXT NOT NULL,
+            rt INTEGER,
+            fault TEXT NOT NULL,
+            switch TEXT,
+            severity REAL,
+            severity_value REAL,
+            severity_unit TEXT,
+            confidence REAL NOT NULL,
+            params TEXT NOT NULL DEFAULT '{}',
+            soh REAL,
+            rul REAL,
+            rul_low REAL,
+            rul_high REAL,
+            rul_unit TEXT,
+            evidence TEXT NOT NULL DEFAULT '{}')""",
+        """CREATE TABLE bus_stats (
+            id INTEGER PRIMARY KEY,
+            session_id INTEGER NOT NULL REFERENCES sessions(id),
+            start_ns INTEGER NOT NULL,
+            end_ns INTEGER NOT NULL,
+            bus TEXT NOT NULL,
+            messages INTEGER NOT NULL,
+            words INTEGER NOT NULL,
+            load_percent REAL NOT NULL,
+            errors_total INTEGER NOT NULL,
+            errors TEXT NOT NULL DEFAULT '{}')""",
+        """CREATE TABLE gaps (
+            id INTEGER PRIMARY KEY,
+            session_id INTEGER REFERENCES sessions(id),
+            start_ns INTEGER NOT NULL,
+            end_ns INTEGER,
+            reason TEXT NOT NULL)""",
+    ),
+    (  # 2: indexes for the CLI's filters; why a session ended
+        "CREATE INDEX events_t ON events(t_ns)",
+        "CREATE INDEX events_asset_t ON events(asset, t_ns)",
+        "CREATE INDEX events_fault_t ON events(fault, t_ns)",
+        "CREATE INDEX bus_stats_t ON bus_stats(start_ns)",
+        "CREATE INDEX gaps_t ON gaps(start_ns)",
+        "ALTER TABLE sessions ADD COLUMN stop_reason TEXT",
+    ),
+)
+
+LATEST = len(MIGRATIONS)
+"""The schema version this program writes."""
+
+
+def version_of(conn: sqlite3.Connection) -> int:
+    """The file's ``PRAGMA user_version`` (0 for a new, empty file)."""
+    return int(conn.execute("PRAGMA user_version").fetchone()[0])
+
+
+def check_readable(conn: sqlite3.Connection, path: str) -> int:
+    """The file's schema version, after checking this program can read it.
+
+    Raises :class:`CatalogError` for a file that is not a MAPR catalog, or one that a newer
+    MAPR wrote.
+    """
+    version = version_of(conn)
+    app = int(conn.execute("PRAGMA application_id").fetchone()[0])
+    if version == 0 or app != APPLICATION_ID:
+        raise CatalogError("not a MAPR fault catalog (no catalog schema in this SQLite file)",
+                           path=path)
+    if version > LATEST:
+        raise CatalogError(f"written by a newer MAPR (schema v{version}; this program knows "
+                           f"up to v{LATEST})", path=path)
+    return version
+
+
+def migrate(conn: sqlite3.Connection, path: str,
+            steps: Sequence[tuple[str, ...]] = MIGRATIONS) -> int:
+    """Bring the file up to ``len(steps)``; returns the version it had before.
+
+    ``conn`` must be in autocommit mode (``isolation_level=None``). ``steps`` is only ever
+    shortened by tests, to write a file as an older MAPR did.
+    """
+    conn.execute("BEGIN IMMEDIATE")  # the write lock, so two writers do not both migrate
+    try:
+        before = version_of(conn)
+        if before == 0:
+            tables = conn.execute("SELECT count(*) FROM sqlite_schema").fetchone()[0]
+            if tables:
+                raise CatalogError("not a MAPR fault catalog (an SQLite file with other "
+                                   "tables)", path=path)
+        else:
+            check_readable(conn, path)
+        conn.execute("COMMIT")
+    except BaseException:
+        conn.execute("ROLLBACK")
+        raise
+    for version in range(before + 1, len(steps) + 1):
+        conn.execute("BEGIN IMMEDIATE")
+        try:
+            if version_of(conn) >= version:  # another writer got there first
+                conn.execute("COMMIT")
+                continue
+            for statement in steps[version - 1]:
+                conn.execute(statement)
+            conn.execute(f"PRAGMA user_version = {version:d}")
+            conn.execute("COMMIT")
+        except BaseException:
+            conn.execute("ROLLBACK")
+            raise
+    return before
