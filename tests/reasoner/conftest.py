@@ -1,0 +1,73 @@
+"""One small batch shared by the reasoner tests: a tiny dictionary plus held-out runs.
+
+Everything is simulated together (one plant batch, ~20 s on two cores); the dictionary is
+assembled from its share of the runs, and the held-out runs (other seeds, other pressures,
+magnitudes between the dictionary's) are what the classifier tests decide on.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from mapr_daemon.ema.faults import Fault, FaultSet, at_severity
+from mapr_daemon.ema.params import ActuatorParams, default_actuator_path, load_actuator
+from mapr_daemon.reasoner import build
+from mapr_daemon.reasoner.corpus import Runs, simulate_bit
+from mapr_daemon.reasoner.dictionary import Dictionary, DictionarySpec
+from mapr_daemon.reasoner.features import FloatArray, WindowSpec
+
+SPEC = DictionarySpec(
+    pressures_pa=(0.0, 1600.0), nominal_per_pressure=4, severities=(0.25, 0.5, 0.75, 1.0),
+    kinds=("esr", "friction"), shorts=("A_high",), opens=("A_high",), calibration_runs=8,
+    calibration_pressure_pa=(200.0, 1400.0), threshold_margin=1.5)
+
+HELD_OUT: list[tuple[str, float, float]] = [
+    ("healthy", 0.0, 700.0), ("healthy", 0.0, 1100.0), ("healthy", 0.0, 300.0),
+    ("esr", 0.6, 900.0), ("friction", 0.8, 500.0), ("friction", 0.4, 1200.0),
+    ("short", 1.0, 800.0), ("open", 1.0, 1000.0),
+]
+"""(kind, severity, dynamic pressure) of the held-out runs."""
+
+
+@dataclasses.dataclass
+class Bench:
+    params: ActuatorParams
+    dictionary: Dictionary
+    runs: Runs
+    m: FloatArray
+    held_m: FloatArray
+    held_q: FloatArray
+
+
+def _held_faults(params: ActuatorParams) -> list[FaultSet]:
+    out = []
+    for kind, sev, _ in HELD_OUT:
+        if kind == "healthy":
+            out.append(FaultSet())
+        elif kind in ("short", "open"):
+            out.append(FaultSet.of([Fault(kind, switch="A_high")]))
+        else:
+            out.append(FaultSet.of([at_severity(params, kind, sev)]))
+    return out
+
+
+@pytest.fixture(scope="session")
+def bench() -> Bench:
+    params = load_actuator(default_actuator_path())
+    fs, qs, seeds, roles = build._plan(params, SPEC)
+    held = _held_faults(params)
+    fs += held
+    qs += [q for _, _, q in HELD_OUT]
+    seeds += [50_000 + i for i in range(len(held))]
+    roles += ["held"] * len(held)
+    runs = simulate_bit(params, fs, qs, seeds)
+    starts = WindowSpec(SPEC.window_samples).starts(runs.corners, runs.command_deg.size)
+    m = build.run_matrices(runs, starts, SPEC.window_samples)
+    role = np.asarray(roles)
+    own = role != "held"
+    d = build.assemble(params, SPEC, m[own], runs.dynamic_pressure_pa[own],
+                       [r for r in roles if r != "held"], starts, runs.sample_rate_hz)
+    return Bench(params, d, runs, m, m[role == "held"], runs.dynamic_pressure_pa[role == "held"])
