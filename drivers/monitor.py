@@ -96,8 +96,11 @@ class BusStatistics:
         self.last_ns[bus] = max(self.last_ns.get(bus, 0), record.end_ns or record.t_ns)
 
     def load(self, bus: str) -> float:
-        """Share of time the bus carried words, in % (between its first and last record)."""
-        span = self.last_ns.get(bus, 0) - self.first_ns.get(bus, 0)
+        """Share of time the bus carried words, in %, over the whole time monitored (from
+        the first record on either bus to the last)."""
+        if not self.first_ns:
+            return 0.0
+        span = max(self.last_ns.values()) - min(self.first_ns.values())
         return 100.0 * self.busy_ns[bus] / span if span > 0 else 0.0
 
     def as_dict(self) -> dict[str, Any]:

@@ -1,102 +1,120 @@
-"""``mapr demo``: the main job, as far as it is built.
+"""``mapr demo``: the main job on the simulated aircraft, end to end.
 
-Today: a short stretch of 1553 traffic (a BC-to-RT position command, an RT-to-BC feedback
-transfer, a transmit-status mode code) is encoded to a bit-level capture with the standard's
-worst-case receiver impairments, two faults are injected (a parity error and a bit without
-its mid-bit transition), and the capture is decoded back and shown word by word, the way a
-bus analyzer lists it. Later stages add the message assembler, the loopback bus with the
-JSBSim flight and the reasoner.
+A JSBSim flight (the c172x, trimmed at a flight condition, with bank manoeuvres) drives the
+flight control computer, which commands the aileron EMA over the loopback 1553 bus; the EMA
+plant answers with a seeded fault; the air-data computer reports the flight's air data. The
+bus runs at the bit level — every word Manchester-encoded, sampled as a logic analyzer would,
+decoded and assembled back — with two bus errors injected on the way. MAPR prints the traffic
+with engineering values decoded through the message table, then what it caught and what the
+actuator's signals show.
+
+    mapr demo                                  # inverter phase-A Ron at 5x, cruise, 2 s
+    mapr demo --fault esr=0.6 --fault friction@0.5 --seconds 4 --condition approach
+    mapr demo --fault none --word-level
 """
 
 from __future__ import annotations
 
 import argparse
+import time
+from collections import Counter
 from typing import Any
 
 import numpy as np
 
-from drivers.mil1553.decoder import ManchesterDecoder
-from drivers.mil1553.encoder import NO_FAULT, Impairments, WordFault, encode_words
-from drivers.mil1553.wordbatch import (
-    BUS_NAMES,
-    SYNC_CMD,
-    SYNC_DATA,
-    error_names,
-    make_words,
-)
-from drivers.mil1553.words import CommandWord, StatusWord, format_data
+from drivers.backends.loopback import Injection, LoopbackMonitor
+from drivers.mil1553.record import MonitorRecord
 from mapr_daemon.cli import exitcodes
+from mapr_daemon.cli.render import record_line
+from mapr_daemon.ema.faults import FaultSet, parse_fault
+from mapr_daemon.ema.params import default_actuator_path, load_actuator, with_sample_rate
+from mapr_daemon.icd import Series, collect, format_values, load_icd
+from mapr_daemon.testbed.aircraft import Aircraft
+from mapr_daemon.testbed.profiles import CONDITIONS
+from mapr_daemon.testbed.profiles_jsbsim import jsbsim_flight
 
-SAMPLE_RATE = 10e6
+DEFAULT_ICD = "configs/icd/ema-testbed.yaml"
+DEFAULT_FAULT = "inverter_ron_a_high=0.18"
+INJECTED = (Injection("parity", rt=5, sa=4, skip=40),
+            Injection("no_response", rt=6, sa=1, skip=20))
+"""Two bus errors the demo injects: a parity error in an EMA feedback word, and the air-data
+computer failing to answer once (the bus controller retries on bus B)."""
 
 
 def add_subparser(subparsers: Any) -> None:
-    parser = subparsers.add_parser("demo", help="run the demonstration of the main job",
+    parser = subparsers.add_parser("demo", help="fly the simulated aircraft and monitor its bus",
                                    description=__doc__,
                                    formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--fault", action="append", metavar="KIND=VALUE",
+                        help=f"EMA fault to seed (repeatable; 'none' for a healthy EMA; "
+                             f"default {DEFAULT_FAULT})")
+    parser.add_argument("--seconds", type=float, default=2.0, help="flight time (default 2)")
+    parser.add_argument("--condition", default="cruise", choices=sorted(CONDITIONS))
+    parser.add_argument("--icd", default=DEFAULT_ICD, help="message table")
+    parser.add_argument("--word-level", action="store_true",
+                        help="skip the Manchester waveform (faster)")
+    parser.add_argument("--show", type=int, default=14, help="messages to print in full")
     parser.add_argument("--seed", type=int, default=1)
     parser.set_defaults(func=run)
 
 
-def demo_traffic() -> tuple[list[tuple[int, int, int, int]], list[WordFault], list[str]]:
-    """Words of three messages with their roles, and the faults to inject."""
-    rows: list[tuple[int, int, int, int]] = []
-    roles: list[str] = []
-    t = 2_000
-
-    def word(sync: int, value: int, role: str, gap_ns: int = 0) -> None:
-        nonlocal t
-        t += gap_ns
-        rows.append((t, 0, sync, value))
-        roles.append(role)
-        t += 20_050  # a word lasts 20 µs, 20.02 µs with the 0.1 % slow clock
-
-    rx = CommandWord(rt=5, transmit=False, subaddress=1, count=2)
-    word(SYNC_CMD, rx.value, "command")
-    word(SYNC_DATA, 0x0F3C, "data")
-    word(SYNC_DATA, 0x8000, "data")
-    word(SYNC_CMD, StatusWord(rt=5).value, "status", gap_ns=6_000)
-    tx = CommandWord(rt=5, transmit=True, subaddress=2, count=1)
-    word(SYNC_CMD, tx.value, "command", gap_ns=10_000)
-    word(SYNC_CMD, StatusWord(rt=5, service_request=True).value, "status", gap_ns=6_000)
-    word(SYNC_DATA, 0x5555, "data")
-    mode = CommandWord(rt=5, transmit=True, subaddress=31, count=2)
-    word(SYNC_CMD, mode.value, "command", gap_ns=10_000)
-    word(SYNC_CMD, StatusWord(rt=5, busy=True).value, "status", gap_ns=6_000)
-    faults = [NO_FAULT] * len(rows)
-    faults[2] = WordFault(parity=True)
-    faults[6] = WordFault(no_transition=4)
-    return rows, faults, roles
-
-
-def describe(sync: int, value: int, role: str) -> str:
-    if role == "command":
-        return str(CommandWord.from_value(value))
-    if role == "status":
-        return str(StatusWord.from_value(value))
-    return format_data(value)
+def seeded_faults(texts: list[str] | None) -> FaultSet:
+    params = load_actuator(default_actuator_path())
+    chosen = texts if texts is not None else [DEFAULT_FAULT]
+    if chosen == ["none"]:
+        return FaultSet()
+    return FaultSet.of(parse_fault(text, params) for text in chosen)
 
 
 def run(args: argparse.Namespace) -> int:
-    rows, faults, roles = demo_traffic()
-    impairments = Impairments(jitter_ns=150, dead_band_ns=100, rate_error=1e-3, seed=args.seed)
-    samples = encode_words(make_words(rows), SAMPLE_RATE, impairments=impairments, faults=faults)
-    words = ManchesterDecoder(SAMPLE_RATE).decode_all(samples)
-    print(f"MAPR demo: {len(rows)} words on bus A, encoded at {SAMPLE_RATE / 1e6:g} MS/s with "
-          "+/-150 ns crossing jitter, a 100 ns dead band and a 0.1 % slow clock;")
-    print("injected: a parity error (word 3) and a bit without its mid-bit transition (word 7).")
+    icd = load_icd(args.icd)
+    faults = seeded_faults(args.fault)
+    params = with_sample_rate(load_actuator(default_actuator_path()), 2000.0)
+    flight = jsbsim_flight(2000.0, args.condition, duration_s=args.seconds, seed=args.seed)
+    aircraft = Aircraft(icd, flight, params, faults, seed=args.seed)
+    level = "word level" if args.word_level else "bit level, 16 MS/s"
+    print(f"MAPR demo: JSBSim c172x, {args.condition}, {args.seconds:g} s; aileron EMA with "
+          f"{faults.label()}; loopback 1553 bus at {level}; "
+          f"injected: {', '.join(i.kind for i in INJECTED)}")
     print()
-    print(f"{'time (us)':>10}  bus  sync  value  {'meaning':<38} errors")
-    starts = np.array([r[0] for r in rows])
-    for row in words:
-        k = int(np.argmin(np.abs(starts - int(row["t_ns"]))))
-        errs = error_names(int(row["errors"]))
-        print(f"{int(row['t_ns']) / 1000:10.3f}   {BUS_NAMES[int(row['bus'])]}   "
-              f"{'cmd ' if row['sync'] else 'data'}  {int(row['value']):04X}  "
-              f"{describe(int(row['sync']), int(row['value']), roles[k]):<38} "
-              f"{','.join(errs) if errs else '-'}")
-    caught = sum(1 for row in words if row["errors"])
-    print()
-    print(f"{len(words)} words decoded, {caught} flagged; every injected fault caught: "
-          f"{caught == sum(f.any for f in faults)}")
+    frames = round(args.seconds * 1e9 / aircraft.schedule().frame_ns)
+    records: list[MonitorRecord] = []
+    started = time.monotonic()
+    with LoopbackMonitor(terminals=aircraft.terminals(), schedule=aircraft.schedule(),
+                         frames=frames, injections=INJECTED, bit_level=not args.word_level,
+                         seed=args.seed) as monitor:
+        shown = 0
+        for record in monitor:
+            records.append(record)
+            if shown < args.show or record.errors:
+                values = format_values(icd, record) if record.data else ""
+                print(record_line(record, values))
+                shown += 1
+            elif shown == args.show:
+                print("    ... (only messages with errors from here on)")
+                shown += 1
+        elapsed = time.monotonic() - started
+        print()
+        print(monitor.stats.table())
+    summarize(records, collect(icd, records)[0], elapsed, args.seconds)
     return exitcodes.OK
+
+
+def summarize(records: list[MonitorRecord], series: dict[str, Series], elapsed: float,
+              seconds: float) -> None:
+    caught = Counter(e for r in records for e in r.errors)
+    wanted = {"parity", "no_response"}
+    print()
+    print(f"{len(records)} messages in {elapsed:.1f} s for {seconds:g} s of flight; errors "
+          f"caught: {dict(caught) or 'none'}; both injected errors named: "
+          f"{wanted <= set(caught)}")
+    if "surface_position" in series and "position_command" in series:
+        pos, cmd = series["surface_position"], series["position_command"]
+        command = np.interp(pos.t_ns, cmd.t_ns, cmd.value)
+        error = pos.value - command
+        current = series["phase_current_a"].value
+        print(f"EMA over the bus: surface {pos.value.min():+.2f}..{pos.value.max():+.2f} deg, "
+              f"tracking error rms {np.sqrt(np.mean(error ** 2)):.3f} deg, phase A current "
+              f"rms {np.sqrt(np.mean(current ** 2)):.3f} A, DC bus "
+              f"{np.median(series['dc_bus_voltage'].value):.2f} V")
+

@@ -114,9 +114,16 @@ def test_encode_bad_line_names_file_and_line(tmp_path: Path, line: str, message:
     assert len(err.splitlines()) == 1 and message in err, err
 
 
-def test_demo_catches_both_injected_faults() -> None:
-    result = run_mapr("demo")
-    assert result.returncode == 0
+def test_demo_flies_and_names_both_injected_bus_errors() -> None:
+    result = run_mapr("demo", "--seconds", "1")
+    assert result.returncode == 0, result.stderr
     text = result.stdout.decode()
-    assert "parity" in text and "manchester" in text
-    assert "every injected fault caught: True" in text
+    assert "ema_fast_block: " in text and "adc_air_data: " in text  # engineering values
+    assert "both injected errors named: True" in text
+    assert "DC bus 24" in text
+
+
+def test_demo_rejects_a_bad_fault_with_one_line() -> None:
+    result = run_mapr("demo", "--fault", "warp=9")
+    assert result.returncode == 78
+    assert len(result.stderr.decode().strip().splitlines()) == 1

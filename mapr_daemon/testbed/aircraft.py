@@ -1,0 +1,274 @@
+"""The simulated aircraft on the loopback bus: flight control computer, EMA and air data.
+
+One source of truth: the message table (``configs/icd/ema-testbed.yaml``) gives the bus
+controller's schedule and every word the terminals put on the bus, encoded with the same ICD
+the monitor decodes with. The flight (a :class:`~mapr_daemon.testbed.profiles.Profile`, e.g.
+a JSBSim flight) gives the surface command the flight control computer sends and the air data
+the air-data computer reports; the EMA plant (:mod:`mapr_daemon.ema`) answers the command,
+with its faults seeded, and its sensors fill the EMA's sample blocks.
+
+The plant advances in lockstep with bus time: when the bus controller polls a block at time t,
+the EMA terminal first runs the plant up to t, then hands over the samples the ICD's timing
+rule says it latched (the newest one period before t).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from typing import Any
+
+import numpy as np
+
+from drivers.backends.loopback import RemoteTerminal, Schedule, ScheduledMessage
+from drivers.mil1553.record import MonitorRecord, TransferFormat
+from mapr_daemon.ema.batch import RunSpec
+from mapr_daemon.ema.faults import FaultSet
+from mapr_daemon.ema.params import ActuatorParams, default_actuator_path, load_actuator
+from mapr_daemon.ema.plant import EmaBatch
+from mapr_daemon.icd import Icd, Message
+from mapr_daemon.testbed.profiles import Profile
+
+G0 = 9.80665
+R_AIR = 287.053
+RHO0 = 1.225
+HISTORY_S = 0.2
+"""Sensor history the EMA keeps for its blocks (the slow block spans 50 ms)."""
+
+FAST_CHANNELS = {"dc_link_current": "dc_link_current_a", "phase_current_a": "phase_a_current_a",
+                 "phase_current_b": "phase_b_current_a", "phase_current_c": "phase_c_current_a",
+                 "dc_bus_voltage": "dc_bus_voltage_v", "surface_position": "position_deg"}
+SLOW_CHANNELS = {"motor_temperature": "motor_temperature_c",
+                 "power_stage_temperature": "stage_temperature_c",
+                 "smps_input_voltage": "smps_input_voltage_v",
+                 "smps_input_current": "smps_input_current_a", "smps_ripple_rms": "ripple_rms_v"}
+
+
+def isa(altitude_m: float) -> tuple[float, float]:
+    """Static pressure (Pa) and temperature (K) of the ISA troposphere at an altitude."""
+    temperature = 288.15 - 0.0065 * altitude_m
+    return 101_325.0 * (temperature / 288.15) ** (G0 / (R_AIR * 0.0065)), temperature
+
+
+class EmaTerminal:
+    """The EMA remote terminal: receives commands and air data, streams its sensors."""
+
+    def __init__(self, icd: Icd, params: ActuatorParams, faults: FaultSet, *, seed: int,
+                 dynamic_pressure: Callable[[float], float]) -> None:
+        self.icd = icd
+        self.plant = EmaBatch([RunSpec(params, faults, seed=seed)], powered=True)
+        self.rate_hz = float(params.sensors.sample_rate_hz)
+        self.dynamic_pressure = dynamic_pressure
+        self.command_deg = 0.0
+        self.enabled = True
+        self.samples_done = 0
+        self.history: dict[str, np.ndarray] = {}
+        self.truth_position = 0.0
+        self.counters: dict[str, int] = {}
+
+    # --- the plant --------------------------------------------------------------------------
+    def run_to(self, t_ns: int) -> None:
+        """Advance the plant to bus time ``t_ns`` with the command it holds."""
+        target = int(t_ns * self.rate_hz / 1e9)
+        n = target - self.samples_done
+        if n <= 0:
+            return
+        start_s = self.samples_done / self.rate_hz
+        q = self.dynamic_pressure(start_s)
+        block = self.plant.advance(n, command_deg=self.command_deg if self.enabled else 0.0,
+                                   dynamic_pressure_pa=q)
+        keep = int(HISTORY_S * self.rate_hz)
+        for name, values in block.channels.items():
+            joined = np.concatenate([self.history.get(name, np.zeros(0)), values[0]])
+            self.history[name] = joined[-keep:]
+        self.samples_done = target
+        self.truth_position = float(block.truth["position_true_deg"][0][-1])
+
+    def latest(self, name: str, count: int, step: int = 1) -> list[float]:
+        """The newest ``count`` samples (every ``step``-th), oldest first, latched one sample
+        period before now (the ICD's timing rule)."""
+        series = self.history.get(name, np.zeros(1))
+        series = series[:-1] if series.size > 1 else series
+        picked = series[::-1][::step][:count][::-1]
+        if picked.size < count:
+            picked = np.concatenate([np.full(count - picked.size, picked[0] if picked.size
+                                             else 0.0), picked])
+        return [float(v) for v in picked]
+
+    def _next(self, counter: str) -> int:
+        self.counters[counter] = self.counters.get(counter, 0) + 1
+        return self.counters[counter]
+
+    # --- subaddress callbacks -----------------------------------------------------------------
+    def receive_command(self, t_ns: int, data: Sequence[int], message: Message) -> None:
+        self.run_to(t_ns)
+        values = decode_data(self.icd, message, data, t_ns)
+        self.command_deg = float(values["position_command"])
+        self.enabled = bool(values["drive_enable"])
+
+    def fast_block(self, t_ns: int) -> list[int]:
+        self.run_to(t_ns)
+        values: dict[str, Any] = {icd_name: self.latest(plant_name, 4)
+                                  for icd_name, plant_name in FAST_CHANNELS.items()}
+        torque = self.latest("dc_link_current_a", 4)
+        values["commutation_sector"] = [0] * 4  # the averaged plant does not expose it
+        values["drive_direction"] = [int(v >= 0) for v in torque]
+        values["pwm_duty"] = [min(1.0, abs(v) / 24.0) for v in self.latest("dc_bus_voltage_v",
+                                                                            4)]
+        values.update(fast_overrun=0, fast_adc_fault=0, fast_seq=self._next("fast"))
+        return list(self.icd.encode("ema_fast_block", values, strict=False))
+
+    def slow_block(self, t_ns: int) -> list[int]:
+        self.run_to(t_ns)
+        step = max(1, round(self.rate_hz / 100.0))
+        values: dict[str, Any] = {icd_name: self.latest(plant_name, 5, step)
+                                  for icd_name, plant_name in SLOW_CHANNELS.items()}
+        values["slow_seq"] = self._next("slow")
+        return list(self.icd.encode("ema_slow_block", values, strict=False))
+
+    def feedback(self, t_ns: int) -> list[int]:
+        self.run_to(t_ns)
+        position = self.latest("position_deg", 2)
+        rate = (position[1] - position[0]) * self.rate_hz
+        values = {"position_feedback": position[1], "surface_rate": rate, "ema_ready": 1,
+                  "ema_fault": 0, "at_stop": int(abs(position[1]) > 29.5),
+                  "mode_echo": "POSITION" if self.enabled else "STANDBY",
+                  "feedback_seq": self._next("feedback"), "command_echo": self.command_deg}
+        return list(self.icd.encode("ema_position_feedback", values, strict=False))
+
+    def bit_result(self, t_ns: int) -> list[int]:
+        values = {"bit_pass": 1, "smps_fault": 0, "inverter_fault": 0, "motor_fault": 0,
+                  "position_sensor_fault": 0, "current_sensor_fault": 0, "overtemperature": 0,
+                  "bit_state": "DONE", "bit_fault_code": 0}
+        return list(self.icd.encode("ema_bit_result", values, strict=False))
+
+
+def decode_data(icd: Icd, message: Message, data: Sequence[int], t_ns: int) -> dict[str, Any]:
+    """The values in a message's data words, as a terminal that received them reads them."""
+    record = MonitorRecord(t_ns=t_ns, bus="A", format=TransferFormat.BC_RT,
+                           command=message.command, data=tuple(int(d) for d in data))
+    decoded = icd.decode(record)
+    return {} if decoded is None else decoded.as_dict()
+
+
+class AirDataTerminal:
+    """The air-data computer: reports the flight's air data (ISA static pressure and
+    temperature at the flight's altitude, calibrated airspeed from the density ratio)."""
+
+    def __init__(self, icd: Icd, profile: Profile) -> None:
+        self.icd = icd
+        self.profile = profile
+        self.sequence = 0
+
+    def at(self, t_ns: int) -> dict[str, float]:
+        p = self.profile
+        k = min(int(t_ns / 1e9 / _period(p)), p.n_samples - 1)
+        altitude = float(p.altitude_m[k])
+        pressure, temperature = isa(altitude)
+        density = float(p.density_kg_m3[k])
+        tas = float(p.airspeed_mps[k])
+        return {"pressure_altitude": altitude, "true_airspeed": tas,
+                "calibrated_airspeed": tas * math.sqrt(density / RHO0),
+                "static_pressure": pressure, "static_air_temperature": temperature - 273.15,
+                "air_density": density, "dynamic_pressure": float(p.dynamic_pressure_pa[k])}
+
+    def air_data(self, t_ns: int) -> list[int]:
+        self.sequence += 1
+        values: dict[str, Any] = {**self.at(t_ns), "baro_setting": 29.92, "adc_valid": 1,
+                                  "pitot_heat": 1, "adc_fault": 0,
+                                  "air_data_seq": self.sequence}
+        return list(self.icd.encode("adc_air_data", values, strict=False))
+
+    def air_data_to_ema(self, t_ns: int) -> list[int]:
+        now = self.at(t_ns)
+        return list(self.icd.encode("ema_air_data", {
+            "ema_dynamic_pressure": now["dynamic_pressure"],
+            "ema_true_airspeed": now["true_airspeed"]}, strict=False))
+
+
+def _period(profile: Profile) -> float:
+    return float(profile.time_s[1] - profile.time_s[0]) if profile.n_samples > 1 else 1.0
+
+
+class FlightControlComputer:
+    """The bus controller's data: the surface command from the flight, the BIT requests."""
+
+    def __init__(self, icd: Icd, profile: Profile, rate_limit_deg_s: float = 200.0) -> None:
+        self.icd = icd
+        self.profile = profile
+        self.rate_limit = rate_limit_deg_s
+        self.sequence = 0
+
+    def command(self, t_ns: int) -> list[int]:
+        p = self.profile
+        k = min(int(t_ns / 1e9 / _period(p)), p.n_samples - 1)
+        self.sequence += 1
+        return list(self.icd.encode("ema_position_command", {
+            "position_command": float(p.command_deg[k]), "drive_enable": 1,
+            "command_mode": "POSITION", "command_seq": self.sequence,
+            "rate_limit": self.rate_limit}, strict=False))
+
+    def bit_request(self, t_ns: int) -> list[int]:
+        return list(self.icd.encode("ema_bit_request", {"bit_request": 0, "bit_request_seq": 0},
+                                    strict=False))
+
+
+class Aircraft:
+    """The whole simulated aircraft for the loopback bus: its terminals and its schedule.
+
+    >>> aircraft = Aircraft.build(profile, faults=FaultSet.of([...]))     # doctest: +SKIP
+    >>> LoopbackMonitor(terminals=aircraft.terminals(), schedule=aircraft.schedule())
+    """
+
+    def __init__(self, icd: Icd, profile: Profile, params: ActuatorParams,
+                 faults: FaultSet | None = None, seed: int = 0) -> None:
+        self.icd = icd
+        self.profile = profile
+        self.adc = AirDataTerminal(icd, profile)
+        self.fcc = FlightControlComputer(icd, profile)
+        self.ema = EmaTerminal(icd, params, faults or FaultSet(), seed=seed,
+                               dynamic_pressure=self._q)
+
+    @classmethod
+    def build(cls, icd: Icd, profile: Profile, *, actuator: str | None = None,
+              faults: FaultSet | None = None, seed: int = 0) -> Aircraft:
+        params = load_actuator(actuator or default_actuator_path())
+        return cls(icd, profile, params, faults, seed)
+
+    def _q(self, t_s: float) -> float:
+        p = self.profile
+        return float(p.dynamic_pressure_pa[min(int(t_s / _period(p)), p.n_samples - 1)])
+
+    def terminals(self) -> list[RemoteTerminal]:
+        ema_messages = {m.name: m for m in self.icd.messages if m.rt == 5}
+        ema = RemoteTerminal(
+            5, transmit={ema_messages["ema_fast_block"].subaddress: self.ema.fast_block,
+                         ema_messages["ema_slow_block"].subaddress: self.ema.slow_block,
+                         ema_messages["ema_position_feedback"].subaddress: self.ema.feedback,
+                         ema_messages["ema_bit_result"].subaddress: self.ema.bit_result},
+            receive={ema_messages["ema_position_command"].subaddress:
+                     lambda t, d: self.ema.receive_command(
+                         t, d, ema_messages["ema_position_command"]),
+                     ema_messages["ema_bit_request"].subaddress: lambda t, d: None,
+                     ema_messages["ema_air_data"].subaddress: lambda t, d: None})
+        transmit = {self.icd.message("adc_air_data").subaddress: self.adc.air_data}
+        source = self.icd.message("ema_air_data").source
+        if source is not None:
+            transmit[source[1]] = self.adc.air_data_to_ema
+        return [ema, RemoteTerminal(6, transmit=transmit)]
+
+    def schedule(self) -> Schedule:
+        """The ICD's schedule as the flight control computer runs it."""
+        if self.icd.schedule is None:
+            raise ValueError(f"{self.icd.name}: the table has no schedule")
+        data = {"ema_position_command": self.fcc.command, "ema_bit_request": self.fcc.bit_request}
+        out = []
+        for entry in self.icd.schedule.entries:
+            m = self.icd.message(entry.message)
+            source = m.source
+            out.append(ScheduledMessage(
+                m.rt, m.subaddress, m.transmit, m.word_count, every=entry.every,
+                offset=entry.offset, data=data.get(m.name),
+                rt2=None if source is None else source[0],
+                sa2=None if source is None else source[1], name=m.name))
+        return Schedule(tuple(out), frame_ns=round(self.icd.schedule.minor_frame_us * 1000))
