@@ -48,12 +48,15 @@ def solve_windings(p: BatchArrays, lg: Legs, i: FloatArray, e: FloatArray, r_w: 
     diode_only = (lg.f_none > 1.0 - 1e-9) & (i != 0.0)
     dead = diode_only & (new * i < 0.0)
     if dead.any():
-        new = np.where(dead, 0.0, new)
-        alive = conn & ~dead & (new != 0.0)
+        # only runs with an extinguished phase are corrected: the others must not even see
+        # the rounding of the re-balancing (a run does not depend on its batch neighbours)
+        fixed = np.where(dead, 0.0, new)
+        alive = conn & ~dead & (fixed != 0.0)
         n_alive = np.add.reduce(alive, axis=0)
-        resid = np.add.reduce(new, axis=0) / np.maximum(n_alive, 1)
-        new = np.where(alive, new - resid, new)
-        new = np.where(n_alive >= 2, new, 0.0)
+        resid = np.add.reduce(fixed, axis=0) / np.maximum(n_alive, 1)
+        fixed = np.where(alive, fixed - resid, fixed)
+        fixed = np.where(n_alive >= 2, fixed, 0.0)
+        new = np.where(np.logical_or.reduce(dead, axis=0), fixed, new)
     return new, vn
 
 

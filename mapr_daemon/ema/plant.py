@@ -32,6 +32,7 @@ from mapr_daemon.ema import motor, sensors, smps
 from mapr_daemon.ema.batch import BatchArrays, FloatArray, RunSpec, build
 from mapr_daemon.ema.control import ControlState, control
 from mapr_daemon.ema.params import CHANNELS
+from mapr_daemon.ema.scalar import ScalarRun
 from mapr_daemon.errors import ConfigError
 
 TRUTH: tuple[str, ...] = (
@@ -95,11 +96,25 @@ def _flight_scatter(p: BatchArrays, rngs: list[np.random.Generator]) -> BatchArr
         c_total=p.c_elec * (1.0 + CAP_TEMPCO * dt) + p.c_ceramic)
 
 
-class EmaBatch:
-    """A batch of EMA runs sharing one clock. ``advance`` returns the next sensor samples."""
+SCALAR_MAX_RUNS = 8
+"""Batches up to this size step run by run in floats (:mod:`scalar`), larger ones in numpy."""
+PATHS = ("auto", "scalar", "vector")
 
-    def __init__(self, runs: Sequence[RunSpec], *, powered: bool = True) -> None:
+
+class EmaBatch:
+    """A batch of EMA runs sharing one clock. ``advance`` returns the next sensor samples.
+
+    ``path`` chooses how a step is computed: ``"vector"`` numpy across the runs (cheap per run
+    in a large batch), ``"scalar"`` plain floats run by run (no per-call overhead: a lone
+    actuator runs many times faster), ``"auto"`` scalar up to :data:`SCALAR_MAX_RUNS` runs.
+    Both compute the same equations with the same step and agree to rounding.
+    """
+
+    def __init__(self, runs: Sequence[RunSpec], *, powered: bool = True,
+                 path: str = "auto") -> None:
         """``powered=False`` starts with the SMPS off, so every run begins with its soft start."""
+        if path not in PATHS:
+            raise ConfigError(f"unknown path {path!r} (known: {', '.join(PATHS)})", field="path")
         self.specs = tuple(runs)
         self.rngs = [np.random.default_rng(s.seed) for s in self.specs]
         self.p: BatchArrays = _flight_scatter(build(self.specs), self.rngs)
@@ -116,6 +131,12 @@ class EmaBatch:
         self.i_in = np.zeros(p.n)
         self.z_sw = smps.bank_impedance(p, p.f_sw)
         self.z_pwm = smps.bank_impedance(p, p.f_pwm)
+        scalar = path == "scalar" or (path == "auto" and p.n <= SCALAR_MAX_RUNS)
+        self.path = "scalar" if scalar else "vector"
+        self.scalar_runs: list[ScalarRun] = []
+        if scalar:
+            self.scalar_runs = [ScalarRun(p, r) for r in range(p.n)]
+            self._to_scalar()
 
     @property
     def n_runs(self) -> int:
@@ -140,6 +161,8 @@ class EmaBatch:
         amb = (np.broadcast_to(p.t_amb[:, None], (p.n, n)) if ambient_c is None
                else _per_run(ambient_c, p.n, n, "ambient_c"))
         z = sensors.draw(self.rngs, n, len(CHANNELS))
+        if self.scalar_runs:
+            return self._advance_scalar(n, cmd, q, amb, z)
         means = np.empty((len(_ACC), p.n, n))
         bus = np.empty((p.n, n))
         rw = np.empty((p.n, n))
@@ -194,6 +217,70 @@ class EmaBatch:
         self.sample_index += 1
         out: FloatArray = acc / p.samples_per_block
         return out
+
+    def _advance_scalar(self, n: int, cmd: FloatArray, q: FloatArray, amb: FloatArray,
+                        z: FloatArray) -> SensorBlock:
+        """``advance`` with every run stepped in floats by :class:`ScalarRun`."""
+        p = self.p
+        dt = self.sample_period_s
+        means = np.empty((len(_ACC), p.n, n))
+        bus = np.empty((p.n, n))
+        rw = np.empty((p.n, n))
+        t_end = self.t
+        row_m, row_s = _ROW["p_motor"], _ROW["p_stage"]
+        for r, run in enumerate(self.scalar_runs):
+            cmd_r, q_r, amb_r = cmd[r].tolist(), q[r].tolist(), amb[r].tolist()
+            z_drift, z_ripple = z[-2, r].tolist(), z[-1, r].tolist()
+            z_sw, z_pwm = float(self.z_sw[r]), float(self.z_pwm[r])
+            offset = float(self.slow.bus_offset[r])
+            out = [0.0] * len(_ACC)
+            rows: list[list[float]] = []
+            bus_r: list[float] = []
+            rw_r: list[float] = []
+            t = self.t
+            for k in range(n):
+                bus_r.append(run.x[21])
+                t = run.sample(t, cmd_r[k], q_r[k], z_sw, z_pwm, out)
+                rw_r.append(run.r_w)
+                run.advance_slow(dt, out[row_m], out[row_s], amb_r[k], z_drift[k],
+                                 z_ripple[k], offset)
+                out[row_m], out[row_s] = run.x[18], run.x[19]
+                rows.append(out.copy())
+            means[:, r, :] = np.array(rows).T
+            bus[r], rw[r] = bus_r, rw_r
+            t_end = t
+        self.t = t_end
+        self.sample_index += n
+        self._from_scalar()
+        return self._block(means, z, cmd, q, bus, rw, n)
+
+    def _state_arrays(self) -> list[tuple[object, str, int | None]]:
+        """(holder, attribute, phase) of every state array, in ``ScalarRun.STATE`` order."""
+        sm, c, sl = self.smps, self.ctl, self.slow
+        return [(sm, "i_l", None), (sm, "v_c", None), (sm, "v_out", None), (sm, "integ", None),
+                (sm, "deriv", None), (sm, "prev_err", None), (sm, "duty", None),
+                (c, "pos_integ", None), (c, "cur_integ", None), (c, "i_cmd", None),
+                (c, "i_q", None), (self, "i", 0), (self, "i", 1), (self, "i", 2),
+                (self, "vn", None), (self, "omega", None), (self, "theta", None),
+                (self, "i_in", None), (sl, "motor_c", None), (sl, "stage_c", None),
+                (sl, "bus_drift", None), (sl, "bus_v", None)]
+
+    def _to_scalar(self) -> None:
+        """Load every run's state from the arrays into its :class:`ScalarRun`."""
+        for k, (holder, name, phase) in enumerate(self._state_arrays()):
+            arr = getattr(holder, name)
+            col = arr[phase] if phase is not None else arr
+            for r, run in enumerate(self.scalar_runs):
+                run.x[k] = float(col[r])
+
+    def _from_scalar(self) -> None:
+        """Write the runs' float state back to the arrays (so both views stay true)."""
+        for k, (holder, name, phase) in enumerate(self._state_arrays()):
+            values = np.array([run.x[k] for run in self.scalar_runs])
+            if phase is None:
+                setattr(holder, name, values)
+            else:
+                getattr(holder, name)[phase] = values
 
     def _block(self, m: FloatArray, z: FloatArray, cmd: FloatArray, q: FloatArray,
                bus: FloatArray, rw: FloatArray, n: int) -> SensorBlock:

@@ -1,0 +1,332 @@
+"""The plant's step in plain Python floats, for one run at a time (a lone actuator, small batches).
+
+Why: the vectorised step (:mod:`mapr_daemon.ema.plant` with :mod:`smps`, :mod:`inverter`,
+:mod:`motor`, :mod:`control`) pays numpy's per-call overhead (~1 us per ufunc, a few hundred
+calls per step) whatever the number of runs, which is cheap per run in a 104-run batch and
+ruinous for one. The same equations written against ``math`` floats and unrolled over the three
+phases cost ~30 ns per operation and allocate nothing.
+
+Equivalence: this module is a line-by-line transcription of the vectorised functions named in
+each comment — same formulas, same order of operations, same step — so a run advanced here agrees
+with the vectorised path to floating-point rounding (``tests/ema/test_scalar_path.py`` checks it
+for every fault kind over the BIT profile and a JSBSim segment). A change to the physics must be
+made in both places; that test fails if one is forgotten.
+"""
+
+from __future__ import annotations
+
+import cmath
+import math
+
+from mapr_daemon.ema.batch import BatchArrays
+from mapr_daemon.ema.control import U_MAX
+from mapr_daemon.ema.inverter import NEGATIVE, POSITIVE
+from mapr_daemon.ema.sensors import COPPER_ALPHA
+
+_PLUS = tuple(int(row.argmax()) for row in POSITIVE)
+"""Index of the "+" phase of each Hall sector (inverter.POSITIVE as plain ints)."""
+_MINUS = tuple(int(row.argmax()) for row in NEGATIVE)
+_TWO_PI = 2.0 * math.pi
+_SHIFTS = (0.0, 2.0 * math.pi / 3.0, 4.0 * math.pi / 3.0)
+_SLOPE = 6.0 / math.pi
+_SECTOR_OFFSET = math.pi / 6.0
+_SECTOR_WIDTH = math.pi / 3.0
+_HALF_PI = math.pi / 2.0
+_FLOAT_ONE = 1.0 - 1e-9
+
+N_ACC = 19
+"""Accumulator rows, in the order of ``plant._ACC``."""
+
+
+def _trap(theta_e: float, shift: float) -> float:
+    """inverter.trapezoid for one phase."""
+    phi = (theta_e - shift - _HALF_PI) % _TWO_PI
+    dist = min(phi, _TWO_PI - phi)
+    return min(max(3.0 - dist * _SLOPE, -1.0), 1.0)
+
+
+def _phi(lam: complex, h: float) -> tuple[complex, complex]:
+    """smps._phi: exp(lam*h) and its integral over [0, h]."""
+    e = cmath.exp(lam * h)
+    if abs(lam * h) < 1e-8:
+        return e, complex(h)
+    return e, (e - 1.0) / lam
+
+
+class ScalarRun:
+    """One run's parameters and state as floats; :meth:`sample` integrates one sample period.
+
+    Built from column ``r`` of a :class:`BatchArrays` and the run's starting state, and read back
+    with :meth:`state` — the plant hands a run over between the two paths this way.
+    """
+
+    def __init__(self, p: BatchArrays, r: int) -> None:
+        """Copy run ``r``'s parameters; the state starts at zero (set it with ``load``)."""
+        self.h = p.step_s
+        self.spb = p.samples_per_block
+        names = [f.name for f in p.__dataclass_fields__.values() if f.name not in
+                 ("n", "step_s", "samples_per_block", "full_scale", "lsb", "noise")]
+        self.par: dict[str, float | tuple[float, float, float]] = {}
+        for name in names:
+            arr = getattr(p, name)
+            if arr.ndim == 2:
+                self.par[name] = (float(arr[0, r]), float(arr[1, r]), float(arr[2, r]))
+            else:
+                self.par[name] = float(arr[r])
+        # state: SMPS (i_l, v_c, v_out, integ, deriv, prev_err, duty), control
+        # (pos_integ, cur_integ, i_cmd, i_q), windings, mechanics, supply, slow
+        self.x: list[float] = [0.0] * 22
+        self.r_w = 0.0
+        """Winding resistance used by the last sample."""
+
+    STATE = ("i_l", "v_c", "v_out", "integ", "deriv", "prev_err", "duty",
+             "pos_integ", "cur_integ", "i_cmd", "i_q", "i_a", "i_b", "i_c", "vn",
+             "omega", "theta", "i_in", "motor_c", "stage_c", "bus_drift", "bus_v")
+    """Names of the entries of ``x``."""
+
+    def f(self, name: str) -> float:
+        v = self.par[name]
+        assert isinstance(v, float)
+        return v
+
+    def ph(self, name: str) -> tuple[float, float, float]:
+        v = self.par[name]
+        assert isinstance(v, tuple)
+        return v
+
+    def sample(self, t: float, cmd_rad: float, q: float, z_sw: float, z_pwm: float,
+               out: list[float]) -> float:
+        """Integrate one sample period from time ``t``; step means go to ``out``; returns t.
+
+        The body is the vectorised ``EmaBatch._sample`` with every array op spelled out for
+        one run (see the function named in each comment).
+        """
+        f, ph, x = self.f, self.ph, self.x
+        h = self.h
+        (i_l, v_c, v_out, integ, deriv, prev_err, duty, pos_integ, cur_integ, i_cmd, i_q,
+         i0, i1, i2, vn, omega, theta, i_in, motor_c, _stage, _drift, bus_v) = x
+        pp, k_e, r_source = f("pole_pairs"), f("k_e"), f("r_source")
+        soft_start, v_ref, tf_v = max(f("soft_start"), 1e-12), f("v_ref"), f("tf_v")
+        kp_v, ki_v, kd_v = f("kp_v"), f("ki_v"), f("kd_v")
+        ron_hi, ron_lo, r_dcr, l_smps = f("ron_hi"), f("ron_lo"), f("r_dcr"), f("l_smps")
+        i_lim_smps, d_max, f_sw, p_sw = f("i_lim_smps"), f("d_max"), f("f_sw"), f("p_sw")
+        esr, c_total = f("esr_eff"), f("c_total")
+        ratio, ki_pos, kp_pos, kd_pos = f("ratio"), f("ki_pos"), f("kp_pos"), f("kd_pos")
+        i_lim, ki_i, kp_i = f("i_lim"), f("ki_i"), f("kp_i")
+        oh, ol, sh, sl = ph("open_high"), ph("open_low"), ph("short_high"), ph("short_low")
+        rh3, rl3 = ph("r_high"), ph("r_low")
+        vd, r_diode = f("v_diode"), f("r_diode")
+        h_l = h / f("l_w")
+        area_chord, ch0, ch_delta = f("area_chord"), f("ch0"), f("ch_delta")
+        eta, t_coul, w_coul, j_eq, b_visc = (f("eta"), f("t_coul"), f("w_coul"), f("j_eq"),
+                                             f("b_visc"))
+        limit = f("travel_rad") * ratio
+        r_w = f("r_w0") * (1.0 + COPPER_ALPHA * (motor_c - 25.0))  # sensors.winding_resistance
+        self.r_w = r_w
+        d_gain = h / (tf_v + h)
+        acc = [0.0] * N_ACC
+        for _ in range(self.spb):
+            theta_e = pp * theta
+            sec = math.floor((theta_e - _SECTOR_OFFSET) / _SECTOR_WIDTH) % 6
+            s0 = _trap(theta_e, _SHIFTS[0])
+            s1 = _trap(theta_e, _SHIFTS[1])
+            s2 = _trap(theta_e, _SHIFTS[2])
+            ke_w = k_e * omega
+            e = (ke_w * s0, ke_w * s1, ke_w * s2)
+            cur = (i0, i1, i2)
+            vdc = v_out
+            vin = bus_v - r_source * i_in
+            # smps.voltage_loop
+            vref = v_ref * min(1.0, t / soft_start)
+            err = vref - v_out
+            deriv += d_gain * ((err - prev_err) / h - deriv)
+            prev_err = err
+            trial = integ + ki_v * err * h
+            u_v = kp_v * err + trial + kd_v * deriv
+            vin_safe = max(vin, 1.0)
+            raw = (vref + u_v) / vin_safe
+            r_eq = raw * ron_hi + (1.0 - raw) * ron_lo + r_dcr
+            d_cl = (v_out + r_eq * i_l + l_smps * (i_lim_smps - i_l) / h) / vin_safe
+            duty = max(min(raw, min(d_max, d_cl)), 0.0)
+            if not ((duty < raw and err > 0) or (duty > raw and err < 0)):
+                integ = trial
+            # control.control
+            perr = cmd_rad * ratio - theta
+            trial = min(max(pos_integ + ki_pos * perr * h, -i_lim), i_lim)
+            raw = kp_pos * perr + trial - kd_pos * omega
+            i_cmd = min(max(raw, -i_lim), i_lim)
+            if raw == i_cmd:
+                pos_integ = trial
+            kp_ph, km_ph = _PLUS[sec], _MINUS[sec]
+            i_q = 0.5 * (cur[kp_ph] - cur[km_ph])
+            e_i = i_cmd - i_q
+            trial_i = cur_integ + ki_i * e_i * h
+            v_cmd = kp_i * e_i + trial_i + 2.0 * k_e * omega
+            u_raw = v_cmd / max(vdc, 1.0)
+            u = min(max(u_raw, -U_MAX), U_MAX)
+            if u == u_raw:
+                cur_integ = trial_i
+            # inverter.on_fractions, legs, dc_link_current, conduction_loss
+            au = abs(u)
+            hi_ph, lo_ph = (kp_ph, km_ph) if u >= 0.0 else (km_ph, kp_ph)
+            v_leg = [0.0, 0.0, 0.0]
+            r_leg = [0.0, 0.0, 0.0]
+            floating = [False, False, False]
+            diode_only = [False, False, False]
+            g_shoot = 0.0
+            i_ext = 0.0
+            p_inv = 0.0
+            for k in range(3):
+                a_h = au if k == hi_ph else 0.0
+                a_lo = 1.0 if k == lo_ph else (1.0 - au if k == hi_ph else 0.0)
+                a_h = max(a_h * (1.0 - oh[k]), sh[k])
+                a_lo = max(a_lo * (1.0 - ol[k]), sl[k])
+                f_both = max(a_h + a_lo - 1.0, 0.0)
+                f_high = a_h - f_both
+                f_low = a_lo - f_both
+                f_none = max(1.0 - f_high - f_low - f_both, 0.0)
+                rh, rl = rh3[k], rl3[k]
+                r_sum = rh + rl
+                ik = cur[k]
+                v_dio = -vd if ik >= 0.0 else vdc + vd
+                v_leg[k] = f_high * vdc + f_both * vdc * (rl / r_sum) + f_none * v_dio
+                r_leg[k] = f_high * rh + f_low * rl + f_both * (rh * rl / r_sum) + f_none * r_diode
+                diode_only[k] = f_none > _FLOAT_ONE
+                floating[k] = diode_only[k] and ik == 0.0
+                g_shoot += f_both / r_sum
+                i_ext += f_high * ik + f_both * ik * (rl / (rh + rl)) + f_none * min(ik, 0.0)
+                i2 = ik * ik
+                f_low2 = max(1.0 - f_high - f_both - f_none, 0.0)
+                sw = f_high * rh * i2 + f_low2 * rl * i2
+                sw += f_both * (rh * rl / (rh + rl)) * i2
+                p_inv += sw + f_none * (vd * abs(ik) + r_diode * i2)
+            p_inv += g_shoot * vdc * vdc
+            i_dc = i_ext + g_shoot * vdc
+            # smps.ripple_sq
+            di_l = max(vin - v_out, 0.0) * duty / (l_smps * f_sw)
+            i_inv_ac = abs(i_dc) * math.sqrt(max(au * (1.0 - au), 0.0))
+            ripple2 = (di_l * z_sw) ** 2 / 12.0 + (i_inv_ac * z_pwm) ** 2
+            i_l_prev = i_l
+            p_smps = i_l * i_l * (duty * ron_hi + (1.0 - duty) * ron_lo) + p_sw
+            # smps.step
+            r = duty * ron_hi + (1.0 - duty) * ron_lo + r_dcr
+            kk = 1.0 / (1.0 + esr * g_shoot)
+            a11 = -(r + kk * esr) / l_smps
+            a12 = -kk / l_smps
+            a21 = kk / c_total
+            a22 = -g_shoot * kk / c_total
+            b1 = (duty * vin + kk * esr * i_ext) / l_smps
+            b2 = -kk * i_ext / c_total
+            half_tr = 0.5 * (a11 + a22)
+            det = a11 * a22 - a12 * a21
+            disc = cmath.sqrt(complex(half_tr * half_tr - det))
+            tiny = 1e-7 * (abs(half_tr) + 1.0)
+            if abs(disc) < tiny:
+                disc = complex(tiny)
+            l1, l2 = half_tr + disc, half_tr - disc
+            e1, f1 = _phi(l1, h)
+            e2, f2 = _phi(l2, h)
+            dl = l1 - l2
+            ea = ((e1 - e2) / dl).real
+            eb = ((l1 * e2 - l2 * e1) / dl).real
+            fa = ((f1 - f2) / dl).real
+            fb = ((l1 * f2 - l2 * f1) / dl).real
+            ab1 = a11 * b1 + a12 * b2
+            ab2 = a21 * b1 + a22 * b2
+            i_l, v_c = (ea * (a11 * i_l + a12 * v_c) + eb * i_l + fa * ab1 + fb * b1,
+                        ea * (a21 * i_l + a22 * v_c) + eb * v_c + fa * ab2 + fb * b2)
+            v_out = kk * (v_c + esr * (i_l - i_ext))
+            i_in = duty * i_l
+            # motor.solve_windings
+            i0, i1, i2, vn = _windings(cur, e, v_leg, r_leg, floating, diode_only, r_w, h_l,
+                                       vdc, vd, r_diode)
+            torque = k_e * (s0 * i0 + s1 * i1 + s2 * i2)
+            delta = theta / ratio
+            hinge = q * area_chord * (ch0 + ch_delta * delta)  # motor.hinge_moment
+            # motor.mechanics
+            reflect = (eta if hinge * omega > 0.0 else 1.0 / eta) / ratio
+            drive = torque - t_coul * math.tanh(omega / w_coul) + hinge * reflect
+            omega = (omega + h * drive / j_eq) / (1.0 + h * b_visc / j_eq)
+            theta_new = theta + h * omega
+            if abs(theta_new) > limit:
+                theta_new = min(max(theta_new, -limit), limit)
+                if omega * theta_new > 0.0:
+                    omega = 0.0
+            theta = theta_new
+            row = (i_dc, i0, i1, i2, v_out, delta, vin, i_in, v_out * v_out, ripple2,
+                   r_w * (i0 * i0 + i1 * i1 + i2 * i2), p_smps + p_inv, torque, omega, hinge,
+                   i_cmd, i_q, duty, i_l_prev)
+            for k in range(N_ACC):
+                acc[k] += row[k]
+            t += h
+        x[:] = (i_l, v_c, v_out, integ, deriv, prev_err, duty, pos_integ, cur_integ, i_cmd,
+                i_q, i0, i1, i2, vn, omega, theta, i_in, motor_c, _stage, _drift, bus_v)
+        for k in range(N_ACC):
+            out[k] = acc[k] / self.spb
+        return t
+
+    def advance_slow(self, dt: float, motor_loss_w: float, stage_loss_w: float,
+                     ambient_c: float, z_drift: float, z_ripple: float, bus_offset: float) -> None:
+        """sensors.advance_slow for this run."""
+        f, x = self.f, self.x
+        motor_c, stage_c, drift = x[18], x[19], x[20]
+        am = math.exp(-dt / f("tau_m"))
+        ss = ambient_c + f("rth_m") * motor_loss_w
+        x[18] = ss + (motor_c - ambient_c - f("rth_m") * motor_loss_w) * am
+        ast = math.exp(-dt / f("tau_s"))
+        ss = ambient_c + f("rth_s") * stage_loss_w
+        x[19] = ss + (stage_c - ambient_c - f("rth_s") * stage_loss_w) * ast
+        ab = math.exp(-dt / f("bus_tau"))
+        drift = drift * ab + f("bus_drift_sd") * math.sqrt(1.0 - ab * ab) * z_drift
+        x[20] = drift
+        raw = f("bus_nominal") + bus_offset + drift + f("bus_ripple") * z_ripple
+        x[21] = min(max(raw, f("bus_min")), f("bus_max"))
+
+
+def _windings(i: tuple[float, float, float], e: tuple[float, float, float],
+              v_leg: list[float], r_leg: list[float], floating: list[bool],
+              diode_only: list[bool], r_w: float, h_l: float, vdc: float, vd: float,
+              r_diode: float) -> tuple[float, float, float, float]:
+    """motor.solve_windings for one run: new phase currents and the neutral voltage."""
+    conn = [not fl for fl in floating]
+    w = [1.0 / (1.0 + h_l * (r_leg[k] + r_w)) for k in range(3)]
+    vn = _neutral(w, i, v_leg, e, h_l, conn)
+    if floating[0] or floating[1] or floating[2]:
+        clamp = False
+        for k in range(3):
+            if floating[k]:
+                v_term = e[k] + vn
+                if v_term > vdc + vd:
+                    v_leg[k], r_leg[k], conn[k], clamp = vdc + vd, r_diode, True, True
+                elif v_term < -vd:
+                    v_leg[k], r_leg[k], conn[k], clamp = -vd, r_diode, True, True
+        if clamp:
+            w = [1.0 / (1.0 + h_l * (r_leg[k] + r_w)) for k in range(3)]
+            vn = _neutral(w, i, v_leg, e, h_l, conn)
+    new = [w[k] * (i[k] + h_l * (v_leg[k] - e[k] - vn)) if conn[k] else 0.0 for k in range(3)]
+    dead = [diode_only[k] and i[k] != 0.0 and new[k] * i[k] < 0.0 for k in range(3)]
+    if dead[0] or dead[1] or dead[2]:
+        new = [0.0 if dead[k] else new[k] for k in range(3)]
+        alive = [conn[k] and not dead[k] and new[k] != 0.0 for k in range(3)]
+        n_alive = alive[0] + alive[1] + alive[2]
+        resid = (new[0] + new[1] + new[2]) / max(n_alive, 1)
+        new = [new[k] - resid if alive[k] else new[k] for k in range(3)]
+        if n_alive < 2:
+            new = [0.0, 0.0, 0.0]
+    return new[0], new[1], new[2], vn
+
+
+def _neutral(w: list[float], i: tuple[float, float, float], v_leg: list[float],
+             e: tuple[float, float, float], h_l: float, conn: list[bool]) -> float:
+    """motor._neutral for one run."""
+    num = 0.0
+    wsum = 0.0
+    n_conn = 0
+    for k in range(3):
+        wc = w[k] if conn[k] else 0.0
+        num += wc * (i[k] + h_l * (v_leg[k] - e[k]))
+        wsum += wc
+        n_conn += conn[k]
+    if n_conn >= 2:
+        return num / max(h_l * wsum, 1e-30)
+    return (e[0] + e[1] + e[2]) / 3.0
