@@ -26,6 +26,8 @@ SUBCOMMANDS: tuple[str, ...] = (
     "encode",
     "icd",
     "simulate",
+    "dictionary",
+    "diagnose",
 )
 """Modules of :mod:`mapr_daemon.cli` that add a subcommand, in help order."""
 

@@ -1,0 +1,73 @@
+"""``mapr dictionary``: build the reasoner's fault dictionary, or plot its fault curves.
+
+::
+
+    mapr dictionary build -o dictionary.npz                # configs/reasoner/dictionary.yaml
+    mapr dictionary build --spec my.yaml -o small.npz
+    mapr dictionary plot dictionary.npz -o plots/          # paper Figs. 13-15 and 17
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+from mapr_daemon.ema.params import default_actuator_path, load_actuator
+from mapr_daemon.reasoner.dictionary import DictionarySpec
+
+
+def default_spec_path() -> Path:
+    """The shipped dictionary spec."""
+    return Path(__file__).resolve().parents[2] / "configs" / "reasoner" / "dictionary.yaml"
+
+
+def add_subparser(subparsers: Any) -> None:
+    p = subparsers.add_parser("dictionary", help="build or plot the reasoner's fault dictionary",
+                              description=__doc__,
+                              formatter_class=argparse.RawDescriptionHelpFormatter)
+    sub = p.add_subparsers(dest="action", metavar="ACTION")
+    sub.required = True
+    b = sub.add_parser("build", help="simulate fault-seeded BIT runs into a dictionary file")
+    b.add_argument("-o", "--output", required=True, type=Path)
+    b.add_argument("--spec", type=Path, help="dictionary spec YAML (default: shipped)")
+    b.add_argument("--actuator", type=Path, help="actuator YAML (default: aileron-uav)")
+    b.set_defaults(func=run_build)
+    pl = sub.add_parser("plot", help="fault curves as PNG files (paper Figs. 13-15, 17)")
+    pl.add_argument("dictionary", type=Path)
+    pl.add_argument("-o", "--output", required=True, type=Path, help="output directory")
+    pl.set_defaults(func=run_plot)
+
+
+def run_build(args: argparse.Namespace) -> int:
+    from mapr_daemon.reasoner.build import build
+
+    spec = DictionarySpec.load(args.spec or default_spec_path())
+    params = load_actuator(args.actuator or default_actuator_path())
+    start = time.monotonic()
+    tty = sys.stderr.isatty()
+
+    def progress(fraction: float) -> None:
+        if tty:
+            sys.stderr.write(f"\rsimulating {100 * fraction:5.1f} %")
+            sys.stderr.flush()
+
+    d = build(params, spec, progress=progress)
+    if tty:
+        sys.stderr.write("\n")
+    d.save(args.output)
+    print(f"wrote {args.output}: {len(d.templates)} templates at {len(d.pressures_pa)} "
+          f"pressures, threshold {d.threshold:.1f}, {time.monotonic() - start:.1f} s")
+    return 0
+
+
+def run_plot(args: argparse.Namespace) -> int:
+    from mapr_daemon.reasoner.dictionary import Dictionary
+    from mapr_daemon.reasoner.plots import plot_dictionary
+
+    d = Dictionary.load(args.dictionary)
+    for path in plot_dictionary(d, args.output):
+        print(path)
+    return 0

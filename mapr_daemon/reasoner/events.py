@@ -1,0 +1,83 @@
+"""The reasoner's face to the daemon and the CLI: signals of one BIT in, one event out.
+
+>>> # r = Reasoner(Dictionary.load("dictionary.npz"), load_actuator(default_actuator_path()))
+>>> # event = r.diagnose(channels, command_deg, dynamic_pressure_pa)   # dict, JSON-ready
+
+``channels`` maps the ICD's signal names (``phase_a_current_a``, ``position_deg``,
+``dc_bus_voltage_v``, ...) to arrays of one BIT record at the dictionary's sample rate;
+the event has the keys of ``mapr diagnose``: anomaly, fault, severity (physical unit), unit,
+confidence, parameters, soh, rul, evidence.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+from mapr_daemon.ema.params import ActuatorParams
+from mapr_daemon.errors import ConfigError
+from mapr_daemon.reasoner import classifier, prognosis
+from mapr_daemon.reasoner.dictionary import Dictionary
+from mapr_daemon.reasoner.features import (
+    FloatArray,
+    derived_signals,
+    feature_matrix,
+)
+
+
+class Reasoner:
+    """Decides on BIT records against one fault dictionary."""
+
+    def __init__(self, dictionary: Dictionary, params: ActuatorParams) -> None:
+        self.dictionary = dictionary
+        self.params = params
+
+    def matrix(self, channels: Mapping[str, FloatArray], command_deg: FloatArray) -> FloatArray:
+        """M ``(32, 72)`` of one BIT record."""
+        d = self.dictionary
+        need = int(d.window_starts.max()) + d.window_samples
+        n = int(np.asarray(channels["position_deg"]).shape[-1])
+        if n < need:
+            raise ConfigError(f"a BIT record needs {need} samples, got {n}", field="signals")
+        sig = derived_signals({k: np.atleast_2d(np.asarray(v, dtype=np.float64))
+                               for k, v in channels.items()},
+                              np.asarray(command_deg, dtype=np.float64))
+        m: FloatArray = feature_matrix(sig, d.window_starts, d.window_samples,
+                                       d.sample_rate_hz, d.signals)[0]
+        return m
+
+    def decide(self, m: FloatArray, dynamic_pressure_pa: float,
+               paper: bool = False) -> classifier.Decision:
+        """Ours by default, the paper's chosen-curve classifier with ``paper=True``."""
+        f = classifier.paper_decide if paper else classifier.decide
+        return f(self.dictionary, m, float(dynamic_pressure_pa))
+
+    def diagnose(self, channels: Mapping[str, FloatArray], command_deg: FloatArray,
+                 dynamic_pressure_pa: float, paper: bool = False) -> dict[str, Any]:
+        """The event for one BIT record."""
+        m = self.matrix(channels, command_deg)
+        return self.event(self.decide(m, dynamic_pressure_pa, paper))
+
+    def event(self, dec: classifier.Decision,
+              parameters: Mapping[str, float] | None = None) -> dict[str, Any]:
+        """A decision as the JSON-ready event of ``mapr diagnose``."""
+        soh = 1.0
+        component = None
+        if dec.anomaly and dec.fault is not None:
+            soh = prognosis.soh(self.params, dec.fault, dec.value)
+            component = prognosis.COMPONENTS[dec.fault]
+        evidence = dict(dec.evidence)
+        evidence.update(score=round(dec.score, 3), threshold=round(dec.threshold, 3))
+        if dec.switch:
+            evidence["switch"] = dec.switch
+        if dec.severity is not None:
+            evidence["severity_fraction_of_range"] = round(dec.severity, 4)
+        return {
+            "anomaly": dec.anomaly, "fault": dec.fault,
+            "severity": None if dec.value is None else float(f"{dec.value:.6g}"),
+            "unit": dec.unit, "confidence": round(dec.confidence, 4),
+            "parameters": dict(parameters or {}), "soh": round(soh, 4),
+            "component": component, "rul": None, "evidence": evidence,
+        }

@@ -1,0 +1,135 @@
+"""State of health, remaining useful life from the trend across flights, and RUL metrics.
+
+SoH of a component is ``1 - (p - p_nom) / (p_fail - p_nom)`` clipped to [0, 1]: 1 healthy, 0 at
+its failure threshold. The thresholds are those of the degradation model
+(:data:`mapr_daemon.ema.degradation.FAILURE`): capacitance at 70 % of nominal and ESR doubled
+(the usual electrolytic end-of-life criterion, REFERENCE.md), MOSFET Ron doubled (our choice;
+REFERENCE.md also quotes a 0.05 ohm rise, flagged uncertain), friction tripled (our choice).
+A shorted or open switch is SoH 0 of the inverter bridge.
+
+RUL: the per-flight estimates of a component's parameter, as its degradation fraction
+``h = (p - p_nom) / (p_fail - p_nom)`` (1 = failed), are fitted with a quadratic in flight
+number by least squares (aging curves are exponential-like and a quadratic follows them
+locally); coefficients drawn from the fit's covariance give a spread of threshold crossings,
+whose 5/50/95 % points are the RUL and its bounds.
+
+Metrics (Saxena et al.): relative accuracy on RUL ``1 - |r* - r|/r*`` (on RUL, not on the
+time of the event, which would flatter late predictions); alpha-lambda: at
+``t_lambda = t0 + lambda*(EoL - t0)`` at least ``beta`` of the RUL distribution within
+``(1 +/- alpha) r*``; prognostic horizon: EoL minus the first time from which every prediction
+stays within the alpha bounds.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+
+from mapr_daemon.ema.degradation import FAILURE
+from mapr_daemon.ema.faults import PARAMETRIC, nominal_value, range_end
+from mapr_daemon.ema.params import ActuatorParams
+from mapr_daemon.errors import ConfigError
+from mapr_daemon.reasoner.features import FloatArray
+
+COMPONENTS: dict[str, str] = {
+    "capacitance": "smps_output_capacitor", "esr": "smps_output_capacitor",
+    "smps_ron_high": "smps_high_side_mosfet", "smps_ron_low": "smps_low_side_mosfet",
+    "inverter_ron_a_high": "inverter_phase_a_high_mosfet", "friction": "motor_and_gear",
+    "short": "inverter_bridge", "open": "inverter_bridge",
+}
+"""The monitored component each fault mode belongs to."""
+
+
+def failure_value(params: ActuatorParams, kind: str) -> float:
+    """The parameter value at which the component counts as failed."""
+    if kind not in FAILURE:
+        raise ConfigError("no failure threshold for this kind", field=kind)
+    return FAILURE[kind] * nominal_value(params, kind)
+
+
+def failure_severity(params: ActuatorParams, kind: str) -> float:
+    """The failure threshold as a fraction of the Table 1 range."""
+    lo, hi = nominal_value(params, kind), range_end(params, kind)
+    return (failure_value(params, kind) - lo) / (hi - lo)
+
+
+def degradation(params: ActuatorParams, kind: str, value: float) -> float:
+    """``h``: 0 at nominal, 1 at the failure threshold (may exceed 1)."""
+    lo = nominal_value(params, kind)
+    return (value - lo) / (failure_value(params, kind) - lo)
+
+
+def soh(params: ActuatorParams, kind: str, value: float | None) -> float:
+    """State of health of the kind's component, 1 healthy to 0 failed."""
+    if kind in ("short", "open"):
+        return 0.0
+    if kind not in PARAMETRIC or value is None:
+        raise ConfigError("unknown fault kind", field=kind)
+    return float(min(1.0, max(0.0, 1.0 - degradation(params, kind, value))))
+
+
+@dataclasses.dataclass(frozen=True)
+class RulEstimate:
+    """RUL in flights: the median and the 5 % / 95 % bounds, plus the draws behind them."""
+
+    rul: float
+    lower: float
+    upper: float
+    draws: FloatArray
+
+
+def rul_from_trend(flights: FloatArray, h: FloatArray, now: float, n_draws: int = 400,
+                   seed: int = 0, horizon_factor: float = 10.0) -> RulEstimate:
+    """RUL at flight ``now`` from degradation fractions ``h`` observed at ``flights``."""
+    x = np.asarray(flights, dtype=np.float64)
+    y = np.asarray(h, dtype=np.float64)
+    if x.size < 4:
+        raise ConfigError("need at least four flights to trend", field="flights")
+    span = max(float(x.max() - x.min()), 1.0)
+    u = (x - x.min()) / span
+    a = np.stack([np.ones_like(u), u, u * u], axis=1)
+    coef, *_ = np.linalg.lstsq(a, y, rcond=None)
+    resid = y - a @ coef
+    dof = max(x.size - 3, 1)
+    s2 = float(resid @ resid) / dof
+    cov = s2 * np.linalg.pinv(a.T @ a)
+    rng = np.random.default_rng(seed)
+    draws = rng.multivariate_normal(coef, cov, size=n_draws, method="eigh")
+    draws[0] = coef
+    grid_u = (now - x.min()) / span + np.linspace(0.0, horizon_factor, 4001)
+    vals = draws[:, :1] + draws[:, 1:2] * grid_u + draws[:, 2:3] * grid_u**2
+    crossed = vals >= 1.0
+    first = np.where(crossed.any(axis=1), np.argmax(crossed, axis=1), -1)
+    ruls = np.where(first >= 0, (grid_u[np.maximum(first, 0)] - grid_u[0]) * span, math.inf)
+    finite = ruls[np.isfinite(ruls)]
+    if finite.size < ruls.size / 2:
+        return RulEstimate(math.inf, float(np.percentile(finite, 5)) if finite.size else math.inf,
+                           math.inf, ruls)
+    q5, q50, q95 = np.percentile(ruls, [5, 50, 95])
+    return RulEstimate(float(q50), float(q5), float(q95), ruls)
+
+
+def relative_accuracy(true_rul: float, est_rul: float) -> float:
+    """RA on RUL: ``1 - |r* - r| / r*``."""
+    if true_rul <= 0:
+        raise ConfigError("true RUL must be > 0", field="rul")
+    return 1.0 - abs(true_rul - est_rul) / true_rul
+
+
+def alpha_lambda_pass(true_rul: float, draws: FloatArray, alpha: float = 0.2,
+                      beta: float = 0.5) -> bool:
+    """Whether at least ``beta`` of the RUL draws lie within ``(1 +/- alpha) r*``."""
+    inside = (draws >= (1 - alpha) * true_rul) & (draws <= (1 + alpha) * true_rul)
+    return bool(inside.mean() >= beta)
+
+
+def prognostic_horizon(times: FloatArray, true_ruls: FloatArray, est_ruls: FloatArray,
+                       eol: float, alpha: float = 0.2) -> float:
+    """EoL minus the first time from which every point estimate stays within alpha bounds."""
+    ok = np.abs(est_ruls - true_ruls) <= alpha * true_ruls
+    for i in range(ok.size):
+        if ok[i:].all():
+            return float(eol - times[i])
+    return 0.0
