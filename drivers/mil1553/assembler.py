@@ -50,6 +50,10 @@ class _Words:
     """Gap before each word, mid-crossing to mid-crossing (huge for the first)."""
     stop: list[int]
     """Index one past the last word of each word's transmission."""
+    syncs_before: list[int]
+    """Command/status-sync words before each index (prefix sum), to test slices at once."""
+    errors_before: list[int]
+    """Words with errors before each index (prefix sum)."""
 
 
 @dataclass
@@ -294,6 +298,11 @@ class MessageAssembler:
         message (the standard: a new valid command supersedes one in progress); any other
         command-sync word there is a data word with the wrong sync.
         """
+        if k + wanted <= stop and w.syncs_before[k + wanted] == w.syncs_before[k]:
+            # The common case: all the words are there, contiguous, with data syncs.
+            msg.data += w.value[k:k + wanted]
+            msg.positions += range(k, k + wanted)
+            return k + wanted, stop, True
         taken = 0
         while taken < wanted:
             if from_bc and k < stop and w.sync[k] and _fits_as_command(w, k, stop):
@@ -356,14 +365,19 @@ def _prepare(batch: WordBatch, break_ns: int, previous_end: int | None) -> _Word
         starts = np.r_[0, starts]
     bounds = np.r_[starts[1:], t.size]
     stop = np.repeat(bounds, np.diff(np.r_[starts, t.size]))
-    return _Words(t.tolist(), end.tolist(), batch["sync"].tolist(), batch["value"].tolist(),
-                  batch["errors"].tolist(), gap.tolist(), stop.tolist())
+    sync = batch["sync"]
+    syncs_before = np.concatenate([[0], np.cumsum(sync != 0)])
+    errors_before = np.concatenate([[0], np.cumsum(batch["errors"] != 0)])
+    return _Words(t.tolist(), end.tolist(), sync.tolist(), batch["value"].tolist(),
+                  batch["errors"].tolist(), gap.tolist(), stop.tolist(),
+                  syncs_before.tolist(), errors_before.tolist())
 
 
 def _record(msg: _Message, w: _Words, bus: int, j: int) -> MonitorRecord:
     word_errors = []
     errors = msg.errors
-    for position, index in enumerate(msg.positions):
+    clean = w.errors_before[j] == w.errors_before[msg.start]
+    for position, index in enumerate(() if clean else msg.positions):
         bits = w.errors[index]
         if bits:
             names = tuple(name for bit, name in _ERROR_TEXT.items() if bits & bit)
