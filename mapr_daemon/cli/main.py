@@ -28,6 +28,7 @@ SUBCOMMANDS: tuple[str, ...] = (
     "simulate",
     "dictionary",
     "diagnose",
+    "catalog",
 )
 """Modules of :mod:`mapr_daemon.cli` that add a subcommand, in help order."""
 

@@ -1,0 +1,183 @@
+"""Catalog rows as text a maintainer reads at a glance, as CSV and JSON, and time parsing.
+
+Times are shown in UTC with a ``Z`` (``2026-05-09 04:13:20Z``), the way flight logs are kept;
+``--since``/``--until`` read the same form, an ISO date, or an age (``90m``, ``2h``, ``7d``).
+Severity shows as the share of the fault's range with the physical value beside it
+(``42% (0.449 ohm)``); a shorted or open switch shows as ``terminal``.
+"""
+
+from __future__ import annotations
+
+import csv
+import datetime as dt
+import json
+import re
+from collections.abc import Iterable, Sequence
+from typing import IO, Any
+
+from mapr_daemon.catalog.model import Event, Gap, Session, StatsRow
+
+_AGE = re.compile(r"^\s*(\d+(?:\.\d+)?)\s*([smhdw])\s*$")
+_UNIT_S = {"s": 1, "m": 60, "h": 3600, "d": 86400, "w": 604800}
+
+CSV_COLUMNS = ("id", "time_utc", "t_ns", "asset", "rt", "fault", "switch", "severity",
+               "severity_value", "severity_unit", "confidence", "soh", "rul", "rul_low",
+               "rul_high", "rul_unit", "session_id", "params", "evidence")
+
+
+def parse_time(text: str, now_ns: int) -> int:
+    """``2026-05-09``, ``2026-05-09T12:00``, ``...Z``/``+02:00``, ``now`` or an age such as
+    ``2h`` (that long before ``now_ns``) -> epoch ns. Naive times are UTC. ValueError else."""
+    if text.strip().lower() == "now":
+        return now_ns
+    age = _AGE.match(text)
+    if age:
+        return now_ns - int(float(age.group(1)) * _UNIT_S[age.group(2)] * 1e9)
+    try:
+        when = dt.datetime.fromisoformat(text.strip().replace("Z", "+00:00"))
+    except ValueError:
+        raise ValueError(f"{text!r} is not a time (try 2026-05-09, 2026-05-09T14:30Z, "
+                         "2h or 7d)") from None
+    if when.tzinfo is None:
+        when = when.replace(tzinfo=dt.UTC)
+    return int(when.timestamp()) * 1_000_000_000 + when.microsecond * 1000
+
+
+def fmt_time(t_ns: int | None) -> str:
+    if t_ns is None:
+        return "-"
+    when = dt.datetime.fromtimestamp(t_ns // 1_000_000_000, tz=dt.UTC)
+    return when.strftime("%Y-%m-%d %H:%M:%SZ")
+
+
+def fmt_duration(ns: int) -> str:
+    s = ns / 1e9
+    if s < 120:
+        return f"{s:.0f} s" if s >= 10 else f"{s:.1f} s"
+    if s < 7200:
+        return f"{s / 60:.0f} min"
+    return f"{s / 3600:.1f} h" if s < 172800 else f"{s / 86400:.1f} d"
+
+
+def _num(value: float | None, digits: int = 3) -> str:
+    return "-" if value is None else f"{value:.{digits}g}"
+
+
+def fmt_severity(e: Event, of_range: str = "") -> str:
+    """``42% (0.449 ohm)``; ``of_range`` goes after the percentage (`` of range``)."""
+    if e.severity is None:
+        return "terminal"
+    text = f"{100 * e.severity:.0f}%{of_range}"
+    if e.severity_value is not None:
+        text += f" ({_num(e.severity_value)}{' ' + e.severity_unit if e.severity_unit else ''})"
+    return text
+
+
+def fmt_rul(e: Event) -> str:
+    if e.rul is None:
+        return "-"
+    unit = f" {e.rul_unit}" if e.rul_unit else ""
+    bounds = (f" [{_num(e.rul_low)}-{_num(e.rul_high)}]"
+              if e.rul_low is not None and e.rul_high is not None else "")
+    return f"{_num(e.rul)}{unit}{bounds}"
+
+
+def fault_name(e: Event) -> str:
+    return f"{e.fault}/{e.switch}" if e.switch else e.fault
+
+
+def _table(header: Sequence[str], rows: Iterable[Sequence[str]], right: set[int]) -> str:
+    """Columns as wide as their widest cell; ``right`` are right-aligned (numbers)."""
+    body = [list(header), *(list(r) for r in rows)]
+    widths = [max(len(r[i]) for r in body) for i in range(len(header))]
+    lines = ["  ".join(c.rjust(w) if i in right else c.ljust(w)
+                       for i, (c, w) in enumerate(zip(r, widths, strict=True))).rstrip()
+             for r in body]
+    return "\n".join(lines)
+
+
+def events_table(events: Sequence[Event]) -> str:
+    rows = [(str(e.id), fmt_time(e.t_ns), e.asset, "-" if e.rt is None else str(e.rt),
+             fault_name(e), fmt_severity(e), f"{100 * e.confidence:.0f}%", _num(e.soh, 2),
+             fmt_rul(e)) for e in events]
+    return _table(("ID", "TIME (UTC)", "ASSET", "RT", "FAULT", "SEVERITY", "CONF", "SOH",
+                   "RUL"), rows, right={0, 3, 6, 7})
+
+
+def event_detail(e: Event, session: Session | None) -> str:
+    where = e.asset + (f" (RT {e.rt})" if e.rt is not None else "")
+    lines = [f"event {e.id}",
+             f"  time        {fmt_time(e.t_ns)}",
+             f"  asset       {where}",
+             f"  fault       {fault_name(e)}",
+             f"  severity    {fmt_severity(e, ' of range')}",
+             f"  confidence  {100 * e.confidence:.0f}%",
+             f"  SoH         {_num(e.soh)}",
+             f"  RUL         {fmt_rul(e)}"]
+    if session is not None:
+        lines.append(f"  session     {session.id}: {session.backend}, config "
+                     f"{session.config_hash[:12]}, MAPR {session.software_version}, "
+                     f"{fmt_time(session.started_ns)} to {fmt_time(session.stopped_ns)}"
+                     + (f" ({session.stop_reason})" if session.stop_reason else ""))
+    if e.params:
+        lines.append("  parameters")
+        width = max(len(k) for k in e.params)
+        lines += [f"    {k:<{width}}  {v:.6g}" if isinstance(v, float) else
+                  f"    {k:<{width}}  {v}" for k, v in sorted(e.params.items())]
+    if e.evidence:
+        lines.append("  evidence")
+        lines += ["    " + line for line in
+                  json.dumps(dict(e.evidence), indent=2, sort_keys=True).splitlines()]
+    return "\n".join(lines)
+
+
+def trend_table(events: Sequence[Event]) -> str:
+    rows = [(fmt_time(e.t_ns), fault_name(e), fmt_severity(e), _num(e.soh), fmt_rul(e))
+            for e in events]
+    return _table(("TIME (UTC)", "FAULT", "SEVERITY", "SOH", "RUL"), rows, right={3})
+
+
+def stats_table(rows: Sequence[StatsRow]) -> str:
+    def errors(r: StatsRow) -> str:
+        return ", ".join(f"{k} {v}" for k, v in sorted(r.errors.items()) if v) or "-"
+    body = [(fmt_time(r.start_ns), fmt_duration(r.end_ns - r.start_ns), r.bus,
+             str(r.messages), str(r.words), f"{r.load_percent:.1f}", str(r.errors_total),
+             errors(r)) for r in rows]
+    return _table(("START (UTC)", "LENGTH", "BUS", "MESSAGES", "WORDS", "LOAD %", "ERRORS",
+                   "BY CLASS"), body, right={1, 3, 4, 5, 6})
+
+
+def gaps_table(gaps: Sequence[Gap]) -> str:
+    body = [(fmt_time(g.start_ns), fmt_time(g.end_ns),
+             "ongoing" if g.end_ns is None else fmt_duration(g.end_ns - g.start_ns), g.reason)
+            for g in gaps]
+    return _table(("GAP FROM (UTC)", "TO", "LENGTH", "REASON"), body, right={2})
+
+
+def event_json(e: Event) -> dict[str, Any]:
+    return {"time_utc": fmt_time(e.t_ns), **e.as_dict()}
+
+
+def write_csv(events: Iterable[Event], out: IO[str]) -> int:
+    """One row per event, ``params``/``evidence`` as JSON text; returns the row count."""
+    writer = csv.writer(out, lineterminator="\n")
+    writer.writerow(CSV_COLUMNS)
+    n = 0
+    for e in events:
+        d = event_json(e)
+        d["params"] = json.dumps(d["params"], sort_keys=True)
+        d["evidence"] = json.dumps(d["evidence"], sort_keys=True)
+        writer.writerow(["" if d[c] is None else d[c] for c in CSV_COLUMNS])
+        n += 1
+    return n
+
+
+def write_json(events: Iterable[Event], out: IO[str]) -> int:
+    """A JSON array, streamed one event per line (no need to hold a million in memory)."""
+    n = 0
+    out.write("[")
+    for e in events:
+        out.write(("\n" if n == 0 else ",\n") + json.dumps(event_json(e), sort_keys=True))
+        n += 1
+    out.write("\n]\n" if n else "]\n")
+    return n

@@ -1,0 +1,219 @@
+"""``mapr catalog``: query the fault catalog the daemon writes (read-only, safe while it runs).
+
+    mapr catalog list --since 7d --asset EMA1 --min-severity 0.3
+    mapr catalog show 42
+    mapr catalog export --format csv -o faults.csv --since 2026-05-01
+    mapr catalog trend EMA1 --plot ema1.png
+    mapr catalog stats --since 2h
+
+The catalog is ``--catalog PATH``, else ``$MAPR_CATALOG``, else /var/lib/mapr/catalog.sqlite
+(the service's state directory). Times: ``2026-05-09``, ``2026-05-09T14:30Z`` (UTC unless an
+offset is given) or an age such as ``90m``, ``2h``, ``7d``. ``--min-severity`` is the share
+of the fault's range, 0..1 (a shorted or open switch counts as 1). ``--json`` prints JSON for
+scripts. A missing or unreadable catalog is one line naming the file, exit code 66.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import sys
+import time
+from contextlib import ExitStack
+from typing import IO, Any
+
+from mapr_daemon.catalog import CatalogReader, EventFilter, default_path, report
+from mapr_daemon.cli import exitcodes
+from mapr_daemon.errors import CatalogError
+
+DEFAULT_LIMIT = 50
+
+
+def _time(text: str) -> int:
+    try:
+        return report.parse_time(text, time.time_ns())
+    except ValueError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
+
+
+def _fraction(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not 0.0 <= value <= 1.0:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a severity between 0 and 1")
+    return value
+
+
+def _common() -> argparse.ArgumentParser:
+    common = argparse.ArgumentParser(add_help=False)
+    common.add_argument("--catalog", metavar="PATH", default=argparse.SUPPRESS,
+                        help="catalog file (default: $MAPR_CATALOG or "
+                             "/var/lib/mapr/catalog.sqlite)")
+    common.add_argument("--json", action="store_true", default=argparse.SUPPRESS,
+                        help="JSON for scripts instead of a table")
+    return common
+
+
+def _time_range(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--since", type=_time, metavar="TIME", help="from (inclusive)")
+    parser.add_argument("--until", type=_time, metavar="TIME", help="to (exclusive)")
+
+
+def _filters(parser: argparse.ArgumentParser) -> None:
+    _time_range(parser)
+    parser.add_argument("--asset", help="only this asset (e.g. EMA1)")
+    parser.add_argument("--fault", help="only this fault mode (e.g. esr, short)")
+    parser.add_argument("--min-severity", type=_fraction, metavar="S",
+                        help="only severity >= S (0..1 of the fault's range)")
+
+
+def add_subparser(subparsers: Any) -> None:
+    common = _common()
+    parser = subparsers.add_parser("catalog", help="query the fault catalog",
+                                   description=__doc__, parents=[common],
+                                   formatter_class=argparse.RawDescriptionHelpFormatter)
+    actions = parser.add_subparsers(dest="action", metavar="ACTION")
+    actions.required = True
+
+    p = actions.add_parser("list", parents=[common], help="anomaly events, newest first")
+    _filters(p)
+    p.add_argument("--limit", type=int, default=DEFAULT_LIMIT,
+                   help=f"at most this many (default {DEFAULT_LIMIT}; 0: all)")
+    p.set_defaults(func=run, action_func=run_list)
+
+    p = actions.add_parser("show", parents=[common], help="one event in full")
+    p.add_argument("id", type=int)
+    p.set_defaults(func=run, action_func=run_show)
+
+    p = actions.add_parser("export", parents=[common], help="events as CSV or JSON")
+    _filters(p)
+    p.add_argument("--format", choices=["csv", "json"], default="csv")
+    p.add_argument("-o", "--output", metavar="FILE", help="write here (default stdout)")
+    p.set_defaults(func=run, action_func=run_export)
+
+    p = actions.add_parser("trend", parents=[common], help="SoH and RUL of one asset over time")
+    p.add_argument("asset")
+    _time_range(p)
+    p.add_argument("--plot", metavar="PNG", help="also draw it into this PNG (matplotlib)")
+    p.set_defaults(func=run, action_func=run_trend)
+
+    p = actions.add_parser("stats", parents=[common], help="bus health per interval, and gaps")
+    _time_range(p)
+    p.add_argument("--bus", choices=["A", "B"])
+    p.add_argument("--limit", type=int, default=DEFAULT_LIMIT,
+                   help=f"the last N intervals (default {DEFAULT_LIMIT}; 0: all)")
+    p.set_defaults(func=run, action_func=run_stats)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Open the catalog read-only and run the action; catalog errors are one line, exit 66."""
+    path = getattr(args, "catalog", None) or default_path()
+    try:
+        with CatalogReader(path) as reader:
+            code: int = args.action_func(reader, args)
+            return code
+    except CatalogError as error:
+        where = f"{error.path}: " if error.path is not None else ""
+        print(f"mapr catalog {args.action}: {where}{error.detail}", file=sys.stderr)
+        return exitcodes.NOINPUT
+
+
+def _wants_json(args: argparse.Namespace) -> bool:
+    return bool(getattr(args, "json", False))
+
+
+def _filter(args: argparse.Namespace) -> EventFilter:
+    return EventFilter(since_ns=args.since, until_ns=args.until, asset=args.asset,
+                       fault=args.fault, min_severity=args.min_severity)
+
+
+def _print_json(value: Any) -> None:
+    json.dump(value, sys.stdout, indent=1, sort_keys=True)
+    sys.stdout.write("\n")
+
+
+def run_list(reader: CatalogReader, args: argparse.Namespace) -> int:
+    limit = args.limit if args.limit > 0 else None
+    events = reader.events(_filter(args), limit=limit)
+    if _wants_json(args):
+        _print_json([report.event_json(e) for e in events])
+    elif not events:
+        print(f"no events in {reader.path} match")
+    else:
+        print(report.events_table(events))
+        if limit is not None and len(events) == limit:
+            print(f"(newest {limit} shown; --limit 0 for all)")
+    return exitcodes.OK
+
+
+def run_show(reader: CatalogReader, args: argparse.Namespace) -> int:
+    event = reader.event(args.id)
+    if event is None:
+        print(f"mapr catalog show: no event {args.id} in {reader.path}", file=sys.stderr)
+        return exitcodes.USAGE
+    session = reader.session(event.session_id) if event.session_id is not None else None
+    if _wants_json(args):
+        _print_json({**report.event_json(event),
+                     "session": None if session is None else dataclasses.asdict(session)})
+    else:
+        print(report.event_detail(event, session))
+    return exitcodes.OK
+
+
+def run_export(reader: CatalogReader, args: argparse.Namespace) -> int:
+    events = reader.iter_events(_filter(args), newest_first=False)
+    with ExitStack() as stack:
+        out: IO[str] = sys.stdout
+        if args.output:
+            try:
+                out = stack.enter_context(open(args.output, "w", encoding="utf-8", newline=""))
+            except OSError as error:
+                print(f"mapr catalog export: {args.output}: {error.strerror}", file=sys.stderr)
+                return exitcodes.USAGE
+        write = report.write_csv if args.format == "csv" else report.write_json
+        n = write(events, out)
+    if args.output:
+        print(f"{n} events written to {args.output}", file=sys.stderr)
+    return exitcodes.OK
+
+
+def run_trend(reader: CatalogReader, args: argparse.Namespace) -> int:
+    events = reader.trend(args.asset, args.since, args.until)
+    if _wants_json(args):
+        _print_json([{"time_utc": report.fmt_time(e.t_ns), "t_ns": e.t_ns, "id": e.id,
+                      "fault": e.fault, "severity": e.severity, "soh": e.soh, "rul": e.rul,
+                      "rul_low": e.rul_low, "rul_high": e.rul_high, "rul_unit": e.rul_unit}
+                     for e in events])
+    elif not events:
+        known = ", ".join(reader.assets()) or "none"
+        print(f"no SoH/RUL for {args.asset} in {reader.path} (assets: {known})")
+    else:
+        print(report.trend_table(events))
+    if args.plot:
+        try:
+            from mapr_daemon.catalog.plot import plot_trend
+            plot_trend(events, args.asset, args.plot)
+        except ImportError:
+            print("mapr catalog trend: --plot needs matplotlib (pip install matplotlib)",
+                  file=sys.stderr)
+            return exitcodes.UNAVAILABLE
+        print(f"plot written to {args.plot}", file=sys.stderr)
+    return exitcodes.OK
+
+
+def run_stats(reader: CatalogReader, args: argparse.Namespace) -> int:
+    rows = reader.stats(args.since, args.until, args.bus,
+                        limit=args.limit if args.limit > 0 else None)
+    gaps = reader.gaps(args.since, args.until)
+    if _wants_json(args):
+        _print_json({"intervals": [r.as_dict() for r in rows],
+                     "gaps": [g.as_dict() for g in gaps]})
+        return exitcodes.OK
+    print(report.stats_table(rows) if rows else "no bus statistics in range")
+    if gaps:
+        print()
+        print(report.gaps_table(gaps))
+    return exitcodes.OK

@@ -1,0 +1,75 @@
+"""Schema versions: a file written by the v1 program opens, and is migrated, with this one."""
+
+from __future__ import annotations
+
+import sqlite3
+from pathlib import Path
+
+import pytest
+
+from mapr_daemon.catalog import CatalogReader, CatalogWriter, EventFilter
+from mapr_daemon.catalog.schema import LATEST, MIGRATIONS, migrate
+
+from .conftest import T0
+
+
+def write_v1_file(path: Path) -> None:
+    """What MAPR with schema v1 left on disk: WAL, v1 tables, a session, two events."""
+    conn = sqlite3.connect(path, isolation_level=None)
+    conn.execute("PRAGMA journal_mode = WAL")
+    migrate(conn, str(path), steps=MIGRATIONS[:1])
+    conn.execute("INSERT INTO sessions VALUES (1, ?, ?, 'serial', 'c0ffee', '0.0.1')",
+                 (T0, T0 + 10**12))
+    for i, fault in ((1, "esr"), (2, "friction")):
+        conn.execute("INSERT INTO events (id, session_id, t_ns, asset, fault, severity, "
+                     "confidence, soh) VALUES (?, 1, ?, 'EMA1', ?, 0.3, 0.8, 0.9)",
+                     (i, T0 + i * 10**9, fault))
+    conn.close()
+
+
+def test_v1_file_is_read_then_migrated_by_the_v2_program(tmp_path: Path) -> None:
+    assert LATEST == 2
+    path = tmp_path / "old.sqlite"
+    write_v1_file(path)
+    with CatalogReader(path) as reader:  # the CLI reads an old file as it is
+        assert reader.schema_version == 1
+        assert [e.fault for e in reader.events()] == ["friction", "esr"]
+        assert reader.sessions()[0].stop_reason is None
+    with CatalogWriter(path) as writer:
+        assert writer.conn.execute("PRAGMA user_version").fetchone()[0] == 2
+        writer.open_session(backend="loopback", config_hash="new")
+    with CatalogReader(path) as reader:
+        assert reader.schema_version == 2
+        assert [e.id for e in reader.events(EventFilter(asset="EMA1"))] == [2, 1]
+        old, new = reader.sessions()
+        assert (old.backend, old.stopped_ns, old.stop_reason) == ("serial", T0 + 10**12, None)
+        assert new.stop_reason == "stopped"
+        plan = " ".join(str(r) for r in reader._conn.execute(
+            "EXPLAIN QUERY PLAN SELECT id FROM events WHERE asset = ? ORDER BY t_ns DESC",
+            ("EMA1",)))
+        assert "events_asset_t" in plan
+
+
+def test_migrated_file_has_the_schema_of_a_new_one(tmp_path: Path) -> None:
+    write_v1_file(tmp_path / "old.sqlite")
+    CatalogWriter(tmp_path / "old.sqlite").close()
+    CatalogWriter(tmp_path / "new.sqlite").close()
+
+    def schema(path: Path) -> list[tuple[str, str]]:
+        with sqlite3.connect(path) as conn:
+            return conn.execute("SELECT name, sql FROM sqlite_schema ORDER BY name").fetchall()
+
+    assert schema(tmp_path / "old.sqlite") == schema(tmp_path / "new.sqlite")
+
+
+def test_a_failing_step_leaves_the_previous_version(tmp_path: Path) -> None:
+    path = tmp_path / "c.sqlite"
+    CatalogWriter(path).close()
+    broken = (*MIGRATIONS, ("CREATE INDEX extra ON events(soh)", "CREATE TABLE oops ("))
+    conn = sqlite3.connect(path, isolation_level=None)
+    with pytest.raises(sqlite3.OperationalError):
+        migrate(conn, str(path), steps=broken)
+    assert conn.execute("PRAGMA user_version").fetchone()[0] == LATEST
+    assert conn.execute("SELECT count(*) FROM sqlite_schema WHERE name = 'extra'"
+                        ).fetchone()[0] == 0
+    conn.close()
