@@ -47,3 +47,37 @@ def test_monitor_unknown_backend_or_option() -> None:
     assert bad.returncode == 69 and "unknown backend" in bad.stderr
     option = mapr("monitor", "--backend", "capture", "-o", "bogus=1")
     assert option.returncode == 2 and len(option.stderr.strip().splitlines()) == 1
+
+
+EMA = str(DATA / "ema-cruise-20ms.sr")
+ICD = str(Path(__file__).parents[2] / "configs" / "icd" / "ema-testbed.yaml")
+
+
+def test_decode_with_the_message_table_adds_engineering_values() -> None:
+    result = mapr("decode", EMA, "--icd", ICD)
+    assert result.returncode == 0, result.stderr
+    records = [json.loads(x) for x in result.stdout.splitlines()]
+    assert len(records) == 19 and all(r["errors"] == [] for r in records)
+    by_name = {r["values"]["message"]: r["values"] for r in records if "values" in r}
+    assert set(by_name) >= {"ema_fast_block", "ema_position_command", "ema_position_feedback",
+                            "adc_air_data", "ema_slow_block", "ema_air_data"}
+    air = by_name["adc_air_data"]
+    assert air["pressure_altitude"] == 1500.0 and abs(air["true_airspeed"] - 55.0) < 0.01
+    assert len(by_name["ema_fast_block"]["surface_position"]) == 4
+    assert by_name["ema_position_command"]["command_mode"] == "POSITION"
+
+
+def test_monitor_with_the_message_table_shows_values_with_units() -> None:
+    result = mapr("monitor", "--backend", "capture", "-o", f"path={EMA}", "--icd", ICD,
+                  "--rt", "6")
+    assert result.returncode == 0, result.stderr
+    assert "adc_air_data: pressure_altitude=1500.00000 m" in result.stdout
+    assert "true_airspeed=55.000 m/s" in result.stdout
+
+
+def test_an_invalid_message_table_is_exit_78_with_file_and_line(tmp_path: Path) -> None:
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("spec: 1\nname: x\nterminals:\n  - {address: 40, name: a}\n")
+    result = mapr("decode", EMA, "--icd", str(bad))
+    assert result.returncode == 78
+    assert str(bad) in result.stderr and len(result.stderr.strip().splitlines()) == 1
