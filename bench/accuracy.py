@@ -72,22 +72,23 @@ def plan(protocol: str, rng: np.random.Generator, params: ActuatorParams) -> Pla
 def score(name: str, truth: Plan, decisions: list[classifier.Decision],
           modes: tuple[str, ...]) -> None:
     """Print the confusion matrix, the per-fault table and the totals."""
-    labels = [*modes, ""]
+    labels = [*modes, "other", ""]
     conf: Counter[tuple[str, str]] = Counter()
     sev_err: dict[str, list[float]] = defaultdict(list)
     for (kind, _, s), d in zip(truth, decisions, strict=True):
         got = d.fault if d.anomaly and d.fault else ""
+        got = got if got in labels else "other"
         conf[(kind, got)] += 1
         if got == kind and kind and d.severity is not None:
             sev_err[kind].append(100 * abs(d.severity - s))
     print(f"\n== {name}")
-    short = {m: m[:9] for m in labels}
+    short = {m: m[:9] for m in labels}  # "other": a mode outside this protocol's list
     short[""] = "none"
     print("confusion (rows true, columns decided):")
     print(" " * 20 + " ".join(f"{short[c]:>9}" for c in labels))
     for r in labels:
         print(f"{(r or 'healthy'):>20}" + " ".join(f"{conf[(r, c)]:>9d}" for c in labels))
-    print(f"{'fault':>20} {'runs':>5} {'detected':>9} {'isolated':>9} {'sev err %':>9}  note")
+    print(f"{'fault':>20} {'runs':>5} {'detected':>12} {'isolated':>12} {'sev err %':>9}  note")
     faulted = detected = isolated = 0
     all_err: list[float] = []
     for m in modes:
@@ -98,8 +99,8 @@ def score(name: str, truth: Plan, decisions: list[classifier.Decision],
         err = sev_err.get(m, [])
         all_err += err
         e = f"{np.mean(err):9.1f}" if err else f"{'-':>9}"
-        print(f"{m:>20} {n:5d} {det:5d} ({100 * det / n:5.1f}%)"[:36].ljust(36)
-              + f" {iso:4d} ({100 * iso / n:5.1f}%) {e}  {OBSERVABILITY.get(m, '')}")
+        print(f"{m:>20} {n:5d} {det:4d} ({100 * det / n:5.1f}%) {iso:4d} ({100 * iso / n:5.1f}%)"
+              f" {e}  {OBSERVABILITY.get(m, '')}")
     healthy = sum(conf[("", c)] for c in labels)
     fa = healthy - conf[("", "")]
     correct = detected + (healthy - fa)

@@ -26,6 +26,7 @@ SUBCOMMANDS: tuple[str, ...] = (
     "encode",
     "icd",
     "simulate",
+    "prognose",
     "dictionary",
     "diagnose",
     "catalog",

@@ -74,3 +74,19 @@ def test_dictionary_plot_writes_the_curves(bench: Bench, tmp_path: Path) -> None
     assert pngs == ["esr-all-curves.png", "esr-curve.png", "friction-all-curves.png",
                     "friction-curve.png"]
     assert all((tmp_path / "plots" / p).read_bytes()[:4] == b"\x89PNG" for p in pngs)
+
+
+def test_prognose_scores_a_friction_unit(bench: Bench, tmp_path: Path,
+                                         capsys: pytest.CaptureFixture[str]) -> None:
+    dpath = tmp_path / "d.npz"
+    bench.dictionary.save(dpath)
+    assert main(["prognose", "friction:1", "--dictionary", str(dpath), "--points", "8"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["kind"] == "friction" and len(out["flights"]) == 8
+    assert out["flights"][0] == 0.0 and out["flights"][-1] <= out["eol_flight"]
+    est, true = np.array(out["degradation_est"]), np.array(out["degradation_true"])
+    assert np.all(np.abs(est - true)[1:] < 0.35)  # friction is strongly observable
+    assert est[-1] > 0.6
+    assert set(out["alpha_lambda"]) == {"0.5", "0.75"}
+    for p in out["predictions"]:
+        assert p["rul_true"] > 0
