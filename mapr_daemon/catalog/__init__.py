@@ -11,7 +11,14 @@ from __future__ import annotations
 
 import os
 
-from mapr_daemon.catalog.model import Event, EventFilter, Gap, Session, StatsRow
+from mapr_daemon.catalog.model import (
+    Event,
+    EventFilter,
+    Gap,
+    Session,
+    StatsRow,
+    event_from_reasoner,
+)
 from mapr_daemon.catalog.reader import CatalogReader
 from mapr_daemon.catalog.schema import LATEST as SCHEMA_VERSION
 from mapr_daemon.catalog.writer import CatalogWriter
@@ -29,5 +36,5 @@ def default_path() -> str:
 
 __all__ = [
     "DEFAULT_CATALOG", "ENV_CATALOG", "SCHEMA_VERSION", "CatalogReader", "CatalogWriter",
-    "Event", "EventFilter", "Gap", "Session", "StatsRow", "default_path",
+    "Event", "EventFilter", "Gap", "Session", "StatsRow", "default_path", "event_from_reasoner",
 ]

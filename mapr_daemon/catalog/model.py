@@ -66,6 +66,46 @@ class Event:
         return 1.0 if self.severity is None else self.severity
 
 
+def event_from_reasoner(decision: Mapping[str, Any], *, t_ns: int, asset: str,
+                        rt: int | None = None, rul: Any = None,
+                        rul_unit: str | None = "flights") -> Event:
+    """The catalog event for one of the reasoner's JSON-ready events (``Reasoner.event``).
+
+    Its keys: ``fault``, ``severity`` (physical value), ``unit``, ``confidence``,
+    ``parameters``, ``soh``, ``component``, ``rul``, ``evidence`` (which carries ``switch``
+    and ``severity_fraction_of_range``). ``rul`` (here or in the decision) may be a number,
+    a mapping with ``rul``/``low``/``high`` or an object with those attributes (the
+    reasoner's ``RulEstimate``). Only a mapping is read, so the catalog never imports the
+    reasoner.
+    """
+    evidence = dict(decision.get("evidence") or {})
+    if decision.get("component") is not None:
+        evidence.setdefault("component", decision["component"])
+    estimate = rul if rul is not None else decision.get("rul")
+    value = low = high = None
+    if isinstance(estimate, Mapping):
+        value, low, high = estimate.get("rul"), estimate.get("low"), estimate.get("high")
+    elif estimate is not None and hasattr(estimate, "rul"):
+        value, low, high = estimate.rul, getattr(estimate, "low", None), \
+            getattr(estimate, "high", None)
+    elif estimate is not None:
+        value = estimate
+    fraction = evidence.get("severity_fraction_of_range")
+    return Event(
+        t_ns=int(t_ns), asset=asset, rt=rt, fault=str(decision.get("fault") or "unknown"),
+        confidence=float(decision.get("confidence") or 0.0),
+        severity=None if fraction is None else float(fraction),
+        severity_value=None if decision.get("severity") is None
+        else float(decision["severity"]),
+        severity_unit=decision.get("unit"), switch=evidence.get("switch"),
+        soh=None if decision.get("soh") is None else float(decision["soh"]),
+        rul=None if value is None else float(value),
+        rul_low=None if low is None else float(low),
+        rul_high=None if high is None else float(high),
+        rul_unit=rul_unit if value is not None else None,
+        params=dict(decision.get("parameters") or {}), evidence=evidence)
+
+
 @dataclasses.dataclass(frozen=True)
 class Session:
     """One run of the daemon: from start to stop, on one backend with one configuration."""

@@ -175,3 +175,26 @@ def test_corrupted_schema_page_is_one_line_naming_the_file(filled: Path) -> None
     with pytest.raises(CatalogError, match="malformed") as caught, CatalogReader(filled) as r:
         r.events()
     assert str(filled) in str(caught.value) and "\n" not in str(caught.value)
+
+
+def test_a_reasoner_event_becomes_a_catalog_event(catalog_path: Path) -> None:
+    from mapr_daemon.catalog import event_from_reasoner
+
+    decision = {"anomaly": True, "fault": "short", "severity": None, "unit": None,
+                "confidence": 0.97, "parameters": {"esr_ohm": 0.06}, "soh": 0.0,
+                "component": "inverter", "rul": None,
+                "evidence": {"score": 9.1, "threshold": 1.0, "switch": "B_low"}}
+    short = event_from_reasoner(decision, t_ns=T0, asset="EMA1", rt=5)
+    esr = event_from_reasoner(
+        {**decision, "fault": "esr", "severity": 0.45, "unit": "ohm", "soh": 0.6,
+         "evidence": {"severity_fraction_of_range": 0.42}},
+        t_ns=T0 + 1, asset="EMA1", rul={"rul": 120.0, "low": 80.0, "high": 150.0})
+    assert (short.switch, short.severity, short.severity_rank) == ("B_low", None, 1.0)
+    assert short.evidence["component"] == "inverter" and short.rul is None
+    assert (esr.severity, esr.severity_value, esr.severity_unit) == (0.42, 0.45, "ohm")
+    assert (esr.rul, esr.rul_low, esr.rul_high, esr.rul_unit) == (120.0, 80.0, 150.0, "flights")
+    with CatalogWriter(catalog_path) as writer:
+        writer.open_session(backend="loopback", config_hash="x")
+        writer.add_events([short, esr])
+    with CatalogReader(catalog_path) as reader:
+        assert [e.fault for e in reader.events(EventFilter(min_severity=0.5))] == ["short"]
