@@ -27,22 +27,16 @@ _PLUS = tuple(int(row.argmax()) for row in POSITIVE)
 """Index of the "+" phase of each Hall sector (inverter.POSITIVE as plain ints)."""
 _MINUS = tuple(int(row.argmax()) for row in NEGATIVE)
 _TWO_PI = 2.0 * math.pi
-_SHIFTS = (0.0, 2.0 * math.pi / 3.0, 4.0 * math.pi / 3.0)
 _SLOPE = 6.0 / math.pi
 _SECTOR_OFFSET = math.pi / 6.0
 _SECTOR_WIDTH = math.pi / 3.0
 _HALF_PI = math.pi / 2.0
+_SHIFT1 = 2.0 * math.pi / 3.0 + _HALF_PI
+_SHIFT2 = 4.0 * math.pi / 3.0 + _HALF_PI
 _FLOAT_ONE = 1.0 - 1e-9
 
 N_ACC = 19
 """Accumulator rows, in the order of ``plant._ACC``."""
-
-
-def _trap(theta_e: float, shift: float) -> float:
-    """inverter.trapezoid for one phase."""
-    phi = (theta_e - shift - _HALF_PI) % _TWO_PI
-    dist = min(phi, _TWO_PI - phi)
-    return min(max(3.0 - dist * _SLOPE, -1.0), 1.0)
 
 
 def _phi(lam: complex, h: float) -> tuple[complex, complex]:
@@ -77,6 +71,10 @@ class ScalarRun:
         # (pos_integ, cur_integ, i_cmd, i_q), windings, mechanics, supply, slow
         self.x: list[float] = [0.0] * 22
         self.r_w = 0.0
+        self.faulted = any(v != 0.0 for name in ("open_high", "open_low", "short_high",
+                                                  "short_low") for v in self.ph(name))
+        """A switch is shorted or open: the bridge takes the general per-switch path."""
+        self.smps_cache: tuple[tuple[float, float], tuple[float, ...]] = ((-1.0, -1.0), ())
         """Winding resistance used by the last sample."""
 
     STATE = ("i_l", "v_c", "v_out", "integ", "deriv", "prev_err", "duty",
@@ -98,8 +96,12 @@ class ScalarRun:
                out: list[float]) -> float:
         """Integrate one sample period from time ``t``; step means go to ``out``; returns t.
 
-        The body is the vectorised ``EmaBatch._sample`` with every array op spelled out for
-        one run (see the function named in each comment).
+        The body is the vectorised ``EmaBatch._sample`` spelled out for one run (the function
+        of the vectorised path is named in each comment). Two shortcuts keep its arithmetic:
+        the SMPS step's matrix exponential is reused while its inputs (the switch resistance
+        and the shoot-through conductance) are unchanged — always, for equal high- and low-side
+        Ron — and the bridge of a run without a shorted or open switch is written for its three
+        roles (PWM'd leg, return leg, idle leg) instead of the general per-switch fractions.
         """
         f, ph, x = self.f, self.ph, self.x
         h = self.h
@@ -113,7 +115,6 @@ class ScalarRun:
         esr, c_total = f("esr_eff"), f("c_total")
         ratio, ki_pos, kp_pos, kd_pos = f("ratio"), f("ki_pos"), f("kp_pos"), f("kd_pos")
         i_lim, ki_i, kp_i = f("i_lim"), f("ki_i"), f("kp_i")
-        oh, ol, sh, sl = ph("open_high"), ph("open_low"), ph("short_high"), ph("short_low")
         rh3, rl3 = ph("r_high"), ph("r_low")
         vd, r_diode = f("v_diode"), f("r_diode")
         h_l = h / f("l_w")
@@ -124,113 +125,116 @@ class ScalarRun:
         r_w = f("r_w0") * (1.0 + COPPER_ALPHA * (motor_c - 25.0))  # sensors.winding_resistance
         self.r_w = r_w
         d_gain = h / (tf_v + h)
-        acc = [0.0] * N_ACC
+        lim_term = l_smps / h
+        ripple_l = 1.0 / (l_smps * f_sw)
+        zsw2, zpwm2 = z_sw * z_sw / 12.0, z_pwm * z_pwm
+        ke2 = 2.0 * k_e
+        refl_pos, refl_neg = eta / ratio, (1.0 / eta) / ratio
+        visc = 1.0 + h * b_visc / j_eq
+        h_j = h / j_eq
+        hinge_k = q * area_chord
+        inv_ratio_cmd = cmd_rad * ratio
+        faulted = self.faulted
+        key, coeffs = self.smps_cache
+        a_dc = a_a = a_b = a_c = a_v = a_d = a_vin = a_iin = a_v2 = a_r2 = 0.0
+        a_pm = a_ps = a_tq = a_om = a_hg = a_ic = a_iq = a_du = a_il = 0.0
         for _ in range(self.spb):
             theta_e = pp * theta
             sec = math.floor((theta_e - _SECTOR_OFFSET) / _SECTOR_WIDTH) % 6
-            s0 = _trap(theta_e, _SHIFTS[0])
-            s1 = _trap(theta_e, _SHIFTS[1])
-            s2 = _trap(theta_e, _SHIFTS[2])
+            # inverter.trapezoid, one phase at a time
+            phi = (theta_e - _HALF_PI) % _TWO_PI
+            d = _TWO_PI - phi if phi > math.pi else phi
+            s0 = 3.0 - d * _SLOPE
+            s0 = 1.0 if s0 > 1.0 else (-1.0 if s0 < -1.0 else s0)
+            phi = (theta_e - _SHIFT1) % _TWO_PI
+            d = _TWO_PI - phi if phi > math.pi else phi
+            s1 = 3.0 - d * _SLOPE
+            s1 = 1.0 if s1 > 1.0 else (-1.0 if s1 < -1.0 else s1)
+            phi = (theta_e - _SHIFT2) % _TWO_PI
+            d = _TWO_PI - phi if phi > math.pi else phi
+            s2 = 3.0 - d * _SLOPE
+            s2 = 1.0 if s2 > 1.0 else (-1.0 if s2 < -1.0 else s2)
             ke_w = k_e * omega
             e = (ke_w * s0, ke_w * s1, ke_w * s2)
             cur = (i0, i1, i2)
             vdc = v_out
             vin = bus_v - r_source * i_in
             # smps.voltage_loop
-            vref = v_ref * min(1.0, t / soft_start)
+            vref = v_ref * (t / soft_start) if t < soft_start else v_ref
             err = vref - v_out
             deriv += d_gain * ((err - prev_err) / h - deriv)
             prev_err = err
             trial = integ + ki_v * err * h
-            u_v = kp_v * err + trial + kd_v * deriv
-            vin_safe = max(vin, 1.0)
-            raw = (vref + u_v) / vin_safe
+            vin_safe = vin if vin > 1.0 else 1.0
+            raw = (vref + kp_v * err + trial + kd_v * deriv) / vin_safe
             r_eq = raw * ron_hi + (1.0 - raw) * ron_lo + r_dcr
-            d_cl = (v_out + r_eq * i_l + l_smps * (i_lim_smps - i_l) / h) / vin_safe
-            duty = max(min(raw, min(d_max, d_cl)), 0.0)
-            if not ((duty < raw and err > 0) or (duty > raw and err < 0)):
+            d_cl = (v_out + r_eq * i_l + lim_term * (i_lim_smps - i_l)) / vin_safe
+            duty = d_max if d_max < raw else raw
+            if d_cl < duty:
+                duty = d_cl
+            if duty < 0.0:
+                duty = 0.0
+            if not ((duty < raw and err > 0.0) or (duty > raw and err < 0.0)):
                 integ = trial
             # control.control
-            perr = cmd_rad * ratio - theta
-            trial = min(max(pos_integ + ki_pos * perr * h, -i_lim), i_lim)
+            perr = inv_ratio_cmd - theta
+            trial = pos_integ + ki_pos * perr * h
+            trial = i_lim if trial > i_lim else (-i_lim if trial < -i_lim else trial)
             raw = kp_pos * perr + trial - kd_pos * omega
-            i_cmd = min(max(raw, -i_lim), i_lim)
+            i_cmd = i_lim if raw > i_lim else (-i_lim if raw < -i_lim else raw)
             if raw == i_cmd:
                 pos_integ = trial
             kp_ph, km_ph = _PLUS[sec], _MINUS[sec]
             i_q = 0.5 * (cur[kp_ph] - cur[km_ph])
             e_i = i_cmd - i_q
-            trial_i = cur_integ + ki_i * e_i * h
-            v_cmd = kp_i * e_i + trial_i + 2.0 * k_e * omega
-            u_raw = v_cmd / max(vdc, 1.0)
-            u = min(max(u_raw, -U_MAX), U_MAX)
+            trial = cur_integ + ki_i * e_i * h
+            u_raw = (kp_i * e_i + trial + ke2 * omega) / (vdc if vdc > 1.0 else 1.0)
+            u = U_MAX if u_raw > U_MAX else (-U_MAX if u_raw < -U_MAX else u_raw)
             if u == u_raw:
-                cur_integ = trial_i
-            # inverter.on_fractions, legs, dc_link_current, conduction_loss
-            au = abs(u)
+                cur_integ = trial
+            au = u if u >= 0.0 else -u
             hi_ph, lo_ph = (kp_ph, km_ph) if u >= 0.0 else (km_ph, kp_ph)
-            v_leg = [0.0, 0.0, 0.0]
-            r_leg = [0.0, 0.0, 0.0]
-            floating = [False, False, False]
-            diode_only = [False, False, False]
-            g_shoot = 0.0
-            i_ext = 0.0
-            p_inv = 0.0
-            for k in range(3):
-                a_h = au if k == hi_ph else 0.0
-                a_lo = 1.0 if k == lo_ph else (1.0 - au if k == hi_ph else 0.0)
-                a_h = max(a_h * (1.0 - oh[k]), sh[k])
-                a_lo = max(a_lo * (1.0 - ol[k]), sl[k])
-                f_both = max(a_h + a_lo - 1.0, 0.0)
-                f_high = a_h - f_both
-                f_low = a_lo - f_both
-                f_none = max(1.0 - f_high - f_low - f_both, 0.0)
-                rh, rl = rh3[k], rl3[k]
-                r_sum = rh + rl
-                ik = cur[k]
-                v_dio = -vd if ik >= 0.0 else vdc + vd
-                v_leg[k] = f_high * vdc + f_both * vdc * (rl / r_sum) + f_none * v_dio
-                r_leg[k] = f_high * rh + f_low * rl + f_both * (rh * rl / r_sum) + f_none * r_diode
-                diode_only[k] = f_none > _FLOAT_ONE
-                floating[k] = diode_only[k] and ik == 0.0
-                g_shoot += f_both / r_sum
-                i_ext += f_high * ik + f_both * ik * (rl / (rh + rl)) + f_none * min(ik, 0.0)
-                i2 = ik * ik
-                f_low2 = max(1.0 - f_high - f_both - f_none, 0.0)
-                sw = f_high * rh * i2 + f_low2 * rl * i2
-                sw += f_both * (rh * rl / (rh + rl)) * i2
-                p_inv += sw + f_none * (vd * abs(ik) + r_diode * i2)
-            p_inv += g_shoot * vdc * vdc
+            if faulted:
+                v_leg, r_leg, floating, diode_only, g_shoot, i_ext, p_inv = _legs(
+                    self, hi_ph, lo_ph, au, vdc, cur)
+            else:
+                # inverter.legs etc. for an intact bridge: the PWM'd leg (high side on for
+                # au of the period, low side the rest), the return leg (low side on) and the
+                # idle leg (both off: its body diodes decide)
+                id_ph = 3 - hi_ph - lo_ph
+                rh, rl = rh3[hi_ph], rl3[hi_ph]
+                i_hi, i_lo, i_id = cur[hi_ph], cur[lo_ph], cur[id_ph]
+                v_leg = [0.0, 0.0, 0.0]
+                r_leg = [0.0, 0.0, 0.0]
+                v_leg[hi_ph] = au * vdc
+                r_leg[hi_ph] = au * rh + (1.0 - au) * rl
+                r_leg[lo_ph] = rl3[lo_ph]
+                v_leg[id_ph] = -vd if i_id >= 0.0 else vdc + vd
+                r_leg[id_ph] = r_diode
+                floating = [False, False, False]
+                floating[id_ph] = i_id == 0.0
+                diode_only = [False, False, False]
+                diode_only[id_ph] = True
+                g_shoot = 0.0
+                i_ext = au * i_hi + (i_id if i_id < 0.0 else 0.0)
+                p_inv = ((au * rh + (1.0 - au) * rl) * i_hi * i_hi + rl3[lo_ph] * i_lo * i_lo
+                         + vd * abs(i_id) + r_diode * i_id * i_id)
             i_dc = i_ext + g_shoot * vdc
             # smps.ripple_sq
-            di_l = max(vin - v_out, 0.0) * duty / (l_smps * f_sw)
-            i_inv_ac = abs(i_dc) * math.sqrt(max(au * (1.0 - au), 0.0))
-            ripple2 = (di_l * z_sw) ** 2 / 12.0 + (i_inv_ac * z_pwm) ** 2
+            dv = vin - v_out
+            di_l = dv * duty * ripple_l if dv > 0.0 else 0.0
+            i_ac = i_dc * i_dc * au * (1.0 - au)
+            ripple2 = di_l * di_l * zsw2 + (i_ac * zpwm2 if i_ac > 0.0 else 0.0)
             i_l_prev = i_l
             p_smps = i_l * i_l * (duty * ron_hi + (1.0 - duty) * ron_lo) + p_sw
-            # smps.step
+            # smps.step, its matrix exponential reused while (r, g) is unchanged
             r = duty * ron_hi + (1.0 - duty) * ron_lo + r_dcr
-            kk = 1.0 / (1.0 + esr * g_shoot)
-            a11 = -(r + kk * esr) / l_smps
-            a12 = -kk / l_smps
-            a21 = kk / c_total
-            a22 = -g_shoot * kk / c_total
+            if key != (r, g_shoot):
+                key = (r, g_shoot)
+                coeffs = _smps_coeffs(r, g_shoot, esr, l_smps, c_total, h)
+            kk, a11, a12, a21, a22, ea, eb, fa, fb = coeffs
             b1 = (duty * vin + kk * esr * i_ext) / l_smps
             b2 = -kk * i_ext / c_total
-            half_tr = 0.5 * (a11 + a22)
-            det = a11 * a22 - a12 * a21
-            disc = cmath.sqrt(complex(half_tr * half_tr - det))
-            tiny = 1e-7 * (abs(half_tr) + 1.0)
-            if abs(disc) < tiny:
-                disc = complex(tiny)
-            l1, l2 = half_tr + disc, half_tr - disc
-            e1, f1 = _phi(l1, h)
-            e2, f2 = _phi(l2, h)
-            dl = l1 - l2
-            ea = ((e1 - e2) / dl).real
-            eb = ((l1 * e2 - l2 * e1) / dl).real
-            fa = ((f1 - f2) / dl).real
-            fb = ((l1 * f2 - l2 * f1) / dl).real
             ab1 = a11 * b1 + a12 * b2
             ab2 = a21 * b1 + a22 * b2
             i_l, v_c = (ea * (a11 * i_l + a12 * v_c) + eb * i_l + fa * ab1 + fb * b1,
@@ -242,27 +246,44 @@ class ScalarRun:
                                        vdc, vd, r_diode)
             torque = k_e * (s0 * i0 + s1 * i1 + s2 * i2)
             delta = theta / ratio
-            hinge = q * area_chord * (ch0 + ch_delta * delta)  # motor.hinge_moment
+            hinge = hinge_k * (ch0 + ch_delta * delta)  # motor.hinge_moment
             # motor.mechanics
-            reflect = (eta if hinge * omega > 0.0 else 1.0 / eta) / ratio
-            drive = torque - t_coul * math.tanh(omega / w_coul) + hinge * reflect
-            omega = (omega + h * drive / j_eq) / (1.0 + h * b_visc / j_eq)
+            drive = (torque - t_coul * math.tanh(omega / w_coul)
+                     + hinge * (refl_pos if hinge * omega > 0.0 else refl_neg))
+            omega = (omega + h_j * drive) / visc
             theta_new = theta + h * omega
-            if abs(theta_new) > limit:
-                theta_new = min(max(theta_new, -limit), limit)
+            if theta_new > limit or theta_new < -limit:
+                theta_new = limit if theta_new > limit else -limit
                 if omega * theta_new > 0.0:
                     omega = 0.0
             theta = theta_new
-            row = (i_dc, i0, i1, i2, v_out, delta, vin, i_in, v_out * v_out, ripple2,
-                   r_w * (i0 * i0 + i1 * i1 + i2 * i2), p_smps + p_inv, torque, omega, hinge,
-                   i_cmd, i_q, duty, i_l_prev)
-            for k in range(N_ACC):
-                acc[k] += row[k]
+            a_dc += i_dc
+            a_a += i0
+            a_b += i1
+            a_c += i2
+            a_v += v_out
+            a_d += delta
+            a_vin += vin
+            a_iin += i_in
+            a_v2 += v_out * v_out
+            a_r2 += ripple2
+            a_pm += r_w * (i0 * i0 + i1 * i1 + i2 * i2)
+            a_ps += p_smps + p_inv
+            a_tq += torque
+            a_om += omega
+            a_hg += hinge
+            a_ic += i_cmd
+            a_iq += i_q
+            a_du += duty
+            a_il += i_l_prev
             t += h
+        self.smps_cache = (key, coeffs)
         x[:] = (i_l, v_c, v_out, integ, deriv, prev_err, duty, pos_integ, cur_integ, i_cmd,
                 i_q, i0, i1, i2, vn, omega, theta, i_in, motor_c, _stage, _drift, bus_v)
-        for k in range(N_ACC):
-            out[k] = acc[k] / self.spb
+        n = float(self.spb)
+        out[:] = (a_dc / n, a_a / n, a_b / n, a_c / n, a_v / n, a_d / n, a_vin / n, a_iin / n,
+                  a_v2 / n, a_r2 / n, a_pm / n, a_ps / n, a_tq / n, a_om / n, a_hg / n,
+                  a_ic / n, a_iq / n, a_du / n, a_il / n)
         return t
 
     def advance_slow(self, dt: float, motor_loss_w: float, stage_loss_w: float,
@@ -281,6 +302,73 @@ class ScalarRun:
         x[20] = drift
         raw = f("bus_nominal") + bus_offset + drift + f("bus_ripple") * z_ripple
         x[21] = min(max(raw, f("bus_min")), f("bus_max"))
+
+
+def _legs(run: ScalarRun, hi_ph: int, lo_ph: int, au: float, vdc: float,
+          cur: tuple[float, float, float]) -> tuple[list[float], list[float], list[bool],
+                                                    list[bool], float, float, float]:
+    """inverter.on_fractions, legs, dc_link_current and conduction_loss for one run."""
+    oh, ol, sh, sl = (run.ph("open_high"), run.ph("open_low"), run.ph("short_high"),
+                      run.ph("short_low"))
+    rh3, rl3 = run.ph("r_high"), run.ph("r_low")
+    vd, r_diode = run.f("v_diode"), run.f("r_diode")
+    v_leg = [0.0, 0.0, 0.0]
+    r_leg = [0.0, 0.0, 0.0]
+    floating = [False, False, False]
+    diode_only = [False, False, False]
+    g_shoot = i_ext = p_inv = 0.0
+    for k in range(3):
+        a_h = au if k == hi_ph else 0.0
+        a_lo = 1.0 if k == lo_ph else (1.0 - au if k == hi_ph else 0.0)
+        a_h = max(a_h * (1.0 - oh[k]), sh[k])
+        a_lo = max(a_lo * (1.0 - ol[k]), sl[k])
+        f_both = max(a_h + a_lo - 1.0, 0.0)
+        f_high = a_h - f_both
+        f_low = a_lo - f_both
+        f_none = max(1.0 - f_high - f_low - f_both, 0.0)
+        rh, rl = rh3[k], rl3[k]
+        r_sum = rh + rl
+        ik = cur[k]
+        v_dio = -vd if ik >= 0.0 else vdc + vd
+        v_leg[k] = f_high * vdc + f_both * vdc * (rl / r_sum) + f_none * v_dio
+        r_leg[k] = f_high * rh + f_low * rl + f_both * (rh * rl / r_sum) + f_none * r_diode
+        diode_only[k] = f_none > _FLOAT_ONE
+        floating[k] = diode_only[k] and ik == 0.0
+        g_shoot += f_both / r_sum
+        i_ext += f_high * ik + f_both * ik * (rl / r_sum) + f_none * min(ik, 0.0)
+        i2 = ik * ik
+        f_low2 = max(1.0 - f_high - f_both - f_none, 0.0)
+        sw = f_high * rh * i2 + f_low2 * rl * i2
+        sw += f_both * (rh * rl / r_sum) * i2
+        p_inv += sw + f_none * (vd * abs(ik) + r_diode * i2)
+    p_inv += g_shoot * vdc * vdc
+    return v_leg, r_leg, floating, diode_only, g_shoot, i_ext, p_inv
+
+
+def _smps_coeffs(r: float, g: float, esr: float, lc: float, cc: float,
+                 h: float) -> tuple[float, ...]:
+    """smps.step's system matrix and exact-step coefficients for resistance r, conductance g.
+
+    Returns ``(k, a11, a12, a21, a22, ea, eb, fa, fb)``: one step is
+    ``x' = (ea*A + eb*I) x + (fa*A + fb*I) b``.
+    """
+    kk = 1.0 / (1.0 + esr * g)
+    a11 = -(r + kk * esr) / lc
+    a12 = -kk / lc
+    a21 = kk / cc
+    a22 = -g * kk / cc
+    half_tr = 0.5 * (a11 + a22)
+    det = a11 * a22 - a12 * a21
+    disc = cmath.sqrt(complex(half_tr * half_tr - det))
+    tiny = 1e-7 * (abs(half_tr) + 1.0)
+    if abs(disc) < tiny:
+        disc = complex(tiny)
+    l1, l2 = half_tr + disc, half_tr - disc
+    e1, f1 = _phi(l1, h)
+    e2, f2 = _phi(l2, h)
+    dl = l1 - l2
+    return (kk, a11, a12, a21, a22, ((e1 - e2) / dl).real, ((l1 * e2 - l2 * e1) / dl).real,
+            ((f1 - f2) / dl).real, ((l1 * f2 - l2 * f1) / dl).real)
 
 
 def _windings(i: tuple[float, float, float], e: tuple[float, float, float],
