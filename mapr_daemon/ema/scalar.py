@@ -203,21 +203,13 @@ class ScalarRun:
                 # idle leg (both off: its body diodes decide)
                 id_ph = 3 - hi_ph - lo_ph
                 rh, rl = rh3[hi_ph], rl3[hi_ph]
+                r_hi = au * rh + (1.0 - au) * rl
+                r_lo = rl3[lo_ph]
                 i_hi, i_lo, i_id = cur[hi_ph], cur[lo_ph], cur[id_ph]
-                v_leg = [0.0, 0.0, 0.0]
-                r_leg = [0.0, 0.0, 0.0]
-                v_leg[hi_ph] = au * vdc
-                r_leg[hi_ph] = au * rh + (1.0 - au) * rl
-                r_leg[lo_ph] = rl3[lo_ph]
-                v_leg[id_ph] = -vd if i_id >= 0.0 else vdc + vd
-                r_leg[id_ph] = r_diode
-                floating = [False, False, False]
-                floating[id_ph] = i_id == 0.0
-                diode_only = [False, False, False]
-                diode_only[id_ph] = True
+                v_hi = au * vdc
                 g_shoot = 0.0
                 i_ext = au * i_hi + (i_id if i_id < 0.0 else 0.0)
-                p_inv = ((au * rh + (1.0 - au) * rl) * i_hi * i_hi + rl3[lo_ph] * i_lo * i_lo
+                p_inv = (r_hi * i_hi * i_hi + r_lo * i_lo * i_lo
                          + vd * abs(i_id) + r_diode * i_id * i_id)
             i_dc = i_ext + g_shoot * vdc
             # smps.ripple_sq
@@ -242,8 +234,45 @@ class ScalarRun:
             v_out = kk * (v_c + esr * (i_l - i_ext))
             i_in = duty * i_l
             # motor.solve_windings
-            i0, i1, i2, vn = _windings(cur, e, v_leg, r_leg, floating, diode_only, r_w, h_l,
-                                       vdc, vd, r_diode)
+            if faulted:
+                i0, i1, i2, vn = _windings(cur, e, v_leg, r_leg, floating, diode_only, r_w,
+                                           h_l, vdc, vd, r_diode)
+            else:
+                # the same for an intact bridge: PWM'd and return legs always connected, the
+                # idle leg through a diode while it carries current (or starts to)
+                e_hi, e_lo, e_id = e[hi_ph], e[lo_ph], e[id_ph]
+                w_hi = 1.0 / (1.0 + h_l * (r_hi + r_w))
+                w_lo = 1.0 / (1.0 + h_l * (r_lo + r_w))
+                y = w_hi * (i_hi + h_l * (v_hi - e_hi)) + w_lo * (i_lo + h_l * (0.0 - e_lo))
+                w_id = v_id = 0.0
+                if i_id == 0.0:
+                    vn = y / (h_l * (w_hi + w_lo))
+                    v_term = e_id + vn
+                    if v_term > vdc + vd or v_term < -vd:
+                        v_id = vdc + vd if v_term > vdc + vd else -vd
+                        w_id = 1.0 / (1.0 + h_l * (r_diode + r_w))
+                else:
+                    v_id = -vd if i_id >= 0.0 else vdc + vd
+                    w_id = 1.0 / (1.0 + h_l * (r_diode + r_w))
+                if w_id != 0.0:
+                    vn = ((y + w_id * (i_id + h_l * (v_id - e_id)))
+                          / (h_l * (w_hi + w_lo + w_id)))
+                n_id = w_id * (i_id + h_l * (v_id - e_id - vn)) if w_id != 0.0 else 0.0
+                n_hi = w_hi * (i_hi + h_l * (v_hi - e_hi - vn))
+                n_lo = w_lo * (i_lo + h_l * (0.0 - e_lo - vn))
+                if i_id != 0.0 and n_id * i_id < 0.0:
+                    # the idle leg's diode current would reverse: extinguished
+                    n_id = 0.0
+                    n_alive = (n_hi != 0.0) + (n_lo != 0.0)
+                    resid = (n_hi + n_lo) / max(n_alive, 1)
+                    if n_alive < 2:
+                        n_hi = n_lo = 0.0
+                    else:
+                        n_hi -= resid
+                        n_lo -= resid
+                new = [0.0, 0.0, 0.0]
+                new[hi_ph], new[lo_ph], new[id_ph] = n_hi, n_lo, n_id
+                i0, i1, i2 = new
             torque = k_e * (s0 * i0 + s1 * i1 + s2 * i2)
             delta = theta / ratio
             hinge = hinge_k * (ch0 + ch_delta * delta)  # motor.hinge_moment
