@@ -5,10 +5,10 @@ the whole family in one clause and still tell the kinds apart::
 
     MaprError
     ├── EncodeError            a word list or impairment the encoder cannot produce
-    ├── CaptureFormatError     a capture file that cannot be read at all (names file and cause)
     └── MonitorError           bus-monitor failures
         ├── BackendUnavailable the backend is unknown or its optional dependency is missing
         ├── BackendError       a backend failed while running (card unplugged, read error)
+        ├── CaptureFormatError a capture file that cannot be read at all (names file and cause)
         └── MonitorClosed      recv() on a monitor that has been closed
 
 Bad *signal* is never an exception: a malformed word or message is data, returned with
@@ -27,10 +27,6 @@ class EncodeError(MaprError, ValueError):
     """The encoder was asked for something it cannot produce (bad value, rate, fault)."""
 
 
-class CaptureFormatError(MaprError):
-    """A capture file cannot be read: wrong format, missing metadata, unreadable."""
-
-
 class MonitorError(MaprError):
     """Base of the bus-monitor errors."""
 
@@ -41,6 +37,10 @@ class BackendUnavailable(MonitorError):
 
 class BackendError(MonitorError):
     """A backend failed while running; the monitor keeps what it already received."""
+
+
+class CaptureFormatError(MonitorError):
+    """A capture file cannot be read: wrong format, missing metadata, unreadable."""
 
 
 class MonitorClosed(MonitorError):
