@@ -9,9 +9,11 @@ How a word is found and read (all steps are numpy operations over every word at 
 1. *Sync.* A crossing with at least ~1 µs of one polarity before it and of the other after it
    is a sync candidate (data bits never hold a level for more than 1 µs).
 2. *Anchor.* Every crossing of a word lies near a multiple of the 0.5 µs half-bit from the
-   sync's start, each displaced by its own jitter. The circular mean of the crossings' phases
-   on that 0.5 µs grid gives the start to a few ns even when every crossing is off by
-   ±150 ns, which no single crossing could.
+   sync's start, each displaced by its own jitter. The middle of the shortest arc of the
+   0.5 µs circle that holds all the crossings' phases (the circular midrange) fixes the grid
+   so that no crossing is further from its slot than half their spread, even when every
+   crossing is off by ±150 ns; where the phases cover most of the circle (low sample rates
+   quantize them) the circular mean takes over.
 3. *Validation.* A real sync holds its level for three half-bits on each side: the segment
    before the middle crossing must start at or before grid slot 0 and the one after it end at
    or after slot 6; anything else (a long data run) is not a sync.
