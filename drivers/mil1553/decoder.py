@@ -298,7 +298,7 @@ class ManchesterDecoder:
     @staticmethod
     def _silence_after(seg: Segments, times: FloatArray) -> FloatArray:
         """For each time, when the line next falls silent (inf if it never does here)."""
-        silent_after = seg.right[np.append(~seg.adjacent_prev[1:], True)]
+        silent_after = seg.silent_after
         idx = np.searchsorted(silent_after, times)
         stop: FloatArray = np.where(idx < silent_after.size,
                                     silent_after[np.minimum(idx, silent_after.size - 1)], np.inf)

@@ -108,16 +108,12 @@ class Segments:
     left: FloatArray
     right: FloatArray
     adjacent_prev: npt.NDArray[np.bool_]
-
-    @property
-    def crossings(self) -> FloatArray:
-        """Times of all crossings, sorted."""
-        return self.left[self.adjacent_prev]
-
-    @property
-    def crossing_level(self) -> npt.NDArray[np.int8]:
-        """The polarity each crossing goes to (+1: negative to positive)."""
-        return self.level[self.adjacent_prev]
+    crossings: FloatArray
+    """Times of all crossings, sorted (the ``left`` of segments that begin at one)."""
+    crossing_level: npt.NDArray[np.int8]
+    """The polarity each crossing goes to (+1: negative to positive)."""
+    silent_after: FloatArray
+    """Times at which activity stops (a segment's ``right`` followed by silence), sorted."""
 
 
 def segments(starts: IntArray, levels: npt.NDArray[np.int8], n: int, *, dead_band_max: int
@@ -137,4 +133,7 @@ def segments(starts: IntArray, levels: npt.NDArray[np.int8], n: int, *, dead_ban
     left[1:] = np.where(adjacent[1:], crossing_at, left[1:])
     right = e - 0.5
     right[:-1] = np.where(adjacent[1:], crossing_at, right[:-1])
-    return Segments(s, e, lv, left.astype(np.float64), right.astype(np.float64), adjacent)
+    left, right = left.astype(np.float64), right.astype(np.float64)
+    ends_activity = np.append(~adjacent[1:], True) if adjacent.size else adjacent
+    return Segments(s, e, lv, left, right, adjacent, left[adjacent], lv[adjacent],
+                    right[ends_activity])
