@@ -26,13 +26,15 @@ from mapr_daemon.ema.sensors import COPPER_ALPHA
 _PLUS = tuple(int(row.argmax()) for row in POSITIVE)
 """Index of the "+" phase of each Hall sector (inverter.POSITIVE as plain ints)."""
 _MINUS = tuple(int(row.argmax()) for row in NEGATIVE)
+_IDLE = tuple(3 - a - b for a, b in zip(_PLUS, _MINUS, strict=True))
+"""The phase on its back-EMF ramp (neither "+" nor "-") in each sector."""
 _TWO_PI = 2.0 * math.pi
 _SLOPE = 6.0 / math.pi
 _SECTOR_OFFSET = math.pi / 6.0
 _SECTOR_WIDTH = math.pi / 3.0
 _HALF_PI = math.pi / 2.0
-_SHIFT1 = 2.0 * math.pi / 3.0 + _HALF_PI
-_SHIFT2 = 4.0 * math.pi / 3.0 + _HALF_PI
+_SHIFTS = (_HALF_PI, 2.0 * math.pi / 3.0 + _HALF_PI, 4.0 * math.pi / 3.0 + _HALF_PI)
+"""Phase offsets of the trapezoids' peaks (inverter.trapezoid)."""
 _FLOAT_ONE = 1.0 - 1e-9
 
 N_ACC = 19
@@ -60,13 +62,16 @@ class ScalarRun:
         self.spb = p.samples_per_block
         names = [f.name for f in p.__dataclass_fields__.values() if f.name not in
                  ("n", "step_s", "samples_per_block", "full_scale", "lsb", "noise")]
-        self.par: dict[str, float | tuple[float, float, float]] = {}
+        self.fp: dict[str, float] = {}
+        """Scalar parameters by BatchArrays field name."""
+        self.p3: dict[str, tuple[float, float, float]] = {}
+        """Per-phase parameters (A, B, C) by BatchArrays field name."""
         for name in names:
             arr = getattr(p, name)
             if arr.ndim == 2:
-                self.par[name] = (float(arr[0, r]), float(arr[1, r]), float(arr[2, r]))
+                self.p3[name] = (float(arr[0, r]), float(arr[1, r]), float(arr[2, r]))
             else:
-                self.par[name] = float(arr[r])
+                self.fp[name] = float(arr[r])
         # state: SMPS (i_l, v_c, v_out, integ, deriv, prev_err, duty), control
         # (pos_integ, cur_integ, i_cmd, i_q), windings, mechanics, supply, slow
         self.x: list[float] = [0.0] * 22
@@ -83,14 +88,10 @@ class ScalarRun:
     """Names of the entries of ``x``."""
 
     def f(self, name: str) -> float:
-        v = self.par[name]
-        assert isinstance(v, float)
-        return v
+        return self.fp[name]
 
     def ph(self, name: str) -> tuple[float, float, float]:
-        v = self.par[name]
-        assert isinstance(v, tuple)
-        return v
+        return self.p3[name]
 
     def sample(self, t: float, cmd_rad: float, q: float, z_sw: float, z_pwm: float,
                out: list[float]) -> float:
@@ -103,26 +104,26 @@ class ScalarRun:
         Ron — and the bridge of a run without a shorted or open switch is written for its three
         roles (PWM'd leg, return leg, idle leg) instead of the general per-switch fractions.
         """
-        f, ph, x = self.f, self.ph, self.x
+        fp, p3, x = self.fp, self.p3, self.x
         h = self.h
         (i_l, v_c, v_out, integ, deriv, prev_err, duty, pos_integ, cur_integ, i_cmd, i_q,
          i0, i1, i2, vn, omega, theta, i_in, motor_c, _stage, _drift, bus_v) = x
-        pp, k_e, r_source = f("pole_pairs"), f("k_e"), f("r_source")
-        soft_start, v_ref, tf_v = max(f("soft_start"), 1e-12), f("v_ref"), f("tf_v")
-        kp_v, ki_v, kd_v = f("kp_v"), f("ki_v"), f("kd_v")
-        ron_hi, ron_lo, r_dcr, l_smps = f("ron_hi"), f("ron_lo"), f("r_dcr"), f("l_smps")
-        i_lim_smps, d_max, f_sw, p_sw = f("i_lim_smps"), f("d_max"), f("f_sw"), f("p_sw")
-        esr, c_total = f("esr_eff"), f("c_total")
-        ratio, ki_pos, kp_pos, kd_pos = f("ratio"), f("ki_pos"), f("kp_pos"), f("kd_pos")
-        i_lim, ki_i, kp_i = f("i_lim"), f("ki_i"), f("kp_i")
-        rh3, rl3 = ph("r_high"), ph("r_low")
-        vd, r_diode = f("v_diode"), f("r_diode")
-        h_l = h / f("l_w")
-        area_chord, ch0, ch_delta = f("area_chord"), f("ch0"), f("ch_delta")
-        eta, t_coul, w_coul, j_eq, b_visc = (f("eta"), f("t_coul"), f("w_coul"), f("j_eq"),
-                                             f("b_visc"))
-        limit = f("travel_rad") * ratio
-        r_w = f("r_w0") * (1.0 + COPPER_ALPHA * (motor_c - 25.0))  # sensors.winding_resistance
+        pp, k_e, r_source = fp["pole_pairs"], fp["k_e"], fp["r_source"]
+        soft_start, v_ref, tf_v = max(fp["soft_start"], 1e-12), fp["v_ref"], fp["tf_v"]
+        kp_v, ki_v, kd_v = fp["kp_v"], fp["ki_v"], fp["kd_v"]
+        ron_hi, ron_lo, r_dcr, l_smps = fp["ron_hi"], fp["ron_lo"], fp["r_dcr"], fp["l_smps"]
+        i_lim_smps, d_max, f_sw, p_sw = fp["i_lim_smps"], fp["d_max"], fp["f_sw"], fp["p_sw"]
+        esr, c_total = fp["esr_eff"], fp["c_total"]
+        ratio, ki_pos, kp_pos, kd_pos = fp["ratio"], fp["ki_pos"], fp["kp_pos"], fp["kd_pos"]
+        i_lim, ki_i, kp_i = fp["i_lim"], fp["ki_i"], fp["kp_i"]
+        rh3, rl3 = p3["r_high"], p3["r_low"]
+        vd, r_diode = fp["v_diode"], fp["r_diode"]
+        h_l = h / fp["l_w"]
+        area_chord, ch0, ch_delta = fp["area_chord"], fp["ch0"], fp["ch_delta"]
+        eta, t_coul, w_coul, j_eq, b_visc = (fp["eta"], fp["t_coul"], fp["w_coul"], fp["j_eq"],
+                                             fp["b_visc"])
+        limit = fp["travel_rad"] * ratio
+        r_w = fp["r_w0"] * (1.0 + COPPER_ALPHA * (motor_c - 25.0))  # sensors.winding_resistance
         self.r_w = r_w
         d_gain = h / (tf_v + h)
         lim_term = l_smps / h
@@ -135,27 +136,21 @@ class ScalarRun:
         hinge_k = q * area_chord
         inv_ratio_cmd = cmd_rad * ratio
         faulted = self.faulted
-        key, coeffs = self.smps_cache
+        (key_r, key_g), coeffs = self.smps_cache
         a_dc = a_a = a_b = a_c = a_v = a_d = a_vin = a_iin = a_v2 = a_r2 = 0.0
         a_pm = a_ps = a_tq = a_om = a_hg = a_ic = a_iq = a_du = a_il = 0.0
         for _ in range(self.spb):
             theta_e = pp * theta
             sec = math.floor((theta_e - _SECTOR_OFFSET) / _SECTOR_WIDTH) % 6
-            # inverter.trapezoid, one phase at a time
-            phi = (theta_e - _HALF_PI) % _TWO_PI
+            kp_ph, km_ph, id_ph = _PLUS[sec], _MINUS[sec], _IDLE[sec]
+            # inverter.trapezoid: in a sector the "+" and "-" phases are on their flat tops
+            # (+1, -1) and only the idle phase ramps
+            phi = (theta_e - _SHIFTS[id_ph]) % _TWO_PI
             d = _TWO_PI - phi if phi > math.pi else phi
-            s0 = 3.0 - d * _SLOPE
-            s0 = 1.0 if s0 > 1.0 else (-1.0 if s0 < -1.0 else s0)
-            phi = (theta_e - _SHIFT1) % _TWO_PI
-            d = _TWO_PI - phi if phi > math.pi else phi
-            s1 = 3.0 - d * _SLOPE
-            s1 = 1.0 if s1 > 1.0 else (-1.0 if s1 < -1.0 else s1)
-            phi = (theta_e - _SHIFT2) % _TWO_PI
-            d = _TWO_PI - phi if phi > math.pi else phi
-            s2 = 3.0 - d * _SLOPE
-            s2 = 1.0 if s2 > 1.0 else (-1.0 if s2 < -1.0 else s2)
+            s_id = 3.0 - d * _SLOPE
+            s_id = 1.0 if s_id > 1.0 else (-1.0 if s_id < -1.0 else s_id)
             ke_w = k_e * omega
-            e = (ke_w * s0, ke_w * s1, ke_w * s2)
+            e_id = ke_w * s_id
             cur = (i0, i1, i2)
             vdc = v_out
             vin = bus_v - r_source * i_in
@@ -184,7 +179,6 @@ class ScalarRun:
             i_cmd = i_lim if raw > i_lim else (-i_lim if raw < -i_lim else raw)
             if raw == i_cmd:
                 pos_integ = trial
-            kp_ph, km_ph = _PLUS[sec], _MINUS[sec]
             i_q = 0.5 * (cur[kp_ph] - cur[km_ph])
             e_i = i_cmd - i_q
             trial = cur_integ + ki_i * e_i * h
@@ -195,13 +189,15 @@ class ScalarRun:
             au = u if u >= 0.0 else -u
             hi_ph, lo_ph = (kp_ph, km_ph) if u >= 0.0 else (km_ph, kp_ph)
             if faulted:
+                shape = [0.0, 0.0, 0.0]
+                shape[kp_ph], shape[km_ph], shape[id_ph] = 1.0, -1.0, s_id
+                e = (ke_w * shape[0], ke_w * shape[1], ke_w * shape[2])
                 v_leg, r_leg, floating, diode_only, g_shoot, i_ext, p_inv = _legs(
                     self, hi_ph, lo_ph, au, vdc, cur)
             else:
                 # inverter.legs etc. for an intact bridge: the PWM'd leg (high side on for
                 # au of the period, low side the rest), the return leg (low side on) and the
                 # idle leg (both off: its body diodes decide)
-                id_ph = 3 - hi_ph - lo_ph
                 rh, rl = rh3[hi_ph], rl3[hi_ph]
                 r_hi = au * rh + (1.0 - au) * rl
                 r_lo = rl3[lo_ph]
@@ -221,8 +217,8 @@ class ScalarRun:
             p_smps = i_l * i_l * (duty * ron_hi + (1.0 - duty) * ron_lo) + p_sw
             # smps.step, its matrix exponential reused while (r, g) is unchanged
             r = duty * ron_hi + (1.0 - duty) * ron_lo + r_dcr
-            if key != (r, g_shoot):
-                key = (r, g_shoot)
+            if r != key_r or g_shoot != key_g:
+                key_r, key_g = r, g_shoot
                 coeffs = _smps_coeffs(r, g_shoot, esr, l_smps, c_total, h)
             kk, a11, a12, a21, a22, ea, eb, fa, fb = coeffs
             b1 = (duty * vin + kk * esr * i_ext) / l_smps
@@ -237,10 +233,12 @@ class ScalarRun:
             if faulted:
                 i0, i1, i2, vn = _windings(cur, e, v_leg, r_leg, floating, diode_only, r_w,
                                            h_l, vdc, vd, r_diode)
+                torque = k_e * (shape[0] * i0 + shape[1] * i1 + shape[2] * i2)
             else:
                 # the same for an intact bridge: PWM'd and return legs always connected, the
                 # idle leg through a diode while it carries current (or starts to)
-                e_hi, e_lo, e_id = e[hi_ph], e[lo_ph], e[id_ph]
+                e_hi = ke_w if u >= 0.0 else -ke_w
+                e_lo = -e_hi
                 w_hi = 1.0 / (1.0 + h_l * (r_hi + r_w))
                 w_lo = 1.0 / (1.0 + h_l * (r_lo + r_w))
                 y = w_hi * (i_hi + h_l * (v_hi - e_hi)) + w_lo * (i_lo + h_l * (0.0 - e_lo))
@@ -270,10 +268,10 @@ class ScalarRun:
                     else:
                         n_hi -= resid
                         n_lo -= resid
+                torque = k_e * ((n_hi - n_lo if u >= 0.0 else n_lo - n_hi) + s_id * n_id)
                 new = [0.0, 0.0, 0.0]
                 new[hi_ph], new[lo_ph], new[id_ph] = n_hi, n_lo, n_id
                 i0, i1, i2 = new
-            torque = k_e * (s0 * i0 + s1 * i1 + s2 * i2)
             delta = theta / ratio
             hinge = hinge_k * (ch0 + ch_delta * delta)  # motor.hinge_moment
             # motor.mechanics
@@ -306,7 +304,7 @@ class ScalarRun:
             a_du += duty
             a_il += i_l_prev
             t += h
-        self.smps_cache = (key, coeffs)
+        self.smps_cache = ((key_r, key_g), coeffs)
         x[:] = (i_l, v_c, v_out, integ, deriv, prev_err, duty, pos_integ, cur_integ, i_cmd,
                 i_q, i0, i1, i2, vn, omega, theta, i_in, motor_c, _stage, _drift, bus_v)
         n = float(self.spb)
