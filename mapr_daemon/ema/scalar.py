@@ -1,26 +1,30 @@
 """The plant's step in plain Python floats, for one run at a time (a lone actuator, small batches).
 
 Why: the vectorised step (:mod:`mapr_daemon.ema.plant` with :mod:`smps`, :mod:`inverter`,
-:mod:`motor`, :mod:`control`) pays numpy's per-call overhead (~1 us per ufunc, a few hundred
-calls per step) whatever the number of runs, which is cheap per run in a 104-run batch and
-ruinous for one. The same equations written against ``math`` floats and unrolled over the three
-phases cost ~30 ns per operation and allocate nothing.
+:mod:`motor`, :mod:`control`) pays numpy's per-call overhead (~1 us per ufunc, some 200 calls
+per step) whatever the number of runs: cheap per run in a 104-run batch, ruinous for one (0.1x
+real time). The same equations on ``math`` floats, unrolled over the three phases, cost ~15 ns
+per operation and allocate almost nothing: ~3.5 us per 25 us step, ~6.5x real time.
 
-Equivalence: this module is a line-by-line transcription of the vectorised functions named in
-each comment — same formulas, same order of operations, same step — so a run advanced here agrees
-with the vectorised path to floating-point rounding (``tests/ema/test_scalar_path.py`` checks it
-for every fault kind over the BIT profile and a JSBSim segment). A change to the physics must be
-made in both places; that test fails if one is forgotten.
+Equivalence: the same formulas and the same fixed step as the vectorised functions named in
+each comment, specialised where that is exact (a sector's "+" and "-" phases sit on their
+flat tops; an intact bridge has one PWM'd, one return and one idle leg; the SMPS step's matrix
+exponential depends only on the switch resistance and shoot-through conductance), so a run
+agrees with the vectorised path to floating-point rounding: ``tests/ema/test_scalar_path.py``
+shadows the vector path sample by sample (1e-9 relative) for every fault kind over the BIT
+profile and a JSBSim segment, and compares free runs to one ADC LSB. A change to the physics
+must be made in both places; that test fails if one is forgotten. Shorted or open switches go
+through the general per-switch code of :mod:`scalar_bridge`.
 """
 
 from __future__ import annotations
 
-import cmath
 import math
 
 from mapr_daemon.ema.batch import BatchArrays
 from mapr_daemon.ema.control import U_MAX
 from mapr_daemon.ema.inverter import NEGATIVE, POSITIVE
+from mapr_daemon.ema.scalar_bridge import legs, smps_coeffs, windings
 from mapr_daemon.ema.sensors import COPPER_ALPHA
 
 _PLUS = tuple(int(row.argmax()) for row in POSITIVE)
@@ -35,18 +39,8 @@ _SECTOR_WIDTH = math.pi / 3.0
 _HALF_PI = math.pi / 2.0
 _SHIFTS = (_HALF_PI, 2.0 * math.pi / 3.0 + _HALF_PI, 4.0 * math.pi / 3.0 + _HALF_PI)
 """Phase offsets of the trapezoids' peaks (inverter.trapezoid)."""
-_FLOAT_ONE = 1.0 - 1e-9
-
 N_ACC = 19
 """Accumulator rows, in the order of ``plant._ACC``."""
-
-
-def _phi(lam: complex, h: float) -> tuple[complex, complex]:
-    """smps._phi: exp(lam*h) and its integral over [0, h]."""
-    e = cmath.exp(lam * h)
-    if abs(lam * h) < 1e-8:
-        return e, complex(h)
-    return e, (e - 1.0) / lam
 
 
 class ScalarRun:
@@ -192,7 +186,7 @@ class ScalarRun:
                 shape = [0.0, 0.0, 0.0]
                 shape[kp_ph], shape[km_ph], shape[id_ph] = 1.0, -1.0, s_id
                 e = (ke_w * shape[0], ke_w * shape[1], ke_w * shape[2])
-                v_leg, r_leg, floating, diode_only, g_shoot, i_ext, p_inv = _legs(
+                v_leg, r_leg, floating, diode_only, g_shoot, i_ext, p_inv = legs(
                     self, hi_ph, lo_ph, au, vdc, cur)
             else:
                 # inverter.legs etc. for an intact bridge: the PWM'd leg (high side on for
@@ -219,7 +213,7 @@ class ScalarRun:
             r = duty * ron_hi + (1.0 - duty) * ron_lo + r_dcr
             if r != key_r or g_shoot != key_g:
                 key_r, key_g = r, g_shoot
-                coeffs = _smps_coeffs(r, g_shoot, esr, l_smps, c_total, h)
+                coeffs = smps_coeffs(r, g_shoot, esr, l_smps, c_total, h)
             kk, a11, a12, a21, a22, ea, eb, fa, fb = coeffs
             b1 = (duty * vin + kk * esr * i_ext) / l_smps
             b2 = -kk * i_ext / c_total
@@ -231,7 +225,7 @@ class ScalarRun:
             i_in = duty * i_l
             # motor.solve_windings
             if faulted:
-                i0, i1, i2, vn = _windings(cur, e, v_leg, r_leg, floating, diode_only, r_w,
+                i0, i1, i2, vn = windings(cur, e, v_leg, r_leg, floating, diode_only, r_w,
                                            h_l, vdc, vd, r_diode)
                 torque = k_e * (shape[0] * i0 + shape[1] * i1 + shape[2] * i2)
             else:
@@ -329,119 +323,3 @@ class ScalarRun:
         x[20] = drift
         raw = f("bus_nominal") + bus_offset + drift + f("bus_ripple") * z_ripple
         x[21] = min(max(raw, f("bus_min")), f("bus_max"))
-
-
-def _legs(run: ScalarRun, hi_ph: int, lo_ph: int, au: float, vdc: float,
-          cur: tuple[float, float, float]) -> tuple[list[float], list[float], list[bool],
-                                                    list[bool], float, float, float]:
-    """inverter.on_fractions, legs, dc_link_current and conduction_loss for one run."""
-    oh, ol, sh, sl = (run.ph("open_high"), run.ph("open_low"), run.ph("short_high"),
-                      run.ph("short_low"))
-    rh3, rl3 = run.ph("r_high"), run.ph("r_low")
-    vd, r_diode = run.f("v_diode"), run.f("r_diode")
-    v_leg = [0.0, 0.0, 0.0]
-    r_leg = [0.0, 0.0, 0.0]
-    floating = [False, False, False]
-    diode_only = [False, False, False]
-    g_shoot = i_ext = p_inv = 0.0
-    for k in range(3):
-        a_h = au if k == hi_ph else 0.0
-        a_lo = 1.0 if k == lo_ph else (1.0 - au if k == hi_ph else 0.0)
-        a_h = max(a_h * (1.0 - oh[k]), sh[k])
-        a_lo = max(a_lo * (1.0 - ol[k]), sl[k])
-        f_both = max(a_h + a_lo - 1.0, 0.0)
-        f_high = a_h - f_both
-        f_low = a_lo - f_both
-        f_none = max(1.0 - f_high - f_low - f_both, 0.0)
-        rh, rl = rh3[k], rl3[k]
-        r_sum = rh + rl
-        ik = cur[k]
-        v_dio = -vd if ik >= 0.0 else vdc + vd
-        v_leg[k] = f_high * vdc + f_both * vdc * (rl / r_sum) + f_none * v_dio
-        r_leg[k] = f_high * rh + f_low * rl + f_both * (rh * rl / r_sum) + f_none * r_diode
-        diode_only[k] = f_none > _FLOAT_ONE
-        floating[k] = diode_only[k] and ik == 0.0
-        g_shoot += f_both / r_sum
-        i_ext += f_high * ik + f_both * ik * (rl / r_sum) + f_none * min(ik, 0.0)
-        i2 = ik * ik
-        f_low2 = max(1.0 - f_high - f_both - f_none, 0.0)
-        sw = f_high * rh * i2 + f_low2 * rl * i2
-        sw += f_both * (rh * rl / r_sum) * i2
-        p_inv += sw + f_none * (vd * abs(ik) + r_diode * i2)
-    p_inv += g_shoot * vdc * vdc
-    return v_leg, r_leg, floating, diode_only, g_shoot, i_ext, p_inv
-
-
-def _smps_coeffs(r: float, g: float, esr: float, lc: float, cc: float,
-                 h: float) -> tuple[float, ...]:
-    """smps.step's system matrix and exact-step coefficients for resistance r, conductance g.
-
-    Returns ``(k, a11, a12, a21, a22, ea, eb, fa, fb)``: one step is
-    ``x' = (ea*A + eb*I) x + (fa*A + fb*I) b``.
-    """
-    kk = 1.0 / (1.0 + esr * g)
-    a11 = -(r + kk * esr) / lc
-    a12 = -kk / lc
-    a21 = kk / cc
-    a22 = -g * kk / cc
-    half_tr = 0.5 * (a11 + a22)
-    det = a11 * a22 - a12 * a21
-    disc = cmath.sqrt(complex(half_tr * half_tr - det))
-    tiny = 1e-7 * (abs(half_tr) + 1.0)
-    if abs(disc) < tiny:
-        disc = complex(tiny)
-    l1, l2 = half_tr + disc, half_tr - disc
-    e1, f1 = _phi(l1, h)
-    e2, f2 = _phi(l2, h)
-    dl = l1 - l2
-    return (kk, a11, a12, a21, a22, ((e1 - e2) / dl).real, ((l1 * e2 - l2 * e1) / dl).real,
-            ((f1 - f2) / dl).real, ((l1 * f2 - l2 * f1) / dl).real)
-
-
-def _windings(i: tuple[float, float, float], e: tuple[float, float, float],
-              v_leg: list[float], r_leg: list[float], floating: list[bool],
-              diode_only: list[bool], r_w: float, h_l: float, vdc: float, vd: float,
-              r_diode: float) -> tuple[float, float, float, float]:
-    """motor.solve_windings for one run: new phase currents and the neutral voltage."""
-    conn = [not fl for fl in floating]
-    w = [1.0 / (1.0 + h_l * (r_leg[k] + r_w)) for k in range(3)]
-    vn = _neutral(w, i, v_leg, e, h_l, conn)
-    if floating[0] or floating[1] or floating[2]:
-        clamp = False
-        for k in range(3):
-            if floating[k]:
-                v_term = e[k] + vn
-                if v_term > vdc + vd:
-                    v_leg[k], r_leg[k], conn[k], clamp = vdc + vd, r_diode, True, True
-                elif v_term < -vd:
-                    v_leg[k], r_leg[k], conn[k], clamp = -vd, r_diode, True, True
-        if clamp:
-            w = [1.0 / (1.0 + h_l * (r_leg[k] + r_w)) for k in range(3)]
-            vn = _neutral(w, i, v_leg, e, h_l, conn)
-    new = [w[k] * (i[k] + h_l * (v_leg[k] - e[k] - vn)) if conn[k] else 0.0 for k in range(3)]
-    dead = [diode_only[k] and i[k] != 0.0 and new[k] * i[k] < 0.0 for k in range(3)]
-    if dead[0] or dead[1] or dead[2]:
-        new = [0.0 if dead[k] else new[k] for k in range(3)]
-        alive = [conn[k] and not dead[k] and new[k] != 0.0 for k in range(3)]
-        n_alive = alive[0] + alive[1] + alive[2]
-        resid = (new[0] + new[1] + new[2]) / max(n_alive, 1)
-        new = [new[k] - resid if alive[k] else new[k] for k in range(3)]
-        if n_alive < 2:
-            new = [0.0, 0.0, 0.0]
-    return new[0], new[1], new[2], vn
-
-
-def _neutral(w: list[float], i: tuple[float, float, float], v_leg: list[float],
-             e: tuple[float, float, float], h_l: float, conn: list[bool]) -> float:
-    """motor._neutral for one run."""
-    num = 0.0
-    wsum = 0.0
-    n_conn = 0
-    for k in range(3):
-        wc = w[k] if conn[k] else 0.0
-        num += wc * (i[k] + h_l * (v_leg[k] - e[k]))
-        wsum += wc
-        n_conn += conn[k]
-    if n_conn >= 2:
-        return num / max(h_l * wsum, 1e-30)
-    return (e[0] + e[1] + e[2]) / 3.0

@@ -22,8 +22,9 @@ import pytest
 from mapr_daemon.ema.batch import RunSpec
 from mapr_daemon.ema.faults import Fault, FaultSet
 from mapr_daemon.ema.params import CHANNELS, ActuatorParams, default_actuator_path, load_actuator
-from mapr_daemon.ema.plant import EmaBatch
+from mapr_daemon.ema.plant import SCALAR_MAX_RUNS, EmaBatch
 from mapr_daemon.ema.run import RunResult, run_batch
+from mapr_daemon.errors import ConfigError
 from mapr_daemon.testbed.profiles import Profile, bit_profile
 from mapr_daemon.testbed.profiles_jsbsim import jsbsim_flight
 
@@ -100,8 +101,8 @@ def test_one_sample_maps_agree_along_the_trajectory(which: int) -> None:
 def free_runs() -> list[tuple[RunResult, RunResult]]:
     out = []
     for profile, powered in profiles():
-        vec = run_batch(specs(ALL), profile, powered=powered)  # > SCALAR_MAX_RUNS: vector
-        sca = [run_batch([s], profile, powered=powered) for s in specs(ALL)]  # 1 run: scalar
+        vec = run_batch(specs(ALL), profile, powered=powered, path="vector")
+        sca = [run_batch([s], profile, powered=powered, path="scalar") for s in specs(ALL)]
         merged = RunResult(vec.specs, profile, vec.time_s,
                            {k: np.concatenate([r.channels[k] for r in sca]) for k in CHANNELS},
                            {k: np.concatenate([r.truth[k] for r in sca]) for k in vec.truth})
@@ -145,4 +146,8 @@ def test_chunking_does_not_change_either_path(path: str) -> None:
 
 def test_auto_path_follows_the_batch_size() -> None:
     assert EmaBatch(specs({"h": FaultSet()})).path == "scalar"
-    assert EmaBatch([RunSpec(PARAMS, seed=s) for s in range(20)]).path == "vector"
+    many = [RunSpec(PARAMS, seed=s) for s in range(SCALAR_MAX_RUNS + 1)]
+    assert EmaBatch(many).path == "vector"
+    assert EmaBatch(many[:SCALAR_MAX_RUNS]).path == "scalar"
+    with pytest.raises(ConfigError, match="unknown path"):
+        EmaBatch(many[:1], path="numba")
