@@ -30,6 +30,7 @@ SUBCOMMANDS: tuple[str, ...] = (
     "dictionary",
     "diagnose",
     "catalog",
+    "run",
 )
 """Modules of :mod:`mapr_daemon.cli` that add a subcommand, in help order."""
 

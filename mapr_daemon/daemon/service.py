@@ -1,0 +1,297 @@
+"""The daemon loop: bus monitor -> message table -> reasoner -> fault catalog.
+
+One reader thread (:mod:`.reader`) owns the backend and fills a bounded queue; the main
+thread owns everything else — the ICD decoder, the BIT watcher and reasoner, the SQLite
+writer, the systemd notifier and the signals — so no state is shared but the queue and two
+counters. Per turn the main loop drains the queue, decodes, diagnoses, writes events
+(durable when ``add_events`` returns), and every ``status_interval_s`` sends STATUS (and
+WATCHDOG=1 at half of WATCHDOG_USEC, only while the reader is alive and the loop turns: that
+is the proof of work). Bus statistics go to the catalog every ``catalog.stats_interval_s``.
+
+Signals set flags the loop reads at least every 0.1 s: SIGTERM/SIGINT flush and close the
+session (exit 0 well within a second); SIGHUP reloads the config and ICD, keeping the old
+ones if the new ones are invalid. A failing backend becomes a catalog gap and a retry, never
+an exit; a reasoner that falls behind becomes a log line, a STATUS and a catalog gap.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import queue
+import signal
+import time
+from types import FrameType
+from typing import Any
+
+from drivers.monitor import BusStatistics
+from mapr_daemon import __version__
+from mapr_daemon.catalog import CatalogWriter, event_from_reasoner
+from mapr_daemon.daemon import source
+from mapr_daemon.daemon.bitwatch import BitWatch
+from mapr_daemon.daemon.config import Config, load_config
+from mapr_daemon.daemon.notify import Notifier
+from mapr_daemon.daemon.reader import BusReader, Item
+from mapr_daemon.errors import CatalogError, ConfigError
+from mapr_daemon.icd import Icd, SignalStream, load_icd
+
+log = logging.getLogger("mapr")
+
+
+@dataclasses.dataclass
+class Pipeline:
+    """What a config builds and a reload swaps as one: the ICD, decoder and reasoner."""
+
+    config: Config
+    icd: Icd
+    stream: SignalStream
+    watch: BitWatch | None
+
+
+def build_pipeline(config: Config) -> Pipeline:
+    """Load the ICD and the dictionary; ConfigError (file:line: field) if either is wrong."""
+    try:
+        icd = load_icd(config.icd)
+    except OSError as error:
+        raise ConfigError(f"cannot read the ICD: {error.strerror}", path=config.source,
+                          field="icd") from None
+    source.check(config)
+    watch = None
+    if config.reasoner.dictionary is not None:
+        from mapr_daemon.ema.params import default_actuator_path, load_actuator
+        from mapr_daemon.reasoner.dictionary import Dictionary
+        from mapr_daemon.reasoner.events import Reasoner
+        try:
+            dictionary = Dictionary.load(config.reasoner.dictionary)
+        except OSError as error:
+            raise ConfigError(f"cannot read the dictionary: {error.strerror}",
+                              path=config.source, field="reasoner.dictionary") from None
+        reasoner = Reasoner(dictionary, load_actuator(default_actuator_path()))
+        watch = BitWatch(reasoner, threshold=config.reasoner.threshold,
+                         paper=config.reasoner.paper)
+    return Pipeline(config, icd, SignalStream(icd), watch)
+
+
+class Service:
+    """One run of the daemon (see the module docstring). ``run()`` returns the exit code."""
+
+    def __init__(self, config: Config, config_path: str | None,
+                 notifier: Notifier | None = None) -> None:
+        self.config_path = config_path
+        self.pipe = build_pipeline(config)
+        self.notifier = notifier or Notifier.from_environment()
+        try:
+            self.catalog = CatalogWriter(config.catalog.path,
+                                         durability=config.catalog.durability)  # type: ignore[arg-type]
+        except CatalogError as error:
+            raise ConfigError(str(error), path=config.source, field="catalog.path") from None
+        self.queue: queue.Queue[Item] = queue.Queue(maxsize=config.queue_batches)
+        self.reader: BusReader | None = None
+        self.stop_reason: str | None = None
+        self.reload_wanted = False
+        self.ready = False
+        self.messages = self.errors = self.events = self.dropped_reported = 0
+        self.interval = BusStatistics()
+        self.interval_start = time.time_ns()
+        self.gap_id: int | None = None
+        self.state = "starting"
+        self._rate_count = 0
+        self._rate_since = time.monotonic()
+        self.rate = 0.0
+
+    # --- signals ---------------------------------------------------------------------------
+    def _on_signal(self, signum: int, frame: FrameType | None) -> None:
+        if signum == signal.SIGHUP:
+            self.reload_wanted = True
+        else:
+            self.stop_reason = signal.Signals(signum).name
+
+    def _install_signals(self) -> None:
+        for sig in (signal.SIGTERM, signal.SIGINT, signal.SIGHUP):
+            signal.signal(sig, self._on_signal)
+
+    # --- lifetime --------------------------------------------------------------------------
+    def _start_reader(self) -> None:
+        cfg = self.pipe.config
+        self.reader = BusReader(source.monitor_factory(cfg, self.pipe.icd), self.queue,
+                                retry_initial_s=cfg.backend.retry_initial_s,
+                                retry_max_s=cfg.backend.retry_max_s, wait_s=cfg.queue_wait_s)
+        self.reader.start()
+
+    def _stop_reader(self) -> None:
+        if self.reader is not None:
+            self.reader.stop()
+            self.reader.join(timeout=0.5)
+            self.reader = None
+        while True:   # what is queued is still processed (nothing received is lost)
+            try:
+                self._handle(self.queue.get_nowait())
+            except queue.Empty:
+                break
+
+    def run(self) -> int:
+        cfg = self.pipe.config
+        self._install_signals()
+        self.catalog.open_session(backend=cfg.backend.name, config_hash=cfg.digest())
+        log.info("mapr %s: session %s, backend %s, ICD %s, catalog %s, reasoner %s",
+                 __version__, self.catalog.session_id, cfg.backend.name, cfg.icd,
+                 cfg.catalog.path, cfg.reasoner.dictionary or "off (no dictionary)")
+        self._start_reader()
+        next_status = time.monotonic()
+        next_stats = time.monotonic() + cfg.catalog.stats_interval_s
+        try:
+            while self.stop_reason is None:
+                if self.reload_wanted:
+                    self.reload_wanted = False
+                    self.reload()
+                try:
+                    self._handle(self.queue.get(timeout=0.1))
+                    while not self.queue.empty() and self.stop_reason is None:
+                        self._handle(self.queue.get_nowait())
+                except queue.Empty:
+                    pass
+                self._check_dropped()
+                now = time.monotonic()
+                if now >= next_status:
+                    next_status = now + self.pipe.config.status_interval_s
+                    self._status()
+                if now >= next_stats:
+                    next_stats = now + self.pipe.config.catalog.stats_interval_s
+                    self._flush_stats()
+                reader = self.reader
+                if reader is not None and time.monotonic() - reader.heartbeat < 5.0 and \
+                        self.notifier.watchdog_due():
+                    self.notifier.watchdog()
+        finally:
+            self._shutdown()
+        return 0
+
+    def _shutdown(self) -> None:
+        self.notifier.stopping()
+        reason = self.stop_reason or "stopped"
+        log.info("stopping (%s): flushing the catalog", reason)
+        self._stop_reader()
+        try:
+            self._flush_stats()
+            if self.gap_id is not None:
+                self.catalog.end_gap(self.gap_id, time.time_ns())
+            self.catalog.close(reason)
+        except CatalogError as error:
+            log.error("closing the catalog: %s", error)
+        self.notifier.close()
+        log.info("stopped: %d messages, %d errors, %d events", self.messages, self.errors,
+                 self.events)
+
+    # --- work ------------------------------------------------------------------------------
+    def _handle(self, item: Item) -> None:
+        if item.kind == "records":
+            self._records(item)
+        elif item.kind == "gap":
+            self.state = "backend down, retrying"
+            self.gap_id = self._catalog(self.catalog.record_gap, item.t_ns, None, item.reason)
+            log.error("monitoring gap: %s", item.reason)
+        elif item.kind == "resumed":
+            self.state = "monitoring"
+            if self.gap_id is not None:
+                self._catalog(self.catalog.end_gap, self.gap_id, item.t_ns)
+                self.gap_id = None
+            log.warning("backend back after a gap")
+        elif item.kind == "ended":
+            self.state = "stream ended, idle"
+            log.warning("%s; idle until stopped", item.reason)
+
+    def _records(self, item: Item) -> None:
+        records = item.records
+        for record in records:
+            self.interval.add(record)
+            if record.errors:
+                self.errors += 1
+        self.messages += len(records)
+        self._rate_count += len(records)
+        series = self.pipe.stream.feed(records)
+        if not self.ready:
+            if self.pipe.stream.stats.decoded == 0:
+                return
+            self.ready = True
+            self.state = "monitoring"
+            self.notifier.ready(self._status_text())
+            log.info("ready: backend open, first message decoded")
+        if self.pipe.watch is None:
+            return
+        decisions = self.pipe.watch.feed(series)
+        anomalies = [d for d in decisions if d["anomaly"]]
+        if anomalies:
+            asset = self.pipe.config.assets[0]
+            events = [event_from_reasoner(d, t_ns=time.time_ns(), asset=asset.name,
+                                          rt=asset.rt) for d in anomalies]
+            ids = self._catalog(self.catalog.add_events, events)
+            if ids:
+                self.events += len(ids)
+                for event_id, event in zip(ids, events, strict=True):
+                    log.warning("event %d written: %s %s, fault %s, confidence %.2f", event_id,
+                                event.asset, "anomaly", event.fault, event.confidence)
+
+    def _catalog(self, method: Any, *args: Any) -> Any:
+        """A catalog write; a failure is logged and the daemon goes on."""
+        try:
+            return method(*args)
+        except CatalogError as error:
+            log.error("catalog: %s", error)
+            return None
+
+    def _check_dropped(self) -> None:
+        reader = self.reader
+        if reader is None or reader.dropped == self.dropped_reported:
+            return
+        lost = reader.dropped - self.dropped_reported
+        self.dropped_reported = reader.dropped
+        self.state = f"reasoner behind: {reader.dropped} messages dropped"
+        log.warning("the reasoner is behind the bus: %d messages dropped (queue full)", lost)
+        now = time.time_ns()
+        self._catalog(self.catalog.record_gap, now, now,
+                      f"reasoner behind: {lost} messages dropped (queue full)")
+        self.notifier.status(self._status_text())
+
+    def _flush_stats(self) -> None:
+        end = time.time_ns()
+        if self.interval.messages:
+            self._catalog(self.catalog.add_stats, self.interval_start, end, self.interval)
+        self.interval = BusStatistics()
+        self.interval_start = end
+
+    def _status_text(self) -> str:
+        return (f"{self.state}: {self.rate:.0f} msg/s, {self.messages} messages, "
+                f"{self.errors} errors, {self.events} events")
+
+    def _status(self) -> None:
+        now = time.monotonic()
+        span = now - self._rate_since
+        if span > 0:
+            self.rate = self._rate_count / span
+        self._rate_count, self._rate_since = 0, now
+        self.notifier.status(self._status_text())
+
+    # --- reload ----------------------------------------------------------------------------
+    def reload(self) -> None:
+        """SIGHUP: new config and ICD, or the old ones kept (and the error logged)."""
+        self.notifier.reloading()
+        try:
+            config = load_config(self.config_path)
+            pipe = build_pipeline(config)
+        except ConfigError as error:
+            log.error("reload failed, keeping the running configuration: %s", error)
+            self.notifier.notify("READY=1", f"STATUS={self._status_text()}")
+            return
+        old = self.pipe.config
+        if config.catalog.path != old.catalog.path:
+            log.warning("catalog.path changed: takes effect at the next restart")
+        restart = (config.backend, config.testbed, config.icd) != \
+            (old.backend, old.testbed, old.icd)
+        if restart:
+            self._stop_reader()
+        self.pipe = pipe
+        if restart:
+            self._start_reader()
+        log.info("reloaded %s (config %s)", self.config_path or "the defaults",
+                 config.digest())
+        self.notifier.notify("READY=1", f"STATUS={self._status_text()}")
