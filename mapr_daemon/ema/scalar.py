@@ -120,6 +120,11 @@ class ScalarRun:
         r_w = fp["r_w0"] * (1.0 + COPPER_ALPHA * (motor_c - 25.0))  # sensors.winding_resistance
         self.r_w = r_w
         d_gain = h / (tf_v + h)
+        inv_h = 1.0 / h
+        ki_v_h, ki_pos_h, ki_i_h = ki_v * h, ki_pos * h, ki_i * h
+        d_ron = ron_hi - ron_lo
+        w_lo3 = tuple(1.0 / (1.0 + h_l * (r + r_w)) for r in rl3)
+        w_dio = 1.0 / (1.0 + h_l * (r_diode + r_w))
         lim_term = l_smps / h
         ripple_l = 1.0 / (l_smps * f_sw)
         zsw2, zpwm2 = z_sw * z_sw / 12.0, z_pwm * z_pwm
@@ -151,13 +156,13 @@ class ScalarRun:
             # smps.voltage_loop
             vref = v_ref * (t / soft_start) if t < soft_start else v_ref
             err = vref - v_out
-            deriv += d_gain * ((err - prev_err) / h - deriv)
+            deriv += d_gain * ((err - prev_err) * inv_h - deriv)
             prev_err = err
-            trial = integ + ki_v * err * h
-            vin_safe = vin if vin > 1.0 else 1.0
-            raw = (vref + kp_v * err + trial + kd_v * deriv) / vin_safe
-            r_eq = raw * ron_hi + (1.0 - raw) * ron_lo + r_dcr
-            d_cl = (v_out + r_eq * i_l + lim_term * (i_lim_smps - i_l)) / vin_safe
+            trial = integ + ki_v_h * err
+            inv_vin = 1.0 / vin if vin > 1.0 else 1.0
+            raw = (vref + kp_v * err + trial + kd_v * deriv) * inv_vin
+            d_cl = (v_out + (ron_lo + r_dcr + raw * d_ron) * i_l
+                    + lim_term * (i_lim_smps - i_l)) * inv_vin
             duty = d_max if d_max < raw else raw
             if d_cl < duty:
                 duty = d_cl
@@ -167,7 +172,7 @@ class ScalarRun:
                 integ = trial
             # control.control
             perr = inv_ratio_cmd - theta
-            trial = pos_integ + ki_pos * perr * h
+            trial = pos_integ + ki_pos_h * perr
             trial = i_lim if trial > i_lim else (-i_lim if trial < -i_lim else trial)
             raw = kp_pos * perr + trial - kd_pos * omega
             i_cmd = i_lim if raw > i_lim else (-i_lim if raw < -i_lim else raw)
@@ -175,7 +180,7 @@ class ScalarRun:
                 pos_integ = trial
             i_q = 0.5 * (cur[kp_ph] - cur[km_ph])
             e_i = i_cmd - i_q
-            trial = cur_integ + ki_i * e_i * h
+            trial = cur_integ + ki_i_h * e_i
             u_raw = (kp_i * e_i + trial + ke2 * omega) / (vdc if vdc > 1.0 else 1.0)
             u = U_MAX if u_raw > U_MAX else (-U_MAX if u_raw < -U_MAX else u_raw)
             if u == u_raw:
@@ -208,9 +213,10 @@ class ScalarRun:
             i_ac = i_dc * i_dc * au * (1.0 - au)
             ripple2 = di_l * di_l * zsw2 + (i_ac * zpwm2 if i_ac > 0.0 else 0.0)
             i_l_prev = i_l
-            p_smps = i_l * i_l * (duty * ron_hi + (1.0 - duty) * ron_lo) + p_sw
+            r_sw = ron_lo + duty * d_ron
+            p_smps = i_l * i_l * r_sw
             # smps.step, its matrix exponential reused while (r, g) is unchanged
-            r = duty * ron_hi + (1.0 - duty) * ron_lo + r_dcr
+            r = r_sw + r_dcr
             if r != key_r or g_shoot != key_g:
                 key_r, key_g = r, g_shoot
                 coeffs = smps_coeffs(r, g_shoot, esr, l_smps, c_total, h)
@@ -234,7 +240,7 @@ class ScalarRun:
                 e_hi = ke_w if u >= 0.0 else -ke_w
                 e_lo = -e_hi
                 w_hi = 1.0 / (1.0 + h_l * (r_hi + r_w))
-                w_lo = 1.0 / (1.0 + h_l * (r_lo + r_w))
+                w_lo = w_lo3[lo_ph]
                 y = w_hi * (i_hi + h_l * (v_hi - e_hi)) + w_lo * (i_lo + h_l * (0.0 - e_lo))
                 w_id = v_id = 0.0
                 if i_id == 0.0:
@@ -242,10 +248,10 @@ class ScalarRun:
                     v_term = e_id + vn
                     if v_term > vdc + vd or v_term < -vd:
                         v_id = vdc + vd if v_term > vdc + vd else -vd
-                        w_id = 1.0 / (1.0 + h_l * (r_diode + r_w))
+                        w_id = w_dio
                 else:
                     v_id = -vd if i_id >= 0.0 else vdc + vd
-                    w_id = 1.0 / (1.0 + h_l * (r_diode + r_w))
+                    w_id = w_dio
                 if w_id != 0.0:
                     vn = ((y + w_id * (i_id + h_l * (v_id - e_id)))
                           / (h_l * (w_hi + w_lo + w_id)))
@@ -289,7 +295,7 @@ class ScalarRun:
             a_v2 += v_out * v_out
             a_r2 += ripple2
             a_pm += r_w * (i0 * i0 + i1 * i1 + i2 * i2)
-            a_ps += p_smps + p_inv
+            a_ps += p_smps + p_inv  # + p_sw, added once below
             a_tq += torque
             a_om += omega
             a_hg += hinge
@@ -305,6 +311,7 @@ class ScalarRun:
         out[:] = (a_dc / n, a_a / n, a_b / n, a_c / n, a_v / n, a_d / n, a_vin / n, a_iin / n,
                   a_v2 / n, a_r2 / n, a_pm / n, a_ps / n, a_tq / n, a_om / n, a_hg / n,
                   a_ic / n, a_iq / n, a_du / n, a_il / n)
+        out[11] += p_sw
         return t
 
     def advance_slow(self, dt: float, motor_loss_w: float, stage_loss_w: float,
