@@ -1,0 +1,149 @@
+"""The daemon under test: a real ``mapr run`` process, a real notify socket, real signals.
+
+:class:`Daemon` starts ``python -m mapr_daemon.cli.main run --config FILE`` with
+``NOTIFY_SOCKET`` pointing at a unix datagram socket the test owns, collects what it sends
+and what it logs, and stops it with a real SIGTERM. The session-scoped ``dictionary`` is a
+small fault dictionary (healthy, ESR, friction, phase-A high-side short and open; ~15 s),
+and ``threshold`` calibrates the anomaly threshold on healthy BITs flown over the loopback
+bus (see docs/service.md: the bus-flown BIT differs from the direct simulation the
+dictionary was calibrated on).
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+from collections.abc import Callable, Iterator
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+ICD = ROOT / "configs" / "icd" / "ema-testbed.yaml"
+
+
+class Daemon:
+    """One ``mapr run`` process and its notify socket."""
+
+    def __init__(self, tmp: Path, config: Path, watchdog_usec: int | None = None) -> None:
+        self.sock_path = tmp / "notify.sock"
+        self.sock = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM)
+        self.sock.bind(str(self.sock_path))
+        self.sock.settimeout(0.1)
+        self.messages: list[str] = []
+        self.stderr_path = tmp / "stderr.log"
+        env = {**os.environ, "NOTIFY_SOCKET": str(self.sock_path), "PYTHONUNBUFFERED": "1"}
+        env.pop("WATCHDOG_USEC", None)
+        if watchdog_usec is not None:
+            env["WATCHDOG_USEC"] = str(watchdog_usec)
+        self._err = self.stderr_path.open("wb")
+        self.proc = subprocess.Popen(
+            [sys.executable, "-m", "mapr_daemon.cli.main", "run", "--config", str(config)],
+            cwd=ROOT, env=env, stdout=subprocess.DEVNULL, stderr=self._err)
+
+    @property
+    def log(self) -> str:
+        return self.stderr_path.read_text(encoding="utf-8", errors="replace")
+
+    def drain(self) -> None:
+        while True:
+            try:
+                self.messages.append(self.sock.recv(4096).decode())
+            except TimeoutError:
+                return
+
+    def wait_for(self, found: Callable[[], bool], timeout: float = 30.0, what: str = "") -> None:
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            self.drain()
+            if found():
+                return
+            if self.proc.poll() is not None:
+                raise AssertionError(f"daemon exited {self.proc.returncode} waiting for "
+                                     f"{what}:\n{self.log}")
+        raise AssertionError(f"timed out waiting for {what}:\n{self.log}\n{self.messages}")
+
+    def wait_notify(self, prefix: str, count: int = 1, timeout: float = 30.0) -> None:
+        self.wait_for(lambda: len(self.lines(prefix)) >= count, timeout, prefix)
+
+    def wait_log(self, text: str, timeout: float = 30.0) -> None:
+        self.wait_for(lambda: text in self.log, timeout, repr(text))
+
+    def lines(self, prefix: str) -> list[str]:
+        return [line for m in self.messages for line in m.split("\n")
+                if line.startswith(prefix)]
+
+    def terminate(self) -> tuple[int, float]:
+        """SIGTERM; returns (exit code, seconds it took)."""
+        started = time.monotonic()
+        self.proc.send_signal(signal.SIGTERM)
+        code = self.proc.wait(timeout=15)
+        return code, time.monotonic() - started
+
+    def close(self) -> None:
+        if self.proc.poll() is None:
+            self.proc.kill()
+            self.proc.wait()
+        self._err.close()
+        self.sock.close()
+
+
+@pytest.fixture
+def start_daemon(tmp_path: Path) -> Iterator[Callable[..., Daemon]]:
+    started: list[Daemon] = []
+
+    def start(config_text: str, watchdog_usec: int | None = None) -> Daemon:
+        config = tmp_path / "mapr.yaml"
+        config.write_text(config_text, encoding="utf-8")
+        daemon = Daemon(tmp_path, config, watchdog_usec)
+        started.append(daemon)
+        return daemon
+
+    yield start
+    for daemon in started:
+        daemon.close()
+
+
+@pytest.fixture(scope="session")
+def dictionary(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    from mapr_daemon.ema.params import default_actuator_path, load_actuator
+    from mapr_daemon.reasoner import build
+    from mapr_daemon.reasoner.dictionary import DictionarySpec
+
+    spec = DictionarySpec(pressures_pa=(0.0, 1600.0), nominal_per_pressure=4,
+                          severities=(0.25, 0.5, 0.75, 1.0), kinds=("esr", "friction"),
+                          shorts=("A_high",), opens=("A_high",), calibration_runs=8,
+                          calibration_pressure_pa=(200.0, 1400.0), threshold_margin=1.5)
+    path = tmp_path_factory.mktemp("dictionary") / "dictionary.npz"
+    build.build(load_actuator(default_actuator_path()), spec).save(path)
+    return path
+
+
+@pytest.fixture(scope="session")
+def threshold(dictionary: Path) -> float:
+    """2 x the largest score of two healthy BITs flown over the loopback bus (seeds 21, 22),
+    decided by the daemon's own BIT watcher."""
+    from mapr_daemon.daemon.bitwatch import BitWatch
+    from mapr_daemon.daemon.config import Config, ReasonerConfig, TestbedConfig
+    from mapr_daemon.daemon.source import monitor_factory
+    from mapr_daemon.ema.params import default_actuator_path, load_actuator
+    from mapr_daemon.icd import SignalStream, load_icd
+    from mapr_daemon.reasoner.dictionary import Dictionary
+    from mapr_daemon.reasoner.events import Reasoner
+
+    icd = load_icd(ICD)
+    scores = []
+    for seed in (21, 22):
+        config = Config(testbed=TestbedConfig(seed=seed, realtime=False, duration_s=1.7),
+                        reasoner=ReasonerConfig(dictionary=str(dictionary)))
+        watch = BitWatch(Reasoner(Dictionary.load(dictionary),
+                                  load_actuator(default_actuator_path())))
+        with monitor_factory(config, icd)() as monitor:
+            events = watch.feed(SignalStream(icd).feed(list(monitor)))
+        assert len(events) == 1, "the healthy BIT was not found on the bus"
+        scores.append(float(events[0]["evidence"]["score"]))
+    return 2.0 * max(scores)
