@@ -1,0 +1,51 @@
+"""The shipped configs/mapr.yaml documents the defaults, and validation names file:line."""
+
+from __future__ import annotations
+
+import dataclasses
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from mapr_daemon.daemon.config import Config, load_config, parse
+from mapr_daemon.errors import ConfigError
+from mapr_daemon.icd.yamlsrc import load_text
+from tests.daemon.conftest import ICD, ROOT
+
+SHIPPED = ROOT / "configs" / "mapr.yaml"
+
+
+def test_shipped_config_is_the_defaults() -> None:
+    shipped = load_config(SHIPPED)
+    assert Path(shipped.icd) == ICD
+    assert dataclasses.replace(shipped, source=None, icd=Config().icd) == Config()
+
+
+def test_check_accepts_the_shipped_config() -> None:
+    done = subprocess.run([sys.executable, "-m", "mapr_daemon.cli.main", "run", "--check",
+                           "--config", str(SHIPPED)], cwd=ROOT, capture_output=True,
+                          text=True, timeout=60)
+    assert done.returncode == 0, done.stderr
+    assert "OK" in done.stderr
+
+
+@pytest.mark.parametrize(("text", "where"), [
+    ("backend:\n  name: usb9\n", ":2: backend.name: expected one of"),
+    ("assets:\n  - {name: EMA1, rt: 31}\n", ":2: assets[0].rt: a remote-terminal address"),
+    ("catalog: 3\n", ":1: catalog: expected a mapping"),
+    ("backend:\n  retry_initial_s: 5\n  retry_max_s: 1\n", ":3: backend.retry_max_s"),
+    ("status_interval_s: true\n", ":1: status_interval_s: expected float"),
+])
+def test_errors_name_file_line_and_field(text: str, where: str) -> None:
+    with pytest.raises(ConfigError) as caught:
+        parse(load_text(text, "x.yaml"), "x.yaml")
+    assert f"x.yaml{where}" in str(caught.value)
+
+
+def test_relative_paths_follow_the_file(tmp_path: Path) -> None:
+    (tmp_path / "mapr.yaml").write_text("reasoner: {dictionary: d.npz}\n", encoding="utf-8")
+    config = load_config(tmp_path / "mapr.yaml")
+    assert config.reasoner.dictionary == str(tmp_path.resolve() / "d.npz")
+    assert config.digest() != Config().digest()
