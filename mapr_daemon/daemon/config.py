@@ -43,6 +43,8 @@ class BackendConfig:
 class TestbedConfig:
     """The simulated aircraft flown on the ``loopback`` backend (ignored by other backends)."""
 
+    __test__ = False   # not a pytest test class, despite the name
+
     profile: str = "bit"
     """``bit``: the built-in-test motion the reasoner decides on; ``jsbsim``: a c172x flight."""
     condition: str = "cruise"
