@@ -39,6 +39,7 @@ __all__ = ["BACKENDS", "BusMonitor", "BusStatistics", "MonitorFilter", "MonitorR
 BACKENDS: dict[str, tuple[str, str]] = {
     "loopback": ("drivers.backends.loopback", "LoopbackMonitor"),
     "capture": ("drivers.backends.capture", "CaptureMonitor"),
+    "serial": ("drivers.backends.serial_card", "SerialMonitor"),
 }
 """Built-in backends: name -> (module, class)."""
 
