@@ -20,6 +20,8 @@ from mapr_daemon.ema.params import ActuatorParams
 from mapr_daemon.errors import ConfigError
 from mapr_daemon.reasoner import classifier, prognosis
 from mapr_daemon.reasoner.dictionary import Dictionary
+from mapr_daemon.reasoner.estimator import Estimate, ParameterEstimator, Reference, severity_check
+from mapr_daemon.reasoner.estimator_model import NEEDED
 from mapr_daemon.reasoner.features import (
     FloatArray,
     derived_signals,
@@ -33,6 +35,8 @@ class Reasoner:
     def __init__(self, dictionary: Dictionary, params: ActuatorParams) -> None:
         self.dictionary = dictionary
         self.params = params
+        # the EKF's reference model; ``self.reference.adapt(estimate)`` once a fault is confirmed
+        self.reference = Reference.nominal(params)
 
     def matrix(self, channels: Mapping[str, FloatArray], command_deg: FloatArray) -> FloatArray:
         """M ``(32, 72)`` of one BIT record."""
@@ -58,11 +62,21 @@ class Reasoner:
                  dynamic_pressure_pa: float, paper: bool = False) -> dict[str, Any]:
         """The event for one BIT record."""
         m = self.matrix(channels, command_deg)
-        return self.event(self.decide(m, dynamic_pressure_pa, paper))
+        est = None  # the EKF needs its channels at the actuator file's sample rate
+        if all(k in channels for k in NEEDED) and \
+                self.dictionary.sample_rate_hz == self.params.sensors.sample_rate_hz:
+            est = ParameterEstimator(self.params, self.reference).run(channels,
+                                                                      dynamic_pressure_pa)
+        return self.event(self.decide(m, dynamic_pressure_pa, paper), est)
 
     def event(self, dec: classifier.Decision,
-              parameters: Mapping[str, float] | None = None) -> dict[str, Any]:
-        """A decision as the JSON-ready event of ``mapr diagnose``."""
+              estimate: Estimate | None = None) -> dict[str, Any]:
+        """A decision as the JSON-ready event of ``mapr diagnose``.
+
+        ``parameters`` holds the EKF's estimates (value, sd, unit, reference value), and
+        ``evidence.severity_check`` compares the classifier's severity with the EKF where the
+        fault moves an estimated parameter (friction).
+        """
         soh = 1.0
         component = None
         if dec.anomaly and dec.fault is not None:
@@ -74,10 +88,15 @@ class Reasoner:
             evidence["switch"] = dec.switch
         if dec.severity is not None:
             evidence["severity_fraction_of_range"] = round(dec.severity, 4)
+        check = None if estimate is None or not dec.anomaly else severity_check(
+            dec.fault, dec.value, estimate)
+        if check is not None:
+            evidence["severity_check"] = check
         return {
             "anomaly": dec.anomaly, "fault": dec.fault,
             "severity": None if dec.value is None else float(f"{dec.value:.6g}"),
             "unit": dec.unit, "confidence": round(dec.confidence, 4),
-            "parameters": dict(parameters or {}), "soh": round(soh, 4),
+            "parameters": {} if estimate is None else estimate.as_event(self.reference),
+            "soh": round(soh, 4),
             "component": component, "rul": None, "evidence": evidence,
         }
