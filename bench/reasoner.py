@@ -1,0 +1,78 @@
+"""Real-time factor of the whole reasoner per actuator: features + classifier + EKF.
+
+A small dictionary (ESR and friction templates, two pressures, the test suite's spec) is built
+from simulated BIT runs; then every held-out BIT record (healthy and faulted, cruise pressure)
+goes through ``Reasoner.diagnose`` one at a time, as the daemon calls it for one actuator.
+Real-time factor = seconds of bus data / wall seconds spent in ``diagnose`` (best of
+``--repeat``). The EKF's own share is timed separately. Target: >= 50x real time (issue 6).
+
+Run: ``python3 bench/reasoner.py``. Figures are of this machine; the load average is printed.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import time
+
+from mapr_daemon.ema.faults import FaultSet, at_severity
+from mapr_daemon.ema.params import default_actuator_path, load_actuator
+from mapr_daemon.reasoner import build
+from mapr_daemon.reasoner.corpus import simulate_bit
+from mapr_daemon.reasoner.dictionary import DictionarySpec
+from mapr_daemon.reasoner.estimator import ParameterEstimator
+from mapr_daemon.reasoner.events import Reasoner
+from mapr_daemon.reasoner.features import WindowSpec
+
+SPEC = DictionarySpec(
+    pressures_pa=(0.0, 1600.0), nominal_per_pressure=4, severities=(0.25, 0.5, 0.75, 1.0),
+    kinds=("esr", "friction"), shorts=("A_high",), opens=("A_high",), calibration_runs=8,
+    calibration_pressure_pa=(200.0, 1400.0), threshold_margin=1.5)
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--records", type=int, default=8, help="held-out BIT records")
+    ap.add_argument("--repeat", type=int, default=3)
+    args = ap.parse_args()
+    params = load_actuator(default_actuator_path())
+    t0 = time.perf_counter()
+    fs, qs, seeds, roles = build._plan(params, SPEC)
+    runs = simulate_bit(params, fs, qs, seeds)
+    starts = WindowSpec(SPEC.window_samples).starts(runs.corners, runs.command_deg.size)
+    m = build.run_matrices(runs, starts, SPEC.window_samples)
+    d = build.assemble(params, SPEC, m, runs.dynamic_pressure_pa, roles, starts,
+                       runs.sample_rate_hz)
+    kinds = [FaultSet()] + [FaultSet.of([at_severity(params, k, s)])
+                            for k in ("esr", "friction") for s in (0.4, 0.8)]
+    held_fs = [kinds[i % len(kinds)] for i in range(args.records)]
+    held = simulate_bit(params, held_fs, [1600.0] * args.records,
+                        [70_000 + i for i in range(args.records)])
+    setup = time.perf_counter() - t0
+    reasoner = Reasoner(d, params)
+    record_s = held.command_deg.size / held.sample_rate_hz
+    best_all = best_ekf = float("inf")
+    for _ in range(args.repeat):
+        t = time.perf_counter()
+        for i in range(held.n):
+            ch = {k: v[i] for k, v in held.channels.items()}
+            reasoner.diagnose(ch, held.command_deg, float(held.dynamic_pressure_pa[i]))
+        best_all = min(best_all, (time.perf_counter() - t) / held.n)
+        t = time.perf_counter()
+        for i in range(held.n):
+            ch = {k: v[i] for k, v in held.channels.items()}
+            ParameterEstimator(params).run(ch, float(held.dynamic_pressure_pa[i]))
+        best_ekf = min(best_ekf, (time.perf_counter() - t) / held.n)
+    load = os.getloadavg()[0]
+    print(f"setup (dictionary + {held.n} held-out records simulated): {setup:.1f} s")
+    print(f"record {record_s:.2f} s of bus data at {held.sample_rate_hz:g} Hz; "
+          f"best of {args.repeat}, load average {load:.2f}")
+    print(f"whole reasoner (features + classifier + EKF): {best_all * 1e3:.1f} ms per record, "
+          f"real-time factor {record_s / best_all:.0f}x per actuator (target >= 50x: "
+          f"{'met' if record_s / best_all >= 50 else 'MISSED'})")
+    print(f"EKF alone: {best_ekf * 1e3:.1f} ms per record, {record_s / best_ekf:.0f}x real time")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
