@@ -53,6 +53,8 @@ class BusReader(threading.Thread):
         self.failures = 0
         self.delay = retry_initial_s
         """The current backoff (doubles per failure up to ``retry_max_s``)."""
+        self.ended = False
+        """The source ended normally (a replayed file, a testbed with a duration)."""
         self.heartbeat = time.monotonic()
         """Last time the thread came back from the backend (proves it is not stuck)."""
         self._stop_event = threading.Event()
@@ -98,7 +100,7 @@ class BusReader(threading.Thread):
                     down_since = time.time_ns()
                     self._control(Item("gap", t_ns=down_since, reason=reason))
                 log.warning("%s; retrying in %.1f s", reason, self.delay)
-                self._stop_event.wait(self.delay)
+                self._pause(self.delay)
                 self.delay = min(self.retry_max_s, self.delay * 2.0)
             finally:
                 if monitor is not None:
@@ -106,6 +108,18 @@ class BusReader(threading.Thread):
                         monitor.close()
                     except Exception as error:  # closing a dead card
                         log.debug("closing the backend: %s", error)
+
+    def _pause(self, seconds: float) -> None:
+        """Wait before a retry, keeping the heartbeat fresh: retrying is work being done."""
+        until = time.monotonic() + seconds
+        while not self.stopping and (left := until - time.monotonic()) > 0:
+            self._stop_event.wait(min(1.0, left))
+            self.heartbeat = time.monotonic()
+
+    def alive(self, within_s: float = 5.0) -> bool:
+        """True while the thread is reading or retrying (heartbeat within ``within_s``), and
+        after the source ended normally (idle is not hung)."""
+        return self.ended or time.monotonic() - self.heartbeat < within_s
 
     def _pump(self, monitor: BusMonitor) -> bool:
         """Move records until stopped (True) or the stream ends (True); errors propagate."""
@@ -124,6 +138,7 @@ class BusReader(threading.Thread):
                     self._records(batch)
                     self.delay = self.retry_initial_s
             if monitor.ended:
+                self.ended = True
                 self._control(Item("ended", t_ns=time.time_ns(),
                                    reason="the backend's stream ended"))
                 return True

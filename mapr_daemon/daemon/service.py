@@ -159,8 +159,7 @@ class Service:
                     next_stats = now + self.pipe.config.catalog.stats_interval_s
                     self._flush_stats()
                 reader = self.reader
-                if reader is not None and time.monotonic() - reader.heartbeat < 5.0 and \
-                        self.notifier.watchdog_due():
+                if reader is not None and reader.alive() and self.notifier.watchdog_due():
                     self.notifier.watchdog()
         finally:
             self._shutdown()

@@ -116,6 +116,24 @@ def test_unknown_key_and_bad_fault_exit_78(tmp_path: Path) -> None:
     assert done.returncode == 78 and "warp" in done.stderr
 
 
+def test_watchdog_goes_on_while_a_backend_is_retried(
+        tmp_path: Path, start_daemon: Callable[..., Daemon]) -> None:
+    """A card unplugged for longer than the 5 s liveness window must not starve the
+    watchdog (systemd would kill a daemon that is doing its job: retrying)."""
+    daemon = start_daemon(
+        f"icd: {ICD}\nbackend:\n  name: capture\n  options: {{path: {tmp_path / 'no.sr'}}}\n"
+        "  retry_initial_s: 7\n  retry_max_s: 7\n"
+        f"catalog: {{path: {tmp_path / 'catalog.sqlite'}}}\n", watchdog_usec=400_000)
+    daemon.wait_log("retrying in 7.0 s")
+    time.sleep(5.5)
+    daemon.drain()
+    before = len(daemon.lines("WATCHDOG=1"))
+    time.sleep(1.0)
+    daemon.drain()
+    assert len(daemon.lines("WATCHDOG=1")) > before
+    assert daemon.terminate()[0] == 0
+
+
 def test_backend_failure_is_retried_and_recorded_as_a_gap(
         tmp_path: Path, start_daemon: Callable[..., Daemon]) -> None:
     capture = tmp_path / "bus.sr"
