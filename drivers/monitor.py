@@ -40,6 +40,7 @@ BACKENDS: dict[str, tuple[str, str]] = {
     "loopback": ("drivers.backends.loopback", "LoopbackMonitor"),
     "capture": ("drivers.backends.capture", "CaptureMonitor"),
     "serial": ("drivers.backends.serial_card", "SerialMonitor"),
+    "usb": ("drivers.backends.usb_card", "UsbMonitor"),
 }
 """Built-in backends: name -> (module, class)."""
 

@@ -18,8 +18,12 @@ import os
 import tempfile
 import threading
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
+from typing import Any
+
+import usb.backend
+import usb.core
 
 from drivers.backends.loopback import BusController, Injector, Traffic
 from drivers.backends.loopback.controller import BusWord
@@ -141,3 +145,126 @@ class SerialCard:
         if self._fds:
             self.unplug()
         self._dir.cleanup()
+
+
+# --- the FX2 at pyusb's backend seam --------------------------------------------------------
+
+class _Desc:
+    """A descriptor: pyusb reads its fields as attributes."""
+
+    def __init__(self, **fields: Any) -> None:
+        self.__dict__.update(fields)
+
+
+class Fx2Backend(usb.backend.IBackend):  # type: ignore[misc]
+    """A pyusb backend that behaves as an FX2 with fx2lafw would: bare (04b4:8613) until the
+    firmware is written with request 0xA0 and CPUCS released, then re-enumerated as
+    1d50:608c answering 0xB0/0xB2/0xB1 and streaming ``samples`` on endpoint 0x82.
+
+    ``short_at``: read indices that return a short transfer; ``unplug_after``: bytes after
+    which reads fail as an unplugged device (None: when the samples run out)."""
+
+    def __init__(self, samples: bytes, *, bare: bool = True, short_at: Iterable[int] = (),
+                 unplug_after: int | None = None) -> None:
+        self.samples = samples
+        self.bare = bare
+        self.ram: dict[int, bytes] = {}
+        self.in_reset = False
+        self.started: bytes | None = None
+        self.position = 0
+        self.reads = 0
+        self.short_at = set(short_at)
+        self.unplug_after = len(samples) if unplug_after is None else unplug_after
+        self.unplugged = False
+
+    def _ids(self) -> tuple[int, int]:
+        return (0x04B4, 0x8613) if self.bare else (0x1D50, 0x608C)
+
+    def enumerate_devices(self) -> Iterator[Any]:
+        if not self.unplugged:
+            yield ("fx2", self.bare)
+
+    def get_device_descriptor(self, dev: Any) -> Any:
+        vendor, product = (0x04B4, 0x8613) if dev[1] else (0x1D50, 0x608C)
+        return _Desc(bLength=18, bDescriptorType=1, bcdUSB=0x200, bDeviceClass=0xFF,
+                     bDeviceSubClass=0, bDeviceProtocol=0, bMaxPacketSize0=64,
+                     idVendor=vendor, idProduct=product, bcdDevice=0, iManufacturer=0,
+                     iProduct=0, iSerialNumber=0, bNumConfigurations=1, address=2, bus=1,
+                     port_number=1, port_numbers=(1,), speed=3)
+
+    def get_configuration_descriptor(self, dev: Any, config: int) -> Any:
+        return _Desc(bLength=9, bDescriptorType=2, wTotalLength=32, bNumInterfaces=1,
+                     bConfigurationValue=1, iConfiguration=0, bmAttributes=0x80, bMaxPower=50,
+                     extra_descriptors=[])
+
+    def get_interface_descriptor(self, dev: Any, intf: int, alt: int, config: int) -> Any:
+        return _Desc(bLength=9, bDescriptorType=4, bInterfaceNumber=0, bAlternateSetting=0,
+                     bNumEndpoints=1, bInterfaceClass=0xFF, bInterfaceSubClass=0,
+                     bInterfaceProtocol=0, iInterface=0, extra_descriptors=[])
+
+    def get_endpoint_descriptor(self, dev: Any, ep: int, intf: int, alt: int, config: int
+                                ) -> Any:
+        return _Desc(bLength=7, bDescriptorType=5, bEndpointAddress=0x82, bmAttributes=2,
+                     wMaxPacketSize=512, bInterval=0, bRefresh=0, bSynchAddress=0,
+                     extra_descriptors=[])
+
+    def open_device(self, dev: Any) -> Any:
+        if self.unplugged or dev[1] != self.bare:
+            raise usb.core.USBError("No such device", errno=19)
+        return dev
+
+    def close_device(self, handle: Any) -> None:
+        pass
+
+    def set_configuration(self, handle: Any, value: int) -> None:
+        pass
+
+    def get_configuration(self, handle: Any) -> int:
+        return 1
+
+    def claim_interface(self, handle: Any, intf: int) -> None:
+        pass
+
+    def release_interface(self, handle: Any, intf: int) -> None:
+        pass
+
+    def ctrl_transfer(self, handle: Any, bmRequestType: int, bRequest: int, wValue: int,
+                      wIndex: int, data: Any, timeout: int) -> int:
+        if bRequest == 0xA0 and handle[1]:
+            payload = bytes(data)
+            if wValue == 0xE600:
+                if payload == b"\x01":
+                    self.in_reset = True
+                elif payload == b"\x00" and self.in_reset and self.ram:
+                    self.bare = False  # the firmware runs: re-enumerates with its IDs
+            elif self.in_reset:
+                self.ram[wValue] = payload
+            return len(payload)
+        if handle[1]:
+            raise usb.core.USBError("Pipe error", errno=32)  # bare: only 0xA0 answers
+        if bRequest == 0xB0:
+            data[0], data[1] = 1, 4
+            return 2
+        if bRequest == 0xB2:
+            data[0] = 1
+            return 1
+        if bRequest == 0xB1:
+            self.started = bytes(data)
+            return 3
+        raise usb.core.USBError("Pipe error", errno=32)
+
+    def bulk_read(self, handle: Any, ep: int, intf: int, buff: Any, timeout: int) -> int:
+        if self.unplugged or self.started is None or ep != 0x82:
+            raise usb.core.USBError("No such device", errno=19)
+        self.reads += 1
+        if self.position >= self.unplug_after:
+            self.unplugged = True
+            raise usb.core.USBError("No such device (it may have been disconnected)",
+                                    errno=19)
+        size = len(buff)
+        if self.reads in self.short_at:
+            size = 300  # not a whole packet: the FIFO overflowed on the device
+        chunk = self.samples[self.position:min(self.position + size, self.unplug_after)]
+        self.position += len(chunk)
+        buff[:len(chunk)] = type(buff)("B", chunk)
+        return len(chunk)
