@@ -12,7 +12,9 @@ import pytest
 from mapr_daemon.daemon.config import Config, load_config, parse
 from mapr_daemon.errors import ConfigError
 from mapr_daemon.icd.yamlsrc import load_text
-from tests.daemon.conftest import ICD, ROOT
+
+ROOT = Path(__file__).resolve().parents[2]
+ICD = ROOT / "configs" / "icd" / "ema-testbed.yaml"
 
 SHIPPED = ROOT / "configs" / "mapr.yaml"
 

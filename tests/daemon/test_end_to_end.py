@@ -11,8 +11,13 @@ import subprocess
 import sys
 from collections.abc import Callable
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from tests.daemon.conftest import ICD, ROOT, Daemon
+if TYPE_CHECKING:   # the fixture's class; pytest loads conftest itself
+    from tests.daemon.conftest import Daemon
+
+ROOT = Path(__file__).resolve().parents[2]
+ICD = ROOT / "configs" / "icd" / "ema-testbed.yaml"
 
 
 def flight(tmp: Path, dictionary: Path, threshold: float, fault: str | None,

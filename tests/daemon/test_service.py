@@ -9,8 +9,13 @@ import sys
 import time
 from collections.abc import Callable
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from tests.daemon.conftest import ICD, ROOT, Daemon
+if TYPE_CHECKING:   # the fixture's class; pytest loads conftest itself
+    from tests.daemon.conftest import Daemon
+
+ROOT = Path(__file__).resolve().parents[2]
+ICD = ROOT / "configs" / "icd" / "ema-testbed.yaml"
 
 CAPTURE = ROOT / "tests" / "data" / "codec" / "ema-cruise-20ms.sr"
 
