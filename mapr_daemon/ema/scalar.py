@@ -24,7 +24,7 @@ import math
 from mapr_daemon.ema.batch import BatchArrays
 from mapr_daemon.ema.control import U_MAX
 from mapr_daemon.ema.inverter import NEGATIVE, POSITIVE
-from mapr_daemon.ema.scalar_bridge import legs, smps_coeffs, windings
+from mapr_daemon.ema.scalar_bridge import legs, smps_step_matrix, windings
 from mapr_daemon.ema.sensors import COPPER_ALPHA
 
 _PLUS = tuple(int(row.argmax()) for row in POSITIVE)
@@ -92,11 +92,12 @@ class ScalarRun:
         """Integrate one sample period from time ``t``; step means go to ``out``; returns t.
 
         The body is the vectorised ``EmaBatch._sample`` spelled out for one run (the function
-        of the vectorised path is named in each comment). Two shortcuts keep its arithmetic:
-        the SMPS step's matrix exponential is reused while its inputs (the switch resistance
-        and the shoot-through conductance) are unchanged — always, for equal high- and low-side
-        Ron — and the bridge of a run without a shorted or open switch is written for its three
-        roles (PWM'd leg, return leg, idle leg) instead of the general per-switch fractions.
+        of the vectorised path is named in each comment). Two shortcuts keep its arithmetic
+        (to rounding): the SMPS step's matrix exponential, folded into one affine map of the
+        state, the buck's input voltage and the load current, is reused while the switch
+        resistance and the shoot-through conductance are unchanged (always, for equal high- and
+        low-side Ron); and the bridge of a run without a shorted or open switch is written for
+        its three roles (PWM'd leg, return leg, idle leg) instead of per-switch fractions.
         """
         fp, p3, x = self.fp, self.p3, self.x
         h = self.h
@@ -219,14 +220,11 @@ class ScalarRun:
             r = r_sw + r_dcr
             if r != key_r or g_shoot != key_g:
                 key_r, key_g = r, g_shoot
-                coeffs = smps_coeffs(r, g_shoot, esr, l_smps, c_total, h)
-            kk, a11, a12, a21, a22, ea, eb, fa, fb = coeffs
-            b1 = (duty * vin + kk * esr * i_ext) / l_smps
-            b2 = -kk * i_ext / c_total
-            ab1 = a11 * b1 + a12 * b2
-            ab2 = a21 * b1 + a22 * b2
-            i_l, v_c = (ea * (a11 * i_l + a12 * v_c) + eb * i_l + fa * ab1 + fb * b1,
-                        ea * (a21 * i_l + a22 * v_c) + eb * v_c + fa * ab2 + fb * b2)
+                coeffs = smps_step_matrix(r, g_shoot, esr, l_smps, c_total, h)
+            m11, m12, m21, m22, p1, p2, q1, q2, kk = coeffs
+            dvin = duty * vin
+            i_l, v_c = (m11 * i_l + m12 * v_c + p1 * dvin + q1 * i_ext,
+                        m21 * i_l + m22 * v_c + p2 * dvin + q2 * i_ext)
             v_out = kk * (v_c + esr * (i_l - i_ext))
             i_in = duty * i_l
             # motor.solve_windings

@@ -138,3 +138,19 @@ def neutral(w: list[float], i: tuple[float, float, float], v_leg: list[float],
     if n_conn >= 2:
         return num / max(h_l * wsum, 1e-30)
     return (e[0] + e[1] + e[2]) / 3.0
+
+
+def smps_step_matrix(r: float, g: float, esr: float, lc: float, cc: float,
+                     h: float) -> tuple[float, ...]:
+    """smps.step as one affine map: ``(m11, m12, m21, m22, p1, p2, q1, q2, k)`` with
+
+    ``i_l' = m11 i_l + m12 v_c + p1 (D Vin) + q1 i_ext`` and likewise ``v_c'`` with row 2;
+    ``M = ea A + eb I`` and ``N = fa A + fb I`` of :func:`smps_coeffs` applied to the input
+    ``b = ((D Vin + k ESR i_ext)/L, -k i_ext/C)`` and regrouped by ``D Vin`` and ``i_ext``.
+    """
+    kk, a11, a12, a21, a22, ea, eb, fa, fb = smps_coeffs(r, g, esr, lc, cc, h)
+    n11, n12, n21, n22 = fa * a11 + fb, fa * a12, fa * a21, fa * a22 + fb
+    u1 = kk * esr / lc  # b1 per ampere of i_ext
+    u2 = -kk / cc  # b2 per ampere of i_ext
+    return (ea * a11 + eb, ea * a12, ea * a21, ea * a22 + eb, n11 / lc, n21 / lc,
+            n11 * u1 + n12 * u2, n21 * u1 + n22 * u2, kk)
