@@ -235,11 +235,10 @@ class ScalarRun:
             else:
                 # the same for an intact bridge: PWM'd and return legs always connected, the
                 # idle leg through a diode while it carries current (or starts to)
-                e_hi = ke_w if u >= 0.0 else -ke_w
-                e_lo = -e_hi
-                w_hi = 1.0 / (1.0 + h_l * (r_hi + r_w))
+                e_hi = ke_w if u >= 0.0 else -ke_w  # the return leg's EMF is -e_hi
+                w_hi = w_lo3[hi_ph] if rh == rl else 1.0 / (1.0 + h_l * (r_hi + r_w))
                 w_lo = w_lo3[lo_ph]
-                y = w_hi * (i_hi + h_l * (v_hi - e_hi)) + w_lo * (i_lo + h_l * (0.0 - e_lo))
+                y = w_hi * (i_hi + h_l * (v_hi - e_hi)) + w_lo * (i_lo + h_l * e_hi)
                 w_id = v_id = 0.0
                 if i_id == 0.0:
                     vn = y / (h_l * (w_hi + w_lo))
@@ -255,7 +254,7 @@ class ScalarRun:
                           / (h_l * (w_hi + w_lo + w_id)))
                 n_id = w_id * (i_id + h_l * (v_id - e_id - vn)) if w_id != 0.0 else 0.0
                 n_hi = w_hi * (i_hi + h_l * (v_hi - e_hi - vn))
-                n_lo = w_lo * (i_lo + h_l * (0.0 - e_lo - vn))
+                n_lo = w_lo * (i_lo + h_l * (e_hi - vn))
                 if i_id != 0.0 and n_id * i_id < 0.0:
                     # the idle leg's diode current would reverse: extinguished
                     n_id = 0.0
