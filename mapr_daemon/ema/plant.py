@@ -101,9 +101,9 @@ def _flight_scatter(p: BatchArrays, rngs: list[np.random.Generator]) -> BatchArr
 SCALAR_MAX_RUNS = 64
 """Batches up to this size step run by run in floats (:mod:`scalar`), larger ones in numpy.
 
-Measured on the 2-core reference machine (``bench/plant.py``): the float path gives ~6.5
+Measured on the 2-core reference machine (``bench/plant.py``): the float path gives 6-8
 actuator-seconds per wall second whatever the batch size, the numpy path 0.1 for one run, 4.4
-for 64 and 7.6 for 104; the two cross near 90 runs."""
+for 64 and 7.6 for 104; the two cross near 90-100 runs."""
 PATHS = ("auto", "scalar", "vector")
 
 

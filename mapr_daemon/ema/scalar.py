@@ -4,7 +4,7 @@ Why: the vectorised step (:mod:`mapr_daemon.ema.plant` with :mod:`smps`, :mod:`i
 :mod:`motor`, :mod:`control`) pays numpy's per-call overhead (~1 us per ufunc, some 200 calls
 per step) whatever the number of runs: cheap per run in a 104-run batch, ruinous for one (0.1x
 real time). The same equations on ``math`` floats, unrolled over the three phases, cost ~15 ns
-per operation and allocate almost nothing: ~3.5 us per 25 us step, ~6.5x real time.
+per operation and allocate almost nothing: ~3-4 us per 25 us step, 6-8x real time.
 
 Equivalence: the same formulas and the same fixed step as the vectorised functions named in
 each comment, specialised where that is exact (a sector's "+" and "-" phases sit on their
