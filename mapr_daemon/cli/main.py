@@ -26,9 +26,9 @@ SUBCOMMANDS: tuple[str, ...] = (
     "encode",
     "icd",
     "simulate",
-    "prognose",
     "dictionary",
     "diagnose",
+    "prognose",
     "catalog",
     "run",
 )
