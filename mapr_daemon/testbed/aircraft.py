@@ -110,9 +110,11 @@ class EmaTerminal:
         self.run_to(t_ns)
         values: dict[str, Any] = {icd_name: self.latest(plant_name, 4)
                                   for icd_name, plant_name in FAST_CHANNELS.items()}
-        torque = self.latest("dc_link_current_a", 4)
+        dc_link = self.latest("dc_link_current_a", 4)
         values["commutation_sector"] = [0] * 4  # the averaged plant does not expose it
-        values["drive_direction"] = [int(v >= 0) for v in torque]
+        values["drive_direction"] = [int(v >= 0) for v in dc_link]
+        # Not a measured duty: the plant exposes no inverter duty, so this is the DC-bus
+        # voltage over its 24 V nominal (see docs/testbed.md, "What is not modelled").
         values["pwm_duty"] = [min(1.0, abs(v) / 24.0) for v in self.latest("dc_bus_voltage_v",
                                                                             4)]
         values.update(fast_overrun=0, fast_adc_fault=0, fast_seq=self._next("fast"))
