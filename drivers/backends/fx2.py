@@ -23,6 +23,7 @@ from typing import Any
 import usb.core
 import usb.util
 
+from drivers.backends.attached import UDEV_HINT
 from drivers.errors import BackendError
 
 FX2LAFW_IDS: tuple[tuple[int, int], ...] = ((0x1D50, 0x608C), (0x0925, 0x3881))
@@ -46,6 +47,29 @@ Device = Any
 """A ``usb.core.Device`` (pyusb ships no type hints)."""
 
 
+def parse_ids(value: Any) -> list[tuple[int, int]]:
+    """USB IDs from an option: ``"1d50:608c,0925:3881"`` (as ``-o ids=...`` gives it), a
+    list of such strings, or a list of (vendor, product) integer pairs (as in YAML)."""
+    items = value.split(",") if isinstance(value, str) else list(value)
+    out = []
+    for item in items:
+        try:
+            if isinstance(item, str):
+                vendor, _, product = item.strip().partition(":")
+                out.append((int(vendor, 16), int(product, 16)))
+            else:
+                vendor_id, product_id = item
+                out.append((int(vendor_id), int(product_id)))
+        except (TypeError, ValueError):
+            raise BackendError(f"USB IDs: expected VVVV:PPPP (hex), got {item!r}") from None
+    return out
+
+
+def format_ids(ids: Iterable[tuple[int, int]]) -> str:
+    """``"1d50:608c,0925:3881"``: the form :func:`parse_ids` reads back."""
+    return ",".join(f"{vendor:04x}:{product:04x}" for vendor, product in ids)
+
+
 def find(ids: Iterable[tuple[int, int]], backend: Any = None) -> list[Device]:
     """Every attached device with one of ``ids``."""
     wanted = set(ids)
@@ -63,16 +87,25 @@ def firmware_version(device: Device) -> tuple[int, int] | None:
     return (int(raw[0]), int(raw[1])) if len(raw) == 2 else None
 
 
+def firmware_file(path: str | None) -> Path | None:
+    """The firmware file a load would use: ``path``, else the first of :data:`FIRMWARE_PATHS`
+    that exists (None: none found)."""
+    for candidate in [path] if path else FIRMWARE_PATHS:
+        file = Path(candidate)
+        if file.is_file():
+            return file
+    return None
+
+
 def read_firmware(path: str | None) -> list[tuple[int, bytes]]:
     """The firmware image as (address, bytes) pieces: Intel HEX (.hex/.ihx) or a raw
     binary loaded at 0 (Debian's .fw files)."""
+    file = firmware_file(path)
+    if file is not None:
+        if file.suffix.lower() in (".hex", ".ihx"):
+            return _intel_hex(file.read_text())
+        return [(0, file.read_bytes())]
     candidates = [path] if path else list(FIRMWARE_PATHS)
-    for candidate in candidates:
-        file = Path(candidate)
-        if file.is_file():
-            if file.suffix.lower() in (".hex", ".ihx"):
-                return _intel_hex(file.read_text())
-            return [(0, file.read_bytes())]
     raise BackendError(f"fx2lafw firmware not found (tried {', '.join(candidates)}): install "
                        "sigrok-firmware-fx2lafw or pass firmware=PATH")
 
@@ -145,8 +178,7 @@ def start(device: Device, sample_rate: int) -> None:
         device.set_configuration()
     except usb.core.USBError as error:
         if getattr(error, "errno", None) in (13, 1):
-            raise BackendError("permission denied on the FX2: install systemd/60-mapr.rules "
-                               "and add the user to the dialout group") from error
+            raise BackendError(f"permission denied on the FX2: {UDEV_HINT}") from error
         if getattr(error, "errno", None) == 16:
             raise BackendError("the FX2 is busy: another program has claimed it") from error
         raise BackendError(f"cannot configure the FX2: {error}") from error

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import contextlib
 import errno
+import os
 import queue
 import threading
 import time
@@ -36,6 +37,7 @@ from typing import Any
 import serial
 from serial.tools import list_ports
 
+from drivers.backends.attached import UDEV_HINT, AttachedCard, access_problem
 from drivers.backends.open1553 import BAUD_RATE, LineSplitter, WordClock, parse_line
 from drivers.errors import BackendError
 from drivers.mil1553.assembler import MessageAssembler
@@ -51,9 +53,6 @@ from drivers.mil1553.wordbatch import (
     empty_words,
 )
 from drivers.monitor import BusMonitor, MonitorFilter
-
-UDEV_HINT = ("install the udev rule systemd/60-mapr.rules (udevadm control --reload && "
-             "udevadm trigger) and add the user to the dialout group")
 
 
 @dataclass
@@ -289,15 +288,42 @@ def _batch(rows: list[tuple[int, int, int, int, int]]) -> WordBatch:
     return out
 
 
-def serial_cards() -> list[dict[str, str]]:
-    """USB serial ports that may be open1553 cards (the card has no ID of its own: every
-    USB serial adapter is listed, with what identifies it)."""
+BY_ID_DIR = "/dev/serial/by-id"
+"""Where udev keeps the stable links of serial ports (named after maker, product and serial)."""
+
+
+def stable_links(directory: str = BY_ID_DIR) -> dict[str, str]:
+    """Device node -> its udev-stable link in ``directory`` (empty when there is none)."""
+    links: dict[str, str] = {}
+    with contextlib.suppress(OSError):
+        for entry in sorted(os.scandir(directory), key=lambda e: e.name):
+            if entry.is_symlink():
+                links.setdefault(os.path.realpath(entry.path), entry.path)
+    return links
+
+
+def serial_cards(by_id_dir: str = BY_ID_DIR) -> list[AttachedCard]:
+    """USB serial ports that may be open1553 cards, from pyserial's port listing.
+
+    The card has no USB ID of its own (it sits behind an ordinary USB serial adapter), so
+    every USB serial port is listed with what identifies it; ports without a USB identity
+    (on-board ``ttyS*``) are not cards. The options open the card by its adapter's serial
+    number when it has one (stable across replugs and ports), else by its udev-stable link,
+    else by its device node."""
+    links = stable_links(by_id_dir)
     found = []
     for info in list_ports.comports():
         if info.vid is None:
             continue
-        found.append({"backend": "serial", "port": str(info.device),
-                      "id": f"{info.vid:04x}:{info.pid or 0:04x}",
-                      "serial_number": str(info.serial_number or ""),
-                      "description": str(info.description or "")})
+        device = str(info.device)
+        serial_number = str(info.serial_number) if info.serial_number else None
+        stable = links.get(os.path.realpath(device))
+        options: dict[str, Any] = ({"serial_number": serial_number} if serial_number
+                                   else {"port": stable or device})
+        described = " ".join(str(part) for part in (info.manufacturer, info.product) if part)
+        found.append(AttachedCard(
+            backend="serial", device=device, usb_id=f"{info.vid:04x}:{info.pid or 0:04x}",
+            description=described or str(info.description or ""),
+            state="USB serial adapter (open1553 speaks at 2,000,000 baud)", options=options,
+            serial_number=serial_number, stable_path=stable, problem=access_problem(device)))
     return found

@@ -16,7 +16,8 @@ messages are flushed), a :class:`~drivers.backends.serial_card.Gap` is appended 
 :attr:`UsbMonitor.gaps`, and a new segment starts at host time. After an unplug the reader
 reopens the device with exponential backoff (``reconnect=False``: the stream ends instead).
 
-Options: ``ids``/``bare_ids`` (lists of (vendor, product)), ``firmware`` (path),
+Options: ``ids``/``bare_ids`` (``"1d50:608c,0925:3881"`` or lists of (vendor, product)),
+``firmware`` (path),
 ``sample_rate`` (12e6, 16e6, 24e6), ``channels`` ({"A": (rx, rxb), "B": (rx, rxb)}: input
 numbers, default A = 0/1, B = 2/3), ``inverted`` (transceivers with active-low outputs),
 ``transfer_bytes``, ``queue_blocks``, ``reconnect``, ``backoff_s``, ``backoff_max_s``,
@@ -27,6 +28,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import errno
 import queue
 import threading
 import time
@@ -39,6 +41,7 @@ import usb.core
 import usb.util
 
 from drivers.backends import fx2
+from drivers.backends.attached import UDEV_HINT, AttachedCard, access_problem
 from drivers.backends.serial_card import Gap
 from drivers.errors import BackendError
 from drivers.mil1553.record import MonitorRecord
@@ -123,8 +126,8 @@ class UsbMonitor(BusMonitor):
     """A monitor on an FX2 logic analyzer (see the module docstring for options)."""
 
     def __init__(self, *, filters: Sequence[MonitorFilter] | None = None,
-                 ids: Iterable[Sequence[int]] = fx2.FX2LAFW_IDS,
-                 bare_ids: Iterable[Sequence[int]] = fx2.BARE_IDS,
+                 ids: str | Iterable[Sequence[int] | str] = fx2.FX2LAFW_IDS,
+                 bare_ids: str | Iterable[Sequence[int] | str] = fx2.BARE_IDS,
                  firmware: str | None = None, sample_rate: float = 24e6,
                  channels: dict[str, Sequence[int]] | None = None, inverted: bool = False,
                  transfer_bytes: int = 65536, queue_blocks: int = 256,
@@ -132,8 +135,8 @@ class UsbMonitor(BusMonitor):
                  timing: BusTiming | None = None, usb_backend: Any = None,
                  **config: Any) -> None:
         super().__init__(filters=filters, **config)
-        self.ids = [(int(v), int(p)) for v, p in ids]
-        self.bare_ids = [(int(v), int(p)) for v, p in bare_ids]
+        self.ids = fx2.parse_ids(ids)
+        self.bare_ids = fx2.parse_ids(bare_ids)
         self.firmware, self.usb_backend = firmware, usb_backend
         self.sample_rate = int(sample_rate)
         self.table = channel_table(channels or DEFAULT_CHANNELS, inverted)
@@ -227,12 +230,67 @@ class UsbMonitor(BusMonitor):
         self._reader._release()
 
 
-def usb_cards(backend: Any = None) -> list[dict[str, str]]:
-    """Attached FX2 analyzers, with or without firmware (for ``mapr devices``)."""
+def usb_cards(backend: Any = None, *, ids: Iterable[tuple[int, int]] = fx2.FX2LAFW_IDS,
+              bare_ids: Iterable[tuple[int, int]] = fx2.BARE_IDS,
+              firmware: str | None = None) -> list[AttachedCard]:
+    """Attached FX2 analyzers with ``ids`` (running fx2lafw, version read with request 0xB0)
+    or ``bare_ids`` (no firmware yet), for ``mapr devices``. Raises
+    ``usb.core.NoBackendError`` when libusb is missing (the caller says so).
+
+    Bare devices are not talked to: the firmware is loaded only when the backend opens them.
+    The options name the IDs and firmware only where they differ from the defaults."""
+    ids, bare_ids = list(ids), list(bare_ids)
+    options: dict[str, Any] = {}
+    if ids != list(fx2.FX2LAFW_IDS):
+        options["ids"] = fx2.format_ids(ids)
+    if bare_ids != list(fx2.BARE_IDS):
+        options["bare_ids"] = fx2.format_ids(bare_ids)
+    if firmware is not None:
+        options["firmware"] = firmware
     found = []
-    for ids, state in ((fx2.FX2LAFW_IDS, "fx2lafw IDs"), (fx2.BARE_IDS, "bare FX2")):
-        for device in fx2.find(ids, backend):
-            found.append({"backend": "usb", "port": f"bus {device.bus} address {device.address}",
-                          "id": f"{device.idVendor:04x}:{device.idProduct:04x}",
-                          "serial_number": "", "description": state})
+    for device in fx2.find(ids + [i for i in bare_ids if i not in ids], backend):
+        usb_id = (device.idVendor, device.idProduct)
+        node = f"/dev/bus/usb/{device.bus:03d}/{device.address:03d}"
+        problem = access_problem(node)
+        if usb_id in ids:
+            state, error = _firmware_state(device, firmware)
+            problem = problem or error
+        else:
+            state = "bare FX2: the firmware is loaded when the backend opens it"
+            problem = problem or _firmware_problem(firmware)
+        found.append(AttachedCard(
+            backend="usb", device=f"usb bus {device.bus} address {device.address}",
+            usb_id=f"{usb_id[0]:04x}:{usb_id[1]:04x}", description="FX2 logic analyzer",
+            state=state, options=dict(options), problem=problem))
     return found
+
+
+def _firmware_state(device: Any, firmware: str | None) -> tuple[str, str | None]:
+    """(state, problem) of a device with fx2lafw's IDs, from its version request."""
+    try:
+        raw = device.ctrl_transfer(fx2.VENDOR_IN, fx2.REQ_GET_VERSION, 0, 0, 2, timeout=500)
+    except usb.core.USBError as error:
+        code = getattr(error, "errno", None)
+        if code in (errno.EACCES, errno.EPERM):
+            return "fx2lafw IDs (version unreadable)", f"permission denied: {UDEV_HINT}"
+        if code == errno.EBUSY:
+            return "fx2lafw IDs (version unreadable)", "busy: another program has claimed it"
+        return ("fx2lafw IDs, firmware not answering: it is reloaded when the backend opens "
+                "it", _firmware_problem(firmware))
+    finally:
+        with contextlib.suppress(usb.core.USBError):
+            usb.util.dispose_resources(device)
+    if len(raw) != 2:
+        return "fx2lafw IDs, firmware version unreadable", None
+    major, minor = int(raw[0]), int(raw[1])
+    if major != 1:
+        return f"fx2lafw {major}.{minor}", f"firmware major version {major}: need 1"
+    return f"fx2lafw {major}.{minor} running", None
+
+
+def _firmware_problem(firmware: str | None) -> str | None:
+    if fx2.firmware_file(firmware) is not None:
+        return None
+    tried = firmware or ", ".join(fx2.FIRMWARE_PATHS)
+    return (f"needs the fx2lafw firmware, not found (tried {tried}): install "
+            "sigrok-firmware-fx2lafw or pass firmware=PATH")

@@ -31,6 +31,7 @@ SUBCOMMANDS: tuple[str, ...] = (
     "prognose",
     "catalog",
     "run",
+    "devices",
 )
 """Modules of :mod:`mapr_daemon.cli` that add a subcommand, in help order."""
 

@@ -64,7 +64,7 @@ def test_firmware_load_and_start(firmware: str) -> None:
         assert backend.ram == {0: bytes([0x02, 0x00, 0x0A])}  # the image, written in reset
         assert not backend.bare and backend.started == bytes([0x40, 0, 2])
         monitor.close()
-    assert usb_cards(Fx2Backend(b"", bare=False))[0]["id"] == "1d50:608c"
+    assert usb_cards(Fx2Backend(b"", bare=False))[0].usb_id == "1d50:608c"
 
 
 def test_missing_firmware_is_a_clear_error(tmp_path: Path) -> None:
