@@ -65,6 +65,7 @@ def access_problem(path: str) -> str | None:
     (None when it may, or when the node does not exist here to be checked)."""
     if not os.path.exists(path):
         return None
-    if os.access(path, os.R_OK | os.W_OK):
+    # Effective IDs: they are what open() is checked against.
+    if os.access(path, os.R_OK | os.W_OK, effective_ids=os.access in os.supports_effective_ids):
         return None
     return f"permission denied on {path}: {UDEV_HINT}"

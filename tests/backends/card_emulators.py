@@ -165,8 +165,12 @@ class Fx2Backend(usb.backend.IBackend):  # type: ignore[misc]
     which reads fail as an unplugged device (None: when the samples run out)."""
 
     def __init__(self, samples: bytes, *, bare: bool = True, short_at: Iterable[int] = (),
-                 unplug_after: int | None = None) -> None:
+                 unplug_after: int | None = None, access_denied: bool = False,
+                 version: tuple[int, int] = (1, 4)) -> None:
         self.samples = samples
+        self.access_denied = access_denied
+        """Opening fails as libusb fails without the udev rule (EACCES)."""
+        self.version = version
         self.bare = bare
         self.ram: dict[int, bytes] = {}
         self.in_reset = False
@@ -209,6 +213,8 @@ class Fx2Backend(usb.backend.IBackend):  # type: ignore[misc]
                      extra_descriptors=[])
 
     def open_device(self, dev: Any) -> Any:
+        if self.access_denied:
+            raise usb.core.USBError("Access denied (insufficient permissions)", errno=13)
         if self.unplugged or dev[1] != self.bare:
             raise usb.core.USBError("No such device", errno=19)
         return dev
@@ -243,7 +249,7 @@ class Fx2Backend(usb.backend.IBackend):  # type: ignore[misc]
         if handle[1]:
             raise usb.core.USBError("Pipe error", errno=32)  # bare: only 0xA0 answers
         if bRequest == 0xB0:
-            data[0], data[1] = 1, 4
+            data[0], data[1] = self.version
             return 2
         if bRequest == 0xB2:
             data[0] = 1

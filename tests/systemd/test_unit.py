@@ -75,7 +75,9 @@ def test_udev_rule_gives_dialout_the_cards() -> None:
              if x and not x.startswith("#")]
     usb = {(m.group(1), m.group(2)) for x in rules
            if (m := re.search(r'idVendor}=="(\w+)".*idProduct}=="(\w+)"', x))}
-    assert usb == {("1d50", "608c"), ("0925", "3881")}
+    # every analyzer the usb backend looks for, bare ones included (it loads their firmware)
+    from drivers.backends.fx2 import BARE_IDS, FX2LAFW_IDS
+    assert usb == {(f"{v:04x}", f"{p:04x}") for v, p in FX2LAFW_IDS + BARE_IDS}
     assert all('GROUP="dialout"' in x and 'MODE="0660"' in x for x in rules)
     assert any("ttyUSB" in x for x in rules) and any("ttyACM" in x for x in rules)
     sysusers = (SYSTEMD / "mapr.sysusers").read_text()
