@@ -28,6 +28,11 @@ KINDS = ("capacitance", "esr", "smps_ron_high", "smps_ron_low", "inverter_ron_a_
          "friction")
 
 
+def _flights(x: float) -> str:
+    """A RUL figure; ``inf`` (the trend never reaches the threshold) printed as such."""
+    return f"{x:.1f}" if math.isfinite(x) else "beyond horizon"
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--dictionary", type=Path)
@@ -52,7 +57,7 @@ def main() -> int:
         print(f"{s.kind + ':' + str(s.seed):>24} {s.eol:6.1f} {s.alpha_lambda[0.5]!s:>7}"
               f" {s.alpha_lambda[0.75]!s:>7} {s.relative_accuracy[0.5]:7.2f}"
               f" {s.relative_accuracy[0.75]:7.2f} {s.horizon:6.1f}  {s.true_rul[k]:.1f} /"
-              f" {s.est_rul[k]:.1f} [{s.lower[k]:.1f}, {s.upper[k]:.1f}]")
+              f" {_flights(s.est_rul[k])} [{_flights(s.lower[k])}, {_flights(s.upper[k])}]")
     rate = 100 * sum(passes) / len(passes)
     print(f"alpha-lambda pass {rate:.1f} % ({sum(passes)}/{len(passes)}), target >= 90 %: "
           f"{'met' if rate >= 90 else 'MISSED'}; median RA on RUL {np.median(ras):.2f}")

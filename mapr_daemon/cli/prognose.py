@@ -8,7 +8,8 @@ the reasoner trends its estimate of the component and predicts RUL with 5-95 % b
 
 Prints one JSON object: per BIT flight the true and estimated degradation, per prediction the
 true and estimated RUL with bounds, alpha-lambda (alpha 0.2 at lambda 0.5 and 0.75), relative
-accuracy on RUL and the prognostic horizon.
+accuracy on RUL and the prognostic horizon. A RUL or bound the trend does not reach within
+its horizon is ``null``.
 """
 
 from __future__ import annotations
@@ -35,6 +36,7 @@ def add_subparser(subparsers: Any) -> None:
 
 
 def _num(x: float) -> float | None:
+    """A finite figure, or ``null``: a RUL bound beyond the horizon (never ``nan``)."""
     return None if not math.isfinite(x) else round(float(x), 3)
 
 

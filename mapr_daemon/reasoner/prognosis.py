@@ -24,6 +24,8 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
@@ -72,12 +74,37 @@ def soh(params: ActuatorParams, kind: str, value: float | None) -> float:
 
 @dataclasses.dataclass(frozen=True)
 class RulEstimate:
-    """RUL in flights: the median and the 5 % / 95 % bounds, plus the draws behind them."""
+    """RUL in flights: the median and the 5 % / 95 % bounds, plus the draws behind them.
+
+    A value that lies beyond ``horizon`` (the longest RUL the trend was followed to) is
+    ``math.inf``: the trend does not reach the threshold within the horizon. It is never
+    ``nan``; :meth:`as_event` turns it into ``null`` with a note saying so.
+    """
 
     rul: float
     lower: float
     upper: float
     draws: FloatArray
+    horizon: float = math.inf
+
+    def as_event(self) -> dict[str, Any]:
+        """JSON-ready: ``rul``/``low``/``high`` in flights, ``null`` beyond the horizon."""
+        out: dict[str, Any] = {"unit": "flights"}
+        beyond = []
+        for key, v in (("rul", self.rul), ("low", self.lower), ("high", self.upper)):
+            out[key] = round(v, 3) if math.isfinite(v) else None
+            if not math.isfinite(v):
+                beyond.append(key)
+        if beyond:
+            out["note"] = (f"{', '.join(beyond)} beyond the {self.horizon:g}-flight horizon: "
+                           "the trend does not reach the failure threshold by then")
+        return out
+
+
+def quantiles(draws: FloatArray, q: Sequence[float] = (5.0, 50.0, 95.0)) -> list[float]:
+    """Percentiles of RUL draws as order statistics: a draw that never crosses (``inf``) gives
+    ``inf`` where linear interpolation would give ``inf - inf = nan``."""
+    return [float(v) for v in np.percentile(draws, list(q), method="inverted_cdf")]
 
 
 def rul_from_trend(flights: FloatArray, h: FloatArray, now: float, n_draws: int = 400,
@@ -103,12 +130,8 @@ def rul_from_trend(flights: FloatArray, h: FloatArray, now: float, n_draws: int 
     crossed = vals >= 1.0
     first = np.where(crossed.any(axis=1), np.argmax(crossed, axis=1), -1)
     ruls = np.where(first >= 0, (grid_u[np.maximum(first, 0)] - grid_u[0]) * span, math.inf)
-    finite = ruls[np.isfinite(ruls)]
-    if finite.size < ruls.size / 2:
-        return RulEstimate(math.inf, float(np.percentile(finite, 5)) if finite.size else math.inf,
-                           math.inf, ruls)
-    q5, q50, q95 = np.percentile(ruls, [5, 50, 95])
-    return RulEstimate(float(q50), float(q5), float(q95), ruls)
+    q5, q50, q95 = quantiles(ruls)
+    return RulEstimate(q50, q5, q95, ruls, horizon=horizon_factor * span)
 
 
 def relative_accuracy(true_rul: float, est_rul: float) -> float:

@@ -58,3 +58,18 @@ def test_metrics() -> None:
     true = 50.0 - times
     est = np.array([10.0, 31.0, 19.0, 10.5])  # within 20 % from t = 20 on
     assert prognosis.prognostic_horizon(times, true, est, 50.0, 0.2) == 30.0
+
+
+def test_a_bound_beyond_the_horizon_is_reported_as_such_never_nan() -> None:
+    # a slow noisy trend: most draws cross within the horizon, some never do
+    rng = np.random.default_rng(11)
+    flights = np.arange(0, 41, 2, dtype=float)
+    h = flights / 400.0 + 0.02 * rng.standard_normal(flights.size)
+    r = prognosis.rul_from_trend(flights, h, now=40.0, horizon_factor=10.0)
+    assert np.isinf(r.draws).any() and np.isfinite(r.draws).any()
+    assert not any(math.isnan(v) for v in (r.rul, r.lower, r.upper))
+    assert math.isinf(r.upper)
+    assert r.horizon == pytest.approx(400.0)
+    ev = r.as_event()
+    assert ev["high"] is None and "beyond the 400-flight horizon" in ev["note"]
+    assert ev["low"] is not None and ev["low"] == pytest.approx(r.lower, abs=1e-3)
