@@ -10,7 +10,7 @@ is held to the loopback's reference behaviour (python-can's back-to-back tests d
 
 Every check is listed in :data:`SUITE`; ``tests/backends/test_backtoback_loopback.py`` runs it
 on the loopback, and :func:`hardware_factory_or_skip` gates the hardware runs on the
-``MAPR_HARDWARE`` environment variable.
+``MAPR_TEST_HW`` environment variable.
 """
 
 from __future__ import annotations
@@ -160,19 +160,19 @@ SUITE: tuple[Callable[[MonitorFactory], None], ...] = (
 )
 
 HARDWARE_FACTORIES: dict[str, str] = {}
-"""``MAPR_HARDWARE`` value -> "module:function" returning a :data:`MonitorFactory` (the
+"""``MAPR_TEST_HW`` value -> "module:function" returning a :data:`MonitorFactory` (the
 hardware issues add theirs here)."""
 
 
 def hardware_factory_or_skip(name: str) -> MonitorFactory:
     """The factory for hardware backend ``name``, or skip the test saying why.
 
-    Hardware runs only when ``MAPR_HARDWARE`` lists the backend (``MAPR_HARDWARE=usb`` or
+    Hardware runs only when ``MAPR_TEST_HW`` lists the backend (``MAPR_TEST_HW=usb`` or
     ``usb,serial``): a machine without the card must not fail, and one with it must opt in.
     """
-    wanted = {v.strip() for v in os.environ.get("MAPR_HARDWARE", "").split(",") if v.strip()}
+    wanted = {v.strip() for v in os.environ.get("MAPR_TEST_HW", "").split(",") if v.strip()}
     if name not in wanted:
-        pytest.skip(f"hardware back-to-back run for {name!r} needs MAPR_HARDWARE={name}")
+        pytest.skip(f"hardware back-to-back run for {name!r} needs MAPR_TEST_HW={name}")
     target = HARDWARE_FACTORIES.get(name)
     if target is None:
         pytest.skip(f"no back-to-back factory registered for {name!r} yet")

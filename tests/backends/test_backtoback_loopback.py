@@ -1,5 +1,5 @@
 """The back-to-back suite on the loopback bus (bit level and word level), and its hardware
-runs, skipped unless ``MAPR_HARDWARE`` names the card."""
+runs, skipped unless ``MAPR_TEST_HW`` names the card."""
 
 from __future__ import annotations
 
