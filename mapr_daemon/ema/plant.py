@@ -118,7 +118,9 @@ class EmaBatch:
 
     def __init__(self, runs: Sequence[RunSpec], *, powered: bool = True,
                  path: str = "auto") -> None:
-        """``powered=False`` starts with the SMPS off, so every run begins with its soft start."""
+        """``powered=True`` starts in the powered steady state (DC bus regulated, the SMPS idle
+        and settled: see :meth:`SmpsState.powered`); ``powered=False`` starts with the SMPS
+        off, so every run begins with its soft start (the capacitance observation needs it)."""
         if path not in PATHS:
             raise ConfigError(f"unknown path {path!r} (known: {', '.join(PATHS)})", field="path")
         self.specs = tuple(runs)
@@ -127,9 +129,10 @@ class EmaBatch:
         p = self.p
         self.t = 0.0
         self.sample_index = 0
-        self.smps = smps.SmpsState.powered(p) if powered else smps.SmpsState.cold(p.n)
         self.ctl = ControlState.zero(p.n)
         self.slow = sensors.SlowState.start(p, self.rngs)
+        self.smps = (smps.SmpsState.powered(p, self.slow.bus_v) if powered
+                     else smps.SmpsState.cold(p.n))
         self.i = np.zeros((3, p.n))
         self.vn = np.zeros(p.n)
         self.omega = np.zeros(p.n)
@@ -141,7 +144,7 @@ class EmaBatch:
         self.path = "scalar" if scalar else "vector"
         self.scalar_runs: list[ScalarRun] = []
         if scalar:
-            self.scalar_runs = [ScalarRun(p, r) for r in range(p.n)]
+            self.scalar_runs = [ScalarRun(p, r, t_on=self.smps.t_on) for r in range(p.n)]
             self._to_scalar()
 
     @property

@@ -50,9 +50,13 @@ class ScalarRun:
     with :meth:`state` — the plant hands a run over between the two paths this way.
     """
 
-    def __init__(self, p: BatchArrays, r: int) -> None:
-        """Copy run ``r``'s parameters; the state starts at zero (set it with ``load``)."""
+    def __init__(self, p: BatchArrays, r: int, t_on: float = 0.0) -> None:
+        """Copy run ``r``'s parameters; the state starts at zero (the plant loads it).
+
+        ``t_on`` is when the SMPS was switched on (``SmpsState.t_on``; -inf when powered).
+        """
         self.h = p.step_s
+        self.t_on = t_on
         self.spb = p.samples_per_block
         names = [f.name for f in p.__dataclass_fields__.values() if f.name not in
                  ("n", "step_s", "samples_per_block", "full_scale", "lsb", "noise")]
@@ -136,6 +140,7 @@ class ScalarRun:
         hinge_k = q * area_chord
         inv_ratio_cmd = cmd_rad * ratio
         faulted = self.faulted
+        t_on = self.t_on
         (key_r, key_g), coeffs = self.smps_cache
         a_dc = a_a = a_b = a_c = a_v = a_d = a_vin = a_iin = a_v2 = a_r2 = 0.0
         a_pm = a_ps = a_tq = a_om = a_hg = a_ic = a_iq = a_du = a_il = 0.0
@@ -155,7 +160,8 @@ class ScalarRun:
             vdc = v_out
             vin = bus_v - r_source * i_in
             # smps.voltage_loop
-            vref = v_ref * (t / soft_start) if t < soft_start else v_ref
+            t_up = t - t_on
+            vref = v_ref * (t_up / soft_start) if t_up < soft_start else v_ref
             err = vref - v_out
             deriv += d_gain * ((err - prev_err) * inv_h - deriv)
             prev_err = err

@@ -41,6 +41,8 @@ class SmpsState:
     deriv: FloatArray
     prev_err: FloatArray
     duty: FloatArray
+    t_on: float = 0.0
+    """Time the supply was switched on: its soft start ramps the reference from here."""
 
     @classmethod
     def cold(cls, n: int) -> SmpsState:
@@ -49,18 +51,31 @@ class SmpsState:
         return cls(z.copy(), z.copy(), z.copy(), z.copy(), z.copy(), z.copy(), z.copy())
 
     @classmethod
-    def powered(cls, p: BatchArrays) -> SmpsState:
-        """Already regulating at the output voltage, unloaded."""
+    def powered(cls, p: BatchArrays, vin: FloatArray) -> SmpsState:
+        """The regulated steady state with the bridge idle, at input voltage ``vin``.
+
+        Switched on long ago (the soft start is over), output and capacitor at the reference,
+        no load so no inductor or capacitor current, the PI integral at the value that holds
+        the duty at ``Vref/Vin`` with zero error (``integ = D*Vin - Vref = R*i_l = 0``): the
+        first step of a powered run changes nothing until the motor draws current. A shorted
+        switch (shoot-through) has no regulated steady state; it loads this one from the first
+        step, as it would a running supply at the moment of the fault.
+        """
         s = cls.cold(p.n)
         s.v_c[:] = p.v_ref
         s.v_out[:] = p.v_ref
+        s.duty[:] = p.v_ref / np.maximum(vin, 1.0)
+        s.t_on = -np.inf
         return s
 
 
 def voltage_loop(s: SmpsState, p: BatchArrays, t: float, vin: FloatArray) -> FloatArray:
-    """Digital PI(D) with input-voltage feed-forward and soft start; returns the duty."""
+    """Digital PI(D) with input-voltage feed-forward and soft start; returns the duty.
+
+    The soft start ramps the reference from 0 at ``s.t_on`` to ``Vref`` ``soft_start`` later.
+    """
     h = p.step_s
-    ramp = np.minimum(1.0, t / np.maximum(p.soft_start, 1e-12))
+    ramp = np.minimum(1.0, (t - s.t_on) / np.maximum(p.soft_start, 1e-12))
     vref = p.v_ref * ramp
     err = vref - s.v_out
     s.deriv += (h / (p.tf_v + h)) * ((err - s.prev_err) / h - s.deriv)
