@@ -23,6 +23,7 @@ SUBCOMMANDS: tuple[str, ...] = (
     "demo",
     "decode",
     "monitor",
+    "record",
     "encode",
     "icd",
     "simulate",
