@@ -1,0 +1,160 @@
+"""Words stored in bus order, split into command, status and data as the transfer format says.
+
+A Chapter 10 MS1553F1 message stores every word the recorder saw, in bus order, with no
+word-type marks. The command word (two for RT-RT, which the block status word flags) decides
+the transfer format, and the format decides which word is which::
+
+    BC-RT         cmd  data x wc  status          RT-BC        cmd  status  data x wc
+    RT-RT         rx-cmd  tx-cmd  tx-status  data x wc  rx-status
+    mode, no data cmd  status                     mode, T data cmd  status  data
+    mode, R data  cmd  data  status               broadcast    as above, with no status
+
+A message that timed out holds only what was on the bus: the words up to the status the
+silent terminal owed (the command alone for a transmit command; the command and its data for
+a receive command; both commands, or everything but the receiver's status, for RT-RT). Too
+few words cut the layout short; words beyond it are data (the last word stays the status
+when the format ends with one and nobody timed out).
+
+:func:`split_message` also finds again the errors the block status word has no bit for but
+the words and gaps show (status from the wrong RT, reserved status bits, early or late
+response, reserved mode code, illegal format), so a replayed record reads like a live one.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from drivers.mil1553.modecodes import MODE_CODES, direction_legal
+from drivers.mil1553.record import TransferFormat
+from drivers.mil1553.timing import BusTiming
+from drivers.mil1553.words import BROADCAST_RT, MODE_SUBADDRESSES
+
+_STATUS_RESERVED = 0x00E0
+
+COMMAND, DATA, STATUS = "C", "D", "S"
+
+
+@dataclass(frozen=True, slots=True)
+class Layout:
+    """The roles of a complete message's words in bus order, and where each terminal's
+    status word would be (``status_positions``, with the RT expected to send it)."""
+
+    format: TransferFormat
+    roles: tuple[str, ...]
+    status_positions: tuple[tuple[int, int], ...]
+    errors: frozenset[str]
+    """Errors the command word(s) alone show (reserved mode code, illegal format)."""
+
+
+@dataclass(frozen=True, slots=True)
+class SplitMessage:
+    """One stored message split into its parts."""
+
+    format: TransferFormat
+    command: int
+    command2: int | None
+    data: tuple[int, ...]
+    status: tuple[int, ...]
+    expected_words: int
+    """Words a message with these commands holds, up to a timed-out terminal's status."""
+    errors: frozenset[str]
+
+
+def layout_for(command: int, command2: int | None) -> Layout:
+    """The complete layout of a message starting with ``command`` (and, for RT-RT, the
+    transmit command ``command2``)."""
+    rt, tx, sa, count = command >> 11, bool(command >> 10 & 1), command >> 5 & 31, command & 31
+    broadcast = rt == BROADCAST_RT
+    errors: set[str] = set()
+    if command2 is not None:
+        rt2, sa2, count2 = command2 >> 11, command2 >> 5 & 31, command2 & 31
+        if (tx or not command2 >> 10 & 1 or rt2 in (BROADCAST_RT, rt)
+                or sa in MODE_SUBADDRESSES or sa2 in MODE_SUBADDRESSES or count2 != count):
+            errors.add("illegal_format")
+        roles = [COMMAND, COMMAND, STATUS, *[DATA] * (count2 or 32)]
+        statuses = [(2, rt2)]
+        if not broadcast:
+            statuses.append((len(roles), rt))
+            roles.append(STATUS)
+        fmt = TransferFormat.BCAST_RT_RT if broadcast else TransferFormat.RT_RT
+        return Layout(fmt, tuple(roles), tuple(statuses), frozenset(errors))
+    if sa in MODE_SUBADDRESSES:
+        mode = MODE_CODES[count]
+        if mode.reserved:
+            errors.add("reserved_mode_code")
+        if not direction_legal(count, tx) or (broadcast and not mode.broadcast_allowed):
+            errors.add("illegal_format")
+        if broadcast:
+            fmt = TransferFormat.BCAST_MODE_RX_DATA if mode.has_data else \
+                TransferFormat.BCAST_MODE
+            roles = [COMMAND, DATA] if mode.has_data and not tx else [COMMAND]
+            return Layout(fmt, tuple(roles), (), frozenset(errors))
+        if not mode.has_data:
+            return Layout(TransferFormat.MODE, (COMMAND, STATUS), ((1, rt),), frozenset(errors))
+        if tx:
+            return Layout(TransferFormat.MODE_TX_DATA, (COMMAND, STATUS, DATA), ((1, rt),),
+                          frozenset(errors))
+        return Layout(TransferFormat.MODE_RX_DATA, (COMMAND, DATA, STATUS), ((2, rt),),
+                      frozenset(errors))
+    words = count or 32
+    if broadcast:
+        if tx:
+            errors.add("illegal_format")  # no terminal may answer a broadcast
+        roles = [COMMAND] if tx else [COMMAND, *[DATA] * words]
+        return Layout(TransferFormat.BCAST_BC_RT, tuple(roles), (), frozenset(errors))
+    if tx:
+        return Layout(TransferFormat.RT_BC, (COMMAND, STATUS, *[DATA] * words), ((1, rt),),
+                      frozenset(errors))
+    return Layout(TransferFormat.BC_RT, (COMMAND, *[DATA] * words, STATUS),
+                  ((words + 1, rt),), frozenset(errors))
+
+
+def split_message(words: tuple[int, ...], *, rt_to_rt: bool, timed_out: bool,
+                  gaps_ns: tuple[int, ...] = (), timing: BusTiming | None = None
+                  ) -> SplitMessage:
+    """Split a stored message (``words`` in bus order, at least one) into its parts.
+
+    ``rt_to_rt`` and ``timed_out`` are the block status word's RR and TM flags; ``gaps_ns``
+    the response gaps in bus order, checked against ``timing`` (early/late response).
+    """
+    timing = timing or BusTiming()
+    command = words[0]
+    command2 = words[1] if rt_to_rt and len(words) > 1 else None
+    layout = layout_for(command, command2)
+    roles = list(layout.roles)
+    if timed_out and layout.status_positions:
+        # The silent terminal is the first whose status would sit at or past the words kept.
+        cut = next((pos for pos, _ in layout.status_positions if pos >= len(words)),
+                   layout.status_positions[-1][0])
+        roles = roles[:cut]
+    expected = len(roles)
+    extra = len(words) - len(roles)
+    if extra > 0:
+        if roles[-1] == STATUS and not timed_out:
+            roles = [*roles[:-1], *[DATA] * extra, STATUS]
+        else:
+            roles += [DATA] * extra
+    roles = roles[:len(words)]
+    data = tuple(w for w, r in zip(words, roles, strict=True) if r == DATA)
+    status_at = [i for i, r in enumerate(roles) if r == STATUS]
+    status = tuple(words[i] for i in status_at)
+    errors = set(layout.errors)
+    expected_rts = dict(layout.status_positions)
+    for order, index in enumerate(status_at):
+        word = words[index]
+        owner = expected_rts.get(index)
+        if owner is None:  # the layout moved (extra words): terminals answer in order
+            owner = layout.status_positions[min(order, len(layout.status_positions) - 1)][1]
+        if word >> 11 != owner:
+            errors.add("wrong_rt_address")
+        if word & _STATUS_RESERVED:
+            errors.add("reserved_status_bits")
+    for gap in gaps_ns[:len(status)]:
+        if gap == 0:
+            continue  # not measured: no response gap is shorter than contiguous words
+        if gap < timing.response_min_ns:
+            errors.add("early_response")
+        elif gap > timing.response_max_ns:
+            errors.add("late_response")
+    return SplitMessage(layout.format, command, command2, data, status, expected,
+                        frozenset(errors))

@@ -1,0 +1,232 @@
+"""Walk a Chapter 10 file packet by packet, reporting and skipping what is damaged.
+
+pychapter10 parses each packet (:mod:`chapter10`). Its own file iterator is not used because
+on damaged input it resynchronizes silently one byte at a time, ends a truncated file without
+a word, never checks the data checksum and stops with ``NotImplementedError`` on a data type
+it does not know. Here every packet is framed first: sync pattern 0xEB25, header checksum,
+lengths, data checksum. A damaged packet becomes a :class:`ReadIssue` naming its file offset;
+the walk then looks for the next valid header and goes on, so one bad packet loses only itself.
+"""
+
+from __future__ import annotations
+
+import struct
+from array import array
+from collections.abc import Iterator
+from dataclasses import dataclass
+from io import BytesIO
+from pathlib import Path
+from typing import Any, BinaryIO
+
+from chapter10.c10 import TYPES
+from chapter10.packet import InvalidPacket
+
+from drivers.errors import CaptureFormatError
+
+SYNC_PATTERN = 0xEB25
+SYNC_BYTES = struct.pack("<H", SYNC_PATTERN)
+HEADER_BYTES = 24
+SECONDARY_HEADER_BYTES = 12
+MAX_PACKET_BYTES = 524_288 + HEADER_BYTES + SECONDARY_HEADER_BYTES + 8
+"""The standard caps a packet at 512 KiB of data (plus headers and checksum)."""
+
+TIME_F1 = 0x11
+MS1553_F1 = 0x19
+ARINC429_F0 = 0x38
+
+_HEADER = struct.Struct("<HHIIBBBB6sH")
+_SCAN_BLOCK = 1 << 20
+
+
+@dataclass(frozen=True, slots=True)
+class ReadIssue:
+    """A damaged or unreadable part of the file, skipped."""
+
+    offset: int
+    text: str
+
+    def __str__(self) -> str:
+        return f"offset {self.offset}: {self.text}"
+
+
+@dataclass(frozen=True, slots=True)
+class Header:
+    """The primary packet header fields the reader needs."""
+
+    offset: int
+    channel_id: int
+    packet_length: int
+    data_length: int
+    sequence_number: int
+    flags: int
+    data_type: int
+    rtc: int
+    """The 48-bit relative time counter (10 MHz) when the packet's first data was seen."""
+
+    @property
+    def secondary_header(self) -> bool:
+        return bool(self.flags & 0x80)
+
+    @property
+    def ipts_source(self) -> int:
+        """0: message time stamps are relative-time-counter values; 1: secondary-header time."""
+        return self.flags >> 6 & 1
+
+    @property
+    def secondary_format(self) -> int:
+        return self.flags >> 2 & 3
+
+    @property
+    def checksum_kind(self) -> int:
+        """0 none, 1 8-bit, 2 16-bit, 3 32-bit data checksum."""
+        return self.flags & 3
+
+
+def parse_header(raw: bytes, offset: int) -> Header | str:
+    """A header from 24 bytes, or why they are not one."""
+    sync, channel, plen, dlen, _version, seq, flags, dtype, rtc, checksum = _HEADER.unpack(raw)
+    if sync != SYNC_PATTERN:
+        return f"bad sync pattern 0x{sync:04X} (expected 0xEB25)"
+    if sum(array("H", raw[:22])) & 0xFFFF != checksum:
+        return "header checksum mismatch"
+    header_len = HEADER_BYTES + (SECONDARY_HEADER_BYTES if flags & 0x80 else 0)
+    if plen % 4 or plen > MAX_PACKET_BYTES or plen < header_len + dlen:
+        return f"impossible lengths (packet {plen} bytes, data {dlen} bytes)"
+    return Header(offset, channel, plen, dlen, seq, flags, dtype,
+                  int.from_bytes(rtc, "little"))
+
+
+def _data_checksum_ok(header: Header, raw: bytes) -> bool:
+    kind = header.checksum_kind
+    if kind == 0:
+        return True
+    size = (0, 1, 2, 4)[kind]
+    start = HEADER_BYTES + (SECONDARY_HEADER_BYTES if header.secondary_header else 0)
+    body = raw[start:len(raw) - size]
+    body = body[:len(body) - len(body) % size]
+    code = "xBHI"[kind]
+    total = sum(array(code, body)) & (1 << 8 * size) - 1
+    stored = int.from_bytes(raw[len(raw) - size:], "little")
+    return total == stored
+
+
+@dataclass(frozen=True, slots=True)
+class RawPacket:
+    """One framed, checked packet: its header, its bytes and pychapter10's parse of them."""
+
+    header: Header
+    raw: bytes
+    packet: Any
+    """The pychapter10 packet object (``MS1553F1``, ``TimeF1``, ``ARINC429F0`` ...)."""
+
+
+class PacketWalker:
+    """Iterate the packets of one file (``data_types``: the types to parse, others are
+    framed, checked and passed over). Damaged packets land in :attr:`issues`.
+
+    ``position`` and ``size`` tell how far the walk has come (for a progress bar).
+    """
+
+    def __init__(self, path: str | Path, data_types: frozenset[int] | None = None) -> None:
+        self.path = Path(path)
+        try:
+            self._file: BinaryIO = self.path.open("rb")
+        except OSError as error:
+            raise CaptureFormatError(f"{self.path}: cannot open: {error.strerror}") from error
+        self.size = self.path.stat().st_size
+        self.position = 0
+        self.data_types = data_types
+        self.issues: list[ReadIssue] = []
+        self.packets_read = 0
+        self.headers_seen = 0
+        """Valid packet headers met (of any type)."""
+        self.first_rtc: int | None = None
+        """The relative time counter of the file's first valid packet."""
+
+    def close(self) -> None:
+        self._file.close()
+
+    def __iter__(self) -> Iterator[RawPacket]:
+        f = self._file
+        pos = 0
+        while True:
+            f.seek(pos)
+            raw_header = f.read(HEADER_BYTES)
+            self.position = pos
+            if len(raw_header) < HEADER_BYTES:
+                if raw_header:
+                    self._issue(pos, f"truncated packet header ({len(raw_header)} bytes at the "
+                                     "end of the file)")
+                self.position = self.size
+                return
+            header = parse_header(raw_header, pos)
+            if isinstance(header, str):
+                self._issue(pos, header)
+                pos = self._next_header(pos + 1)
+                continue
+            self.headers_seen += 1
+            if self.first_rtc is None:
+                self.first_rtc = header.rtc
+            rest = f.read(header.packet_length - HEADER_BYTES)
+            raw = raw_header + rest
+            if len(raw) < header.packet_length:
+                self._issue(pos, f"truncated packet (type 0x{header.data_type:02X}, "
+                                 f"{len(raw)} of {header.packet_length} bytes at the end of "
+                                 "the file)")
+                self.position = self.size
+                return
+            next_pos = pos + header.packet_length
+            if not _data_checksum_ok(header, raw):
+                self._issue(pos, f"data checksum mismatch (type 0x{header.data_type:02X}, "
+                                 f"channel {header.channel_id}); packet skipped")
+                pos = self._next_header(pos + HEADER_BYTES)  # it may be a cut packet
+                continue
+            pos = next_pos
+            self.position = pos
+            if self.data_types is not None and header.data_type not in self.data_types:
+                continue
+            handler = TYPES.get(header.data_type)
+            if handler is None:
+                continue
+            body_end = HEADER_BYTES + header.data_length + \
+                (SECONDARY_HEADER_BYTES if header.secondary_header else 0)
+            try:  # parsed without filler and checksum: a message cannot run into them
+                packet = handler(BytesIO(raw[:body_end]))
+            except (InvalidPacket, EOFError, ValueError, struct.error) as error:
+                self._issue(header.offset, f"unreadable packet (type 0x{header.data_type:02X}): "
+                                           f"{error}")
+                continue
+            self.packets_read += 1
+            yield RawPacket(header, raw, packet)
+
+    def _issue(self, offset: int, text: str) -> None:
+        self.issues.append(ReadIssue(offset, text))
+
+    def _next_header(self, start: int) -> int:
+        """The offset of the next valid packet header at or after ``start`` (the file size
+        when there is none)."""
+        f = self._file
+        pos = start
+        while pos < self.size:
+            f.seek(pos)
+            block = f.read(_SCAN_BLOCK + HEADER_BYTES)
+            found = block.find(SYNC_BYTES)
+            while found != -1 and found + HEADER_BYTES <= len(block):
+                if isinstance(parse_header(block[found:found + HEADER_BYTES], pos + found),
+                              Header):
+                    return pos + found
+                found = block.find(SYNC_BYTES, found + 1)
+            if len(block) <= _SCAN_BLOCK:
+                break
+            pos += _SCAN_BLOCK
+        return self.size
+
+
+def looks_like_chapter10(path: str | Path) -> bool:
+    """True when the file starts with a valid Chapter 10 packet header."""
+    try:
+        with Path(path).open("rb") as f:
+            raw = f.read(HEADER_BYTES)
+    except OSError:
+        return False
+    return len(raw) == HEADER_BYTES and isinstance(parse_header(raw, 0), Header)
