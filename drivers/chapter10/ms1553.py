@@ -7,8 +7,8 @@ turns them into the record the live monitor produces:
 * ``t_ns`` is the leading edge of the first command word's sync, as for live records. The
   channel-specific word (bits 31-30) says which bit the recorder stamped (0: the last bit
   of the last word, 1: the first bit of the first word, 2: the last bit of the command
-  word); the message's length on the bus (20 µs a word, plus each response gap beyond the 2 µs of contiguous
-  words) moves the stamp to the start. ``end_ns`` is the end of the last word.
+  word); the message's length on the bus (20 µs a word, plus each response gap beyond the
+  2 µs of contiguous words) moves the stamp to the start. ``end_ns`` is the end of the last word.
 * bus, RT-RT and errors come from the block status word (:mod:`drivers.chapter10.status`);
   the words are split by :func:`drivers.chapter10.layout.split_message`.
 * ``gaps_ns`` holds GAP1 (and GAP2 for RT-RT) for each status word present, in ns.
