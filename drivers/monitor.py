@@ -41,6 +41,7 @@ BACKENDS: dict[str, tuple[str, str]] = {
     "capture": ("drivers.backends.capture", "CaptureMonitor"),
     "serial": ("drivers.backends.serial_card", "SerialMonitor"),
     "usb": ("drivers.backends.usb_card", "UsbMonitor"),
+    "chapter10": ("drivers.backends.chapter10", "Chapter10Monitor"),
 }
 """Built-in backends: name -> (module, class)."""
 
