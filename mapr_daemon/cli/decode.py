@@ -12,6 +12,10 @@ the codec sees it: ``{"t_ns", "bus", "sync", "value", "errors"}``.
 
 A truncated capture decodes what is there; the word cut by the end is flagged. A file that
 cannot be read gives one line on stderr and exit code 2; an invalid ICD, exit code 78.
+
+A Chapter 10 recording (found by its packet sync pattern, whatever its name) prints its 1553
+messages the same way, plus ``channel`` and ``time``, and its ARINC 429 words as lines with
+``"kind": "arinc429"`` (see docs/chapter10.md).
 """
 
 from __future__ import annotations
@@ -22,20 +26,23 @@ import sys
 from typing import Any, TextIO
 
 from drivers.capturefile import open_capture, parse_samplerate
+from drivers.chapter10.walker import looks_like_chapter10
 from drivers.errors import CaptureFormatError
 from drivers.mil1553.record import MonitorRecord
 from drivers.mil1553.wordbatch import WordBatch, word_to_json
 from drivers.pipeline import SamplePipeline
-from mapr_daemon.cli import exitcodes
+from mapr_daemon.cli import chapter10_decode, exitcodes
 from mapr_daemon.cli.icdview import IcdView
 from mapr_daemon.cli.render import record_json
 
 
 def add_subparser(subparsers: Any) -> None:
     parser = subparsers.add_parser(
-        "decode", help="decode a bit-level capture (raw or sigrok .sr) to JSON lines",
+        "decode", help="decode a bit-level capture (raw or sigrok .sr) or a Chapter 10 "
+                       "recording to JSON lines",
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("capture", help="raw capture file, '-' for stdin, or a sigrok .sr file")
+    parser.add_argument("capture", help="raw capture file, '-' for stdin, a sigrok .sr file "
+                                        "or a Chapter 10 recording")
     parser.add_argument("--samplerate", type=_rate, default=None, metavar="HZ",
                         help="sample rate of a raw capture, e.g. 10e6 or 10MHz "
                              "(read from the metadata of a .sr file)")
@@ -45,6 +52,7 @@ def add_subparser(subparsers: Any) -> None:
     parser.add_argument("--words", action="store_true",
                         help="print one JSON object per word (the codec's output)")
     parser.add_argument("--icd", metavar="FILE", help="message table: add engineering values")
+    chapter10_decode.add_arguments(parser)
     parser.set_defaults(func=run)
 
 
@@ -61,6 +69,8 @@ def _channels(text: str) -> list[str]:
 
 def run(args: argparse.Namespace) -> int:
     view = IcdView(args.icd)
+    if args.capture != "-" and looks_like_chapter10(args.capture):
+        return chapter10_decode.decode_chapter10(args, view)
     source = open_capture(args.capture, args.samplerate, args.channels)
     pipeline = SamplePipeline(source.sample_rate)
     out = sys.stdout

@@ -1,0 +1,72 @@
+"""``mapr decode FILE.c10``: a Chapter 10 recording as JSON lines, in file order.
+
+A 1553 message prints as for a capture (:meth:`MonitorRecord.to_json`, plus ``values`` with
+``--icd``), with two more keys: ``channel`` (the Chapter 10 channel ID) and, once the file has
+given a time packet, ``time`` (absolute, ISO 8601). An ARINC 429 word prints as::
+
+    {"t_ns": 362000, "kind": "arinc429", "channel": 9, "bus": 3, "speed": "high",
+     "label": "0o012", "sdi": 0, "data": 2000, "ssm": 3, "word": "0xE01F4050", "errors": []}
+
+Damaged packets are skipped and named on stderr with their file offset; decoding goes on.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from typing import Any, TextIO
+
+from drivers.chapter10.reader import Chapter10Reader
+from mapr_daemon.cli import exitcodes
+from mapr_daemon.cli.icdview import IcdView
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """The options that apply to Chapter 10 files only."""
+    group = parser.add_argument_group("Chapter 10 recordings")
+    group.add_argument("--c10-channel", type=int, action="append", dest="c10_channels",
+                       metavar="ID", help="read only this channel ID (repeat for more; "
+                                          "default: every 1553 and ARINC 429 channel)")
+    group.add_argument("--year", type=int, default=None,
+                       help="year of day-of-year time packets (for the absolute 'time')")
+
+
+def decode_chapter10(args: argparse.Namespace, view: IcdView, out: TextIO | None = None,
+                     err: TextIO | None = None) -> int:
+    """Print every 1553 message and ARINC 429 word of the file; issues go to ``err``."""
+    out = out or sys.stdout
+    err = err or sys.stderr
+    if args.words:
+        err.write("mapr decode: --words applies to bit-level captures, not to Chapter 10 "
+                  f"recordings ({args.capture})\n")
+        return exitcodes.USAGE
+    reader = Chapter10Reader(args.capture, channels=args.c10_channels, year=args.year)
+    reported = 0
+    try:
+        for batch in reader:
+            for record in batch.records:
+                line: dict[str, Any] = record.to_json()
+                line["channel"] = record.extra["channel"]
+                if "time" in record.extra:
+                    line["time"] = record.extra["time"]
+                values = view.values(record)
+                if values is not None:
+                    line["values"] = values
+                out.write(json.dumps(line) + "\n")
+            if batch.arinc429 is not None:
+                for word in batch.arinc429.to_json():
+                    out.write(json.dumps(word) + "\n")
+            reported = _report(reader, reported, err)
+    finally:
+        reader.close()
+    _report(reader, reported, err)
+    out.flush()
+    return exitcodes.OK
+
+
+def _report(reader: Chapter10Reader, reported: int, err: TextIO) -> int:
+    issues = reader.issues
+    for issue in issues[reported:]:
+        err.write(f"mapr decode: {reader.path}: {issue}\n")
+    return len(issues)
