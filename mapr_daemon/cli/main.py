@@ -24,6 +24,7 @@ SUBCOMMANDS: tuple[str, ...] = (
     "decode",
     "monitor",
     "record",
+    "replay",
     "encode",
     "icd",
     "simulate",

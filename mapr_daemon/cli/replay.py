@@ -1,0 +1,254 @@
+"""``mapr replay``: run a Chapter 10 recording through the daemon's pipeline, to the catalog.
+
+::
+
+    mapr replay flight.c10                                  # messages, ICD, bus statistics
+    mapr replay flight.c10 --diagnose --dictionary dictionary.npz --catalog replay.db
+    mapr replay flight.c10 --speed 1 --c10-channel 3        # in recorded time, one channel
+
+The recording's 1553 messages go monitor -> ICD -> (with ``--diagnose``) BIT watch and
+reasoner -> fault catalog, as in ``mapr run``, in one catalog session (backend
+``chapter10``). A progress bar (by file position) goes to stderr when it is a terminal, and a
+summary to stdout at the end. With ``--diagnose``, a recording holding none of the ICD's
+actuator signals says so instead of diagnosing nothing in silence. Damaged packets are
+skipped, named on stderr and recorded as catalog gaps. Events are stamped with the
+recording's absolute time when its time packets give a full date, else with the replay's.
+
+Exit codes: 0 done; 2 the file cannot be read or is not Chapter 10; 66 the catalog cannot
+be opened; 78 a config, ICD or dictionary error (``--diagnose`` without a dictionary).
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import logging
+import sys
+import time
+from datetime import datetime
+from pathlib import Path
+from typing import Any, TextIO
+
+from drivers.backends.chapter10 import Chapter10Monitor
+from drivers.chapter10.walker import looks_like_chapter10
+from drivers.errors import CaptureFormatError
+from drivers.monitor import BusStatistics, open_monitor
+from mapr_daemon.cli import exitcodes
+from mapr_daemon.errors import CatalogError, ConfigError
+
+log = logging.getLogger("mapr")
+BATCH = 1024
+"""Records handed to the ICD and reasoner at a time."""
+
+
+def add_subparser(subparsers: Any) -> None:
+    p = subparsers.add_parser("replay", help="run a Chapter 10 recording through the reasoner "
+                                             "into the catalog",
+                              description=__doc__,
+                              formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("recording", help="IRIG 106 Chapter 10 file")
+    p.add_argument("--config", metavar="FILE", help="daemon config to start from (assets, "
+                                                    "reasoner, catalog; default: defaults)")
+    p.add_argument("--icd", metavar="FILE", help="message table (default: the config's)")
+    p.add_argument("--diagnose", action="store_true",
+                   help="run the reasoner on the built-in tests found in the recording")
+    p.add_argument("--dictionary", metavar="FILE", help="fault dictionary for --diagnose "
+                                                        "(default: the config's)")
+    p.add_argument("--threshold", type=float, help="anomaly threshold override")
+    p.add_argument("--catalog", metavar="PATH", help="fault catalog (default: the config's)")
+    p.add_argument("--speed", type=float, default=0.0, metavar="X",
+                   help="0: as fast as possible (default); 1: in recorded time; 2: twice as "
+                        "fast")
+    p.add_argument("--c10-channel", type=int, action="append", dest="c10_channels",
+                   metavar="ID", help="replay only this 1553 channel ID (repeat for more)")
+    p.add_argument("--year", type=int, help="year of day-of-year time packets")
+    bar = p.add_mutually_exclusive_group()
+    bar.add_argument("--progress", action="store_true", default=None,
+                     help="show the progress bar even when stderr is not a terminal")
+    bar.add_argument("--no-progress", action="store_false", dest="progress")
+    p.set_defaults(func=run)
+
+
+class ProgressBar:
+    """``[#####-----]  48%  512 KiB / 1.0 MiB  1234 messages`` on one rewritten line."""
+
+    def __init__(self, out: TextIO, size: int, enabled: bool, width: int = 30) -> None:
+        self.out, self.size, self.enabled, self.width = out, max(size, 1), enabled, width
+        self._last = 0.0
+
+    def show(self, position: int, messages: int, *, final: bool = False) -> None:
+        now = time.monotonic()
+        if not self.enabled or (not final and now - self._last < 0.1):
+            return
+        self._last = now
+        share = min(1.0, position / self.size)
+        done = round(share * self.width)
+        self.out.write(f"\r[{'#' * done}{'-' * (self.width - done)}] {share:4.0%}  "
+                       f"{_size(position)} / {_size(self.size)}  {messages} messages")
+        if final:
+            self.out.write("\n")
+        self.out.flush()
+
+
+def _size(n: int) -> str:
+    return f"{n / 2**20:.1f} MiB" if n >= 2**20 else f"{n / 2**10:.0f} KiB"
+
+
+def _epoch_offset_ns(record: Any) -> int | None:
+    """Absolute epoch ns minus bus ns for a record whose time has a full date."""
+    text = record.extra.get("time")
+    if not text or text.startswith("day "):
+        return None
+    moment = datetime.fromisoformat(text)
+    seconds = (moment - datetime(1970, 1, 1)).total_seconds()
+    return round(seconds * 1e9) - int(record.t_ns)
+
+
+def run(args: argparse.Namespace) -> int:
+    from mapr_daemon.daemon.config import load_config
+    from mapr_daemon.daemon.service import build_pipeline
+
+    path = Path(args.recording)
+    if not looks_like_chapter10(path):
+        raise CaptureFormatError(f"{path}: not a Chapter 10 recording (no packet header at "
+                                 "its start)" if path.is_file() else f"{path}: no such file")
+    config = load_config(args.config)
+    reasoner = config.reasoner
+    if args.dictionary:
+        reasoner = dataclasses.replace(reasoner, dictionary=args.dictionary)
+    if args.threshold is not None:
+        reasoner = dataclasses.replace(reasoner, threshold=args.threshold)
+    if not args.diagnose:
+        reasoner = dataclasses.replace(reasoner, dictionary=None)
+    elif reasoner.dictionary is None:
+        raise ConfigError("--diagnose needs a fault dictionary: --dictionary FILE (or "
+                          "reasoner.dictionary in --config)")
+    options = {"path": str(path), "channels": args.c10_channels, "speed": args.speed,
+               "year": args.year}
+    config = dataclasses.replace(
+        config, icd=args.icd or config.icd, reasoner=reasoner,
+        catalog=dataclasses.replace(config.catalog, path=args.catalog or config.catalog.path),
+        backend=dataclasses.replace(config.backend, name="chapter10", options=options))
+    from mapr_daemon.daemon import logs
+    logs.setup("warning")
+    pipe = build_pipeline(config)
+    try:
+        from mapr_daemon.catalog import CatalogWriter
+        catalog = CatalogWriter(config.catalog.path,
+                                durability=config.catalog.durability)  # type: ignore[arg-type]
+    except CatalogError as error:
+        print(f"mapr replay: {error}", file=sys.stderr)
+        return exitcodes.NOINPUT
+    replay = Replay(pipe, catalog, config, path)
+    try:
+        replay.run(args.progress if args.progress is not None else sys.stderr.isatty())
+    except KeyboardInterrupt:
+        replay.finish("interrupted")
+        return exitcodes.INTERRUPTED
+    replay.finish("replay complete")
+    return exitcodes.OK
+
+
+class Replay:
+    """The daemon's per-batch work (``Service._records``), run to the end of a file."""
+
+    def __init__(self, pipe: Any, catalog: Any, config: Any, path: Path) -> None:
+        self.pipe, self.catalog, self.config, self.path = pipe, catalog, config, path
+        self.stats = BusStatistics()
+        self.events = 0
+        self.error_messages = 0
+        self.issues_seen = 0
+        self.offset_ns: int | None = None
+        self.actuator_seen = False
+        self.started_ns = time.time_ns()
+        monitor = open_monitor("chapter10", **config.backend.options)
+        assert isinstance(monitor, Chapter10Monitor)
+        self.monitor = monitor
+        catalog.open_session(backend="chapter10", config_hash=config.digest())
+
+    def run(self, progress: bool) -> None:
+        bar = ProgressBar(sys.stderr, self.monitor.size, progress)
+        batch = []
+        while True:
+            record = self.monitor.recv(timeout=0.2)
+            if record is not None:
+                batch.append(record)
+            if record is None or len(batch) >= BATCH:
+                self.process(batch)
+                batch = []
+                bar.show(self.monitor.position, sum(self.stats.messages.values()))
+            if record is None and self.monitor.ended:
+                break
+        bar.show(self.monitor.size, sum(self.stats.messages.values()), final=True)
+
+    def process(self, records: list[Any]) -> None:
+        for record in records:
+            self.stats.add(record)
+            self.error_messages += bool(record.errors)
+            if self.offset_ns is None:
+                self.offset_ns = _epoch_offset_ns(record)
+        self._gaps(records[-1].t_ns if records else 0)
+        if not records:
+            return
+        series = self.pipe.stream.feed(records)
+        if self.pipe.watch is None:
+            return
+        from mapr_daemon.daemon.bitwatch import CHANNELS
+        self.actuator_seen |= any(name in series and series[name].t_ns.size
+                                  for name in CHANNELS)
+        from mapr_daemon.catalog import event_from_reasoner
+        asset = self.config.assets[0]
+        anomalies = [d for d in self.pipe.watch.feed(series) if d["anomaly"]]
+        events = []
+        for decision in anomalies:
+            onset_ns = int(decision["evidence"].get("bit_bus_time_s", 0) * 1e9)
+            decision["evidence"]["recording"] = str(self.path)
+            events.append(event_from_reasoner(decision, t_ns=self._when(onset_ns),
+                                              asset=asset.name, rt=asset.rt))
+        if events:
+            self.events += len(self.catalog.add_events(events))
+
+    def _when(self, bus_ns: int) -> int:
+        return bus_ns + self.offset_ns if self.offset_ns is not None else time.time_ns()
+
+    def _gaps(self, bus_ns: int) -> None:
+        issues = self.monitor.issues
+        for issue in issues[self.issues_seen:]:  # the backend logs each on stderr
+            at = self._when(bus_ns)
+            self.catalog.record_gap(at, at, f"{self.path.name}: {issue}")
+        self.issues_seen = len(issues)
+
+    def finish(self, reason: str) -> None:
+        """Statistics and session end in the catalog; the summary on stdout."""
+        self.monitor.close()
+        stats = self.stats
+        first = min(stats.first_ns.values(), default=0)
+        last = max(stats.last_ns.values(), default=0)
+        if stats.messages:
+            if self.offset_ns is not None:
+                self.catalog.add_stats(first + self.offset_ns, last + self.offset_ns, stats)
+            else:
+                self.catalog.add_stats(self.started_ns, time.time_ns(), stats)
+        session = self.catalog.session_id
+        self.catalog.close(reason)
+        print(self.summary(session, reason))
+
+    def summary(self, session: int | None, reason: str) -> str:
+        stats, stream = self.stats, self.pipe.stream.stats
+        per_bus = ", ".join(f"bus {b} {n}" for b, n in sorted(stats.messages.items()))
+        lines = [f"{self.path}: {reason}: {sum(stats.messages.values())} messages "
+                 f"({per_bus or 'none'}), {self.error_messages} with errors, damaged packets "
+                 f"skipped: {self.issues_seen}",
+                 f"ICD {self.pipe.icd.name}: {stream.decoded} messages decoded, "
+                 f"{stream.unmatched} not in the table"]
+        watch = self.pipe.watch
+        if watch is not None:
+            if not self.actuator_seen:
+                rts = ", ".join(str(t.address) for t in self.pipe.icd.terminals)
+                lines.append(f"diagnosis: no actuator of the ICD {self.pipe.icd.name} (RT "
+                             f"{rts}) found in the recording: nothing to diagnose")
+            else:
+                lines.append(f"diagnosis: {watch.bits_seen} built-in tests diagnosed, "
+                             f"{self.events} anomaly events written")
+        lines.append(f"catalog {self.catalog.path}: session {session}")
+        return "\n".join(lines)
