@@ -104,7 +104,10 @@ def ms1553_message(record: MonitorRecord) -> MS1553F1.Message:
     """One record as an MS1553F1 message: time stamp, block status, gaps, length, words."""
     words = words_in_bus_order(record)
     status = block_status_for(record)
-    data = struct.pack(f"<{len(words)}H", *(word & 0xFFFF for word in words))
+    try:
+        data = struct.pack(f"<{len(words)}H", *words)
+    except struct.error:  # a value beyond 16 bits: keep its low 16, as a bus would carry
+        data = struct.pack(f"<{len(words)}H", *(word & 0xFFFF for word in words))
     return MS1553F1.Message(
         data=data, ipts=rtc_for(record.t_ns), gap_time=gap_word(record), length=len(data),
         bus=status >> 13 & 1, me=status >> 12 & 1, rt2rt=status >> 11 & 1,
