@@ -2,12 +2,14 @@
 
 The reasoner decides on one BIT record (the four-corner motion of
 :func:`~mapr_daemon.testbed.profiles.bit_profile`) sampled at the dictionary's rate and
-aligned on the profile's time axis. On the bus the flight control computer's position
-command (100 Hz) shows when a BIT starts: the command leaves zero after a quiet spell and
-reaches the BIT amplitude within the ramp time. The EMA's sample blocks (2 kHz) and slow
-block are then resampled onto the profile's grid, anchored at that command message, and the
-record goes to :meth:`Reasoner.diagnose` with the dynamic pressure the air-data computer
-reported meanwhile. Other motion (a pilot's aileron inputs) is not a BIT and is ignored.
+aligned on the profile's time axis. The EMA runs that motion itself when the flight control
+computer sends ``INITIATED_BIT`` with a new sequence number in the BIT request message; by
+the EMA's contract (docs/testbed.md) the profile's first sample is the drive's first sample
+after the request arrives. So the record starts at the first fast-block sample time-tagged
+after the request message: the EMA's sample blocks (2 kHz) are taken from there sample for
+sample, the slow block (100 Hz) is interpolated onto the same grid, and the record goes to
+:meth:`Reasoner.diagnose` with the dynamic pressure the air-data computer reported meanwhile.
+Other motion (a pilot's aileron inputs) is not a BIT and is ignored.
 """
 
 from __future__ import annotations
@@ -25,13 +27,15 @@ from mapr_daemon.testbed.aircraft import FAST_CHANNELS, SLOW_CHANNELS
 from mapr_daemon.testbed.profiles import Profile, bit_profile
 
 log = logging.getLogger("mapr.reasoner")
-COMMAND = "position_command"
+REQUEST = "bit_request"
+INITIATED_BIT = 2
+"""``bit_request`` code of an initiated BIT (configs/icd/ema-testbed.yaml)."""
+TIMEBASE = "phase_current_a"
+"""A fast-block channel whose sample times are the BIT record's grid."""
 PRESSURE = "dynamic_pressure"
 CHANNELS = {**FAST_CHANNELS, **SLOW_CHANNELS}
 """ICD parameter -> reasoner channel name (the testbed aircraft's wiring)."""
 KEEP_S = 4.0
-QUIET_S = 0.15
-QUIET_DEG = 0.05
 
 
 class BitWatch:
@@ -46,16 +50,16 @@ class BitWatch:
         rate = reasoner.dictionary.sample_rate_hz
         self.profile: Profile = bit_profile(rate, "ground")
         self.period_ns = 1e9 / rate
-        self.lead_ns = int(self.profile.corners_s[0] * 1e9)
         self.span_ns = int(self.profile.n_samples * self.period_ns)
-        self.amplitude = float(self.profile.command_deg.max())
-        self.ramp_ns = int((self.profile.corners_s[1] - self.profile.corners_s[0]) * 1e9)
         self.buffers: dict[str, tuple[list[FloatArray], list[FloatArray]]] = {
-            name: ([], []) for name in (*CHANNELS, COMMAND, PRESSURE)}
+            name: ([], []) for name in (*CHANNELS, REQUEST, PRESSURE)}
         self.pending: int | None = None
-        """Bus time of the command message that started the BIT being collected."""
-        self.last_onset = -1
+        """Time tag of the BIT record's first sample, for the BIT being collected."""
+        self.ignore_until = -1.0
+        """Requests up to this time tag are taken (or, during a BIT, ignored by the EMA)."""
         self.bits_seen = 0
+        self.last_onset: int | None = None
+        """First-sample time tag of the last BIT diagnosed."""
 
     def feed(self, series: Mapping[str, Series]) -> list[dict[str, Any]]:
         """Take a batch of decoded series; returns the events of BITs completed by it."""
@@ -70,16 +74,16 @@ class BitWatch:
                 now = float(s.t_ns[-1])
         self._compact()
         events: list[dict[str, Any]] = []
-        if self.pending is None:
-            self.pending = self._onset()
-        if self.pending is not None and now is not None and \
-                now >= self.pending - self.lead_ns + self.span_ns + 4 * self.period_ns:
+        while True:
+            if self.pending is None:
+                self.pending = self._onset()
+            if self.pending is None or now is None or \
+                    now < self.pending + self.span_ns + 4 * self.period_ns:
+                return events
             event = self._diagnose(self.pending)
-            self.last_onset = self.pending
             self.pending = None
             if event is not None:
                 events.append(event)
-        return events
 
     def _compact(self) -> None:
         for times, values in self.buffers.values():
@@ -97,23 +101,27 @@ class BitWatch:
         return times[0], values[0]
 
     def _onset(self) -> int | None:
-        """Bus time of a BIT's first command step, or None if no BIT start is in the buffer."""
-        t, v = self._series(COMMAND)
-        moving = np.flatnonzero((np.abs(v) > QUIET_DEG) & (t > self.last_onset))
-        for i in moving:
-            quiet = (t >= t[i] - QUIET_S * 1e9) & (t < t[i])
-            if not quiet.any() or np.abs(v[quiet]).max() > QUIET_DEG or \
-                    t[i] - t[0] < QUIET_S * 1e9:
-                continue
-            later = (t >= t[i]) & (t <= t[i] + self.ramp_ns + 20e6)
-            if later.any() and v[later].max() >= 0.9 * self.amplitude:
-                return int(t[i])
-        return None
+        """Time tag of the first sample of a requested BIT, or None while none is due.
 
-    def _diagnose(self, onset: int) -> dict[str, Any] | None:
-        self.bits_seen += 1
-        start = onset - self.lead_ns
-        grid = start + np.arange(1, self.profile.n_samples + 1) * self.period_ns
+        A request the EMA would ignore (one that arrives while a BIT runs) is ignored here too.
+        """
+        t, v = self._series(REQUEST)
+        requests = t[(v == INITIATED_BIT) & (t > self.ignore_until)]
+        if requests.size == 0:
+            return None
+        fast, _ = self._series(TIMEBASE)
+        after = fast[fast > requests[0]]
+        if after.size == 0:
+            return None
+        onset = float(after[0])
+        self.ignore_until = onset + self.span_ns
+        return int(onset)
+
+    def record(self, onset: int) -> tuple[dict[str, FloatArray], float] | None:
+        """The BIT record whose first sample is time-tagged ``onset`` (reasoner channel ->
+        samples on the profile's grid) and the median dynamic pressure during it; None (with a
+        warning) when a channel was not on the bus for the whole test."""
+        grid = onset + np.arange(self.profile.n_samples) * self.period_ns
         channels: dict[str, FloatArray] = {}
         for icd_name, channel in CHANNELS.items():
             t, v = self._series(icd_name)
@@ -126,6 +134,15 @@ class BitWatch:
         inside = (tq >= grid[0]) & (tq <= grid[-1])
         q = float(np.median(vq[inside])) if inside.any() else \
             float(vq[-1]) if vq.size else 0.0
+        return channels, q
+
+    def _diagnose(self, onset: int) -> dict[str, Any] | None:
+        self.bits_seen += 1
+        self.last_onset = onset
+        record = self.record(onset)
+        if record is None:
+            return None
+        channels, q = record
         event = self.reasoner.diagnose(channels, self.profile.command_deg, q, paper=self.paper)
         event["evidence"]["bit_bus_time_s"] = round(onset / 1e9, 6)
         event["evidence"]["dynamic_pressure_pa"] = round(q, 1)

@@ -1,9 +1,11 @@
 """What the daemon opens: the configured backend, or the simulated aircraft on the loopback.
 
 For ``backend.name: loopback`` the bus is the testbed aircraft (:mod:`mapr_daemon.testbed`)
-flying the configured profile — the built-in test the reasoner decides on, or a JSBSim
-flight — with an optionally seeded EMA fault, so ``mapr run`` without a config file is the
-embedded demo of the real service. Every other backend gets ``backend.options`` as is.
+flying the configured profile — a steady flight on which the flight control computer
+requests a built-in test every :data:`BIT_EVERY_S` (the EMA runs the BIT motion itself, the
+record the reasoner decides on), or a JSBSim flight — with an optionally seeded EMA fault,
+so ``mapr run`` without a config file is the embedded demo of the real service. Every other
+backend gets ``backend.options`` as is.
 Each call builds a fresh aircraft, so a reopened loopback starts a new flight.
 """
 
@@ -18,10 +20,12 @@ from mapr_daemon.ema.faults import FaultSet, parse_fault
 from mapr_daemon.ema.params import default_actuator_path, load_actuator, with_sample_rate
 from mapr_daemon.icd import Icd
 from mapr_daemon.testbed.aircraft import Aircraft
-from mapr_daemon.testbed.profiles import Profile, bit_profile, condition
+from mapr_daemon.testbed.profiles import Profile, condition, steady_profile
 
 RATE_HZ = 2000.0
 JSBSIM_DEFAULT_S = 60.0
+BIT_EVERY_S = 2.0
+"""Period of the testbed's BIT requests (the BIT motion lasts 1.46 s; requests go at 1 Hz)."""
 
 
 def seeded_faults(text: str | None) -> FaultSet:
@@ -39,7 +43,7 @@ def flight_profile(config: Config) -> Profile:
         from mapr_daemon.testbed.profiles_jsbsim import jsbsim_flight
         return jsbsim_flight(RATE_HZ, tb.condition, duration_s=tb.duration_s or JSBSIM_DEFAULT_S,
                              seed=tb.seed)
-    return bit_profile(RATE_HZ, tb.condition)
+    return steady_profile(RATE_HZ, tb.condition)
 
 
 def check(config: Config) -> None:
@@ -60,7 +64,10 @@ def monitor_factory(config: Config, icd: Icd) -> Callable[[], BusMonitor]:
     profile = flight_profile(config)
 
     def open_testbed() -> BusMonitor:
-        aircraft = Aircraft(icd, profile, params, faults, seed=tb.seed)
+        bit = tb.profile == "bit"
+        aircraft = Aircraft(icd, profile, params, faults, seed=tb.seed,
+                            bit_requests_s=(0.0,) if bit else (),
+                            bit_every_s=BIT_EVERY_S if bit else None)
         schedule = aircraft.schedule()
         frames = None if tb.duration_s is None else round(tb.duration_s * 1e9 /
                                                           schedule.frame_ns)

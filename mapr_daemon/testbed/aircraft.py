@@ -10,6 +10,14 @@ with its faults seeded, and its sensors fill the EMA's sample blocks.
 The plant advances in lockstep with bus time: when the bus controller polls a block at time t,
 the EMA terminal first runs the plant up to t, then hands over the samples the ICD's timing
 rule says it latched (the newest one period before t).
+
+Built-in test: as a real servo drive does, the EMA stores its BIT motion (the four-corner
+profile of :func:`~mapr_daemon.testbed.profiles.bit_profile`) and runs it itself, at its own
+sample rate, when the flight control computer sends ``INITIATED_BIT`` with a new request
+sequence number: the profile's first sample is the first plant sample after the request
+arrives, the FCC's position command is ignored until the profile ends, and the BIT result
+reports ``RUNNING`` then ``DONE``. So the motion a monitor sees on the bus is exactly the
+motion the reasoner's dictionary was simulated with, not the FCC's 100 Hz staircase.
 """
 
 from __future__ import annotations
@@ -27,7 +35,7 @@ from mapr_daemon.ema.faults import FaultSet
 from mapr_daemon.ema.params import ActuatorParams, default_actuator_path, load_actuator
 from mapr_daemon.ema.plant import EmaBatch
 from mapr_daemon.icd import Icd, Message
-from mapr_daemon.testbed.profiles import Profile
+from mapr_daemon.testbed.profiles import Profile, bit_profile
 
 G0 = 9.80665
 R_AIR = 287.053
@@ -65,6 +73,18 @@ class EmaTerminal:
         self.history: dict[str, np.ndarray] = {}
         self.truth_position = 0.0
         self.counters: dict[str, int] = {}
+        self.history_s = HISTORY_S
+        self.bit_command = bit_profile(self.rate_hz).command_deg
+        """The stored BIT motion, one command per plant sample."""
+        self.bit_start: int | None = None
+        """Plant sample index of the running (or last) BIT's first profile sample."""
+        self.bit_state = "IDLE"
+        self.bit_seq: int | None = None
+        self.bits_run = 0
+
+    @property
+    def bit_running(self) -> bool:
+        return self.bit_state == "RUNNING"
 
     # --- the plant --------------------------------------------------------------------------
     def run_to(self, t_ns: int) -> None:
@@ -75,14 +95,26 @@ class EmaTerminal:
             return
         start_s = self.samples_done / self.rate_hz
         q = self.dynamic_pressure(start_s)
-        block = self.plant.advance(n, command_deg=self.command_deg if self.enabled else 0.0,
-                                   dynamic_pressure_pa=q)
-        keep = int(HISTORY_S * self.rate_hz)
+        block = self.plant.advance(n, command_deg=self._commands(n), dynamic_pressure_pa=q)
+        keep = int(self.history_s * self.rate_hz)
         for name, values in block.channels.items():
             joined = np.concatenate([self.history.get(name, np.zeros(0)), values[0]])
             self.history[name] = joined[-keep:]
         self.samples_done = target
         self.truth_position = float(block.truth["position_true_deg"][0][-1])
+        if self.bit_running and self.bit_start is not None and \
+                self.samples_done >= self.bit_start + self.bit_command.size:
+            self.bit_state = "DONE"
+
+    def _commands(self, n: int) -> np.ndarray:
+        """Position command for the next ``n`` plant samples: the FCC's, or the BIT's."""
+        held = self.command_deg if self.enabled else 0.0
+        commands = np.full(n, held)
+        if self.bit_running and self.bit_start is not None:
+            index = self.samples_done + np.arange(n) - self.bit_start
+            inside = (index >= 0) & (index < self.bit_command.size)
+            commands[inside] = self.bit_command[index[inside]]
+        return commands
 
     def latest(self, name: str, count: int, step: int = 1) -> list[float]:
         """The newest ``count`` samples (every ``step``-th), oldest first, latched one sample
@@ -105,6 +137,19 @@ class EmaTerminal:
         values = decode_data(self.icd, message, data, t_ns)
         self.command_deg = float(values["position_command"])
         self.enabled = bool(values["drive_enable"])
+
+    def receive_bit_request(self, t_ns: int, data: Sequence[int], message: Message) -> None:
+        """Start the stored BIT on a new ``INITIATED_BIT`` request (not while one runs)."""
+        self.run_to(t_ns)
+        values = decode_data(self.icd, message, data, t_ns)
+        seq = int(values.get("bit_request_seq", 0))
+        if values.get("bit_request") != "INITIATED_BIT" or seq == self.bit_seq:
+            return
+        self.bit_seq = seq
+        if not self.bit_running:
+            self.bit_start = self.samples_done
+            self.bit_state = "RUNNING"
+            self.bits_run += 1
 
     def fast_block(self, t_ns: int) -> list[int]:
         self.run_to(t_ns)
@@ -132,16 +177,22 @@ class EmaTerminal:
         self.run_to(t_ns)
         position = self.latest("position_deg", 2)
         rate = (position[1] - position[0]) * self.rate_hz
+        echo = self.command_deg
+        if self.bit_running and self.bit_start is not None:
+            index = min(max(self.samples_done - 1 - self.bit_start, 0), self.bit_command.size - 1)
+            echo = float(self.bit_command[index])
         values = {"position_feedback": position[1], "surface_rate": rate, "ema_ready": 1,
                   "ema_fault": 0, "at_stop": int(abs(position[1]) > 29.5),
-                  "mode_echo": "POSITION" if self.enabled else "STANDBY",
-                  "feedback_seq": self._next("feedback"), "command_echo": self.command_deg}
+                  "mode_echo": "POSITION" if self.enabled or self.bit_running else "STANDBY",
+                  "feedback_seq": self._next("feedback"), "command_echo": echo}
         return list(self.icd.encode("ema_position_feedback", values, strict=False))
 
     def bit_result(self, t_ns: int) -> list[int]:
+        """The drive's own verdict is always a pass: diagnosing the motion is MAPR's job."""
+        self.run_to(t_ns)
         values = {"bit_pass": 1, "smps_fault": 0, "inverter_fault": 0, "motor_fault": 0,
                   "position_sensor_fault": 0, "current_sensor_fault": 0, "overtemperature": 0,
-                  "bit_state": "DONE", "bit_fault_code": 0}
+                  "bit_state": self.bit_state, "bit_fault_code": 0}
         return list(self.icd.encode("ema_bit_result", values, strict=False))
 
 
@@ -193,13 +244,23 @@ def _period(profile: Profile) -> float:
 
 
 class FlightControlComputer:
-    """The bus controller's data: the surface command from the flight, the BIT requests."""
+    """The bus controller's data: the surface command from the flight, the BIT requests.
 
-    def __init__(self, icd: Icd, profile: Profile, rate_limit_deg_s: float = 200.0) -> None:
+    ``bit_requests_s``: flight times at which the FCC asks the EMA for an initiated BIT, and
+    ``bit_every_s`` a period at which it asks again after the last of them (None: never). Each
+    request goes out in the first BIT request message (1 Hz) at or after its time, with a new
+    sequence number.
+    """
+
+    def __init__(self, icd: Icd, profile: Profile, rate_limit_deg_s: float = 200.0,
+                 bit_requests_s: Sequence[float] = (), bit_every_s: float | None = None) -> None:
         self.icd = icd
         self.profile = profile
         self.rate_limit = rate_limit_deg_s
         self.sequence = 0
+        self.bit_requests_ns = sorted(round(t * 1e9) for t in bit_requests_s)
+        self.bit_every_ns = None if bit_every_s is None else round(bit_every_s * 1e9)
+        self.bit_sequence = 0
 
     def command(self, t_ns: int) -> list[int]:
         p = self.profile
@@ -211,8 +272,17 @@ class FlightControlComputer:
             "rate_limit": self.rate_limit}, strict=False))
 
     def bit_request(self, t_ns: int) -> list[int]:
-        return list(self.icd.encode("ema_bit_request", {"bit_request": 0, "bit_request_seq": 0},
-                                    strict=False))
+        due = bool(self.bit_requests_ns) and self.bit_requests_ns[0] <= t_ns
+        if due:
+            last = self.bit_requests_ns[-1]
+            self.bit_requests_ns = [t for t in self.bit_requests_ns if t > t_ns]
+            if not self.bit_requests_ns and self.bit_every_ns:
+                self.bit_requests_ns = [last + self.bit_every_ns * (1 + (t_ns - last) //
+                                                                    self.bit_every_ns)]
+            self.bit_sequence = (self.bit_sequence + 1) % 256
+        return list(self.icd.encode("ema_bit_request", {
+            "bit_request": "INITIATED_BIT" if due else "NONE",
+            "bit_request_seq": self.bit_sequence}, strict=False))
 
 
 class Aircraft:
@@ -223,19 +293,23 @@ class Aircraft:
     """
 
     def __init__(self, icd: Icd, profile: Profile, params: ActuatorParams,
-                 faults: FaultSet | None = None, seed: int = 0) -> None:
+                 faults: FaultSet | None = None, seed: int = 0,
+                 bit_requests_s: Sequence[float] = (), bit_every_s: float | None = None) -> None:
         self.icd = icd
         self.profile = profile
         self.adc = AirDataTerminal(icd, profile)
-        self.fcc = FlightControlComputer(icd, profile)
+        self.fcc = FlightControlComputer(icd, profile, bit_requests_s=bit_requests_s,
+                                         bit_every_s=bit_every_s)
         self.ema = EmaTerminal(icd, params, faults or FaultSet(), seed=seed,
                                dynamic_pressure=self._q)
 
     @classmethod
     def build(cls, icd: Icd, profile: Profile, *, actuator: str | None = None,
-              faults: FaultSet | None = None, seed: int = 0) -> Aircraft:
+              faults: FaultSet | None = None, seed: int = 0,
+              bit_requests_s: Sequence[float] = (),
+              bit_every_s: float | None = None) -> Aircraft:
         params = load_actuator(actuator or default_actuator_path())
-        return cls(icd, profile, params, faults, seed)
+        return cls(icd, profile, params, faults, seed, bit_requests_s, bit_every_s)
 
     def _q(self, t_s: float) -> float:
         p = self.profile
@@ -251,7 +325,9 @@ class Aircraft:
             receive={ema_messages["ema_position_command"].subaddress:
                      lambda t, d: self.ema.receive_command(
                          t, d, ema_messages["ema_position_command"]),
-                     ema_messages["ema_bit_request"].subaddress: lambda t, d: None,
+                     ema_messages["ema_bit_request"].subaddress:
+                     lambda t, d: self.ema.receive_bit_request(
+                         t, d, ema_messages["ema_bit_request"]),
                      ema_messages["ema_air_data"].subaddress: lambda t, d: None})
         transmit = {self.icd.message("adc_air_data").subaddress: self.adc.air_data}
         source = self.icd.message("ema_air_data").source

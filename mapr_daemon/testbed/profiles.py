@@ -112,6 +112,22 @@ def bit_profile(sample_rate_hz: float, cond: str = "ground", amplitude_deg: floa
         dynamic_pressure_pa=ones * c.dynamic_pressure_pa, corners_s=corners)
 
 
+def steady_profile(sample_rate_hz: float, cond: str = "cruise", duration_s: float = 1.0,
+                   command_deg: float = 0.0) -> Profile:
+    """A steady flight with the surface held: the flight on which the testbed's flight control
+    computer requests built-in tests (the EMA runs the BIT motion itself)."""
+    if duration_s <= 0 or sample_rate_hz <= 0:
+        raise ConfigError("duration and rate must be > 0", field="steady_profile")
+    c = condition(cond)
+    n = max(1, round(duration_s * sample_rate_hz))
+    ones = np.ones(n)
+    return Profile(
+        name=f"steady@{c.name}", time_s=np.arange(1, n + 1) / sample_rate_hz,
+        command_deg=ones * command_deg, altitude_m=ones * c.altitude_m,
+        airspeed_mps=ones * c.airspeed_mps, density_kg_m3=ones * c.density_kg_m3,
+        dynamic_pressure_pa=ones * c.dynamic_pressure_pa)
+
+
 def sine_profile(sample_rate_hz: float, duration_s: float, amplitude_deg: float,
                  frequency_hz: float, cond: str = "cruise") -> Profile:
     """A sinusoidal command (used by tests and the observability bench for steady motion)."""

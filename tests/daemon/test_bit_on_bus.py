@@ -1,0 +1,97 @@
+"""The built-in test as the bus carries it: the flight control computer requests it, the EMA
+runs its stored BIT motion at its own sample rate, and the daemon's BIT watcher rebuilds
+exactly the samples the EMA took — so a healthy bus-flown BIT scores like the dictionary's
+own healthy BITs, with no threshold override."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from drivers.backends.loopback import LoopbackMonitor
+from mapr_daemon.daemon.bitwatch import BitWatch
+from mapr_daemon.ema.faults import FaultSet, parse_fault
+from mapr_daemon.ema.params import default_actuator_path, load_actuator, with_sample_rate
+from mapr_daemon.icd import SignalStream, load_icd
+from mapr_daemon.reasoner.dictionary import Dictionary
+from mapr_daemon.reasoner.events import Reasoner
+from mapr_daemon.testbed.aircraft import FAST_CHANNELS, Aircraft
+from mapr_daemon.testbed.profiles import bit_profile, steady_profile
+
+ROOT = Path(__file__).resolve().parents[2]
+ICD = load_icd(ROOT / "configs" / "icd" / "ema-testbed.yaml")
+RATE = 2000.0
+FRAMES = 1020  # 2.04 s of 2 ms minor frames: one BIT, and its result after it ends
+
+
+def fly(fault: str | None, seed: int) -> tuple[Aircraft, list[object]]:
+    params = with_sample_rate(load_actuator(default_actuator_path()), RATE)
+    faults = FaultSet() if fault is None else FaultSet.of([parse_fault(fault, params)])
+    aircraft = Aircraft(ICD, steady_profile(RATE, "cruise"), params, faults, seed=seed,
+                        bit_requests_s=(0.0,))
+    aircraft.ema.history_s = 10.0   # keep every sample the EMA took, to compare with the bus
+    with LoopbackMonitor(terminals=aircraft.terminals(), schedule=aircraft.schedule(),
+                         frames=FRAMES) as monitor:
+        return aircraft, list(monitor)
+
+
+@pytest.fixture(scope="module")
+def healthy() -> tuple[Aircraft, list[object]]:
+    return fly(None, seed=5)
+
+
+def test_the_ema_runs_its_bit_when_requested(healthy: tuple[Aircraft, list[object]]) -> None:
+    aircraft, records = healthy
+    series = SignalStream(ICD).feed(records)
+    ema = aircraft.ema
+    assert ema.bits_run == 1 and ema.bit_state == "DONE"
+    states = series["bit_state"]
+    assert states.value[0] == 1 and states.value[-1] == 2, "BIT result: RUNNING, then DONE"
+    # The surface followed the stored BIT motion, not the FCC's held zero command.
+    profile = bit_profile(RATE)
+    start = ema.bit_start
+    assert start is not None
+    position = ema.history["position_deg"]
+    moved = position[start:start + profile.n_samples]
+    assert moved.max() > 0.8 * profile.command_deg.max()
+    echo = series["command_echo"]
+    assert np.abs(echo.value).max() == pytest.approx(profile.command_deg.max(), abs=0.01)
+
+
+def test_the_watcher_rebuilds_the_emas_own_samples(
+        healthy: tuple[Aircraft, list[object]], dictionary: Path) -> None:
+    aircraft, records = healthy
+    watch = BitWatch(Reasoner(Dictionary.load(dictionary),
+                              load_actuator(default_actuator_path())))
+    events = watch.feed(SignalStream(ICD).feed(records))
+    assert len(events) == 1 and watch.last_onset is not None
+    record = watch.record(watch.last_onset)
+    assert record is not None
+    channels, q = record
+    start = aircraft.ema.bit_start
+    assert start is not None
+    n = watch.profile.n_samples
+    for plant_name in FAST_CHANNELS.values():
+        took = aircraft.ema.history[plant_name][start:start + n]
+        # sample for sample, within the table's 1 mA / 1 mV / 1 mdeg quantization
+        np.testing.assert_allclose(channels[plant_name], took, atol=0.0011, err_msg=plant_name)
+    assert q == pytest.approx(steady_profile(RATE, "cruise").dynamic_pressure_pa[0], rel=1e-3)
+
+
+def test_healthy_bus_flown_bits_score_below_the_dictionarys_own_threshold(
+        healthy: tuple[Aircraft, list[object]], dictionary: Path) -> None:
+    scores = []
+    for aircraft_records in (healthy, fly(None, seed=6)):
+        watch = BitWatch(Reasoner(Dictionary.load(dictionary),
+                                  load_actuator(default_actuator_path())))
+        events = watch.feed(SignalStream(ICD).feed(aircraft_records[1]))
+        assert len(events) == 1
+        assert events[0]["anomaly"] is False, events[0]["evidence"]
+        scores.append(events[0]["evidence"]["score"])
+    opened = fly("open=A_high", seed=5)[1]
+    watch = BitWatch(Reasoner(Dictionary.load(dictionary), load_actuator(default_actuator_path())))
+    (event,) = watch.feed(SignalStream(ICD).feed(opened))
+    assert event["anomaly"] is True and event["fault"] == "open"
+    assert event["evidence"]["score"] > 10 * max(scores)
