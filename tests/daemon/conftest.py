@@ -84,6 +84,11 @@ class Daemon:
         code = self.proc.wait(timeout=15)
         return code, time.monotonic() - started
 
+    def kill(self) -> None:
+        """SIGKILL: no flush, no goodbye: the process dies wherever it is."""
+        self.proc.send_signal(signal.SIGKILL)
+        self.proc.wait(timeout=15)
+
     def close(self) -> None:
         if self.proc.poll() is None:
             self.proc.kill()
@@ -96,10 +101,14 @@ class Daemon:
 def start_daemon(tmp_path: Path) -> Iterator[Callable[..., Daemon]]:
     started: list[Daemon] = []
 
-    def start(config_text: str, watchdog_usec: int | None = None) -> Daemon:
-        config = tmp_path / "mapr.yaml"
+    def start(config_text: str, watchdog_usec: int | None = None, run: str = "") -> Daemon:
+        """A daemon on ``config_text``; ``run`` names a sub-directory for its socket, log and
+        config, so one test can start several in turn."""
+        where = tmp_path / run if run else tmp_path
+        where.mkdir(exist_ok=True)
+        config = where / "mapr.yaml"
         config.write_text(config_text, encoding="utf-8")
-        daemon = Daemon(tmp_path, config, watchdog_usec)
+        daemon = Daemon(where, config, watchdog_usec)
         started.append(daemon)
         return daemon
 
