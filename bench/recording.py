@@ -5,7 +5,7 @@
 Two fully loaded buses' worth of records (no idle time beyond the standard's gaps) go through
 :class:`~drivers.chapter10.writer.Chapter10Writer` to a temporary file: the worst case for a
 per-message writer, back-to-back mode codes without data (cmd, 8 µs response gap, status;
-about 20,800 messages per second of bus), and a mix of 32-word BC-to-RT, 16-word RT-to-BC,
+about 19,200 messages per second of bus), and a mix of 32-word BC-to-RT, 16-word RT-to-BC,
 8-word RT-to-RT and mode-code messages. Prints messages/s (best of three), the real-time factor
 against the bus time the records cover, and the load average (the machine is shared).
 """
