@@ -69,7 +69,8 @@ class Chapter10Writer:
 
     ``channel_id`` (1-65534) is the 1553 channel; time packets use ``channel_id + 1``.
     ``start_time`` is the absolute time of time tag 0 (default: the wall clock now, UTC; a
-    naive datetime is taken as UTC). The file is created (or truncated) at once.
+    naive datetime is taken as UTC). The file is created (or truncated) at once. One thread
+    at a time may use a writer.
     """
 
     def __init__(self, path: str | os.PathLike[str], *, channel_id: int = 1,
