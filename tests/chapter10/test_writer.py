@@ -300,3 +300,15 @@ def test_records_reach_the_disk_on_flush(tmp_path: Path) -> None:
 def test_channel_id_is_checked(tmp_path: Path) -> None:
     with pytest.raises(ValueError, match="channel_id"):
         Chapter10Writer(tmp_path / "bad.c10", channel_id=0)
+
+
+def test_after_an_hour_of_silence_only_the_resuming_seconds_time_packet_is_written(
+        tmp_path: Path) -> None:
+    path = tmp_path / "silence.c10"
+    two_hours = 7_200_000_000_000
+    with Chapter10Writer(path, start_time=START) as writer:
+        writer.write([_record(0), _record(two_hours + 300_000_000)])
+    times = [(p.rtc, p.time) for p in _packets(path) if isinstance(p, TimeF1)]
+    assert times == [(0, START), (72_000_000_000, START + timedelta(hours=2))]
+    stamps = [m.ipts for p in _packets(path) if isinstance(p, MS1553F1) for m in p.messages]
+    assert stamps == [0, 72_003_000_000]
