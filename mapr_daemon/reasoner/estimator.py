@@ -108,7 +108,7 @@ class ParameterEstimator:
             kf.predict()
             z, hx, hj = em.measure(x, b, k)
             kf.update(z.reshape(-1, 1), lambda _x, h=hj: h, lambda _x, v=hx: v.reshape(-1, 1),
-                      R=em.noise(b, k))
+                      R=b.r[k])
             self._health()
             x = kf.x.reshape(-1).copy()
             self.steps += 1
@@ -118,11 +118,13 @@ class ParameterEstimator:
         """Symmetrise P and cap each variance at its prior (a congruence keeps P > 0)."""
         p = self.kf.P
         p = 0.5 * (p + p.T)
-        d = np.diag(p)
-        if not np.all(np.isfinite(p)) or np.any(d <= 0.0):
+        d = p.diagonal()
+        if not (np.isfinite(p).all() and d.min() > 0.0):
             raise ConfigError("covariance lost positive definiteness", field="estimator")
-        scale = np.sqrt(np.minimum(1.0, self.p_cap / d))
-        self.kf.P = p * np.outer(scale, scale)
+        if (d > self.p_cap).any():
+            scale = np.sqrt(np.minimum(1.0, self.p_cap / d))
+            p = p * np.outer(scale, scale)
+        self.kf.P = p
 
     @property
     def covariance(self) -> FloatArray:

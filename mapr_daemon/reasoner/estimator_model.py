@@ -36,9 +36,11 @@ an explicit model step unstable near rest.
 from __future__ import annotations
 
 import dataclasses
+import functools
 from collections.abc import Mapping
 
 import numpy as np
+import numpy.typing as npt
 
 from mapr_daemon.ema.inverter import trapezoid
 from mapr_daemon.ema.params import ActuatorParams
@@ -89,32 +91,28 @@ class Plant:
 
 @dataclasses.dataclass(frozen=True)
 class Blocks:
-    """A record cut into filter blocks. Per-sample lists (Python floats, for the sub-step loop)
-    and per-block measurement arrays."""
+    """A record cut into filter blocks: per-sample inputs ``(n_blocks, block)`` for the
+    propagation and, per block, the measurement, its Jacobian and its noise, all computed in
+    one numpy pass so the filter's per-block Python is only the recursion itself."""
 
-    torque: list[float]
-    """Electromagnetic torque from the measured currents, ``K*sum f_x(theta_e)*i_x``."""
-    hinge: list[float]
-    """Hinge moment reflected to the motor at the measured position (N m)."""
-    coulomb_sign: list[float]
-    theta_end: FloatArray
-    """Measured motor angle at each block's last sample."""
-    power: FloatArray
-    """Mean DC-link power minus back-EMF power per block (W)."""
-    i2_other: FloatArray
-    i2_a_high: FloatArray
-    """Mean squared line current per block in the two sector groups (A^2)."""
-    mech_power: FloatArray
-    gram: FloatArray
-    """``(n_blocks, 2, 2)`` Gram matrix of the bus-tap regressors."""
-    cross: FloatArray
-    """``(n_blocks, 2)`` regressors times voltage steps."""
+    drive: FloatArray
+    """``dt/J*(T_e + H_m)`` per sample: electromagnetic torque from the measured currents
+    (``K*sum f_x(theta_e)*i_x``) plus the hinge moment reflected to the motor."""
+    coulomb_sign: FloatArray
+    """Sign of the measured speed per sample (Coulomb friction's direction)."""
+    z: FloatArray
+    """``(n_blocks, 4)`` measurements: motor angle at the block's last sample, mean DC-link
+    power minus back-EMF power (W), the two bus-tap cross terms."""
+    h: FloatArray
+    """``(n_blocks, 4, n_state)`` measurement Jacobians (the measurement is linear in x)."""
+    r: FloatArray
+    """``(n_blocks, 4, 4)`` measurement covariances (:func:`noise`)."""
     theta0: float
     omega0: float
 
     @property
     def n(self) -> int:
-        return int(self.theta_end.size)
+        return int(self.z.shape[0])
 
 
 def blocks(plant: Plant, channels: Mapping[str, FloatArray], dynamic_pressure_pa: float,
@@ -152,13 +150,52 @@ def blocks(plant: Plant, channels: Mapping[str, FloatArray], dynamic_pressure_pa
 
     regs = np.stack([di, di1])[:, s].reshape(2, -1, block)       # (2, nb, block)
     gram = np.einsum("inb,jnb->nij", regs, regs)
-    cross = np.einsum("inb,nb->ni", regs, dv[s].reshape(-1, block))
+    nb = gram.shape[0]
+    hj = np.zeros((nb, 4, len(STATE)))
+    hj[:, 0, 0] = 1.0
+    hj[:, 1, 4], hj[:, 1, 5] = per_block(i2 * ~a_high), per_block(i2 * a_high)
+    hj[:, 2:, 6:8] = gram
+    z = np.empty((nb, 4))
+    z[:, 0] = theta[s][block - 1::block]
+    z[:, 1] = per_block(p_rest)
+    z[:, 2:] = np.einsum("inb,nb->ni", regs, dv[s].reshape(-1, block))
     return Blocks(
-        torque=torque[s].tolist(), hinge=(h * reflect)[s].tolist(),
-        coulomb_sign=np.sign(omega)[s].tolist(), theta_end=theta[s][block - 1::block].copy(),
-        power=per_block(p_rest), i2_other=per_block(i2 * ~a_high),
-        i2_a_high=per_block(i2 * a_high), mech_power=per_block(np.abs(mech)),
-        gram=gram, cross=cross, theta0=float(theta[0]), omega0=float(omega[0]))
+        drive=(plant.dt / plant.j_eq * (torque + h * reflect))[s].reshape(-1, block),
+        coulomb_sign=np.sign(omega)[s].reshape(-1, block), z=z, h=hj,
+        r=noise(per_block(np.abs(mech)), gram), theta0=float(theta[0]),
+        omega0=float(omega[0]))
+
+
+def noise(mech_power: FloatArray, gram: FloatArray, theta_sd: float = 0.01,
+          tap_sd: float = 0.03) -> FloatArray:
+    """Measurement covariances ``(n_blocks, 4, 4)`` (model error dominates the sensor noise).
+
+    The power row's error grows with the mean mechanical power it subtracts (a few per cent of
+    torque error); the taps' normal equations have covariance ``sigma^2*Gram``.
+    """
+    r = np.zeros((mech_power.size, 4, 4))
+    r[:, 0, 0] = theta_sd * theta_sd
+    r[:, 1, 1] = (0.3 + 0.05 * mech_power) ** 2
+    r[:, 2:, 2:] = tap_sd * tap_sd * gram + 1e-9 * np.eye(2)
+    return r
+
+
+@dataclasses.dataclass(frozen=True)
+class _Powers:
+    """Index tables for the powers of the per-sample decay within one block."""
+
+    exponent: npt.NDArray[np.intp]
+    """``[j, i] = j - i`` clipped at 0: ``g**exponent`` is the lower-triangular Toeplitz
+    matrix of the decay, masked by ``lower``."""
+    lower: FloatArray
+    identity: FloatArray
+    """The state-sized identity ``F`` starts from (copied, not rebuilt, per block)."""
+
+
+@functools.cache
+def _powers(block: int, n_state: int) -> _Powers:
+    j, i = np.indices((block, block))
+    return _Powers(np.maximum(j - i, 0), (j >= i).astype(np.float64), np.eye(n_state))
 
 
 def propagate(plant: Plant, x: FloatArray, b: Blocks, k: int,
@@ -170,28 +207,33 @@ def propagate(plant: Plant, x: FloatArray, b: Blocks, k: int,
     position), then ``theta += dt*omega`` (semi-implicit Euler). ``F`` is the
     product of the per-sample Jacobians, carried as the sensitivities of (theta, omega) to
     (theta0, omega0, viscous, coulomb); the parameters are random walks (identity rows).
+
+    Within a block the parameters are constant, so the speed recursion is linear with one
+    decay ``g = 1 - dt/J*B_nom*viscous`` per sample: ``omega_j = g**j*omega_0 +
+    sum_{i<j} g**(j-1-i)*c_i``. Every sample of the block (and of the sensitivities, which
+    follow the same recursion) is one product with the lower-triangular matrix of powers of
+    ``g`` — numpy instead of a Python loop over samples, with the same arithmetic.
     """
     dt_j = plant.dt / plant.j_eq
-    dt = plant.dt
     bn, cn = plant.viscous_nom, plant.coulomb_nom
     th, om, vr, cr = float(x[0]), float(x[1]), float(x[2]), float(x[3])
-    # sensitivities d(theta), d(omega) / d(theta0, omega0, viscous, coulomb)
-    t0, t1, t2, t3 = 1.0, 0.0, 0.0, 0.0
-    w0, w1, w2, w3 = 0.0, 1.0, 0.0, 0.0
-    start = k * block
-    for j in range(start, start + block):
-        sgn = b.coulomb_sign[j]
-        om_new = om + dt_j * (b.torque[j] + b.hinge[j] - bn * vr * om - cn * cr * sgn)
-        g = 1.0 - dt_j * bn * vr
-        w0, w1, w2, w3 = g * w0, g * w1, g * w2 - dt_j * bn * om, g * w3 - dt_j * cn * sgn
-        om = om_new
-        th = th + dt * om
-        t0, t1, t2, t3 = t0 + dt * w0, t1 + dt * w1, t2 + dt * w2, t3 + dt * w3
+    g = 1.0 - dt_j * bn * vr
+    tables = _powers(block, x.shape[0])
+    gp = g ** np.arange(1, block + 1)                      # g^1 .. g^n
+    decay = g ** tables.exponent * tables.lower            # [j, i] = g^(j-i), i <= j
+    sgn = b.coulomb_sign[k]
+    # speeds after each sample; forcing c_i = drive_i - dt/J*Tc*coulomb*sgn_i
+    inputs = decay @ np.stack([b.drive[k], sgn], axis=1)   # (block, 2)
+    om_seq = gp * om + inputs[:, 0] - (dt_j * cn * cr) * inputs[:, 1]
+    om_prev = np.concatenate(([om], om_seq[:-1]))
+    w2 = decay @ (-dt_j * bn * om_prev)                    # d omega / d viscous
+    w3 = (-dt_j * cn) * inputs[:, 1]                       # d omega / d coulomb
+    dt = plant.dt
     out = x.copy()
-    out[0], out[1] = th, om
-    f = np.eye(x.shape[0])
-    f[0, :4] = (t0, t1, t2, t3)
-    f[1, :4] = (w0, w1, w2, w3)
+    out[0], out[1] = th + dt * float(om_seq.sum()), float(om_seq[-1])
+    f = tables.identity.copy()
+    f[0, :4] = (1.0, dt * float(gp.sum()), dt * float(w2.sum()), dt * float(w3.sum()))
+    f[1, :4] = (0.0, float(gp[-1]), float(w2[-1]), float(w3[-1]))
     return out, f
 
 
@@ -200,24 +242,5 @@ def measure(x: FloatArray, b: Blocks, k: int) -> tuple[FloatArray, FloatArray, F
 
     Rows: motor angle; the power balance; the two bus-tap normal equations.
     """
-    z = np.array([b.theta_end[k], b.power[k], b.cross[k, 0], b.cross[k, 1]])
-    hj = np.zeros((4, x.shape[0]))
-    hj[0, 0] = 1.0
-    hj[1, 4], hj[1, 5] = b.i2_other[k], b.i2_a_high[k]
-    hj[2:, 6:8] = b.gram[k]
-    hx = hj @ x.reshape(-1)
-    return z, hx, hj
-
-
-def noise(b: Blocks, k: int, theta_sd: float = 0.01, tap_sd: float = 0.03) -> FloatArray:
-    """Measurement covariance of block ``k`` (model error dominates the sensor noise).
-
-    The power row's error grows with the mechanical power it subtracts (a few per cent of
-    torque error); the taps' normal equations have covariance ``sigma^2*Gram``.
-    """
-    r = np.zeros((4, 4))
-    r[0, 0] = theta_sd * theta_sd
-    p_sd = 0.3 + 0.05 * float(b.mech_power[k])
-    r[1, 1] = p_sd * p_sd
-    r[2:, 2:] = tap_sd * tap_sd * b.gram[k] + 1e-9 * np.eye(2)
-    return r
+    hj = b.h[k]
+    return b.z[k], hj @ x.reshape(-1), hj
