@@ -109,6 +109,10 @@ def run(args: argparse.Namespace) -> int:
     from mapr_daemon.daemon.service import build_pipeline
 
     path = Path(args.recording)
+    if args.threshold is not None and not args.threshold > 0:
+        print(f"mapr replay: --threshold must be above 0, not {args.threshold}",
+              file=sys.stderr)
+        return exitcodes.USAGE
     if not looks_like_chapter10(path):
         raise CaptureFormatError(f"{path}: not a Chapter 10 recording (no packet header at "
                                  "its start)" if path.is_file() else f"{path}: no such file")

@@ -1,0 +1,164 @@
+"""``mapr replay``: a recording through the daemon's pipeline into the catalog.
+
+The end-to-end case records a BIT flight of the testbed aircraft (loopback bus) as Chapter
+10, replays it with ``--diagnose`` and checks the catalog event against what the daemon's
+own BIT watcher decides on the live records.
+"""
+
+from __future__ import annotations
+
+from datetime import datetime
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from mapr_daemon.catalog.reader import CatalogReader
+from mapr_daemon.cli import exitcodes
+from mapr_daemon.cli.main import main
+
+ICD = Path(__file__).resolve().parents[2] / "configs" / "icd" / "ema-testbed.yaml"
+START = datetime(2025, 6, 1, 10, 0, 0)
+
+
+def replay(capsys: pytest.CaptureFixture[str], *argv: str) -> tuple[int, str, str]:
+    code = main(["replay", *argv])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def test_the_sample_replays_into_one_catalog_session(sample_c10: Path, tmp_path: Path,
+                                                     capsys: pytest.CaptureFixture[str]
+                                                     ) -> None:
+    db = tmp_path / "catalog.db"
+    code, out, err = replay(capsys, str(sample_c10), "--catalog", str(db), "--progress")
+    assert code == exitcodes.OK
+    assert out.splitlines() == [
+        f"{sample_c10}: replay complete: 475 messages (bus A 306, bus B 169), 27 with errors, "
+        "damaged packets skipped: 1",
+        "ICD ema-testbed: 0 messages decoded, 475 not in the table",
+        f"catalog {db}: session 1"]
+    assert "] 100%  1.0 MiB / 1.0 MiB  475 messages" in err
+    with CatalogReader(db) as catalog:
+        (session,) = catalog.sessions()
+        assert (session.backend, session.stop_reason) == ("chapter10", "replay complete")
+        rows = {row.bus: row for row in catalog.stats()}
+        assert (rows["A"].messages, rows["B"].messages) == (306, 169)
+        assert rows["A"].errors_total + rows["B"].errors_total == 27
+        (gap,) = catalog.gaps()
+        assert "offset 1042864: truncated packet" in gap.reason
+
+
+def test_no_progress_bar_when_stderr_is_not_a_terminal(sample_c10: Path, tmp_path: Path,
+                                                       capsys: pytest.CaptureFixture[str]
+                                                       ) -> None:
+    code, _, err = replay(capsys, str(sample_c10), "--catalog", str(tmp_path / "c.db"),
+                          "--c10-channel", "2")
+    assert code == exitcodes.OK and "%" not in err
+
+
+def test_bad_input_gives_one_line_and_its_exit_code(tmp_path: Path,
+                                                    capsys: pytest.CaptureFixture[str]
+                                                    ) -> None:
+    noise = tmp_path / "noise.c10"
+    noise.write_bytes(b"\x00" * 100)
+    code, out, err = replay(capsys, str(noise), "--catalog", str(tmp_path / "c.db"))
+    assert (code, out) == (exitcodes.USAGE, "")
+    assert err.strip() == (f"mapr replay: {noise}: not a Chapter 10 recording (no packet "
+                           "header at its start)")
+    code, _, err = replay(capsys, str(tmp_path / "missing.c10"))
+    assert code == exitcodes.USAGE and "no such file" in err
+
+
+def test_diagnose_needs_a_dictionary(sample_c10: Path, tmp_path: Path,
+                                     capsys: pytest.CaptureFixture[str]) -> None:
+    code, _, err = replay(capsys, str(sample_c10), "--diagnose", "--catalog",
+                          str(tmp_path / "c.db"))
+    assert code == exitcodes.CONFIG
+    assert "--diagnose needs a fault dictionary" in err
+    code, _, err = replay(capsys, str(sample_c10), "--threshold", "0")
+    assert code == exitcodes.USAGE and "--threshold must be above 0" in err
+
+
+@pytest.fixture(scope="module")
+def dictionary(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    from mapr_daemon.ema.params import default_actuator_path, load_actuator
+    from mapr_daemon.reasoner import build
+    from mapr_daemon.reasoner.dictionary import DictionarySpec
+
+    spec = DictionarySpec(pressures_pa=(0.0, 1600.0), nominal_per_pressure=2,
+                          severities=(0.5, 1.0), kinds=("esr", "friction"), shorts=(),
+                          opens=(), calibration_runs=10, calibration_pressure_pa=(200.0, 1400.0),
+                          threshold_margin=1.5)
+    path = tmp_path_factory.mktemp("dictionary") / "dictionary.npz"
+    build.build(load_actuator(default_actuator_path()), spec).save(path)
+    return path
+
+
+@pytest.fixture(scope="module")
+def bit_flight(dictionary: Path, tmp_path_factory: pytest.TempPathFactory
+               ) -> tuple[Path, list[dict[str, Any]]]:
+    """A recorded testbed BIT flight with a seeded friction fault, and the decisions the
+    daemon's BIT watcher makes on the live records (a threshold so low that every BIT is
+    reported)."""
+    from drivers.chapter10.writer import Chapter10Writer
+    from mapr_daemon.daemon.bitwatch import BitWatch
+    from mapr_daemon.daemon.config import Config, ReasonerConfig, TestbedConfig
+    from mapr_daemon.daemon.source import monitor_factory
+    from mapr_daemon.ema.params import default_actuator_path, load_actuator
+    from mapr_daemon.icd import SignalStream, load_icd
+    from mapr_daemon.reasoner.dictionary import Dictionary
+    from mapr_daemon.reasoner.events import Reasoner
+
+    icd = load_icd(ICD)
+    config = Config(testbed=TestbedConfig(seed=3, realtime=False, duration_s=1.7,
+                                          fault="friction@0.8"),
+                    reasoner=ReasonerConfig(dictionary=str(dictionary)))
+    with monitor_factory(config, icd)() as monitor:
+        records = list(monitor)
+    path = tmp_path_factory.mktemp("flight") / "bit.c10"
+    with Chapter10Writer(path, channel_id=1, start_time=START) as writer:
+        writer.write(records)
+    watch = BitWatch(Reasoner(Dictionary.load(dictionary),
+                              load_actuator(default_actuator_path())), threshold=1e-9)
+    decisions = watch.feed(SignalStream(icd).feed(records))
+    assert len(decisions) == 1
+    return path, decisions
+
+
+def test_diagnose_over_foreign_traffic_says_no_actuator_was_found(
+        sample_c10: Path, dictionary: Path, tmp_path: Path,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    db = tmp_path / "c.db"
+    code, out, _ = replay(capsys, str(sample_c10), "--diagnose", "--dictionary",
+                          str(dictionary), "--catalog", str(db))
+    assert code == exitcodes.OK
+    assert "diagnosis: no actuator of the ICD ema-testbed (RT 5, 6) found in the recording: " \
+           "nothing to diagnose" in out.splitlines()
+    with CatalogReader(db) as catalog:
+        assert catalog.count() == 0
+
+
+def test_a_recorded_bit_flight_is_diagnosed_as_the_daemon_would(
+        bit_flight: tuple[Path, list[dict[str, Any]]], dictionary: Path, tmp_path: Path,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    path, live = bit_flight
+    db = tmp_path / "c.db"
+    code, out, _ = replay(capsys, str(path), "--diagnose", "--dictionary", str(dictionary),
+                          "--threshold", "1e-9", "--catalog", str(db), "--icd", str(ICD))
+    assert code == exitcodes.OK
+    lines = out.splitlines()
+    assert lines[1].startswith("ICD ema-testbed: ") and ", 0 not in the table" in lines[1]
+    assert lines[2] == "diagnosis: 1 built-in tests diagnosed, 1 anomaly events written"
+    with CatalogReader(db) as catalog:
+        (event,) = catalog.events()
+        (session,) = catalog.sessions()
+    assert session.backend == "chapter10"
+    assert event.fault == live[0]["fault"]
+    assert event.confidence == pytest.approx(live[0]["confidence"])
+    assert event.evidence["score"] == pytest.approx(live[0]["evidence"]["score"])
+    assert event.evidence["recording"] == str(path)
+    # stamped with the recording's time: its start plus the BIT's bus time
+    onset_ns = round(live[0]["evidence"]["bit_bus_time_s"] * 1e9)
+    start_ns = round((START - datetime(1970, 1, 1)).total_seconds() * 1e9)
+    assert abs(event.t_ns - (start_ns + onset_ns)) < 1_000
