@@ -3,10 +3,10 @@
     open_monitor("chapter10", path="flight.c10")                      # as fast as possible
     open_monitor("chapter10", path="flight.c10", channels=[3], speed=1.0)  # in recorded time
 
-``channels`` are the Chapter 10 channel IDs to read (default: every MS1553F1 channel); each
-record names its channel in ``record.extra["channel"]``. ``speed`` None or 0 replays as fast
-as the file reads; 1.0 paces records to the recorded time (from the first record); 2.0 twice
-as fast. Damaged packets are skipped and listed in :attr:`Chapter10Monitor.issues` (each also
+``channels`` are the Chapter 10 channel IDs to read (a list, or text ``"2,3"``; default:
+every MS1553F1 channel); each record names its channel in ``record.extra["channel"]``.
+``speed`` None or 0 replays as fast as the file reads; 1.0 paces records to the recorded time
+(from the first record); 2.0 twice as fast. Damaged packets are skipped and listed in :attr:`Chapter10Monitor.issues` (each also
 logged as a warning with its file offset); the replay goes on. ``position`` / ``size`` tell
 how far into the file the replay is.
 """
@@ -28,17 +28,31 @@ from drivers.monitor import BusMonitor, MonitorFilter
 log = logging.getLogger(__name__)
 
 
+def channel_ids(channels: Sequence[int] | int | str | None) -> list[int] | None:
+    """Channel IDs from a list, one number, or text such as ``"2,3"`` (``mapr monitor -o
+    channels=2,3``); None for every channel."""
+    if channels is None or isinstance(channels, int):
+        return None if channels is None else [channels]
+    parts = channels.split(",") if isinstance(channels, str) else list(channels)
+    try:
+        return [int(part) for part in parts]
+    except ValueError:
+        raise ValueError(f"channels must be channel IDs such as 2,3, not {channels!r}"
+                         ) from None
+
+
 class Chapter10Monitor(BusMonitor):
     """Replay a Chapter 10 file's MIL-STD-1553 messages as if they came off the bus."""
 
-    def __init__(self, *, path: str, channels: Sequence[int] | None = None,
+    def __init__(self, *, path: str, channels: Sequence[int] | int | str | None = None,
                  speed: float | None = None, year: int | None = None,
                  timing: BusTiming | None = None,
                  filters: Sequence[MonitorFilter] | None = None, **config: Any) -> None:
         super().__init__(filters=filters, **config)
         if speed is not None and speed < 0:
             raise ValueError(f"speed must be 0 or more, not {speed}")
-        self.reader = Chapter10Reader(path, channels=channels, arinc429=False, year=year,
+        self.reader = Chapter10Reader(path, channels=channel_ids(channels), arinc429=False,
+                                      year=year,
                                       timing=timing)
         self.speed = speed or 0.0
         self._batches: Iterator[Chapter10Batch] = iter(self.reader)

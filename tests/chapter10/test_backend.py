@@ -41,6 +41,14 @@ def test_channels_and_filters(sample_c10: Path) -> None:
     assert len(timed_out) == 27 and all(not r.status for r in timed_out)
 
 
+@pytest.mark.parametrize("channels", [[3, 5], "3,5", (3, 5)])
+def test_channels_as_a_list_or_as_text(sample_c10: Path, channels: Any) -> None:
+    with open_monitor("chapter10", path=str(sample_c10), channels=channels) as monitor:
+        assert {r.extra["channel"] for r in monitor} == {3, 5}
+    with open_monitor("chapter10", path=str(sample_c10), channels=4) as monitor:
+        assert {r.extra["channel"] for r in monitor} == {4}
+
+
 def test_damage_is_logged_and_the_replay_goes_on(c10: Any, tmp_path: Path,
                                                  caplog: pytest.LogCaptureFixture) -> None:
     good = c10.ms1553([c10.Message(RT_BC, ipts=100)])
@@ -73,5 +81,7 @@ def test_paced_replay_waits_for_recorded_time(c10: Any, tmp_path: Path) -> None:
 def test_bad_options_are_clear_errors(tmp_path: Path) -> None:
     with pytest.raises(ValueError, match="speed"):
         open_monitor("chapter10", path=str(tmp_path / "x.c10"), speed=-1)
+    with pytest.raises(ValueError, match="channel IDs such as 2,3"):
+        open_monitor("chapter10", path=str(tmp_path / "x.c10"), channels="[2]")
     with pytest.raises(TypeError, match="unknown option"):
         open_monitor("chapter10", path=str(tmp_path / "x.c10"), bogus=1)
