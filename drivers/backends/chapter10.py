@@ -6,8 +6,9 @@
 ``channels`` are the Chapter 10 channel IDs to read (a list, or text ``"2,3"``; default:
 every MS1553F1 channel); each record names its channel in ``record.extra["channel"]``.
 ``speed`` None or 0 replays as fast as the file reads; 1.0 paces records to the recorded time
-(from the first record); 2.0 twice as fast. Damaged packets are skipped and listed in :attr:`Chapter10Monitor.issues` (each also
-logged as a warning with its file offset); the replay goes on. ``position`` / ``size`` tell
+(from the first record); 2.0 twice as fast. Damaged packets are skipped and listed in
+:attr:`Chapter10Monitor.issues` (each also logged as a warning with its file offset); the
+replay goes on. ``position`` / ``size`` tell
 how far into the file the replay is.
 """
 
