@@ -36,6 +36,7 @@ import numpy as np
 import numpy.typing as npt
 
 from drivers.errors import EncodeError
+from drivers.mil1553.bitread import bit_slots_end, read_words
 from drivers.mil1553.edges import (
     FloatArray,
     IntArray,
@@ -46,23 +47,15 @@ from drivers.mil1553.edges import (
     segments,
 )
 from drivers.mil1553.encoder import MAX_RATE_HZ, MIN_RATE_HZ
+from drivers.mil1553.gridfit import fit_grid, grid_phases, range_indices
 from drivers.mil1553.wordbatch import (
     BUS_A,
     BUS_B,
-    ERR_BIT_COUNT_HIGH,
-    ERR_BIT_COUNT_LOW,
-    ERR_MANCHESTER,
-    ERR_PARITY,
     ERR_SYNC,
-    SYNC_CMD,
     SYNC_DATA,
     WordBatch,
     empty_words,
 )
-
-SLOTS = 44
-"""Half-bit grid slots examined per word: sync 0-5, bits 0-16 at 6-39, two extra bits."""
-_BIT_WEIGHTS = (1 << np.arange(15, -1, -1)).astype(np.int64)
 
 
 @dataclass(frozen=True, slots=True)
@@ -185,37 +178,43 @@ class ManchesterDecoder:
     def _decode(self, buf: npt.NDArray[np.uint8], horizon: int, final: bool = False
                 ) -> WordBatch:
         changes = byte_changes(buf)
-        out = [self._decode_bus(buf, changes, bus, horizon, final) for bus in (BUS_A, BUS_B)]
+        values = buf[changes]
+        out = [self._decode_bus(values, changes, buf.size, bus, horizon, final)
+               for bus in (BUS_A, BUS_B)]
         words = np.concatenate(out)
         return words[np.argsort(words["t_ns"], kind="stable")]
 
-    def _decode_bus(self, buf: npt.NDArray[np.uint8], changes: IntArray, bus: int,
+    def _decode_bus(self, values: npt.NDArray[np.uint8], changes: IntArray, n: int, bus: int,
                     horizon: int, final: bool) -> WordBatch:
-        n = buf.size
-        starts, levels = bus_runs(buf, changes, bus)
+        starts, levels = bus_runs(values, changes, bus)
         starts, levels = clean_runs(starts, levels, n, dropout_max=self._dropout_max,
                                     glitch_max=self._glitch_max,
                                     missed_pulse_min=self._missed_pulse_min)
         seg = segments(starts, levels, n, dead_band_max=self._dropout_max)
-        if seg.start.size == 0:
+        if seg.level.size == 0:
             return empty_words()
         anchors, first_level = self._find_syncs(seg)
         # Only words whose sync lies before the horizon are complete in this buffer; the
         # ones already emitted from an earlier buffer come again in the kept tail: skip them.
         absolute = anchors + self._base
-        fresh = (anchors < horizon) & (absolute > self._last_sync[bus] + 2 * self._spus)
-        if np.any(anchors < horizon):
-            self._last_sync[bus] = max(self._last_sync[bus],
-                                       float(absolute[anchors < horizon].max()))
-        # Each segment belongs to the last word whose sync starts (less a quarter bit) before it.
-        owner = _owners(anchors - 0.5 * self._half, seg.left)
-        span_end = self._spans_end(seg, anchors, n)
-        words = self._read_words(seg, owner[seg.adjacent_prev], anchors, span_end, first_level)
-        words = words[fresh]
-        words["bus"] = bus
-        bursts = self._bursts(seg, owner, span_end, horizon=math.inf if final else horizon,
-                              bus=bus)
         decided = anchors < horizon
+        fresh = np.flatnonzero(decided & (absolute > self._last_sync[bus] + 2 * self._spus))
+        if np.any(decided):
+            self._last_sync[bus] = max(self._last_sync[bus], float(absolute[decided].max()))
+        # A word owns what lies at or after its sync's start less a quarter bit, up to the
+        # next word's.
+        owned_from = anchors - 0.5 * self._half
+        first_owned = np.searchsorted(seg.crossings, owned_from)
+        span_end = self._spans_end(seg, anchors, n)
+        last_owned = np.append(first_owned[1:], seg.crossings.size)
+        bits_end = bit_slots_end(seg.crossings, anchors[fresh], self._half)
+        words = read_words(seg.crossings, seg.crossing_level, anchors[fresh], first_owned[fresh],
+                           np.minimum(last_owned[fresh], bits_end), span_end[fresh],
+                           first_level[fresh], half=self._half, base=self._base,
+                           sample_rate=self.sample_rate)
+        words["bus"] = bus
+        bursts = self._bursts(seg, owned_from, span_end,
+                              horizon=math.inf if final else horizon, bus=bus)
         if np.any(decided):
             self._covered_until[bus] = max(self._covered_until[bus],
                                            float(span_end[decided].max()) + self._base)
@@ -225,13 +224,13 @@ class ManchesterDecoder:
         """Anchors (sync start, in samples) of valid syncs, and each sync's first polarity."""
         half_min = self.settings.sync_half_min_us * self._spus
         length = seg.right - seg.left
-        k = np.flatnonzero(seg.adjacent_prev)
         # Both sides of a sync's middle hold ~1.5 µs; the two together span 3 µs between
         # the outer crossings (each off by at most 150 ns), where two long data runs span
         # 2 µs: the sum separates them even when every crossing is at its tolerance.
         both = self.settings.sync_span_min_us * self._spus
-        k = k[(length[k - 1] >= half_min) & (length[k] >= half_min) &
-              (length[k - 1] + length[k] >= both)]
+        long = length >= half_min
+        k = np.flatnonzero(long[:-1] & long[1:] & seg.adjacent_prev[1:]) + 1
+        k = k[length[k - 1] + length[k] >= both]
         if k.size == 0:
             return np.zeros(0), np.zeros(0, np.int8)
         middle = seg.left[k]
@@ -249,16 +248,17 @@ class ManchesterDecoder:
         # previous word's 20 µs and is not followed by the mid-bit crossings of bits 0 and 1,
         # which every real word has (a word with a missing transition there does not start
         # inside another word, so it is kept).
-        crossings = seg.crossings
-        followed = np.ones(anchors.size, dtype=bool)
-        for bit in (0, 1):
-            centre = anchors + (3.5 + bit) * self._spus
-            followed &= np.searchsorted(crossings, centre + 0.3 * self._spus) > \
-                np.searchsorted(crossings, centre - 0.3 * self._spus)
-        inside_previous = np.zeros(anchors.size, dtype=bool)
-        inside_previous[1:] = np.diff(anchors) < 39.5 * self._half
-        keep = followed | ~inside_previous
-        anchors, first = anchors[keep], first[keep]
+        inside_previous = np.flatnonzero(np.diff(anchors) < 39.5 * self._half) + 1
+        if inside_previous.size:
+            suspect = anchors[inside_previous]
+            followed = np.ones(suspect.size, dtype=bool)
+            for bit in (0, 1):
+                centre = suspect + (3.5 + bit) * self._spus
+                followed &= np.searchsorted(seg.crossings, centre + 0.3 * self._spus) > \
+                    np.searchsorted(seg.crossings, centre - 0.3 * self._spus)
+            keep = np.ones(anchors.size, dtype=bool)
+            keep[inside_previous[~followed]] = False
+            anchors, first = anchors[keep], first[keep]
         # Two syncs cannot overlap: a sync-like pattern starting inside the previous sync
         # (its second half continued by a bit without its transition) is data.
         overlaps = np.zeros(anchors.size, dtype=bool)
@@ -266,15 +266,10 @@ class ManchesterDecoder:
         return anchors[~overlaps], first[~overlaps]
 
     def _phase_correction(self, seg: Segments, middle: FloatArray) -> FloatArray:
-        """Per candidate, the offset (samples) of the 0.5 µs grid that best fits its crossings.
-
-        This is the circular midrange of the crossings' phases on the 0.5 µs grid: the middle
-        of the shortest arc of the circle holding every phase. With n crossings each displaced
-        by a bounded jitter, its error shrinks like 1/n where a mean's shrinks like
-        1/sqrt(n), and it bounds every crossing's distance to its grid slot by half the spread
-        of the phases, which is what slot assignment needs. Working on the circle, it needs
-        no first guess: the sync's own middle crossing serves as the reference.
-        """
+        """Per candidate, the offset (samples) of the 0.5 µs grid that best fits its crossings
+        (the circular midrange of their phases, see :mod:`drivers.mil1553.gridfit`). Working
+        on the circle, it needs no first guess: the sync's own middle crossing serves as the
+        reference."""
         crossings = seg.crossings
         # The window ends before slot 40, where a contiguous next word's sync would start,
         # or where the line falls silent, so a later word's crossings never pull the grid;
@@ -282,18 +277,9 @@ class ManchesterDecoder:
         lo = np.searchsorted(crossings, middle - 0.5 * self._half)
         silent = self._silence_after(seg, middle)
         hi = np.searchsorted(crossings, np.minimum(middle + 36.5 * self._half, silent))
-        correction: FloatArray = self._midrange(crossings, lo, hi, middle) * self._half
+        bins, count = grid_phases(crossings, lo, hi, middle, self._half)
+        correction: FloatArray = fit_grid(bins, count) * self._half
         return correction
-
-    def _midrange(self, crossings: FloatArray, lo: IntArray, hi: IntArray, centre: FloatArray
-                  ) -> FloatArray:
-        """Circular midrange of each window's grid phases relative to ``centre``, in slots."""
-        count = hi - lo
-        cand = np.repeat(np.arange(centre.size), count)
-        rank = np.arange(cand.size) - np.repeat(np.cumsum(count) - count, count)
-        scale = PHASE_BINS / self._half
-        bins = np.floor((crossings[np.repeat(lo, count) + rank] - centre[cand]) * scale)
-        return circular_midrange(bins.astype(np.int64) & (PHASE_BINS - 1), cand, centre.size)
 
     @staticmethod
     def _silence_after(seg: Segments, times: FloatArray) -> FloatArray:
@@ -312,41 +298,7 @@ class ManchesterDecoder:
         end: FloatArray = np.minimum(stop, next_sync)
         return end
 
-    def _read_words(self, seg: Segments, owner: IntArray, anchors: FloatArray,
-                    stop: FloatArray, first_level: npt.NDArray[np.int8]) -> WordBatch:
-        """Bits, length and errors of every anchored word."""
-        count = anchors.size
-        words = empty_words(count)
-        if count == 0:
-            return words
-        crossings = seg.crossings
-        direction = seg.crossing_level.astype(np.int64)
-        slot = np.rint((crossings - anchors[np.maximum(owner, 0)]) / self._half).astype(np.int64)
-        inside = (owner >= 0) & (slot >= 0) & (slot < SLOTS)
-        flat = owner[inside] * SLOTS + slot[inside]
-        hits = np.bincount(flat, minlength=count * SLOTS).reshape(count, SLOTS)
-        dirs = np.bincount(flat, weights=direction[inside],
-                           minlength=count * SLOTS).reshape(count, SLOTS)
-        bits_sent = np.floor((stop - anchors) / self._spus - 3 + 0.25).astype(np.int64)
-        present = np.arange(17)[None, :] < np.minimum(bits_sent, 17)[:, None]
-        bad = (hits[:, 7:40:2] != 1) | (hits[:, 6:40:2] > 1)
-        manchester = np.any(bad & present, axis=1)
-        ones = (dirs[:, 7:40:2] < 0).astype(np.int64)
-        parity_ok = (ones.sum(axis=1) & 1) == 1
-        errors = np.where(manchester, ERR_MANCHESTER, 0)
-        errors |= np.where(bits_sent < 17, ERR_BIT_COUNT_LOW, 0)
-        errors |= np.where(bits_sent > 17, ERR_BIT_COUNT_HIGH, 0)
-        errors |= np.where((bits_sent >= 17) & ~manchester & ~parity_ok, ERR_PARITY, 0)
-        base_ns = self._base
-        words["t_ns"] = np.rint((anchors + base_ns) * 1e9 / self.sample_rate).astype(np.int64)
-        last_mid = anchors + (3.5 + np.maximum(bits_sent, 1) - 1) * self._spus
-        words["end_ns"] = np.rint((last_mid + base_ns) * 1e9 / self.sample_rate).astype(np.int64)
-        words["sync"] = np.where(first_level > 0, SYNC_CMD, SYNC_DATA)
-        words["value"] = (ones[:, :16] @ _BIT_WEIGHTS).astype(np.uint16)
-        words["errors"] = errors.astype(np.uint16)
-        return words
-
-    def _bursts(self, seg: Segments, owner: IntArray, words_span_end: FloatArray,
+    def _bursts(self, seg: Segments, owned_from: FloatArray, words_span_end: FloatArray,
                 horizon: float, bus: int) -> WordBatch:
         """Activity no valid sync explains, as ``sync``-flagged words (see module doc).
 
@@ -359,14 +311,18 @@ class ManchesterDecoder:
         base = self._base
         join = self.settings.burst_join_us * self._spus
         limit = horizon - self._spus
-        # A segment is explained when it starts inside its owner word's span; activity an
-        # earlier buffer already accounted for (its words' tails, its bursts) is skipped.
-        covered = np.zeros(seg.start.size, dtype=bool)
-        if words_span_end.size:
-            covered = (owner >= 0) & \
-                (seg.left < words_span_end[np.maximum(owner, 0)] + margin)
+        # A segment is explained when it starts inside its owner word's span: the
+        # unexplained ones lie before the first word, or between a word's span end and the
+        # next word. Activity an earlier buffer already accounted for (its words' tails, its
+        # bursts) is skipped.
+        owner_start = np.searchsorted(seg.left, owned_from)
+        span_stop = np.searchsorted(seg.left, words_span_end + margin)
+        gap_lo = np.r_[0, np.maximum(span_stop, owner_start)]
+        gap_hi = np.r_[owner_start, seg.left.size]
+        candidates, _ = range_indices(gap_lo, gap_hi)
         seen = max(self._last_burst[bus], self._covered_until[bus]) - base
-        loose = np.flatnonzero(~covered & (seg.left > seen) & (seg.left < limit))
+        cand_left = seg.left[candidates]
+        loose = candidates[(cand_left > seen) & (cand_left < limit)]
         left, right = seg.left[loose] + base, seg.right[loose] + base
         new_burst = np.ones(loose.size, dtype=bool)
         new_burst[1:] = left[1:] - right[:-1] > join
@@ -399,68 +355,6 @@ class ManchesterDecoder:
         out["sync"] = SYNC_DATA
         out["bus"] = bus
         return out
-
-
-PHASE_BINS = 32
-"""Resolution of the circular midrange: 1/32 of a half-bit, 15.6 ns."""
-
-
-_BIN_ANGLE = 2 * np.pi * (np.arange(PHASE_BINS) + 0.5) / PHASE_BINS
-_BIN_COS, _BIN_SIN = np.cos(_BIN_ANGLE), np.sin(_BIN_ANGLE)
-CLEAR_GAP = 0.24
-"""The midrange is used when the phases leave one widest gap of at least this share of the
-circle (0.3 less the bins' quantization); otherwise the circular mean."""
-
-
-def circular_midrange(bins: IntArray, group: IntArray, groups: int) -> FloatArray:
-    """Per group, the centre of its phases on the unit circle, in [-0.5, 0.5).
-
-    The estimate is the middle of the shortest arc holding all the group's phases (the
-    circular midrange) when they leave a clear gap; when they spread round most of the circle
-    (a low sample rate quantizes them into a few values, all occupied) the widest gap says
-    nothing, and the circular mean (the densest region) is used instead.
-
-    ``bins`` are phases as bins of the circle cut into :data:`PHASE_BINS`; ``group`` is sorted.
-    The
-    occupied bins of every group come out of ``np.nonzero`` already in order, so the widest
-    empty gap is found with a diff and a ``reduceat``, and the mean with a small matrix
-    product; no sort, no trigonometry per phase. Groups with no phase get 0.
-    """
-    nb = PHASE_BINS
-    counts = np.bincount(group * nb + bins, minlength=groups * nb).reshape(groups, nb)
-    flat = np.flatnonzero(counts.reshape(-1))
-    if flat.size == 0:
-        return np.zeros(groups)
-    row, col = flat // nb, flat % nb
-    first = np.flatnonzero(np.r_[True, row[1:] != row[:-1]])
-    last = np.r_[first[1:], flat.size] - 1
-    # The gap after each occupied bin, to the next one of its group (wrapping round).
-    gap = np.empty(flat.size, dtype=np.int64)
-    gap[:-1] = col[1:] - col[:-1]
-    gap[last] = col[first] + nb - col[last]
-    widest = np.maximum.reduceat(gap, first)
-    at_widest = np.flatnonzero(gap == np.repeat(widest, last - first + 1))
-    pick = at_widest[np.r_[True, row[at_widest][1:] != row[at_widest][:-1]]]
-    middle = (col[pick] + 0.5 + (nb + gap[pick]) / 2) / nb
-    out = np.zeros(groups)
-    out[row[pick]] = middle - np.floor(middle + 0.5)
-    ties = np.bincount(row[at_widest], minlength=groups) > 1
-    unclear = row[pick][(gap[pick] < CLEAR_GAP * nb) | ties[row[pick]]]
-    if unclear.size:
-        sub = counts[unclear].astype(np.float64)
-        mean = np.arctan2(sub @ _BIN_SIN, sub @ _BIN_COS) / (2 * np.pi)
-        out[unclear] = mean - np.floor(mean + 0.5)
-    return out
-
-
-def _owners(starts: FloatArray, times: FloatArray) -> IntArray:
-    """For sorted ``times``, the index of the last of the sorted ``starts`` at or before each
-    (-1 before the first). Same as ``searchsorted(starts, times, 'right') - 1``, but linear:
-    the few starts are placed among the many times, and a running count does the rest."""
-    marks = np.zeros(times.size + 1, dtype=np.int64)
-    np.add.at(marks, np.searchsorted(times, starts, side="left"), 1)
-    owners: IntArray = np.cumsum(marks[:-1]) - 1
-    return owners
 
 
 def decode_capture(samples: npt.NDArray[np.uint8], sample_rate: float,

@@ -1,8 +1,9 @@
 """From capture samples to line-level runs and zero crossings, one bus at a time.
 
-The decoder works on edges, never per sample in Python: the only passes over the samples are
-a comparison of neighbours and ``flatnonzero``; everything after works on runs (a few per
-microsecond of traffic).
+The decoder works on edges, never per sample in Python: the only pass over the samples is a
+comparison of neighbours and ``flatnonzero``, shared by both buses; everything after works on
+runs (a few per microsecond of traffic), and the rare cases (drop-outs, glitches, dead bands)
+are found once and then handled on their own few indices.
 
 Terms used here: a *run* is a maximal stretch of samples with one line level (+1 positive,
 -1 negative, 0 no signal). A *segment* is a run of +1 or -1. Two segments are *adjacent* when
@@ -42,17 +43,23 @@ def byte_changes(samples: npt.NDArray[np.uint8]) -> IntArray:
 
     This is the one full pass over the samples that both buses share.
     """
-    changes = np.flatnonzero(samples[1:] != samples[:-1]) + 1
-    return np.concatenate([np.zeros(1, np.int64), changes.astype(np.int64)])
+    changed = np.empty(samples.size, dtype=bool)
+    changed[:1] = True
+    np.not_equal(samples[1:], samples[:-1], out=changed[1:])
+    changes: IntArray = np.flatnonzero(changed)
+    return changes
 
 
-def bus_runs(samples: npt.NDArray[np.uint8], changes: IntArray, bus: int
+def bus_runs(values: npt.NDArray[np.uint8], changes: IntArray, bus: int
              ) -> tuple[IntArray, npt.NDArray[np.int8]]:
-    """Run starts and levels of one bus, given the shared byte change points."""
-    levels = LEVEL_TABLES[bus][samples[changes]]
-    keep = np.ones(levels.size, dtype=bool)
-    keep[1:] = levels[1:] != levels[:-1]
-    return changes[keep], levels[keep]
+    """Run starts and levels of one bus, given the capture bytes at the shared change points
+    (``values = samples[changes]``)."""
+    levels = LEVEL_TABLES[bus][values]
+    keep = np.empty(levels.size, dtype=bool)
+    keep[:1] = True
+    np.not_equal(levels[1:], levels[:-1], out=keep[1:])
+    kept = np.flatnonzero(keep)
+    return changes[kept], levels[kept]
 
 
 def clean_runs(starts: IntArray, levels: npt.NDArray[np.int8], n: int, *, dropout_max: int,
@@ -69,20 +76,24 @@ def clean_runs(starts: IntArray, levels: npt.NDArray[np.int8], n: int, *, dropou
     than a sample and fall between samples: the line then shows silence between two segments
     of the same polarity. With ``missed_pulse_min`` > 0, such a silence of at least that many
     samples (and at most ``dropout_max``) becomes a pulse of the other polarity.
+
+    Only runs short enough to be one of these are examined (one comparison over all runs).
     """
     if levels.size < 3:
         return starts, levels
-    lengths = np.diff(np.append(starts, n))
-    inner = slice(1, -1)
-    same_sides = levels[:-2] == levels[2:]
-    silent_gap = same_sides & (levels[inner] == 0) & (levels[:-2] != 0)
-    short_gap = silent_gap & (lengths[inner] <= dropout_max)
-    missed = short_gap & (lengths[inner] >= missed_pulse_min) if missed_pulse_min > 0 else \
-        np.zeros(silent_gap.size, dtype=bool)
-    dropout = short_gap & ~missed
-    glitch = same_sides & (levels[inner] != 0) & (lengths[inner] <= glitch_max)
-    fix = np.flatnonzero(dropout | glitch) + 1
-    restore = np.flatnonzero(missed) + 1
+    # Inner runs (neither the first nor the last) no longer than either limit.
+    short = np.flatnonzero(starts[2:] - starts[1:-1] <= max(dropout_max, glitch_max)) + 1
+    if short.size == 0:
+        return starts, levels
+    length = starts[short + 1] - starts[short]
+    level, before = levels[short], levels[short - 1]
+    same_sides = before == levels[short + 1]
+    short_gap = same_sides & (level == 0) & (before != 0) & (length <= dropout_max)
+    missed = short_gap & (length >= missed_pulse_min) if missed_pulse_min > 0 else \
+        np.zeros(short.size, dtype=bool)
+    glitch = same_sides & (level != 0) & (length <= glitch_max)
+    fix = short[(short_gap & ~missed) | glitch]
+    restore = short[missed]
     if fix.size == 0 and restore.size == 0:
         return starts, levels
     levels = levels.copy()
@@ -102,8 +113,6 @@ class Segments:
     begins at a crossing (its ``left`` is one).
     """
 
-    start: IntArray
-    end: IntArray
     level: npt.NDArray[np.int8]
     left: FloatArray
     right: FloatArray
@@ -118,22 +127,27 @@ class Segments:
 
 def segments(starts: IntArray, levels: npt.NDArray[np.int8], n: int, *, dead_band_max: int
              ) -> Segments:
-    """Group runs into segments and time their boundaries."""
-    ends = np.append(starts[1:], n)
-    live = levels != 0
-    s, e, lv = starts[live], ends[live], levels[live]
+    """Group runs into segments and time their boundaries.
+
+    A sample is the line state at its instant; a change happened between two samples, so a
+    boundary is timed half a sample before the first sample of the new state, and a crossing
+    through a dead band at the middle of the silence. Where two segments touch (no dead
+    band), both rules give the same time, so only crossings through a dead band need the
+    second one.
+    """
+    live = np.flatnonzero(levels)
+    bounds = np.append(starts, n)
+    s, e, lv = bounds[live], bounds[live + 1], levels[live]
     adjacent = np.zeros(s.size, dtype=bool)
-    if s.size > 1:
-        adjacent[1:] = (s[1:] - e[:-1] <= dead_band_max) & (lv[1:] != lv[:-1])
-    # A sample is the line state at its instant; a change happened between two samples, so
-    # a boundary is timed half a sample before the first sample of the new state, and a
-    # crossing through a dead band at the middle of the silence.
+    silence = e[:-1] - s[1:]  # minus the silence between neighbours (0 where they touch)
+    adjacent[1:] = (silence >= -dead_band_max) & (lv[1:] != lv[:-1])
     left = s - 0.5
-    crossing_at = (e[:-1] - 1 + s[1:]) / 2.0
-    left[1:] = np.where(adjacent[1:], crossing_at, left[1:])
     right = e - 0.5
-    right[:-1] = np.where(adjacent[1:], crossing_at, right[:-1])
-    left, right = left.astype(np.float64), right.astype(np.float64)
-    ends_activity = np.append(~adjacent[1:], True) if adjacent.size else adjacent
-    return Segments(s, e, lv, left, right, adjacent, left[adjacent], lv[adjacent],
-                    right[ends_activity])
+    through = np.flatnonzero(adjacent[1:] & (silence != 0))
+    crossing_at = (e[through] - 1 + s[through + 1]) / 2.0
+    left[through + 1] = crossing_at
+    right[through] = crossing_at
+    at_crossing = np.flatnonzero(adjacent)
+    ends_activity = np.flatnonzero(~adjacent[1:])
+    silent_after = np.append(right[ends_activity], right[-1:])
+    return Segments(lv, left, right, adjacent, left[at_crossing], lv[at_crossing], silent_after)
