@@ -22,7 +22,8 @@ response, reserved mode code, illegal format), so a replayed record reads like a
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from functools import lru_cache
 
 from drivers.mil1553.modecodes import MODE_CODES, direction_legal
 from drivers.mil1553.record import TransferFormat
@@ -30,6 +31,7 @@ from drivers.mil1553.timing import BusTiming
 from drivers.mil1553.words import BROADCAST_RT, MODE_SUBADDRESSES
 
 _STATUS_RESERVED = 0x00E0
+_TIMING = BusTiming()
 
 COMMAND, DATA, STATUS = "C", "D", "S"
 
@@ -44,6 +46,19 @@ class Layout:
     status_positions: tuple[tuple[int, int], ...]
     errors: frozenset[str]
     """Errors the command word(s) alone show (reserved mode code, illegal format)."""
+
+    data_start: int = field(init=False)
+    """Where the data words' run starts (where it would, when there is none)."""
+    data_count: int = field(init=False)
+
+    def __post_init__(self) -> None:
+        roles = self.roles
+        if DATA in roles:
+            start = roles.index(DATA)
+        else:
+            start = len(roles) - 1 if roles[-1] == STATUS else len(roles)
+        object.__setattr__(self, "data_start", start)
+        object.__setattr__(self, "data_count", roles.count(DATA))
 
 
 @dataclass(frozen=True, slots=True)
@@ -60,6 +75,7 @@ class SplitMessage:
     errors: frozenset[str]
 
 
+@lru_cache(maxsize=8192)
 def layout_for(command: int, command2: int | None) -> Layout:
     """The complete layout of a message starting with ``command`` (and, for RT-RT, the
     transmit command ``command2``)."""
@@ -116,35 +132,34 @@ def split_message(words: tuple[int, ...], *, rt_to_rt: bool, timed_out: bool,
 
     ``rt_to_rt`` and ``timed_out`` are the block status word's RR and TM flags; ``gaps_ns``
     the response gaps in bus order, checked against ``timing`` (early/late response).
+    In every format the data words are one run, so the split is slicing, not a pass per word.
     """
-    timing = timing or BusTiming()
+    timing = timing or _TIMING
+    n = len(words)
     command = words[0]
-    command2 = words[1] if rt_to_rt and len(words) > 1 else None
+    command2 = words[1] if rt_to_rt and n > 1 else None
     layout = layout_for(command, command2)
-    roles = list(layout.roles)
-    if timed_out and layout.status_positions:
+    size, start, count = len(layout.roles), layout.data_start, layout.data_count
+    statuses = list(layout.status_positions)
+    if timed_out and statuses:
         # The silent terminal is the first whose status would sit at or past the words kept.
-        cut = next((pos for pos, _ in layout.status_positions if pos >= len(words)),
-                   layout.status_positions[-1][0])
-        roles = roles[:cut]
-    expected = len(roles)
-    extra = len(words) - len(roles)
-    if extra > 0:
-        if roles[-1] == STATUS and not timed_out:
-            roles = [*roles[:-1], *[DATA] * extra, STATUS]
-        else:
-            roles += [DATA] * extra
-    roles = roles[:len(words)]
-    data = tuple(w for w, r in zip(words, roles, strict=True) if r == DATA)
-    status_at = [i for i, r in enumerate(roles) if r == STATUS]
-    status = tuple(words[i] for i in status_at)
+        size = next((pos for pos, _ in statuses if pos >= n), statuses[-1][0])
+        statuses = [s for s in statuses if s[0] < size]
+        if start >= size:
+            start, count = size, 0
+        count = min(start + count, size) - start
+    expected = size
+    if n > size:
+        if statuses and statuses[-1][0] == size - 1 and not timed_out:
+            statuses[-1] = (n - 1, statuses[-1][1])  # the last word stays the status
+        count += n - size
+    elif n < size:
+        statuses = [s for s in statuses if s[0] < n]
+        count = max(0, min(start + count, n) - start)
+    data = words[start:start + count]
+    status = tuple(words[pos] for pos, _ in statuses)
     errors = set(layout.errors)
-    expected_rts = dict(layout.status_positions)
-    for order, index in enumerate(status_at):
-        word = words[index]
-        owner = expected_rts.get(index)
-        if owner is None:  # the layout moved (extra words): terminals answer in order
-            owner = layout.status_positions[min(order, len(layout.status_positions) - 1)][1]
+    for word, (_, owner) in zip(status, statuses, strict=True):
         if word >> 11 != owner:
             errors.add("wrong_rt_address")
         if word & _STATUS_RESERVED:

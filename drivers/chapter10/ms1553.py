@@ -18,6 +18,7 @@ turns them into the record the live monitor produces:
 
 from __future__ import annotations
 
+import struct
 from typing import Any
 
 from drivers.chapter10.layout import split_message
@@ -107,7 +108,7 @@ def records_from_packet(item: RawPacket, timebase: Timebase,
 def _record(message: Any, channel: int, rtc: int, stamp_bit: int, timebase: Timebase,
             timing: BusTiming | None) -> MonitorRecord:
     raw = message.data
-    words = tuple(int.from_bytes(raw[i:i + 2], "little") for i in range(0, len(raw), 2))
+    words = struct.unpack(f"<{len(raw) // 2}H", raw)
     block_status = block_status_of(message)
     gap_word = message.gap_time
     gaps_all = ((gap_word & 0xFF) * 100, (gap_word >> 8) * 100)
