@@ -81,6 +81,12 @@ class Notifier:
             return False
         return time.monotonic() - self._last_ping >= self.watchdog_interval_s
 
+    def watchdog_next(self) -> float | None:
+        """When (``time.monotonic()``) :meth:`watchdog` is next due; None without a watchdog."""
+        if self.watchdog_interval_s is None or self._sock is None:
+            return None
+        return self._last_ping + self.watchdog_interval_s
+
     def watchdog(self) -> None:
         self._last_ping = time.monotonic()
         self.notify("WATCHDOG=1")

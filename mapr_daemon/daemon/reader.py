@@ -41,15 +41,23 @@ class BusReader(threading.Thread):
     """Reads ``open_monitor()``'s records until :meth:`stop`; see the module docstring."""
 
     def __init__(self, open_monitor: Callable[[], BusMonitor], out: queue.Queue[Item], *,
-                 retry_initial_s: float, retry_max_s: float, wait_s: float) -> None:
+                 retry_initial_s: float, retry_max_s: float, wait_s: float,
+                 wake: Callable[[], None] = lambda: None) -> None:
         super().__init__(name="mapr-bus-reader", daemon=True)
         self.open_monitor = open_monitor
         self.out = out
         self.retry_initial_s = retry_initial_s
         self.retry_max_s = retry_max_s
         self.wait_s = wait_s
+        self.wake = wake
+        """Called after every item queued or dropped (rings the main loop's doorbell)."""
         self.dropped = 0
         """Records dropped because the queue stayed full (read by the main loop)."""
+        self.dropped_batches = 0
+        self.received = 0
+        """Records read from the backend (queued or dropped)."""
+        self.high_water = 0
+        """The most items the queue ever held (right after a put): how close it came to full."""
         self.failures = 0
         self.delay = retry_initial_s
         """The current backoff (doubles per failure up to ``retry_max_s``)."""
@@ -66,20 +74,30 @@ class BusReader(threading.Thread):
     def stopping(self) -> bool:
         return self._stop_event.is_set()
 
+    def _queued(self) -> None:
+        self.high_water = max(self.high_water, self.out.qsize())
+        self.wake()
+
     def _control(self, item: Item) -> None:
         """Queue a control item; these are never dropped (they are rare and tiny)."""
         while not self.stopping:
             try:
                 self.out.put(item, timeout=0.1)
+                self._queued()
                 return
             except queue.Full:
                 continue
 
     def _records(self, batch: list[MonitorRecord]) -> None:
+        self.received += len(batch)
         try:
             self.out.put(Item("records", tuple(batch)), timeout=self.wait_s)
         except queue.Full:
             self.dropped += len(batch)
+            self.dropped_batches += 1
+            self.wake()
+            return
+        self._queued()
 
     def run(self) -> None:
         self.delay = self.retry_initial_s

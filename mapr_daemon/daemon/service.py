@@ -8,8 +8,9 @@ counters. Per turn the main loop drains the queue, decodes, diagnoses, writes ev
 WATCHDOG=1 at half of WATCHDOG_USEC, only while the reader is alive and the loop turns: that
 is the proof of work). Bus statistics go to the catalog every ``catalog.stats_interval_s``.
 
-Signals set flags the loop reads at least every 0.1 s: SIGTERM/SIGINT flush and close the
-session (exit 0 well within a second); SIGHUP reloads the config and ICD, keeping the old
+The loop sleeps in ``select()`` until the reader rings its doorbell, a signal arrives through
+the self-pipe (:mod:`.wakeup`) or a timer is due — no polling. SIGTERM/SIGINT flush and close
+the session (exit 0 well within a second); SIGHUP reloads the config and ICD, keeping the old
 ones if the new ones are invalid. A failing backend becomes a catalog gap and a retry, never
 an exit; a reasoner that falls behind becomes a log line, a STATUS and a catalog gap.
 """
@@ -19,9 +20,9 @@ from __future__ import annotations
 import dataclasses
 import logging
 import queue
+import selectors
 import signal
 import time
-from types import FrameType
 from typing import Any
 
 from drivers.monitor import BusStatistics
@@ -32,10 +33,13 @@ from mapr_daemon.daemon.bitwatch import BitWatch
 from mapr_daemon.daemon.config import Config, load_config
 from mapr_daemon.daemon.notify import Notifier
 from mapr_daemon.daemon.reader import BusReader, Item
+from mapr_daemon.daemon.wakeup import Doorbell, SignalPipe
 from mapr_daemon.errors import CatalogError, ConfigError
 from mapr_daemon.icd import Icd, SignalStream, load_icd
 
 log = logging.getLogger("mapr")
+TURN_S = 0.05
+"""Longest the loop handles queued work before it looks at signals and timers again."""
 
 
 @dataclasses.dataclass
@@ -86,11 +90,19 @@ class Service:
         except CatalogError as error:
             raise ConfigError(str(error), path=config.source, field="catalog.path") from None
         self.queue: queue.Queue[Item] = queue.Queue(maxsize=config.queue_batches)
+        self.doorbell = Doorbell()
         self.reader: BusReader | None = None
         self.stop_reason: str | None = None
         self.reload_wanted = False
         self.ready = False
-        self.messages = self.errors = self.events = self.dropped_reported = 0
+        self.messages = self.errors = self.events = 0
+        self.dropped = 0
+        """Messages the bus reader dropped because the queue stayed full (all readers)."""
+        self.queue_peak = 0
+        """The most batches the queue ever held (all readers)."""
+        self.busy_s = 0.0
+        """Main-loop time spent handling queued work (decode, reason, write)."""
+        self._reader_dropped = 0
         self.interval = BusStatistics()
         self.interval_start = time.time_ns()
         self.gap_id: int | None = None
@@ -98,31 +110,24 @@ class Service:
         self._rate_count = 0
         self._rate_since = time.monotonic()
         self.rate = 0.0
-
-    # --- signals ---------------------------------------------------------------------------
-    def _on_signal(self, signum: int, frame: FrameType | None) -> None:
-        if signum == signal.SIGHUP:
-            self.reload_wanted = True
-        else:
-            self.stop_reason = signal.Signals(signum).name
-
-    def _install_signals(self) -> None:
-        for sig in (signal.SIGTERM, signal.SIGINT, signal.SIGHUP):
-            signal.signal(sig, self._on_signal)
+        self._next_status = self._next_stats = 0.0
 
     # --- lifetime --------------------------------------------------------------------------
     def _start_reader(self) -> None:
         cfg = self.pipe.config
         self.reader = BusReader(source.monitor_factory(cfg, self.pipe.icd), self.queue,
                                 retry_initial_s=cfg.backend.retry_initial_s,
-                                retry_max_s=cfg.backend.retry_max_s, wait_s=cfg.queue_wait_s)
+                                retry_max_s=cfg.backend.retry_max_s, wait_s=cfg.queue_wait_s,
+                                wake=self.doorbell.ring)
+        self._reader_dropped = 0
         self.reader.start()
 
     def _stop_reader(self) -> None:
-        if self.reader is not None:
-            self.reader.stop()
-            self.reader.join(timeout=0.5)
-            self.reader = None
+        reader, self.reader = self.reader, None
+        if reader is not None:
+            reader.stop()
+            reader.join(timeout=0.5)
+            self._note_reader(reader)
         while True:   # what is queued is still processed (nothing received is lost)
             try:
                 self._handle(self.queue.get_nowait())
@@ -130,40 +135,87 @@ class Service:
                 break
 
     def run(self) -> int:
+        """Monitor until SIGTERM or SIGINT, then flush and return 0. Call it from the main
+        thread: signals arrive through a self-pipe (:mod:`.wakeup`)."""
         cfg = self.pipe.config
-        self._install_signals()
-        self.catalog.open_session(backend=cfg.backend.name, config_hash=cfg.digest())
-        log.info("mapr %s: session %s, backend %s, ICD %s, catalog %s, reasoner %s",
-                 __version__, self.catalog.session_id, cfg.backend.name, cfg.icd,
-                 cfg.catalog.path, cfg.reasoner.dictionary or "off (no dictionary)")
-        self._start_reader()
-        next_status = time.monotonic()
-        next_stats = time.monotonic() + cfg.catalog.stats_interval_s
+        signals = SignalPipe()
+        selector = selectors.DefaultSelector()
+        selector.register(signals, selectors.EVENT_READ, "signals")
+        selector.register(self.doorbell, selectors.EVENT_READ, "work")
         try:
+            self.catalog.open_session(backend=cfg.backend.name, config_hash=cfg.digest())
+            log.info("mapr %s: session %s, backend %s, ICD %s, catalog %s, reasoner %s",
+                     __version__, self.catalog.session_id, cfg.backend.name, cfg.icd,
+                     cfg.catalog.path, cfg.reasoner.dictionary or "off (no dictionary)")
+            self._start_reader()
+            self._next_status = time.monotonic()
+            self._next_stats = time.monotonic() + cfg.catalog.stats_interval_s
+            timeout = 0.0
             while self.stop_reason is None:
+                for key, _ in selector.select(timeout):
+                    if key.data == "signals":
+                        self._on_signals(signals.received())
+                    else:
+                        self.doorbell.clear()
+                if self.stop_reason is not None:
+                    break
                 if self.reload_wanted:
                     self.reload_wanted = False
                     self.reload()
-                try:
-                    self._handle(self.queue.get(timeout=0.1))
-                    while not self.queue.empty() and self.stop_reason is None:
-                        self._handle(self.queue.get_nowait())
-                except queue.Empty:
-                    pass
+                backlog = self._work(TURN_S)
                 self._check_dropped()
-                now = time.monotonic()
-                if now >= next_status:
-                    next_status = now + self.pipe.config.status_interval_s
-                    self._status()
-                if now >= next_stats:
-                    next_stats = now + self.pipe.config.catalog.stats_interval_s
-                    self._flush_stats()
-                reader = self.reader
-                if reader is not None and reader.alive() and self.notifier.watchdog_due():
-                    self.notifier.watchdog()
+                self._timers()
+                timeout = 0.0 if backlog else self._until_due()
         finally:
             self._shutdown()
+            selector.close()
+            signals.close()
         return 0
+
+    def _on_signals(self, received: list[signal.Signals]) -> None:
+        for sig in received:
+            if sig == signal.SIGHUP:
+                self.reload_wanted = True
+            elif self.stop_reason is None:
+                self.stop_reason = sig.name
+
+    def _work(self, limit_s: float) -> bool:
+        """Handle queued items for up to ``limit_s`` (so signals and timers are seen in
+        time); True when some are left."""
+        started = time.perf_counter()
+        try:
+            while time.perf_counter() - started < limit_s:
+                try:
+                    item = self.queue.get_nowait()
+                except queue.Empty:
+                    return False
+                self._handle(item)
+            return not self.queue.empty()
+        finally:
+            self.busy_s += time.perf_counter() - started
+
+    def _timers(self) -> None:
+        now = time.monotonic()
+        if now >= self._next_status:
+            self._next_status = now + self.pipe.config.status_interval_s
+            self._status()
+        if now >= self._next_stats:
+            self._next_stats = now + self.pipe.config.catalog.stats_interval_s
+            self._flush_stats()
+        if self._reader_alive() and self.notifier.watchdog_due():
+            self.notifier.watchdog()
+
+    def _reader_alive(self) -> bool:
+        return self.reader is not None and self.reader.alive()
+
+    def _until_due(self) -> float:
+        """Seconds the loop may sleep before a timer is due (a signal or work wakes it
+        sooner). The watchdog counts only while the reader lives: it is not pinged then."""
+        due = [self._next_status, self._next_stats]
+        watchdog = self.notifier.watchdog_next()
+        if watchdog is not None and self._reader_alive():
+            due.append(watchdog)
+        return max(0.0, min(due) - time.monotonic())
 
     def _shutdown(self) -> None:
         self.notifier.stopping()
@@ -178,8 +230,10 @@ class Service:
         except CatalogError as error:
             log.error("closing the catalog: %s", error)
         self.notifier.close()
-        log.info("stopped: %d messages, %d errors, %d events", self.messages, self.errors,
-                 self.events)
+        self.doorbell.close()
+        log.info("stopped: %d messages, %d errors, %d events; queue peak %d/%d batches, "
+                 "%d messages dropped", self.messages, self.errors, self.events,
+                 self.queue_peak, self.queue.maxsize, self.dropped)
 
     # --- work ------------------------------------------------------------------------------
     def _handle(self, item: Item) -> None:
@@ -238,13 +292,22 @@ class Service:
             log.error("catalog: %s", error)
             return None
 
+    def _note_reader(self, reader: BusReader) -> int:
+        """Fold the reader's drop count and queue peak into the totals; newly dropped."""
+        lost = reader.dropped - self._reader_dropped
+        self._reader_dropped = reader.dropped
+        self.dropped += lost
+        self.queue_peak = max(self.queue_peak, reader.high_water)
+        return lost
+
     def _check_dropped(self) -> None:
         reader = self.reader
-        if reader is None or reader.dropped == self.dropped_reported:
+        if reader is None:
             return
-        lost = reader.dropped - self.dropped_reported
-        self.dropped_reported = reader.dropped
-        self.state = f"reasoner behind: {reader.dropped} messages dropped"
+        lost = self._note_reader(reader)
+        if not lost:
+            return
+        self.state = f"reasoner behind: {self.dropped} messages dropped"
         log.warning("the reasoner is behind the bus: %d messages dropped (queue full)", lost)
         now = time.time_ns()
         self._catalog(self.catalog.record_gap, now, now,
@@ -260,7 +323,8 @@ class Service:
 
     def _status_text(self) -> str:
         return (f"{self.state}: {self.rate:.0f} msg/s, {self.messages} messages, "
-                f"{self.errors} errors, {self.events} events")
+                f"{self.errors} errors, {self.events} events, "
+                f"queue peak {self.queue_peak}/{self.queue.maxsize}")
 
     def _status(self) -> None:
         now = time.monotonic()

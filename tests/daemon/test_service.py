@@ -161,3 +161,22 @@ def test_backend_failure_is_retried_and_recorded_as_a_gap(
     start, end, reason = gaps[0]
     assert end is not None and int(str(end)) > int(str(start))
     assert "CaptureFormatError" in str(reason)
+
+
+def test_signals_wake_an_idle_daemon_at_once(tmp_path: Path,
+                                             start_daemon: Callable[..., Daemon]) -> None:
+    """The loop sleeps until its next timer (here 60 s away) unless a signal or bus work
+    wakes it: SIGHUP and SIGTERM must be handled long before that (the self-pipe)."""
+    import signal
+    daemon = start_daemon(
+        f"icd: {ICD}\ntestbed: {{realtime: false, duration_s: 0.3}}\n"
+        f"catalog: {{path: {tmp_path / 'catalog.sqlite'}, stats_interval_s: 60}}\n"
+        "status_interval_s: 60\n")
+    daemon.wait_log("stream ended", timeout=60)   # idle from here: no work, timers far off
+    time.sleep(0.3)
+    daemon.proc.send_signal(signal.SIGHUP)
+    daemon.wait_log("<6>reloaded", timeout=20)
+    code, took = daemon.terminate()
+    assert code == 0, daemon.log
+    assert took < 20, f"SIGTERM took {took:.1f} s: the loop slept through it"
+    assert "stopping (SIGTERM)" in daemon.log
