@@ -4,7 +4,9 @@ For each fault kind the BIT profile (paper Fig. 16) is flown at two conditions (
 cruise) by several *healthy* flights — each with its own aircraft-bus voltage, drift and
 sensor noise — and by faulted runs at increasing severity (two flights each). For every
 feature (per-channel mean and standard deviation, plus a few physical features: DC-link peak,
-positive phase-A current, position-tracking RMS, SMPS conversion loss), a fault "leaves a
+positive phase-A current, position-tracking RMS, SMPS conversion loss, and the sector-resolved
+loop resistance from the drive's reported duty and sector, see :func:`sector_resistance`), a
+fault "leaves a
 trace" at a severity when *both* of its flights fall outside the healthy mean +/- 3 standard
 deviations of the healthy flights at the same condition, on the same side, and does so again at
 the next larger severity (so a chance excursion of one feature does not count; the range end
@@ -23,6 +25,7 @@ import numpy as np
 
 from mapr_daemon.ema.batch import RunSpec
 from mapr_daemon.ema.faults import Fault, FaultSet, at_severity
+from mapr_daemon.ema.inverter import NEGATIVE, POSITIVE
 from mapr_daemon.ema.params import CHANNELS, default_actuator_path, load_actuator
 from mapr_daemon.ema.run import RunResult, run_batch
 from mapr_daemon.testbed.profiles import bit_profile
@@ -33,12 +36,47 @@ CONDITIONS = ("ground", "cruise")
 HEALTHY_FLIGHTS = 6
 FAULT_FLIGHTS = 2
 SLOW = {"motor_temperature_c", "stage_temperature_c"}
+RATIO = load_actuator(default_actuator_path()).gear.ratio
 VISIBLE_WITH = {
     "smps_ron_low": "a switch-node (phase) voltage sampled during the low-side interval, or the "
                     "low-side MOSFET's own temperature: its loss is (1-D)*I^2*Ron, ~14 % duty",
-    "inverter_ron_a_high": "per-sector DC-link current vs phase voltage (sector-resolved "
-                           "resistance) at a faster sample rate, or phase-A terminal voltage",
+    "inverter_ron_a_high": "phase-A terminal voltage, or the sector-resolved resistance at a "
+                           "faster sample rate (more samples per sector on the ramps)",
 }
+
+
+def sector_resistance(res: RunResult, ratio: float) -> np.ndarray:
+    """Loop resistance where phase A's high side is the PWM'd switch, minus elsewhere (ohm).
+
+    Per sample the drive applies ``v = duty * Vdc`` across the two conducting windings; by
+    the six-step circuit ``v = R_loop * i_q + Ke_eff * omega (+ offset)``, with ``i_q`` the
+    sector's torque current from the phase sensors and ``omega`` the motor speed from the
+    position's derivative. The fit is made separately over the samples whose sector and drive
+    direction put phase A's high side in the PWM'd leg (sectors 1-2 driving positive, 4-5
+    driving negative) and over the rest; an inverter phase-A high-side Ron fault raises only
+    the first. Sharing one trajectory, the two fits see the same winding, temperature and
+    friction, so flight-to-flight variation largely cancels in the difference.
+    """
+    ch = res.channels
+    sec = ch["commutation_sector"].astype(np.int64) - 1
+    duty = ch["inverter_duty"]
+    cur = np.stack([ch["phase_a_current_a"], ch["phase_b_current_a"], ch["phase_c_current_a"]])
+    plus = POSITIVE.argmax(axis=1)[sec]
+    minus = NEGATIVE.argmax(axis=1)[sec]
+    i_q = 0.5 * (np.take_along_axis(cur, plus[None], 0)[0]
+                 - np.take_along_axis(cur, minus[None], 0)[0])
+    omega = np.gradient(np.radians(ch["position_deg"]) * ratio, res.time_s, axis=1)
+    v = duty * ch["dc_bus_voltage_v"]
+    a_high = (((duty > 0) & np.isin(sec, (0, 1))) | ((duty < 0) & np.isin(sec, (3, 4))))
+    keep = res.time_s > 0.05
+    out = np.empty(v.shape[0])
+    for r in range(v.shape[0]):
+        fits = []
+        for rows in (a_high[r] & keep, ~a_high[r] & keep):
+            x = np.stack([i_q[r][rows], omega[r][rows], np.ones(int(rows.sum()))], axis=1)
+            fits.append(np.linalg.lstsq(x, v[r][rows], rcond=None)[0][0])
+        out[r] = fits[0] - fits[1]
+    return out
 
 
 def features(res: RunResult) -> tuple[list[str], np.ndarray]:
@@ -49,20 +87,22 @@ def features(res: RunResult) -> tuple[list[str], np.ndarray]:
     ramp = (t > c[0]) & (t < c[1] + 0.02)
     names: list[str] = []
     cols: list[np.ndarray] = []
-    for ch in CHANNELS:
+    for ch in (*CHANNELS, "inverter_duty"):
         x = res.channels[ch][:, keep]
         names += [f"{ch}:mean", f"{ch}:std"]
         cols += [x.mean(axis=1), x.std(axis=1)]
     ch = res.channels
     cmd = res.profile.command_deg
     names += ["dc_link_current_a:peak", "phase_a_current_a:positive@ramp",
-              "position_deg:tracking_rms", "smps:conversion_loss_w"]
+              "position_deg:tracking_rms", "smps:conversion_loss_w",
+              "inverter:a_high_sector_resistance_ohm"]
     cols += [
         ch["dc_link_current_a"][:, keep].max(axis=1),
         np.maximum(ch["phase_a_current_a"][:, ramp], 0).mean(axis=1),
         np.sqrt(np.mean((ch["position_deg"] - cmd)[:, keep] ** 2, axis=1)),
         np.mean((ch["smps_input_voltage_v"] * ch["smps_input_current_a"]
                  - ch["dc_bus_voltage_v"] * ch["dc_link_current_a"])[:, keep], axis=1),
+        sector_resistance(res, RATIO),
     ]
     return names, np.stack(cols, axis=1)
 
@@ -128,7 +168,7 @@ def main() -> None:
           f"Ron, ESR and C follow it) and friction scatter too. Sensor rate {rate:g} Hz. "
           f"Severity 0 = nominal, 1 = end of the Table 1 range. Wall time {wall:.0f} s.\n")
     print("| fault | range | smallest severity with a trace | features that see it at the "
-          "range end (z, strongest first) | note |")
+          "range end (z; smallest severity it sees, if any; strongest first) | note |")
     print("|---|---|---|---|---|")
     for kind in (*KINDS, "short", "open"):
         seen_at = first.get(kind, {})
@@ -153,8 +193,18 @@ def main() -> None:
                 note = "weakly observable"
         if kind in VISIBLE_WITH and (math.isinf(smallest) or smallest >= 0.25):
             note += ("; " if note else "") + "would be seen by " + VISIBLE_WITH[kind]
-        feats = ", ".join(f"`{n}` ({z:.0f})" for n, z in best) or "-"
+        feats = ", ".join(f"`{n}` ({z:.0f}" + (f"; from {seen_at[n]:g})" if n in seen_at
+                                                   else ")") for n, z in best) or "-"
         print(f"| {kind} | {rng} | {where} | {feats} | {note} |")
+    print("\n`inverter:a_high_sector_resistance_ohm` uses the drive's own channels "
+          "(`commutation_sector`, `inverter_duty`): the line-to-line loop resistance fitted "
+          "(duty x DC bus against torque current and speed) over the samples where phase A's "
+          "high side is the PWM'd switch, minus the same fit over the other samples. Its extra "
+          "resistance only acts for the duty's share of the PWM period, so it is large on the "
+          "BIT's fast ramps (duty ~0.5, ~3 samples per sector at 2 kHz) and nil in the holds. "
+          "Two variants were measured and were weaker at the range end: one joint fit with an "
+          "|duty| x i_q term for the A-high samples (z 12) and the two-fit difference from "
+          "samples within one sector only (z 12, fewer samples).")
     print("\nTemperatures are left out: over a 1.5 s BIT their first-order models "
           "(120-600 s time constants) cannot move beyond noise; they matter over flights.")
 

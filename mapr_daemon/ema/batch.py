@@ -74,6 +74,8 @@ class BatchArrays:
     v_diode: FloatArray
     r_diode: FloatArray
     f_pwm: FloatArray
+    duty_lsb: FloatArray
+    """Resolution of the reported duty: one timer count over the PWM periods of a sample."""
     # motor and mechanics
     r_w0: FloatArray
     l_w: FloatArray
@@ -190,6 +192,8 @@ def build(specs: Sequence[RunSpec]) -> BatchArrays:
         v_diode=col(lambda p: p.inverter.diode_drop_v),
         r_diode=col(lambda p: p.inverter.diode_resistance_ohm),
         f_pwm=col(lambda p: p.inverter.pwm_frequency_hz),
+        duty_lsb=rate / (col(lambda p: p.inverter.pwm_counter_period)
+                         * col(lambda p: p.inverter.pwm_frequency_hz)),
         r_w0=col(lambda p: p.motor.resistance_ohm), l_w=col(lambda p: p.motor.inductance_h),
         k_e=col(lambda p: p.motor.back_emf_v_s_per_rad),
         pole_pairs=col(lambda p: p.motor.pole_pairs), j_eq=j_eq,

@@ -31,6 +31,7 @@ UNITS = {
     "phase_c_current_a": "A", "dc_bus_voltage_v": "V", "position_deg": "deg",
     "motor_temperature_c": "degC", "smps_input_voltage_v": "V", "smps_input_current_a": "A",
     "stage_temperature_c": "degC", "ripple_rms_v": "V rms",
+    "commutation_sector": "sector 1-6", "inverter_duty": "fraction of the PWM period, signed",
 }
 
 

@@ -57,6 +57,8 @@ class InverterParams:
     diode_resistance_ohm: float
     short_resistance_ohm: float
     pwm_frequency_hz: float
+    pwm_counter_period: float
+    """Timer counts per PWM period: the controller sets (and reports) its duty in whole counts."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -171,6 +173,18 @@ CHANNELS: tuple[str, ...] = (
     "smps_input_current_a", "stage_temperature_c", "ripple_rms_v",
 )
 """Sensor channels every actuator file must specify, in output order."""
+
+CONTROLLER_CHANNELS: tuple[str, ...] = ("commutation_sector", "inverter_duty")
+"""What the servo drive reports of its own state, after the sensor channels: no ADC, no noise.
+
+``commutation_sector`` is the Hall sector (1-6) the inverter commutates in at the sample
+instant (phase A's high side is the PWM'd switch in sectors 1 and 2 for positive torque, in
+4 and 5 for negative); ``inverter_duty`` is the applied PWM duty averaged over the sample
+period, signed with the drive direction (+ = positive torque), as the controller knows it:
+exact, in whole counts of its PWM timer (``inverter.pwm_counter_period``) averaged over the
+PWM periods of a sample."""
+OUTPUT_CHANNELS: tuple[str, ...] = CHANNELS + CONTROLLER_CHANNELS
+"""Every channel a plant block carries, in order."""
 
 _T = TypeVar("_T")
 _SECTIONS: dict[str, type[Any]] = {

@@ -33,7 +33,7 @@ from mapr_daemon.ema import inverter as inv
 from mapr_daemon.ema import motor, sensors, smps
 from mapr_daemon.ema.batch import BatchArrays, FloatArray, RunSpec, build
 from mapr_daemon.ema.control import ControlState, control
-from mapr_daemon.ema.params import CHANNELS
+from mapr_daemon.ema.params import CHANNELS, CONTROLLER_CHANNELS
 from mapr_daemon.ema.scalar import ScalarRun
 from mapr_daemon.errors import ConfigError
 
@@ -44,9 +44,11 @@ TRUTH: tuple[str, ...] = (
 )
 """Noise-free signals recorded alongside the sensors (block means), for ground truth."""
 
-# rows of the per-step accumulator
+# rows of the per-step accumulator; the last ("sector") is not a mean but the sector of the
+# sample period's last step (1-6)
 _ACC = ("i_dc", "i_a", "i_b", "i_c", "v_out", "delta", "v_in", "i_in", "v_out2", "ripple2",
-        "p_motor", "p_stage", "torque", "omega", "hinge", "i_cmd", "i_q", "duty", "i_l")
+        "p_motor", "p_stage", "torque", "omega", "hinge", "i_cmd", "i_q", "duty", "i_l", "u",
+        "sector")
 _ROW = {name: k for k, name in enumerate(_ACC)}
 
 
@@ -190,8 +192,9 @@ class EmaBatch:
     def _sample(self, cmd: FloatArray, q: FloatArray, r_w: FloatArray) -> FloatArray:
         """Integrate one sample period; returns the step means of the accumulator rows."""
         p = self.p
-        acc = np.zeros((len(_ACC), p.n))
+        acc = np.zeros((len(_ACC) - 1, p.n))
         h = p.step_s
+        sec = inv.sector(p.pole_pairs * self.theta)
         for _ in range(p.samples_per_block):
             theta_e = p.pole_pairs * self.theta
             sec = inv.sector(theta_e)
@@ -221,10 +224,10 @@ class EmaBatch:
                 i_dc, self.i[0], self.i[1], self.i[2], v_out, delta, vin, self.i_in,
                 v_out * v_out, ripple2, r_w * np.add.reduce(self.i * self.i, axis=0),
                 p_smps + p_inv,
-                torque, self.omega, hinge, self.ctl.i_cmd, self.ctl.i_q, duty, i_l))
+                torque, self.omega, hinge, self.ctl.i_cmd, self.ctl.i_q, duty, i_l, u))
             self.t += h
         self.sample_index += 1
-        out: FloatArray = acc / p.samples_per_block
+        out: FloatArray = np.concatenate((acc / p.samples_per_block, sec[None, :] + 1.0))
         return out
 
     def _advance_scalar(self, n: int, cmd: FloatArray, q: FloatArray, amb: FloatArray,
@@ -304,6 +307,9 @@ class EmaBatch:
         first = self.sample_index - n
         time_s = (np.arange(first, first + n, dtype=np.float64) + 1.0) * self.sample_period_s
         channels = {name: noisy[k] for k, name in enumerate(CHANNELS)}
+        duty_lsb = p.duty_lsb[:, None]
+        reported = (m[r["sector"]], np.round(m[r["u"]] / duty_lsb) * duty_lsb)
+        channels.update(zip(CONTROLLER_CHANNELS, reported, strict=True))
         truth = dict(zip(TRUTH, (
             np.degrees(m[r["delta"]]), np.degrees(cmd), m[r["omega"]], m[r["torque"]],
             m[r["hinge"]], m[r["i_cmd"]], m[r["i_q"]], m[r["duty"]], m[r["i_l"]], bus,

@@ -39,7 +39,7 @@ _SECTOR_WIDTH = math.pi / 3.0
 _HALF_PI = math.pi / 2.0
 _SHIFTS = (_HALF_PI, 2.0 * math.pi / 3.0 + _HALF_PI, 4.0 * math.pi / 3.0 + _HALF_PI)
 """Phase offsets of the trapezoids' peaks (inverter.trapezoid)."""
-N_ACC = 19
+N_ACC = 21
 """Accumulator rows, in the order of ``plant._ACC``."""
 
 
@@ -143,7 +143,8 @@ class ScalarRun:
         t_on = self.t_on
         (key_r, key_g), coeffs = self.smps_cache
         a_dc = a_a = a_b = a_c = a_v = a_d = a_vin = a_iin = a_v2 = a_r2 = 0.0
-        a_pm = a_ps = a_tq = a_om = a_hg = a_ic = a_iq = a_du = a_il = 0.0
+        a_pm = a_ps = a_tq = a_om = a_hg = a_ic = a_iq = a_du = a_il = a_u = 0.0
+        sec = 0
         for _ in range(self.spb):
             theta_e = pp * theta
             sec = math.floor((theta_e - _SECTOR_OFFSET) / _SECTOR_WIDTH) % 6
@@ -306,6 +307,7 @@ class ScalarRun:
             a_iq += i_q
             a_du += duty
             a_il += i_l_prev
+            a_u += u
             t += h
         self.smps_cache = ((key_r, key_g), coeffs)
         x[:] = (i_l, v_c, v_out, integ, deriv, prev_err, duty, pos_integ, cur_integ, i_cmd,
@@ -313,7 +315,7 @@ class ScalarRun:
         n = float(self.spb)
         out[:] = (a_dc / n, a_a / n, a_b / n, a_c / n, a_v / n, a_d / n, a_vin / n, a_iin / n,
                   a_v2 / n, a_r2 / n, a_pm / n, a_ps / n, a_tq / n, a_om / n, a_hg / n,
-                  a_ic / n, a_iq / n, a_du / n, a_il / n)
+                  a_ic / n, a_iq / n, a_du / n, a_il / n, a_u / n, sec + 1.0)
         out[11] += p_sw
         return t
 
