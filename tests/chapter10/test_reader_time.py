@@ -65,3 +65,20 @@ def test_the_48_bit_counter_wraps() -> None:
     base.start((1 << 48) - 10)
     assert base.ns(5) == 15 * 100
     assert base.ns((1 << 48) - 12) == -200
+
+
+def test_secondary_header_message_stamps_fall_back_to_the_packet_time(c10: Any,
+                                                                       tmp_path: Path) -> None:
+    from chapter10.ms1553 import MS1553F1
+    packet = MS1553F1(data_type=0x19, channel_id=1, header_version=3, rtc=5_000, count=1,
+                      ipts_source=1)
+    packet.append(MS1553F1.Message(data=bytes(2 * len(RT_BC)), ipts=123_456_789, length=8))
+    path = tmp_path / "ipts.c10"
+    path.write_bytes(c10.ms1553([c10.Message(RT_BC, ipts=1_000)], rtc=1_000) + bytes(packet))
+    reader = Chapter10Reader(path)
+    records = [r for b in reader for r in b.records]
+    # the packet's counter, not the message's stamp (time-tag bits 0: the last bit, so the
+    # four words' 80 µs come off)
+    assert [r.t_ns for r in records] == [0, 4_000 * 100 - 4 * 20_000]
+    (issue,) = reader.issues
+    assert "secondary-header format are not supported; the packet's time is used" in str(issue)
