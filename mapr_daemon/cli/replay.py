@@ -22,12 +22,11 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import logging
 import sys
 import time
 from datetime import datetime
 from pathlib import Path
-from typing import Any, TextIO
+from typing import TYPE_CHECKING, Any, TextIO
 
 from drivers.backends.chapter10 import Chapter10Monitor
 from drivers.chapter10.walker import looks_like_chapter10
@@ -36,7 +35,12 @@ from drivers.monitor import BusStatistics, open_monitor
 from mapr_daemon.cli import exitcodes
 from mapr_daemon.errors import CatalogError, ConfigError
 
-log = logging.getLogger("mapr")
+if TYPE_CHECKING:
+    from drivers.mil1553.record import MonitorRecord
+    from mapr_daemon.catalog import CatalogWriter
+    from mapr_daemon.daemon.config import Config
+    from mapr_daemon.daemon.service import Pipeline
+
 BATCH = 1024
 """Records handed to the ICD and reasoner at a time."""
 
@@ -94,7 +98,7 @@ def _size(n: int) -> str:
     return f"{n / 2**20:.1f} MiB" if n >= 2**20 else f"{n / 2**10:.0f} KiB"
 
 
-def _epoch_offset_ns(record: Any) -> int | None:
+def _epoch_offset_ns(record: MonitorRecord) -> int | None:
     """Absolute epoch ns minus bus ns for a record whose time has a full date."""
     text = record.extra.get("time")
     if not text or text.startswith("day "):
@@ -156,7 +160,8 @@ def run(args: argparse.Namespace) -> int:
 class Replay:
     """The daemon's per-batch work (``Service._records``), run to the end of a file."""
 
-    def __init__(self, pipe: Any, catalog: Any, config: Any, path: Path) -> None:
+    def __init__(self, pipe: Pipeline, catalog: CatalogWriter, config: Config, path: Path
+                 ) -> None:
         self.pipe, self.catalog, self.config, self.path = pipe, catalog, config, path
         self.stats = BusStatistics()
         self.events = 0
@@ -172,7 +177,7 @@ class Replay:
 
     def run(self, progress: bool) -> None:
         bar = ProgressBar(sys.stderr, self.monitor.size, progress)
-        batch = []
+        batch: list[MonitorRecord] = []
         while True:
             record = self.monitor.recv(timeout=0.2)
             if record is not None:
@@ -185,7 +190,7 @@ class Replay:
                 break
         bar.show(self.monitor.size, sum(self.stats.messages.values()), final=True)
 
-    def process(self, records: list[Any]) -> None:
+    def process(self, records: list[MonitorRecord]) -> None:
         for record in records:
             self.stats.add(record)
             self.error_messages += bool(record.errors)
