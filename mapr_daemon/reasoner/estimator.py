@@ -193,6 +193,46 @@ class Reference:
         self.history.append(dict(self.value))
 
 
+@dataclasses.dataclass
+class Confirmation:
+    """When a parameter change counts as a confirmed degradation (and the reference adapts).
+
+    Rule: the same parameter is reported changed by :meth:`Reference.changed` (beyond
+    ``k_sd`` sd and its tolerance) in the same direction on ``consecutive`` successive
+    records that carried an estimate. A record on which it is not changed, or changed the
+    other way, restarts its count. The confirmed value is the mean of those records'
+    estimates (one record's estimate carries that flight's scatter).
+    """
+
+    consecutive: int = 3
+    _runs: dict[str, list[float]] = dataclasses.field(default_factory=dict)
+    _sign: dict[str, float] = dataclasses.field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        if self.consecutive < 1:
+            raise ConfigError("need at least one record to confirm", field="consecutive")
+
+    def observe(self, changes: Mapping[str, float], est: Estimate) -> dict[str, float]:
+        """Count one record's changes; the parameters confirmed now -> value to adapt to."""
+        confirmed: dict[str, float] = {}
+        for name in list(self._runs):
+            if name not in changes:
+                del self._runs[name], self._sign[name]
+        for name, delta in changes.items():
+            sign = 1.0 if delta > 0 else -1.0
+            if self._sign.get(name) != sign:
+                self._runs[name], self._sign[name] = [], sign
+            self._runs[name].append(est.value[name])
+            if len(self._runs[name]) >= self.consecutive:
+                confirmed[name] = float(np.mean(self._runs[name]))
+                del self._runs[name], self._sign[name]
+        return confirmed
+
+    def pending(self) -> dict[str, int]:
+        """Parameters on their way to confirmation -> records seen so far."""
+        return {k: len(v) for k, v in self._runs.items()}
+
+
 def severity_check(fault: str | None, value: float | None,
                    est: Estimate) -> dict[str, Any] | None:
     """Cross-check the classifier's severity with the EKF where the fault moves an estimate.

@@ -20,7 +20,14 @@ from mapr_daemon.ema.params import ActuatorParams
 from mapr_daemon.errors import ConfigError
 from mapr_daemon.reasoner import classifier, prognosis
 from mapr_daemon.reasoner.dictionary import Dictionary
-from mapr_daemon.reasoner.estimator import Estimate, ParameterEstimator, Reference, severity_check
+from mapr_daemon.reasoner.estimator import (
+    UNITS,
+    Confirmation,
+    Estimate,
+    ParameterEstimator,
+    Reference,
+    severity_check,
+)
 from mapr_daemon.reasoner.estimator_model import NEEDED
 from mapr_daemon.reasoner.features import (
     FloatArray,
@@ -30,13 +37,22 @@ from mapr_daemon.reasoner.features import (
 
 
 class Reasoner:
-    """Decides on BIT records against one fault dictionary."""
+    """Decides on BIT records against one fault dictionary, for one actuator.
 
-    def __init__(self, dictionary: Dictionary, params: ActuatorParams) -> None:
+    It keeps the EKF's reference model across records and adapts it by itself (the paper's
+    model adaptation): a parameter changed from the reference in the same direction on
+    ``confirm_after`` consecutive BITs (:class:`~.estimator.Confirmation`) is confirmed, the
+    reference moves to the mean of those estimates, and that record's event says so in
+    ``evidence.model_adaptation`` (which parameters, from what to what). Later records'
+    ``evidence.parameter_changes`` are measured from the adapted model.
+    """
+
+    def __init__(self, dictionary: Dictionary, params: ActuatorParams,
+                 confirm_after: int = 3) -> None:
         self.dictionary = dictionary
         self.params = params
-        # the EKF's reference model; ``self.reference.adapt(estimate)`` once a fault is confirmed
         self.reference = Reference.nominal(params)
+        self.confirmation = Confirmation(confirm_after)
 
     def matrix(self, channels: Mapping[str, FloatArray], command_deg: FloatArray) -> FloatArray:
         """M ``(32, 72)`` of one BIT record."""
@@ -67,7 +83,26 @@ class Reasoner:
                 self.dictionary.sample_rate_hz == self.params.sensors.sample_rate_hz:
             est = ParameterEstimator(self.params, self.reference).run(channels,
                                                                       dynamic_pressure_pa)
-        return self.event(self.decide(m, dynamic_pressure_pa, paper), est)
+        event = self.event(self.decide(m, dynamic_pressure_pa, paper), est)
+        if est is not None:
+            self._adapt(est, event["evidence"])
+        return event
+
+    def _adapt(self, est: Estimate, evidence: dict[str, Any]) -> None:
+        """Record the changes from the reference; adapt it to what is now confirmed."""
+        changes = self.reference.changed(est)
+        evidence["parameter_changes"] = {k: float(f"{v:.4g}") for k, v in changes.items()}
+        confirmed = self.confirmation.observe(changes, est)
+        if not confirmed:
+            return
+        before = {k: self.reference.value[k] for k in confirmed}
+        self.reference.adapt(confirmed)
+        evidence["model_adaptation"] = {
+            "rule": f"changed the same way on {self.confirmation.consecutive} consecutive "
+                    f"BITs beyond {self.reference.k_sd:g} sd and the tolerance",
+            "parameters": {k: {"from": float(f"{before[k]:.6g}"),
+                               "to": float(f"{v:.6g}"), "unit": UNITS[k]}
+                           for k, v in confirmed.items()}}
 
     def event(self, dec: classifier.Decision,
               estimate: Estimate | None = None) -> dict[str, Any]:
