@@ -1,14 +1,19 @@
 """``mapr demo``: the main job on the simulated aircraft, end to end.
 
 A JSBSim flight (the c172x, trimmed at a flight condition, with bank manoeuvres) drives the
-flight control computer, which commands the aileron EMA over the loopback 1553 bus; the EMA
-plant answers with a seeded fault; the air-data computer reports the flight's air data. The
-bus runs at the bit level — every word Manchester-encoded, sampled as a logic analyzer would,
-decoded and assembled back — with two bus errors injected on the way. MAPR prints the traffic
-with engineering values decoded through the message table, then what it caught and what the
-actuator's signals show.
+flight control computer, which commands the aileron EMA over the loopback 1553 bus and asks
+it for a built-in test at once; the EMA plant answers with a seeded fault and runs its BIT
+motion; the air-data computer reports the flight's air data. The bus runs at the bit level —
+every word Manchester-encoded, sampled as a logic analyzer would, decoded and assembled back —
+with two bus errors injected on the way. MAPR prints the traffic with engineering values
+decoded through the message table and what it caught; then, as the daemon does, it cuts the
+BIT out of the traffic, the reasoner decides (anomaly, fault, severity, state of health) and
+the event goes into a fault catalog that ``mapr catalog list`` reads.
 
-    mapr demo                                  # inverter phase-A Ron at 5x, cruise, 2 s
+The reasoner needs a fault dictionary: ``--dictionary FILE`` (from ``mapr dictionary build``),
+or by default one built from the shipped spec on first use and cached (a minute or two).
+
+    mapr demo                                  # the default fault, cruise, 2 s
     mapr demo --fault esr=0.6 --fault friction@0.5 --seconds 4 --condition approach
     mapr demo --fault none --word-level
 """
@@ -16,21 +21,30 @@ actuator's signals show.
 from __future__ import annotations
 
 import argparse
+import sys
 import time
 from collections import Counter
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from drivers.backends.loopback import Injection, LoopbackMonitor
 from drivers.mil1553.record import MonitorRecord
+from mapr_daemon.catalog import CatalogWriter, event_from_reasoner
 from mapr_daemon.cli import exitcodes
+from mapr_daemon.cli.demo_reasoner import cache_dir, cached_dictionary, describe, diagnose_bits
 from mapr_daemon.cli.render import record_line
 from mapr_daemon.ema.faults import FaultSet, parse_fault
-from mapr_daemon.ema.params import default_actuator_path, load_actuator, with_sample_rate
-from mapr_daemon.icd import Series, collect, format_values, load_icd
+from mapr_daemon.ema.params import (
+    ActuatorParams,
+    default_actuator_path,
+    load_actuator,
+    with_sample_rate,
+)
+from mapr_daemon.icd import Icd, Series, collect, format_values, load_icd
 from mapr_daemon.testbed.aircraft import Aircraft
-from mapr_daemon.testbed.profiles import CONDITIONS
+from mapr_daemon.testbed.profiles import CONDITIONS, bit_profile
 from mapr_daemon.testbed.profiles_jsbsim import jsbsim_flight
 
 DEFAULT_ICD = "configs/icd/ema-testbed.yaml"
@@ -39,6 +53,8 @@ INJECTED = (Injection("parity", rt=5, sa=4, skip=40),
             Injection("no_response", rt=6, sa=1, skip=20))
 """Two bus errors the demo injects: a parity error in an EMA feedback word, and the air-data
 computer failing to answer once (the bus controller retries on bus B)."""
+BIT_NEEDS_S = 0.012 + float(bit_profile(2000.0).time_s[-1]) + 0.005
+"""Flight time a whole BIT needs: the first request slot (12 ms), the motion, a few samples."""
 
 
 def add_subparser(subparsers: Any) -> None:
@@ -55,6 +71,14 @@ def add_subparser(subparsers: Any) -> None:
                         help="skip the Manchester waveform (faster)")
     parser.add_argument("--show", type=int, default=14, help="messages to print in full")
     parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--dictionary", metavar="FILE",
+                        help="fault dictionary (default: built once from the shipped spec and "
+                             "cached)")
+    parser.add_argument("--catalog", metavar="PATH",
+                        help="fault catalog to write the BIT's event to (default: "
+                             "demo-catalog.sqlite in the cache directory)")
+    parser.add_argument("--no-diagnose", action="store_true",
+                        help="only the bus: no BIT, no reasoner, no catalog")
     parser.set_defaults(func=run)
 
 
@@ -67,11 +91,15 @@ def seeded_faults(texts: list[str] | None) -> FaultSet:
 
 
 def run(args: argparse.Namespace) -> int:
+    if args.dictionary and not args.no_diagnose and not Path(args.dictionary).is_file():
+        print(f"mapr demo: {args.dictionary}: no such dictionary", file=sys.stderr)
+        return exitcodes.USAGE
     icd = load_icd(args.icd)
     faults = seeded_faults(args.fault)
     params = with_sample_rate(load_actuator(default_actuator_path()), 2000.0)
     flight = jsbsim_flight(2000.0, args.condition, duration_s=args.seconds, seed=args.seed)
-    aircraft = Aircraft(icd, flight, params, faults, seed=args.seed)
+    aircraft = Aircraft(icd, flight, params, faults, seed=args.seed,
+                        bit_requests_s=() if args.no_diagnose else (0.0,))
     level = "word level" if args.word_level else "bit level, 16 MS/s"
     print(f"MAPR demo: JSBSim c172x, {args.condition}, {args.seconds:g} s; aileron EMA with "
           f"{faults.label()}; loopback 1553 bus at {level}; "
@@ -97,6 +125,38 @@ def run(args: argparse.Namespace) -> int:
         print()
         print(monitor.stats.table())
     summarize(records, collect(icd, records)[0], elapsed, args.seconds)
+    if args.no_diagnose:
+        return exitcodes.OK
+    return diagnose(args, icd, records, params)
+
+
+def diagnose(args: argparse.Namespace, icd: Icd, records: list[MonitorRecord],
+             params: ActuatorParams) -> int:
+    """The daemon's path on the demo's traffic: BIT -> reasoner -> catalog."""
+    print()
+    if args.seconds < BIT_NEEDS_S:
+        print(f"No complete BIT in {args.seconds:g} s of flight (the BIT is requested at once "
+              f"and needs {BIT_NEEDS_S:.2f} s): nothing to diagnose; fly --seconds 2 or more.")
+        return exitcodes.OK
+    dictionary = Path(args.dictionary) if args.dictionary else \
+        cached_dictionary(params, default_actuator_path())
+    events = diagnose_bits(icd, records, dictionary, params)
+    if not events:
+        print("The BIT was not found complete on the bus (see the log): nothing to diagnose.")
+        return exitcodes.OK
+    for event in events:
+        for line in describe(event):
+            print(line)
+    anomalies = [e for e in events if e.get("anomaly")]
+    catalog = Path(args.catalog) if args.catalog else cache_dir() / "demo-catalog.sqlite"
+    catalog.parent.mkdir(parents=True, exist_ok=True)
+    with CatalogWriter(catalog) as writer:
+        writer.open_session(backend="loopback (mapr demo)", config_hash="demo")
+        ids = writer.add_events(event_from_reasoner(
+            e, t_ns=time.time_ns(), asset="EMA1", rt=5) for e in anomalies)
+    written = f"event {', '.join(map(str, ids))} written" if ids else "no event written"
+    print(f"Fault catalog {catalog}: {written}; read it with "
+          f"`mapr catalog list --catalog {catalog}`")
     return exitcodes.OK
 
 
@@ -108,8 +168,10 @@ def summarize(records: list[MonitorRecord], series: dict[str, Series], elapsed: 
     print(f"{len(records)} messages in {elapsed:.1f} s for {seconds:g} s of flight; errors "
           f"caught: {dict(caught) or 'none'}; both injected errors named: "
           f"{wanted <= set(caught)}")
-    if "surface_position" in series and "position_command" in series:
-        pos, cmd = series["surface_position"], series["position_command"]
+    followed = "command_echo" if "command_echo" in series else "position_command"
+    if "surface_position" in series and followed in series:
+        # the command the EMA reports following: the FCC's, or its own BIT motion
+        pos, cmd = series["surface_position"], series[followed]
         command = np.interp(pos.t_ns, cmd.t_ns, cmd.value)
         error = pos.value - command
         current = series["phase_current_a"].value

@@ -35,6 +35,10 @@ TIMEBASE = "phase_current_a"
 PRESSURE = "dynamic_pressure"
 CHANNELS = {**FAST_CHANNELS, **SLOW_CHANNELS}
 """ICD parameter -> reasoner channel name (the testbed aircraft's wiring)."""
+SECTOR, DUTY, DIRECTION = "commutation_sector", "pwm_duty", "drive_direction"
+"""The drive's own state in the fast block: Hall sector, and duty as sign-magnitude; they
+become the reasoner's ``commutation_sector`` and signed ``inverter_duty`` channels when the
+bus carries them for the whole BIT."""
 KEEP_S = 4.0
 
 
@@ -52,7 +56,7 @@ class BitWatch:
         self.period_ns = 1e9 / rate
         self.span_ns = int(self.profile.n_samples * self.period_ns)
         self.buffers: dict[str, tuple[list[FloatArray], list[FloatArray]]] = {
-            name: ([], []) for name in (*CHANNELS, REQUEST, PRESSURE)}
+            name: ([], []) for name in (*CHANNELS, SECTOR, DUTY, DIRECTION, REQUEST, PRESSURE)}
         self.pending: int | None = None
         """Time tag of the BIT record's first sample, for the BIT being collected."""
         self.ignore_until = -1.0
@@ -121,7 +125,8 @@ class BitWatch:
         """The BIT record whose first sample is time-tagged ``onset`` (reasoner channel ->
         samples on the profile's grid) and the median dynamic pressure during it; None (with a
         warning) when a channel was not on the bus for the whole test."""
-        grid = onset + np.arange(self.profile.n_samples) * self.period_ns
+        grid: FloatArray = onset + np.arange(self.profile.n_samples, dtype=np.float64) * \
+            self.period_ns
         channels: dict[str, FloatArray] = {}
         for icd_name, channel in CHANNELS.items():
             t, v = self._series(icd_name)
@@ -130,11 +135,22 @@ class BitWatch:
                             "skipped", onset / 1e9, icd_name)
                 return None
             channels[channel] = np.interp(grid, t, v)
+        channels.update(self._drive_state(grid))
         tq, vq = self._series(PRESSURE)
         inside = (tq >= grid[0]) & (tq <= grid[-1])
         q = float(np.median(vq[inside])) if inside.any() else \
             float(vq[-1]) if vq.size else 0.0
         return channels, q
+
+    def _drive_state(self, grid: FloatArray) -> dict[str, FloatArray]:
+        """Sector and signed duty on the grid (nearest sample: both are discrete), if present."""
+        series = [self._series(name) for name in (SECTOR, DUTY, DIRECTION)]
+        if any(t.size < 2 or t[0] > grid[0] or t[-1] < grid[-1] for t, _ in series):
+            return {}
+        (t, sector), (_, duty), (_, direction) = series
+        nearest = np.clip(np.searchsorted(t, grid - 0.5 * self.period_ns), 0, t.size - 1)
+        return {"commutation_sector": sector[nearest],
+                "inverter_duty": np.where(direction[nearest] > 0.5, 1.0, -1.0) * duty[nearest]}
 
     def _diagnose(self, onset: int) -> dict[str, Any] | None:
         self.bits_seen += 1

@@ -155,13 +155,13 @@ class EmaTerminal:
         self.run_to(t_ns)
         values: dict[str, Any] = {icd_name: self.latest(plant_name, 4)
                                   for icd_name, plant_name in FAST_CHANNELS.items()}
-        dc_link = self.latest("dc_link_current_a", 4)
-        values["commutation_sector"] = [0] * 4  # the averaged plant does not expose it
-        values["drive_direction"] = [int(v >= 0) for v in dc_link]
-        # Not a measured duty: the plant exposes no inverter duty, so this is the DC-bus
-        # voltage over its 24 V nominal (see docs/testbed.md, "What is not modelled").
-        values["pwm_duty"] = [min(1.0, abs(v) / 24.0) for v in self.latest("dc_bus_voltage_v",
-                                                                            4)]
+        # The drive reports its own state: the Hall sector it commutates in, and its applied
+        # PWM duty as the table carries it, sign-magnitude (direction bit + duty).
+        values["commutation_sector"] = [round(v) for v in
+                                        self.latest("commutation_sector", 4)]
+        duty = self.latest("inverter_duty", 4)
+        values["drive_direction"] = [int(v >= 0) for v in duty]
+        values["pwm_duty"] = [min(1.0, abs(v)) for v in duty]
         values.update(fast_overrun=0, fast_adc_fault=0, fast_seq=self._next("fast"))
         return list(self.icd.encode("ema_fast_block", values, strict=False))
 

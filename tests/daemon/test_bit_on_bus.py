@@ -77,6 +77,13 @@ def test_the_watcher_rebuilds_the_emas_own_samples(
         took = aircraft.ema.history[plant_name][start:start + n]
         # sample for sample, within the table's 1 mA / 1 mV / 1 mdeg quantization
         np.testing.assert_allclose(channels[plant_name], took, atol=0.0011, err_msg=plant_name)
+    # the drive's own state: the sector exactly, the signed duty within the table's lsb
+    sector = aircraft.ema.history["commutation_sector"][start:start + n]
+    np.testing.assert_array_equal(channels["commutation_sector"], sector)
+    assert set(np.unique(sector)) >= {1.0, 2.0, 3.0}, "the BIT turns the motor through sectors"
+    duty = aircraft.ema.history["inverter_duty"][start:start + n]
+    np.testing.assert_allclose(channels["inverter_duty"], duty, atol=0.000126)
+    assert duty.min() < -0.1 and duty.max() > 0.1, "both directions, with their signs"
     assert q == pytest.approx(steady_profile(RATE, "cruise").dynamic_pressure_pa[0], rel=1e-3)
 
 

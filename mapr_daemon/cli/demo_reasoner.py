@@ -1,0 +1,104 @@
+"""The demo's reasoner: the fault dictionary (built once, then cached) and the BIT diagnosis.
+
+``mapr demo`` must run on a fresh machine with nothing but the package, so when no
+``--dictionary`` is given it builds one from the shipped spec
+(``configs/reasoner/dictionary.yaml``) and keeps it in the user's cache directory
+(``$MAPR_CACHE``, else ``$XDG_CACHE_HOME/mapr``, else ``~/.cache/mapr``). The cache key
+is a hash of the spec, the actuator file and the source of every module the dictionary's
+content depends on (the plant, the profiles, the reasoner), so a changed model is never
+diagnosed with a stale dictionary.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import sys
+import time
+from collections.abc import Iterable, Sequence
+from pathlib import Path
+from typing import Any
+
+from drivers.mil1553.record import MonitorRecord
+from mapr_daemon.cli.dictionary import default_spec_path
+from mapr_daemon.daemon.bitwatch import BitWatch
+from mapr_daemon.ema.params import ActuatorParams
+from mapr_daemon.icd import Icd, SignalStream
+from mapr_daemon.reasoner.build import build
+from mapr_daemon.reasoner.dictionary import Dictionary, DictionarySpec
+from mapr_daemon.reasoner.events import Reasoner
+
+PACKAGE = Path(__file__).resolve().parents[1]
+MODEL_SOURCES = ("ema", "reasoner", "testbed")
+"""Packages whose source decides what a dictionary holds."""
+
+
+def cache_dir() -> Path:
+    explicit = os.environ.get("MAPR_CACHE")
+    if explicit:
+        return Path(explicit)
+    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    return Path(base) / "mapr"
+
+
+def dictionary_key(spec_path: Path, actuator_path: Path) -> str:
+    """A digest of everything a built dictionary depends on."""
+    digest = hashlib.sha256()
+    sources = [spec_path, actuator_path]
+    for package in MODEL_SOURCES:
+        sources += sorted((PACKAGE / package).rglob("*.py"))
+    for source in sources:
+        digest.update(source.name.encode())
+        digest.update(source.read_bytes())
+    return digest.hexdigest()[:16]
+
+
+def cached_dictionary(params: ActuatorParams, actuator_path: Path,
+                      spec_path: Path | None = None) -> Path:
+    """The cached dictionary for this model, built (with progress on stderr) if missing."""
+    spec_path = spec_path or default_spec_path()
+    path = cache_dir() / f"dictionary-{dictionary_key(spec_path, actuator_path)}.npz"
+    if path.exists():
+        return path
+    spec = DictionarySpec.load(spec_path)
+    print(f"Building the fault dictionary once ({spec_path.name}; a minute or two on two "
+          f"cores); it is cached in {path.parent}", file=sys.stderr)
+    started = time.monotonic()
+
+    def progress(fraction: float) -> None:
+        print(f"\r  simulating fault-seeded BITs: {100 * fraction:5.1f} %", end="",
+              file=sys.stderr, flush=True)
+
+    dictionary = build(params, spec, progress=progress)
+    print(f"\r  built in {time.monotonic() - started:.0f} s{' ' * 30}", file=sys.stderr)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    partial = path.with_suffix(".partial.npz")
+    dictionary.save(partial)
+    partial.replace(path)   # atomic: a killed build never leaves a half file under the key
+    return path
+
+
+def diagnose_bits(icd: Icd, records: Sequence[MonitorRecord], dictionary_path: Path,
+                  params: ActuatorParams) -> list[dict[str, Any]]:
+    """Every BIT in the traffic, cut out and decided as the daemon does it."""
+    watch = BitWatch(Reasoner(Dictionary.load(dictionary_path), params))
+    return watch.feed(SignalStream(icd).feed(list(records)))
+
+
+def describe(event: dict[str, Any]) -> Iterable[str]:
+    """A maintainer's reading of one reasoner event."""
+    evidence = event.get("evidence", {})
+    at = evidence.get("bit_bus_time_s")
+    head = f"BIT at bus time {at:.3f} s" if isinstance(at, float) else "BIT"
+    if not event.get("anomaly"):
+        yield (f"{head}: nominal (score {evidence.get('score', 0):.0f} below threshold "
+               f"{evidence.get('threshold', 0):.0f})")
+        return
+    switch = evidence.get("switch")
+    fault = f"{event['fault']}/{switch}" if switch else str(event["fault"])
+    severity = event.get("severity")
+    amount = "" if severity is None else f", severity {severity:.4g} {event.get('unit') or ''}"
+    yield (f"{head}: ANOMALY {fault}{amount}, confidence {event.get('confidence', 0):.2f}, "
+           f"state of health {event.get('soh', 1.0):.2f} ({event.get('component', '')})")
+    yield (f"    score {evidence.get('score', 0):.0f} vs threshold "
+           f"{evidence.get('threshold', 0):.0f}")
