@@ -1,8 +1,9 @@
 """``mapr prognose``: score RUL along a run-to-failure trajectory.
 
 TRAJECTORY is ``KIND:SEED`` — one unit of issue 5's aging model (``esr:3``, ``friction:1``,
-...) with its true end of life. A BIT is flown on ``--points`` flights spread over the life;
-the reasoner trends its estimate of the component and predicts RUL with 5-95 % bounds::
+...) with its true end of life. A BIT is flown every ``--bit-every`` flights of its life;
+the reasoner fits the component's aging shape to its estimates and predicts RUL with
+5/50/95 % bounds (docs/reasoner.md, 'SoH and RUL')::
 
     mapr prognose friction:1 --dictionary dictionary.npz
 
@@ -15,6 +16,7 @@ its horizon is ``null``.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import math
 from pathlib import Path
@@ -31,7 +33,9 @@ def add_subparser(subparsers: Any) -> None:
     p.add_argument("trajectory", help="KIND:SEED, e.g. friction:1")
     p.add_argument("--dictionary", required=True, type=Path)
     p.add_argument("--actuator", type=Path, help="actuator YAML (default: aileron-uav)")
-    p.add_argument("--points", type=int, default=24, help="BIT flights over the life")
+    p.add_argument("--bit-every", type=int, default=4, help="flights between BITs")
+    p.add_argument("--no-prior", action="store_true",
+                   help="no fleet prior on the aging shape (the unit's BITs alone)")
     p.set_defaults(func=run)
 
 
@@ -51,7 +55,8 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError(f"bad unit seed {seed!r}", field="trajectory") from None
     d = Dictionary.load(args.dictionary)
     params = load_actuator(args.actuator or default_actuator_path())
-    (s,) = score_units(d, params, [(kind, unit)], n_points=args.points)
+    (s,) = score_units(d, params, [(kind, unit)], bit_every=args.bit_every,
+                       use_prior=not args.no_prior)
     print(json.dumps({
         "kind": s.kind, "seed": s.seed, "eol_flight": round(s.eol, 2),
         "flights": s.flights.tolist(), "degradation_true": [_num(x) for x in s.h_true],
@@ -63,5 +68,7 @@ def run(args: argparse.Namespace) -> int:
         "alpha_lambda": {str(k): v for k, v in s.alpha_lambda.items()},
         "relative_accuracy": {str(k): _num(v) for k, v in s.relative_accuracy.items()},
         "prognostic_horizon_flights": _num(s.horizon),
+        "noise": dataclasses.asdict(s.noise),
+        "prior": None if s.prior is None else dataclasses.asdict(s.prior),
     }))
     return 0

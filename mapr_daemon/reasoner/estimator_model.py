@@ -20,8 +20,9 @@ State (:data:`STATE`), all in the units of the reference model:
 * ``bus0`` and ``bus1``: a DC-bus response proxy: the two taps of ``dV[k] = bus0*dI[k] +
   bus1*dI[k-1]`` (sample-to-sample steps of the DC-bus voltage and DC-link current). At the
   2 kHz bus rate the capacitor's ESR step and its C droop are not separately resolved, so
-  these are proxies, not ohms and farads: an ESR rise and a capacitance loss move them in
-  different directions (see tests), which is what a detector needs.
+  these are proxies, not ohms and farads. They need steps in the DC-link current (the BIT
+  profile's ramps): there an ESR rise moves them clearly (see tests), a capacitance loss
+  barely (the ripple RMS channel, not read here, sees both).
 
 Measurements per block: the position at the block end (the joint state), the mean DC-link
 power left after the back-EMF power (explained by the two sector-group resistances), and the

@@ -7,11 +7,8 @@ its failure threshold. The thresholds are those of the degradation model
 REFERENCE.md also quotes a 0.05 ohm rise, flagged uncertain), friction tripled (our choice).
 A shorted or open switch is SoH 0 of the inverter bridge.
 
-RUL: the per-flight estimates of a component's parameter, as its degradation fraction
-``h = (p - p_nom) / (p_fail - p_nom)`` (1 = failed), are fitted with a quadratic in flight
-number by least squares (aging curves are exponential-like and a quadratic follows them
-locally); coefficients drawn from the fit's covariance give a spread of threshold crossings,
-whose 5/50/95 % points are the RUL and its bounds.
+RUL: :class:`RulEstimate` (median and 5/95 % bounds in flights) comes from the aging-shape trend
+fit of :mod:`~mapr_daemon.reasoner.trend`.
 
 Metrics (Saxena et al.): relative accuracy on RUL ``1 - |r* - r|/r*`` (on RUL, not on the
 time of the event, which would flatter late predictions); alpha-lambda: at
@@ -105,33 +102,6 @@ def quantiles(draws: FloatArray, q: Sequence[float] = (5.0, 50.0, 95.0)) -> list
     """Percentiles of RUL draws as order statistics: a draw that never crosses (``inf``) gives
     ``inf`` where linear interpolation would give ``inf - inf = nan``."""
     return [float(v) for v in np.percentile(draws, list(q), method="inverted_cdf")]
-
-
-def rul_from_trend(flights: FloatArray, h: FloatArray, now: float, n_draws: int = 400,
-                   seed: int = 0, horizon_factor: float = 10.0) -> RulEstimate:
-    """RUL at flight ``now`` from degradation fractions ``h`` observed at ``flights``."""
-    x = np.asarray(flights, dtype=np.float64)
-    y = np.asarray(h, dtype=np.float64)
-    if x.size < 4:
-        raise ConfigError("need at least four flights to trend", field="flights")
-    span = max(float(x.max() - x.min()), 1.0)
-    u = (x - x.min()) / span
-    a = np.stack([np.ones_like(u), u, u * u], axis=1)
-    coef, *_ = np.linalg.lstsq(a, y, rcond=None)
-    resid = y - a @ coef
-    dof = max(x.size - 3, 1)
-    s2 = float(resid @ resid) / dof
-    cov = s2 * np.linalg.pinv(a.T @ a)
-    rng = np.random.default_rng(seed)
-    draws = rng.multivariate_normal(coef, cov, size=n_draws, method="eigh")
-    draws[0] = coef
-    grid_u = (now - x.min()) / span + np.linspace(0.0, horizon_factor, 4001)
-    vals = draws[:, :1] + draws[:, 1:2] * grid_u + draws[:, 2:3] * grid_u**2
-    crossed = vals >= 1.0
-    first = np.where(crossed.any(axis=1), np.argmax(crossed, axis=1), -1)
-    ruls = np.where(first >= 0, (grid_u[np.maximum(first, 0)] - grid_u[0]) * span, math.inf)
-    q5, q50, q95 = quantiles(ruls)
-    return RulEstimate(q50, q5, q95, ruls, horizon=horizon_factor * span)
 
 
 def relative_accuracy(true_rul: float, est_rul: float) -> float:

@@ -1,11 +1,23 @@
 """RUL scored along run-to-failure trajectories (issue 5's aging paths with true end of life).
 
-Each unit ages over flights; a BIT is flown on a subset of its flights (evenly spaced from
-flight 0 to its end of life, each at its own dynamic pressure and seed). The reasoner's
-estimate of the unit's parameter on each BIT (:func:`classifier.kind_severity`, the best fit
-of that component's template whatever the anomaly decision) becomes a degradation fraction;
-at every BIT from the first quarter of the life on, the trend so far gives a RUL with bounds.
-All BITs of all units are simulated in one batch.
+Each unit ages over flights; a BIT is flown every ``bit_every`` flights from flight 0 to its end
+of life, each at its own dynamic pressure and seed. The reasoner's estimate of the unit's
+parameter on each BIT (:func:`classifier.kind_severity`, the best fit of that component's
+template whatever the anomaly decision) becomes a degradation fraction; at every BIT from the
+first quarter of the life on, :func:`trend.fit_rul` fits the kind's aging shape to the
+estimates so far and gives a RUL with 5/50/95 % bounds.
+
+What the trend is told, besides the unit's own estimates, and where it comes from:
+
+* the estimate's noise (:class:`trend.Noise`): measured on calibration BITs flown at known
+  degradations (0, 1/4 .. 5/4 of the failure threshold, ``calibration_reps`` each, seeds and
+  pressures of their own);
+* optionally (``use_prior``) a fleet prior on the shape parameter (:class:`trend.ShapePrior`),
+  learned from the true degradation paths of ``training_units`` other units of the kind
+  (unit seeds 10,000 and up; the scored units use small seeds) — the accelerated-aging
+  records a fleet has of a part, measured directly in the lab.
+
+All BITs (units and calibration) are simulated in one batch.
 """
 
 from __future__ import annotations
@@ -17,13 +29,18 @@ from collections.abc import Sequence
 import numpy as np
 
 from mapr_daemon.ema.degradation import Trajectory, trajectory
-from mapr_daemon.ema.faults import FaultSet, at_severity
+from mapr_daemon.ema.faults import Fault, FaultSet, at_severity, nominal_value
 from mapr_daemon.ema.params import ActuatorParams
-from mapr_daemon.reasoner import classifier, prognosis
+from mapr_daemon.reasoner import classifier, prognosis, trend
 from mapr_daemon.reasoner.build import run_matrices
 from mapr_daemon.reasoner.corpus import simulate_bit
 from mapr_daemon.reasoner.dictionary import Dictionary
 from mapr_daemon.reasoner.features import FloatArray
+
+TRAINING_SEED = 10_000
+"""First unit seed of the fleet-prior training units (disjoint from scored units' seeds)."""
+CALIBRATION_LEVELS: tuple[float, ...] = (0.0, 0.25, 0.5, 0.75, 1.0, 1.25)
+"""Degradations (fractions of the failure threshold) of the noise-calibration BITs."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -44,55 +61,89 @@ class Scored:
     alpha_lambda: dict[float, bool]
     relative_accuracy: dict[float, float]
     horizon: float
+    noise: trend.Noise
+    prior: trend.ShapePrior | None
 
 
-def bit_flights(t: Trajectory, n_points: int) -> FloatArray:
-    """Flights with a BIT: evenly spaced over the unit's life (integers, flight 0 first)."""
+def bit_flights(t: Trajectory, every: int) -> FloatArray:
+    """Flights with a BIT: every ``every`` flights from flight 0 up to the end of life."""
     last = min(math.floor(t.eol_flight), t.values.size - 1)
-    return np.unique(np.linspace(0, last, n_points).round())
+    return np.arange(0, last + 1, max(int(every), 1), dtype=np.float64)
+
+
+def _true_path(params: ActuatorParams, t: Trajectory) -> tuple[FloatArray, FloatArray]:
+    last = min(math.floor(t.eol_flight), t.values.size - 1)
+    n = np.arange(last + 1, dtype=np.float64)
+    return n, np.array([prognosis.degradation(params, t.kind, float(v))
+                        for v in t.values[: last + 1]])
+
+
+def learn_prior(params: ActuatorParams, kind: str, units: int,
+                mean_life: float = 200.0) -> trend.ShapePrior:
+    """The fleet prior of a kind from ``units`` training units' true degradation paths."""
+    paths = [_true_path(params, trajectory(params, kind, int(mean_life * 2), TRAINING_SEED + i,
+                                           mean_life)) for i in range(units)]
+    return trend.ShapePrior.learn(kind, paths)
 
 
 def score_units(d: Dictionary, params: ActuatorParams, units: Sequence[tuple[str, int]],
-                n_points: int = 24, lambdas: Sequence[float] = (0.5, 0.75),
-                alpha: float = 0.2, mean_life: float = 200.0) -> list[Scored]:
+                bit_every: int = 4, lambdas: Sequence[float] = (0.5, 0.75),
+                alpha: float = 0.2, mean_life: float = 200.0, calibration_reps: int = 4,
+                training_units: int = 8, use_prior: bool = True) -> list[Scored]:
     """Simulate and score every (kind, unit seed)."""
     trajs = [trajectory(params, k, int(mean_life * 2), seed, mean_life) for k, seed in units]
-    flights = [bit_flights(t, n_points) for t in trajs]
+    flights = [bit_flights(t, bit_every) for t in trajs]
+    kinds = sorted({k for k, _ in units})
     fs: list[FaultSet] = []
-    qs: list[float] = []
-    seeds: list[int] = []
     rng = np.random.default_rng(4242)
-    for u, (t, fl) in enumerate(zip(trajs, flights, strict=True)):
-        for f in fl:
-            fs.append(FaultSet.of([t.fault(int(f))]) if f > 0 else FaultSet())
-            qs.append(float(rng.uniform(100.0, 2400.0)))
-            seeds.append(3_000_000 + 1000 * u + int(f))
+    for t, fl in zip(trajs, flights, strict=True):
+        fs += [FaultSet.of([t.fault(int(f))]) if f > 0 else FaultSet() for f in fl]
+    n_units = len(fs)
+    cal: list[tuple[str, float]] = [(k, h) for k in kinds for h in CALIBRATION_LEVELS
+                                    for _ in range(calibration_reps)]
+    for k, h in cal:
+        lo = nominal_value(params, k)
+        fs.append(FaultSet.of([Fault(k, lo + h * (prognosis.failure_value(params, k) - lo))])
+                  if h > 0 else FaultSet())
+    qs = [float(q) for q in rng.uniform(100.0, 2400.0, len(fs))]
+    seeds = [3_000_000 + i for i in range(len(fs))]
     runs = simulate_bit(params, fs, qs, seeds)
     m = run_matrices(runs, d.window_starts, d.window_samples)
+
+    def estimate(row: int, kind: str) -> float:
+        s = classifier.kind_severity(d, m[row], qs[row], kind)
+        value = at_severity(params, kind, min(max(s, 0.0), 1.0)).value
+        return prognosis.degradation(params, kind, value)
+
+    noise = {}
+    for k in kinds:
+        rows = [n_units + i for i, (kk, _) in enumerate(cal) if kk == k]
+        noise[k] = trend.Noise.measure(np.array([cal[r - n_units][1] for r in rows]),
+                                       np.array([estimate(r, k) for r in rows]))
+    priors = {k: learn_prior(params, k, training_units, mean_life) if use_prior else None
+              for k in kinds}
     out = []
     row = 0
     for (kind, seed), t, fl in zip(units, trajs, flights, strict=True):
-        h_est = np.empty(fl.size)
-        for j in range(fl.size):
-            s = classifier.kind_severity(d, m[row], qs[row], kind)
-            value = at_severity(params, kind, min(max(s, 0.0), 1.0)).value
-            h_est[j] = prognosis.degradation(params, kind, value)
-            row += 1
+        h_est = np.array([estimate(row + j, kind) for j in range(fl.size)])
+        row += fl.size
         h_true = np.array([prognosis.degradation(params, kind, float(t.values[int(f)]))
                            for f in fl])
-        out.append(_score(kind, seed, t, fl, h_true, h_est, lambdas, alpha))
+        out.append(_score(kind, seed, t, fl, h_true, h_est, lambdas, alpha, noise[kind],
+                          priors[kind]))
     return out
 
 
 def _score(kind: str, seed: int, t: Trajectory, fl: FloatArray, h_true: FloatArray,
-           h_est: FloatArray, lambdas: Sequence[float], alpha: float) -> Scored:
+           h_est: FloatArray, lambdas: Sequence[float], alpha: float, noise: trend.Noise,
+           prior: trend.ShapePrior | None) -> Scored:
     times, true_rul, est, lo, hi = [], [], [], [], []
     draws_at: dict[float, FloatArray] = {}
     for j in range(fl.size):
         now = float(fl[j])
         if now < 0.25 * t.eol_flight or j < 3 or t.rul(int(now)) <= 0:
             continue
-        r = prognosis.rul_from_trend(fl[: j + 1], h_est[: j + 1], now, seed=j)
+        r = trend.fit_rul(fl[: j + 1], h_est[: j + 1], now, kind, noise, prior, seed=j)
         times.append(now)
         true_rul.append(t.eol_flight - now)
         est.append(r.rul)
@@ -109,4 +160,4 @@ def _score(kind: str, seed: int, t: Trajectory, fl: FloatArray, h_true: FloatArr
         ra[lam] = prognosis.relative_accuracy(float(tr[k]), float(er[k]))
     ph = prognosis.prognostic_horizon(tt, tr, er, t.eol_flight, alpha)
     return Scored(kind, seed, t.eol_flight, fl, h_true, h_est, tt, tr, er, np.array(lo),
-                  np.array(hi), al, ra, ph)
+                  np.array(hi), al, ra, ph, noise, prior)

@@ -80,9 +80,9 @@ def test_prognose_scores_a_friction_unit(bench: Bench, tmp_path: Path,
                                          capsys: pytest.CaptureFixture[str]) -> None:
     dpath = tmp_path / "d.npz"
     bench.dictionary.save(dpath)
-    assert main(["prognose", "friction:1", "--dictionary", str(dpath), "--points", "8"]) == 0
+    assert main(["prognose", "friction:1", "--dictionary", str(dpath), "--bit-every", "25"]) == 0
     out = json.loads(capsys.readouterr().out)
-    assert out["kind"] == "friction" and len(out["flights"]) == 8
+    assert out["kind"] == "friction" and np.all(np.diff(out["flights"]) == 25.0)
     assert out["flights"][0] == 0.0 and out["flights"][-1] <= out["eol_flight"]
     est, true = np.array(out["degradation_est"]), np.array(out["degradation_true"])
     assert np.all(np.abs(est - true)[1:] < 0.35)  # friction is strongly observable

