@@ -7,10 +7,11 @@ shape's family rather than a generic polynomial:
 * ``exponential`` — ``h = A*(exp(b*n) - 1)``: power-MOSFET Ron under thermal-overstress aging
   (Celaya, Saxena, Saha, Goebel, "Prognostics of power MOSFETs under thermal stress
   accelerated aging using data-driven and model-based methodologies", PHM Society 2011: an
-  exponential model of the Ron rise tracked by a Kalman/particle filter) and electrolytic
-  capacitance loss (Celaya, Kulkarni, Biswas, Goebel, "A model-based prognostics methodology
-  for electrolytic capacitors based on electrical overstress accelerated aging", PHM Society
-  2011: capacitance loss exponential in aging time);
+  exponential model of the Ron rise tracked by an EKF and a particle filter) and electrolytic
+  capacitance loss (Celaya, Kulkarni, Biswas, Goebel, "Towards a model-based prognostics
+  methodology for electrolytic capacitors: a case study based on electrical overstress
+  accelerated aging", Int. J. of PHM 2012: an empirical exponential degradation model in a
+  Kalman filter);
 * ``reciprocal`` — ``h = A*(1/(1 - k*n) - 1)``: ESR of an electrolytic capacitor losing
   electrolyte, ``1/ESR`` falling linearly with time (the empirical form the aging model uses).
   Here ``A`` is not free: ``ESR(n)/ESR0 = 1/(1 - k*n)`` and the threshold is a ratio ``T`` of
