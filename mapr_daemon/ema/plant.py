@@ -33,6 +33,7 @@ from mapr_daemon.ema import inverter as inv
 from mapr_daemon.ema import motor, sensors, smps
 from mapr_daemon.ema.batch import BatchArrays, FloatArray, RunSpec, build
 from mapr_daemon.ema.control import ControlState, control
+from mapr_daemon.ema.multirate import MultiRateRun
 from mapr_daemon.ema.params import CHANNELS, CONTROLLER_CHANNELS
 from mapr_daemon.ema.scalar import ScalarRun
 from mapr_daemon.errors import ConfigError
@@ -106,7 +107,7 @@ SCALAR_MAX_RUNS = 64
 Measured on the 2-core reference machine (``bench/plant.py``): the float path gives 6-8
 actuator-seconds per wall second whatever the batch size, the numpy path 0.1 for one run, 4.4
 for 64 and 7.6 for 104; the two cross near 90-100 runs."""
-PATHS = ("auto", "scalar", "vector")
+PATHS = ("auto", "scalar", "vector", "multirate")
 
 
 class EmaBatch:
@@ -115,7 +116,10 @@ class EmaBatch:
     ``path`` chooses how a step is computed: ``"vector"`` numpy across the runs (cheap per run
     in a large batch), ``"scalar"`` plain floats run by run (no per-call overhead: a lone
     actuator runs many times faster), ``"auto"`` scalar up to :data:`SCALAR_MAX_RUNS` runs.
-    Both compute the same equations with the same step and agree to rounding.
+    These compute the same equations with the same step and agree to rounding.
+    ``"multirate"`` (:mod:`mapr_daemon.ema.multirate`) is floats too, with the drive updated
+    once per PWM period: faster, and equal to the others only within the tolerances of
+    ``tests/ema/test_multirate_path.py``.
     """
 
     def __init__(self, runs: Sequence[RunSpec], *, powered: bool = True,
@@ -143,10 +147,11 @@ class EmaBatch:
         self.z_sw = smps.bank_impedance(p, p.f_sw)
         self.z_pwm = smps.bank_impedance(p, p.f_pwm)
         scalar = path == "scalar" or (path == "auto" and p.n <= SCALAR_MAX_RUNS)
-        self.path = "scalar" if scalar else "vector"
+        self.path = "multirate" if path == "multirate" else "scalar" if scalar else "vector"
         self.scalar_runs: list[ScalarRun] = []
-        if scalar:
-            self.scalar_runs = [ScalarRun(p, r, t_on=self.smps.t_on) for r in range(p.n)]
+        if self.path != "vector":
+            run_class = MultiRateRun if self.path == "multirate" else ScalarRun
+            self.scalar_runs = [run_class(p, r, t_on=self.smps.t_on) for r in range(p.n)]
             self._to_scalar()
 
     @property
