@@ -99,16 +99,24 @@ class MultiRateRun(ScalarRun):
         w_new = 0.5 * (m + 1)  # weight of the new end in the sum of a linear interpolation
         w_old_theta = 0.5 * (m - 1)
         (key_r, key_g), coeffs = self.smps_cache
+        if not coeffs:
+            key_r = ron_lo + r_dcr  # any valid key: the first drive step checks it anyway
+            coeffs = smps_step_matrix(key_r, key_g, esr, l_smps, c_total, h)
+        m11, m12, m21, m22, p1, p2, q1, q2, kk = coeffs
         a_dc = a_a = a_b = a_c = a_v = a_d = a_vin = a_iin = a_v2 = a_r2 = 0.0
         a_pm = a_ps = a_tq = a_om = a_hg = a_ic = a_iq = a_du = a_il = a_u = 0.0
         sec = 0
         i_ext = slope = g_shoot = au = 0.0
+        ramping = t - t_on < soft_start  # the soft start is under way at this sample's start
+        r_varies = d_ron != 0.0  # the switch resistance follows the duty
+        vref = v_ref
         for k in range(self.spb):
             vdc = v_out
             vin = bus_v - r_source * i_in
             # smps.voltage_loop, every step
-            t_up = t - t_on
-            vref = v_ref * (t_up / soft_start) if t_up < soft_start else v_ref
+            if ramping:
+                t_up = t - t_on
+                vref = v_ref * (t_up / soft_start) if t_up < soft_start else v_ref
             err = vref - v_out
             deriv += d_gain * ((err - prev_err) * inv_h - deriv)
             prev_err = err
@@ -234,21 +242,30 @@ class MultiRateRun(ScalarRun):
                 a_ic += m * i_cmd
                 a_iq += m * i_q
                 a_u += m * u
+                # the analytic sub-step ripple and the SMPS conduction loss change slowly:
+                # taken once per drive step (the loss only heats the stage)
+                i_dc = i_ext + g_shoot * vdc
+                dv = vin - v_out
+                di_l = dv * duty * ripple_l if dv > 0.0 else 0.0
+                i_ac = i_dc * i_dc * au * (1.0 - au)
+                ripple2 = di_l * di_l * zsw2 + (i_ac * zpwm2 if i_ac > 0.0 else 0.0)
+                a_r2 += m * ripple2
+                a_ps += m * i_l * i_l * (ron_lo + duty * d_ron)
+                r = ron_lo + duty * d_ron + r_dcr
+                if r != key_r or g_shoot != key_g:
+                    key_r, key_g = r, g_shoot
+                    coeffs = smps_step_matrix(r, g_shoot, esr, l_smps, c_total, h)
+                    m11, m12, m21, m22, p1, p2, q1, q2, kk = coeffs
             else:
                 i_ext += slope
-            i_dc = i_ext + g_shoot * vdc
-            dv = vin - v_out
-            di_l = dv * duty * ripple_l if dv > 0.0 else 0.0
-            i_ac = i_dc * i_dc * au * (1.0 - au)
-            ripple2 = di_l * di_l * zsw2 + (i_ac * zpwm2 if i_ac > 0.0 else 0.0)
+                i_dc = i_ext + g_shoot * vdc
+                if r_varies:
+                    r = ron_lo + duty * d_ron + r_dcr
+                    if r != key_r:
+                        key_r = r
+                        coeffs = smps_step_matrix(r, g_shoot, esr, l_smps, c_total, h)
+                        m11, m12, m21, m22, p1, p2, q1, q2, kk = coeffs
             i_l_prev = i_l
-            r_sw = ron_lo + duty * d_ron
-            p_smps = i_l * i_l * r_sw
-            r = r_sw + r_dcr
-            if r != key_r or g_shoot != key_g:
-                key_r, key_g = r, g_shoot
-                coeffs = smps_step_matrix(r, g_shoot, esr, l_smps, c_total, h)
-            m11, m12, m21, m22, p1, p2, q1, q2, kk = coeffs
             dvin = duty * vin
             i_l, v_c = (m11 * i_l + m12 * v_c + p1 * dvin + q1 * i_ext,
                         m21 * i_l + m22 * v_c + p2 * dvin + q2 * i_ext)
@@ -259,8 +276,6 @@ class MultiRateRun(ScalarRun):
             a_vin += vin
             a_iin += i_in
             a_v2 += v_out * v_out
-            a_r2 += ripple2
-            a_ps += p_smps
             a_du += duty
             a_il += i_l_prev
             t += h
