@@ -55,6 +55,8 @@ class TestbedConfig:
     seed: int = 1
     realtime: bool = True
     bit_level: bool = False
+    fill_bus: bool = False
+    """Add filler transfers to a spare RT so the bus is loaded to ~100 % (a load test)."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -192,7 +194,7 @@ def parse(raw: Any, path: str) -> Config:
         "profile": ("str", {"choices": PROFILES}), "condition": ("str", {}),
         "duration_s": ("float", {"minimum": 0.01, "optional": True}),
         "fault": ("str", {"optional": True}), "seed": ("int", {"minimum": 0}),
-        "realtime": ("bool", {}), "bit_level": ("bool", {})})
+        "realtime": ("bool", {}), "bit_level": ("bool", {}), "fill_bus": ("bool", {})})
     reasoner = _section(r, raw, "reasoner", ReasonerConfig, {
         "dictionary": ("path", {"optional": True}),
         "threshold": ("float", {"minimum": 0.0, "optional": True}), "paper": ("bool", {})})

@@ -16,6 +16,7 @@ from typing import Any
 
 from drivers.monitor import BusMonitor, open_monitor
 from mapr_daemon.daemon.config import Config
+from mapr_daemon.daemon.filler import fill_schedule
 from mapr_daemon.ema.faults import FaultSet, parse_fault
 from mapr_daemon.ema.params import default_actuator_path, load_actuator, with_sample_rate
 from mapr_daemon.icd import Icd
@@ -69,11 +70,15 @@ def monitor_factory(config: Config, icd: Icd) -> Callable[[], BusMonitor]:
                             bit_requests_s=(0.0,) if bit else (),
                             bit_every_s=BIT_EVERY_S if bit else None)
         schedule = aircraft.schedule()
+        terminals = list(aircraft.terminals())
+        if tb.fill_bus:
+            schedule, spare = fill_schedule(schedule, {t.address for t in terminals})
+            terminals.append(spare)
         frames = None if tb.duration_s is None else round(tb.duration_s * 1e9 /
                                                           schedule.frame_ns)
         opts = {"realtime": tb.realtime, "bit_level": tb.bit_level, "seed": tb.seed,
                 **options}
-        return open_monitor("loopback", terminals=aircraft.terminals(), schedule=schedule,
+        return open_monitor("loopback", terminals=terminals, schedule=schedule,
                             frames=frames, **opts)
 
     return open_testbed
