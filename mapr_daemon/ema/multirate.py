@@ -110,6 +110,8 @@ class MultiRateRun(ScalarRun):
         ramping = t - t_on < soft_start  # the soft start is under way at this sample's start
         r_varies = d_ron != 0.0  # the switch resistance follows the duty
         vref = v_ref
+        with_d = kd_v != 0.0  # without a D term its filter state is left as it is
+        i_in_start = i_in
         for k in range(self.spb):
             vdc = v_out
             vin = bus_v - r_source * i_in
@@ -118,11 +120,14 @@ class MultiRateRun(ScalarRun):
                 t_up = t - t_on
                 vref = v_ref * (t_up / soft_start) if t_up < soft_start else v_ref
             err = vref - v_out
-            deriv += d_gain * ((err - prev_err) * inv_h - deriv)
-            prev_err = err
             trial = integ + ki_v_h * err
             inv_vin = 1.0 / vin if vin > 1.0 else 1.0
-            raw = (vref + kp_v * err + trial + kd_v * deriv) * inv_vin
+            if with_d:
+                deriv += d_gain * ((err - prev_err) * inv_h - deriv)
+                raw = (vref + kp_v * err + trial + kd_v * deriv) * inv_vin
+            else:
+                raw = (vref + kp_v * err + trial) * inv_vin
+            prev_err = err
             d_cl = (v_out + (ron_lo + r_dcr + raw * d_ron) * i_l
                     + lim_term * (i_lim_smps - i_l)) * inv_vin
             duty = d_max if d_max < raw else raw
@@ -273,17 +278,21 @@ class MultiRateRun(ScalarRun):
             i_in = duty * i_l
             a_dc += i_dc
             a_v += v_out
-            a_vin += vin
             a_iin += i_in
             a_v2 += v_out * v_out
             a_du += duty
             a_il += i_l_prev
-            t += h
+            if ramping:
+                t += h
         self.smps_cache = ((key_r, key_g), coeffs)
         self.torque = torque
         x[:] = (i_l, v_c, v_out, integ, deriv, prev_err, duty, pos_integ, cur_integ, i_cmd,
                 i_q, i0, i1, i2, vn, omega, theta, i_in, motor_c, _stage, _drift, bus_v)
         n = float(self.spb)
+        if not ramping:
+            t += n * h
+        # the supply voltage of step k sags by the input current of step k-1
+        a_vin = n * bus_v - r_source * (i_in_start + a_iin - i_in)
         out[:] = (a_dc / n, a_a / n, a_b / n, a_c / n, a_v / n, a_d / n, a_vin / n, a_iin / n,
                   a_v2 / n, a_r2 / n, a_pm / n, a_ps / n, a_tq / n, a_om / n, a_hg / n,
                   a_ic / n, a_iq / n, a_du / n, a_il / n, a_u / n, sec + 1.0)
