@@ -85,6 +85,15 @@ class CatalogConfig:
 
 
 @dataclasses.dataclass(frozen=True)
+class RecordConfig:
+    """Chapter 10 recording of every record the daemon sees (None: no recording)."""
+
+    path: str | None = None
+    """A directory; each session writes ``session-NNNNNN-YYYYmmddTHHMMSSZ.ch10`` in it."""
+    channel_id: int = 1
+
+
+@dataclasses.dataclass(frozen=True)
 class Config:
     """The whole daemon configuration (see ``configs/mapr.yaml`` for every key)."""
 
@@ -94,6 +103,7 @@ class Config:
     assets: tuple[AssetConfig, ...] = (AssetConfig(),)
     reasoner: ReasonerConfig = dataclasses.field(default_factory=ReasonerConfig)
     catalog: CatalogConfig = dataclasses.field(default_factory=CatalogConfig)
+    record: RecordConfig = dataclasses.field(default_factory=RecordConfig)
     queue_batches: int = 256
     """Bound of the queue between the bus reader and the reasoner, in record batches."""
     queue_wait_s: float = 0.5
@@ -201,8 +211,11 @@ def parse(raw: Any, path: str) -> Config:
     catalog = _section(r, raw, "catalog", CatalogConfig, {
         "path": ("path", {}), "durability": ("str", {"choices": ("power-loss", "crash")}),
         "stats_interval_s": ("float", {"minimum": 0.1})})
+    record = _section(r, raw, "record", RecordConfig, {
+        "path": ("path", {"optional": True}),
+        "channel_id": ("int", {"minimum": 1})})
     kwargs: dict[str, Any] = {"backend": backend, "testbed": testbed, "reasoner": reasoner,
-                              "catalog": catalog, "source": path}
+                              "catalog": catalog, "record": record, "source": path}
     scalars: dict[str, tuple[str, dict[str, Any]]] = {
         "icd": ("path", {}), "queue_batches": ("int", {"minimum": 1}),
         "queue_wait_s": ("float", {"minimum": 0.0}),

@@ -33,6 +33,7 @@ from mapr_daemon.daemon.bitwatch import BitWatch
 from mapr_daemon.daemon.config import Config, load_config
 from mapr_daemon.daemon.notify import Notifier
 from mapr_daemon.daemon.reader import BusReader, Item
+from mapr_daemon.daemon.recorder import SessionRecorder
 from mapr_daemon.daemon.wakeup import Doorbell, SignalPipe
 from mapr_daemon.errors import CatalogError, ConfigError
 from mapr_daemon.icd import Icd, SignalStream, load_icd
@@ -92,6 +93,7 @@ class Service:
         self.queue: queue.Queue[Item] = queue.Queue(maxsize=config.queue_batches)
         self.doorbell = Doorbell()
         self.reader: BusReader | None = None
+        self.recorder: SessionRecorder | None = None
         self.stop_reason: str | None = None
         self.reload_wanted = False
         self.ready = False
@@ -147,6 +149,9 @@ class Service:
             log.info("mapr %s: session %s, backend %s, ICD %s, catalog %s, reasoner %s",
                      __version__, self.catalog.session_id, cfg.backend.name, cfg.icd,
                      cfg.catalog.path, cfg.reasoner.dictionary or "off (no dictionary)")
+            if cfg.record.path is not None:
+                self.recorder = SessionRecorder(cfg.record.path, self.catalog.session_id or 0,
+                                                channel_id=cfg.record.channel_id)
             self._start_reader()
             self._next_status = time.monotonic()
             self._next_stats = time.monotonic() + cfg.catalog.stats_interval_s
@@ -222,6 +227,8 @@ class Service:
         reason = self.stop_reason or "stopped"
         log.info("stopping (%s): flushing the catalog", reason)
         self._stop_reader()
+        if self.recorder is not None:
+            self.recorder.close()
         try:
             self._flush_stats()
             if self.gap_id is not None:
@@ -255,6 +262,8 @@ class Service:
 
     def _records(self, item: Item) -> None:
         records = item.records
+        if self.recorder is not None:
+            self.recorder.write(records)
         for record in records:
             self.interval.add(record)
             if record.errors:
@@ -315,6 +324,8 @@ class Service:
         self.notifier.status(self._status_text())
 
     def _flush_stats(self) -> None:
+        if self.recorder is not None:
+            self.recorder.flush()
         end = time.time_ns()
         if self.interval.messages:
             self._catalog(self.catalog.add_stats, self.interval_start, end, self.interval)
@@ -348,6 +359,8 @@ class Service:
         old = self.pipe.config
         if config.catalog.path != old.catalog.path:
             log.warning("catalog.path changed: takes effect at the next restart")
+        if config.record != old.record:
+            log.warning("record changed: takes effect at the next restart")
         restart = (config.backend, config.testbed, config.icd) != \
             (old.backend, old.testbed, old.icd)
         if restart:
