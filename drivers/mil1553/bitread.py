@@ -16,7 +16,6 @@ import numpy as np
 import numpy.typing as npt
 
 from drivers.mil1553.edges import FloatArray, IntArray
-from drivers.mil1553.gridfit import range_indices
 from drivers.mil1553.wordbatch import (
     ERR_BIT_COUNT_HIGH,
     ERR_BIT_COUNT_LOW,
@@ -32,44 +31,48 @@ FIRST_SLOT = 6
 """Half-bit slot of bit 0's first half (slots 0-5 are the sync)."""
 BIT_SLOTS = 34
 """Slots 6-39: the first and second half of bits 0-16."""
+_COLUMNS = BIT_SLOTS + 2
+"""Per word and direction, the tally's columns: one before the bit slots and one after, where
+every crossing outside them is counted and then ignored."""
 _BIT_WEIGHTS = (1 << np.arange(15, -1, -1)).astype(np.int64)
 
 
-def bit_slots_end(crossings: FloatArray, anchors: FloatArray, half: float) -> IntArray:
-    """Per anchor, the index of the first crossing past every crossing that can round to a
-    bit slot (a bound: slots are checked exactly when the word is read)."""
-    end: IntArray = np.searchsorted(crossings, anchors + (FIRST_SLOT + BIT_SLOTS) * half)
-    return end
-
-
 def read_words(crossings: FloatArray, crossing_level: npt.NDArray[np.int8], anchors: FloatArray,
-               lo: IntArray, hi: IntArray, stop: FloatArray, first_level: npt.NDArray[np.int8],
-               *, half: float, base: int, sample_rate: float) -> WordBatch:
-    """Bits, length and errors of every anchored word (``bus`` left 0).
+               first_owned: IntArray, stop: FloatArray, first_level: npt.NDArray[np.int8],
+               rows: IntArray, *, half: float, base: int, sample_rate: float) -> WordBatch:
+    """Bits, length and errors of the anchored words ``rows`` (``bus`` left 0).
 
-    ``crossings[lo[i]:hi[i]]`` are the crossings word ``i`` owns that may fall in its bit
-    slots; ``stop[i]`` is where its activity ends (samples, like ``anchors``); ``base`` is the
-    sample index of the buffer's start in the capture, for the times in ns.
+    Word ``i`` owns the crossings from ``first_owned[i]`` up to the next word's (the last
+    one, to the end); ``stop[i]`` is where its activity ends (samples, like ``anchors``);
+    ``base`` is the sample index of the buffer's start in the capture, for the times in ns.
+    Every owned crossing is placed in one pass over the crossings, without gathering: those
+    outside the bit slots land in a column that is then ignored.
     """
     count = anchors.size
-    words = empty_words(count)
-    if count == 0:
-        return words
-    index, per_word = range_indices(lo, hi)
-    word = np.repeat(np.arange(count), per_word)
-    slot = np.rint((crossings[index] - anchors[word]) / half).astype(np.int64)
-    slot -= FIRST_SLOT
-    inside = np.flatnonzero((slot >= 0) & (slot < BIT_SLOTS))
-    key = (word[inside] * BIT_SLOTS + slot[inside]) * 2 + (crossing_level[index[inside]] > 0)
-    tally = np.bincount(key, minlength=count * BIT_SLOTS * 2).reshape(count, BIT_SLOTS, 2)
-    falling, rising = tally[:, :, 0], tally[:, :, 1]
+    if count == 0 or rows.size == 0:
+        return empty_words()
+    owned = crossings[first_owned[0]:]
+    per_word = np.diff(first_owned, append=crossings.size)
+    position = owned - np.repeat(anchors, per_word)
+    position /= half
+    slot = np.rint(position, out=position).astype(np.int32)
+    np.clip(slot, FIRST_SLOT - 1, FIRST_SLOT + BIT_SLOTS, out=slot)
+    key = np.repeat(np.arange(-FIRST_SLOT + 1, count * _COLUMNS - FIRST_SLOT + 1, _COLUMNS,
+                              dtype=np.int32), per_word)
+    key += slot
+    key += (crossing_level[first_owned[0]:] > 0) * np.int32(count * _COLUMNS)
+    tally = np.bincount(key, minlength=2 * count * _COLUMNS).reshape(2, count, _COLUMNS)
+    falling, rising = tally[0, rows], tally[1, rows]
+    anchors, stop, first_level = anchors[rows], stop[rows], first_level[rows]
+    words = empty_words(rows.size)
     hits = falling + rising
+    mid, start = slice(2, _COLUMNS - 1, 2), slice(1, _COLUMNS - 2, 2)
     spus = 2 * half
     bits_sent = np.floor((stop - anchors) / spus - 3 + 0.25).astype(np.int64)
     present = np.arange(17)[None, :] < np.minimum(bits_sent, 17)[:, None]
-    bad = (hits[:, 1::2] != 1) | (hits[:, 0::2] > 1)
+    bad = (hits[:, mid] != 1) | (hits[:, start] > 1)
     manchester = np.any(bad & present, axis=1)
-    ones = (falling[:, 1::2] > rising[:, 1::2]).astype(np.int64)
+    ones = (falling[:, mid] > rising[:, mid]).astype(np.int64)
     parity_ok = (ones.sum(axis=1) & 1) == 1
     errors = np.where(manchester, ERR_MANCHESTER, 0)
     errors |= np.where(bits_sent < 17, ERR_BIT_COUNT_LOW, 0)

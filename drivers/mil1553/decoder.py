@@ -36,7 +36,7 @@ import numpy as np
 import numpy.typing as npt
 
 from drivers.errors import EncodeError
-from drivers.mil1553.bitread import bit_slots_end, read_words
+from drivers.mil1553.bitread import read_words
 from drivers.mil1553.edges import (
     FloatArray,
     IntArray,
@@ -136,7 +136,7 @@ class ManchesterDecoder:
         keep_from = self._buf.size - self._tail
         self._base += keep_from
         self._buf = self._buf[keep_from:].copy()
-        return self._in_time_order(words)
+        return self._release(words)
 
     def flush(self) -> WordBatch:
         """End of capture: decode what is left. A word cut off by the end is flagged."""
@@ -146,13 +146,12 @@ class ManchesterDecoder:
         self._complete_until = math.inf
         self._base += real
         self._buf = np.zeros(0, dtype=np.uint8)
-        return self._in_time_order(words)
+        return self._release(words)
 
-    def _in_time_order(self, words: WordBatch) -> WordBatch:
+    def _release(self, words: WordBatch) -> WordBatch:
         """Release words in time order across calls: a noise burst still open on one bus
         holds back the other bus's later words until it is reported."""
-        held = np.concatenate([self._held, words]) if self._held.size else words
-        held = held[np.argsort(held["t_ns"], kind="stable")]
+        held = _in_time_order(np.concatenate([self._held, words]) if self._held.size else words)
         if not self._open_burst:
             self._held = empty_words()
             return held
@@ -181,8 +180,8 @@ class ManchesterDecoder:
         values = buf[changes]
         out = [self._decode_bus(values, changes, buf.size, bus, horizon, final)
                for bus in (BUS_A, BUS_B)]
-        words = np.concatenate(out)
-        return words[np.argsort(words["t_ns"], kind="stable")]
+        return _in_time_order(np.concatenate(out) if out[0].size and out[1].size else
+                              out[1] if out[1].size else out[0])
 
     def _decode_bus(self, values: npt.NDArray[np.uint8], changes: IntArray, n: int, bus: int,
                     horizon: int, final: bool) -> WordBatch:
@@ -206,11 +205,8 @@ class ManchesterDecoder:
         owned_from = anchors - 0.5 * self._half
         first_owned = np.searchsorted(seg.crossings, owned_from)
         span_end = self._spans_end(seg, anchors, n)
-        last_owned = np.append(first_owned[1:], seg.crossings.size)
-        bits_end = bit_slots_end(seg.crossings, anchors[fresh], self._half)
-        words = read_words(seg.crossings, seg.crossing_level, anchors[fresh], first_owned[fresh],
-                           np.minimum(last_owned[fresh], bits_end), span_end[fresh],
-                           first_level[fresh], half=self._half, base=self._base,
+        words = read_words(seg.crossings, seg.crossing_level, anchors, first_owned, span_end,
+                           first_level, fresh, half=self._half, base=self._base,
                            sample_rate=self.sample_rate)
         words["bus"] = bus
         bursts = self._bursts(seg, owned_from, span_end,
@@ -218,7 +214,7 @@ class ManchesterDecoder:
         if np.any(decided):
             self._covered_until[bus] = max(self._covered_until[bus],
                                            float(span_end[decided].max()) + self._base)
-        return np.concatenate([words, bursts])
+        return np.concatenate([words, bursts]) if bursts.size else words
 
     def _find_syncs(self, seg: Segments) -> tuple[FloatArray, npt.NDArray[np.int8]]:
         """Anchors (sync start, in samples) of valid syncs, and each sync's first polarity."""
@@ -355,6 +351,15 @@ class ManchesterDecoder:
         out["sync"] = SYNC_DATA
         out["bus"] = bus
         return out
+
+
+def _in_time_order(words: WordBatch) -> WordBatch:
+    """The words sorted by time (stable); most batches already are, and are not copied."""
+    t_ns = words["t_ns"]
+    if t_ns.size < 2 or bool(np.all(t_ns[1:] >= t_ns[:-1])):
+        return words
+    ordered: WordBatch = words[np.argsort(t_ns, kind="stable")]
+    return ordered
 
 
 def decode_capture(samples: npt.NDArray[np.uint8], sample_rate: float,

@@ -25,17 +25,15 @@ IntArray = npt.NDArray[np.int64]
 FloatArray = npt.NDArray[np.float64]
 
 
-def _level_table(bus: int) -> npt.NDArray[np.int8]:
-    """Byte value -> line level of one bus (both outputs high is not a signal: 0)."""
+def bus_levels(values: npt.NDArray[np.uint8], bus: int) -> npt.NDArray[np.int8]:
+    """Line level (+1 positive, -1 negative, 0 none) of one bus for each capture byte:
+    RX minus RXB, so both outputs high is no signal (0), as both low is."""
     pos_bit, neg_bit = RX_BITS[bus]
-    table = np.zeros(256, dtype=np.int8)
-    for byte in range(256):
-        pos, neg = bool(byte & pos_bit), bool(byte & neg_bit)
-        table[byte] = 1 if pos and not neg else (-1 if neg and not pos else 0)
-    return table
-
-
-LEVEL_TABLES = {bus: _level_table(bus) for bus in RX_BITS}
+    shift = pos_bit.bit_length() - 1
+    shifted = values >> shift if shift else values
+    level = (shifted & 1).astype(np.int8)
+    level -= (shifted >> (neg_bit.bit_length() - 1 - shift)) & 1
+    return level
 
 
 def byte_changes(samples: npt.NDArray[np.uint8]) -> IntArray:
@@ -54,12 +52,11 @@ def bus_runs(values: npt.NDArray[np.uint8], changes: IntArray, bus: int
              ) -> tuple[IntArray, npt.NDArray[np.int8]]:
     """Run starts and levels of one bus, given the capture bytes at the shared change points
     (``values = samples[changes]``)."""
-    levels = LEVEL_TABLES[bus][values]
+    levels = bus_levels(values, bus)
     keep = np.empty(levels.size, dtype=bool)
     keep[:1] = True
     np.not_equal(levels[1:], levels[:-1], out=keep[1:])
-    kept = np.flatnonzero(keep)
-    return changes[kept], levels[kept]
+    return changes[keep], levels[keep]
 
 
 def clean_runs(starts: IntArray, levels: npt.NDArray[np.int8], n: int, *, dropout_max: int,
@@ -135,19 +132,21 @@ def segments(starts: IntArray, levels: npt.NDArray[np.int8], n: int, *, dead_ban
     band), both rules give the same time, so only crossings through a dead band need the
     second one.
     """
-    live = np.flatnonzero(levels)
+    live = levels != 0
     bounds = np.append(starts, n)
-    s, e, lv = bounds[live], bounds[live + 1], levels[live]
+    s, e, lv = bounds[:-1][live], bounds[1:][live], levels[live]
+    del bounds
     adjacent = np.zeros(s.size, dtype=bool)
     silence = e[:-1] - s[1:]  # minus the silence between neighbours (0 where they touch)
     adjacent[1:] = (silence >= -dead_band_max) & (lv[1:] != lv[:-1])
+    through = np.flatnonzero(adjacent[1:] & (silence != 0))
+    del silence
     left = s - 0.5
     right = e - 0.5
-    through = np.flatnonzero(adjacent[1:] & (silence != 0))
     crossing_at = (e[through] - 1 + s[through + 1]) / 2.0
+    del s, e
     left[through + 1] = crossing_at
     right[through] = crossing_at
-    at_crossing = np.flatnonzero(adjacent)
     ends_activity = np.flatnonzero(~adjacent[1:])
     silent_after = np.append(right[ends_activity], right[-1:])
-    return Segments(lv, left, right, adjacent, left[at_crossing], lv[at_crossing], silent_after)
+    return Segments(lv, left, right, adjacent, left[adjacent], lv[adjacent], silent_after)

@@ -10,11 +10,11 @@ assignment needs. Where the phases spread round most of the circle (a low sample
 quantizes them into a few values, all occupied) the widest gap says nothing, and the
 circular mean (the densest region) is used instead.
 
-Most words (every clean one, and most impaired ones at higher sample rates) have all their
-phases within a quarter of the circle: their midrange is the middle of their lowest and
-highest phase, found with two segment reductions over all words at once
-(:func:`narrow_midrange`). Only the others go through the general circular computation
-(:func:`circular_midrange`); both give the same value on every word the first accepts.
+Nothing here loops over words or sorts phases: each word's occupied bins become one 32-bit
+mask (one ``bitwise_or.reduceat`` over all crossings of a buffer), and the widest empty arc
+of every mask is found by a bit-parallel binary search (:func:`widest_free_arc`), a few
+operations on all masks at once. Only the words that need the circular mean build their
+per-bin counts.
 """
 
 from __future__ import annotations
@@ -29,8 +29,6 @@ PHASE_BINS = 32
 CLEAR_GAP = 0.24
 """The midrange is used when the phases leave one widest gap of at least this share of the
 circle (0.3 less the bins' quantization); otherwise the circular mean."""
-NARROW_SPAN = PHASE_BINS // 2
-"""Phases spanning fewer bins than this leave a gap wider than any other, and clear."""
 
 _BIN_ANGLE = 2 * np.pi * (np.arange(PHASE_BINS) + 0.5) / PHASE_BINS
 _BIN_COS, _BIN_SIN = np.cos(_BIN_ANGLE), np.sin(_BIN_ANGLE)

@@ -1,0 +1,92 @@
+"""The grid fit's bit-parallel circular midrange against a plain per-word computation.
+
+The decoder fits each word's half-bit grid from the phase bins of its crossings. The fast
+version works on 32-bit occupancy masks of all words at once; this checks it against the
+definition, computed word by word with sorted bins: the middle of the shortest arc holding
+every occupied bin when one widest gap is clear, else the circular mean of the bin counts.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from drivers.mil1553.gridfit import CLEAR_GAP, PHASE_BINS, fit_grid, grid_phases, range_indices
+
+
+def midrange_by_definition(bins: list[int]) -> float | None:
+    """One window's grid offset in half-bits, in [-0.5, 0.5), from first principles (None
+    where it is the mean of phases that cancel out, which has no direction to compare)."""
+    if not bins:
+        return 0.0
+    occupied = sorted(set(bins))
+    # The gap after each occupied bin to the next one round the circle.
+    gaps = [(occupied[(i + 1) % len(occupied)] - b) % PHASE_BINS or PHASE_BINS
+            for i, b in enumerate(occupied)]
+    widest = max(gaps)
+    if gaps.count(widest) == 1 and widest >= CLEAR_GAP * PHASE_BINS:
+        before = occupied[gaps.index(widest)]
+        # The arc runs from the bin after the gap round to the bin before it.
+        middle = (before + 0.5 + (PHASE_BINS + widest) / 2) / PHASE_BINS
+    else:
+        angles = [2 * math.pi * (b + 0.5) / PHASE_BINS for b in bins]
+        sin, cos = sum(map(math.sin, angles)), sum(map(math.cos, angles))
+        if math.hypot(sin, cos) < 1e-6:
+            return None
+        middle = math.atan2(sin, cos) / (2 * math.pi)
+    return middle - math.floor(middle + 0.5)
+
+
+window = st.one_of(
+    st.lists(st.integers(0, PHASE_BINS - 1), max_size=40),
+    # Realistic words: phases clustered round one bin, a few bins either side.
+    st.tuples(st.integers(0, PHASE_BINS - 1), st.integers(0, 12), st.integers(1, 40)).flatmap(
+        lambda c: st.lists(st.integers(-c[1], c[1]).map(lambda d, c=c: (c[0] + d) % PHASE_BINS),
+                           min_size=c[2], max_size=c[2])),
+)
+
+
+@settings(max_examples=300, deadline=None)
+@given(windows=st.lists(window, min_size=1, max_size=30))
+def test_fit_equals_the_definition_on_every_window(windows: list[list[int]]) -> None:
+    """Every window, including those that tie or cover the circle, in one batch."""
+    bins = np.array([b for w in windows for b in w], dtype=np.int32)
+    count = np.array([len(w) for w in windows], dtype=np.int64)
+    fitted = fit_grid(bins, count)
+    expected = [midrange_by_definition(w) for w in windows]
+    for got, want, w in zip(fitted, expected, windows, strict=True):
+        if want is None:
+            continue
+        # The midrange is exact (multiples of 1/64); the mean agrees to rounding.
+        assert abs(got - want) < 1e-12 or abs(abs(got - want) - 1) < 1e-12, (w, got, want)
+
+
+def test_a_clear_cluster_across_the_wrap_point_gets_its_middle() -> None:
+    # Bins 30, 31, 0, 1: the arc straddles the circle's start; its middle is bin 31/0's edge.
+    fitted = fit_grid(np.array([30, 31, 0, 1, 31], dtype=np.int32), np.array([5]))
+    assert fitted[0] == 0.0
+
+
+def test_phases_all_round_the_circle_fall_back_to_the_mean() -> None:
+    bins = np.arange(PHASE_BINS, dtype=np.int32)
+    dense = np.concatenate([bins, np.full(20, 8, dtype=np.int32)])
+    fitted = fit_grid(dense, np.array([dense.size]))
+    assert abs(fitted[0] - (8.5 / PHASE_BINS)) < 0.02
+
+
+def test_grid_phases_bins_each_window_relative_to_its_centre() -> None:
+    crossings = np.array([0.0, 5.0, 10.25, 15.0, 100.0, 104.9])
+    lo, hi = np.array([0, 4]), np.array([4, 6])
+    bins, count = grid_phases(crossings, lo, hi, np.array([0.0, 100.0]), half=5.0)
+    assert count.tolist() == [4, 2]
+    # 10.25 is 0.05 of a half-bit late: bin 1; 104.9 is 0.02 early: bin 31.
+    assert bins.tolist() == [0, 0, 1, 0, 0, 31]
+
+
+def test_range_indices_concatenates_ranges_and_skips_empty_ones() -> None:
+    index, count = range_indices(np.array([2, 5, 9]), np.array([4, 5, 11]))
+    assert index.tolist() == [2, 3, 9, 10]
+    assert count.tolist() == [2, 0, 2]
