@@ -4,9 +4,8 @@
 ``NOTIFY_SOCKET`` pointing at a unix datagram socket the test owns, collects what it sends
 and what it logs, and stops it with a real SIGTERM. The session-scoped ``dictionary`` is a
 small fault dictionary (healthy, ESR, friction, phase-A high-side short and open; ~15 s),
-and ``threshold`` calibrates the anomaly threshold on healthy BITs flown over the loopback
-bus (see docs/service.md: the bus-flown BIT differs from the direct simulation the
-dictionary was calibrated on).
+decided with the dictionary's own threshold: a bus-flown BIT scores like the dictionary's
+simulated ones (tests/daemon/test_bit_on_bus.py).
 """
 
 from __future__ import annotations
@@ -130,29 +129,3 @@ def dictionary(tmp_path_factory: pytest.TempPathFactory) -> Path:
     path = tmp_path_factory.mktemp("dictionary") / "dictionary.npz"
     build.build(load_actuator(default_actuator_path()), spec).save(path)
     return path
-
-
-@pytest.fixture(scope="session")
-def threshold(dictionary: Path) -> float:
-    """2 x the largest score of two healthy BITs flown over the loopback bus (seeds 21, 22),
-    decided by the daemon's own BIT watcher."""
-    from mapr_daemon.daemon.bitwatch import BitWatch
-    from mapr_daemon.daemon.config import Config, ReasonerConfig, TestbedConfig
-    from mapr_daemon.daemon.source import monitor_factory
-    from mapr_daemon.ema.params import default_actuator_path, load_actuator
-    from mapr_daemon.icd import SignalStream, load_icd
-    from mapr_daemon.reasoner.dictionary import Dictionary
-    from mapr_daemon.reasoner.events import Reasoner
-
-    icd = load_icd(ICD)
-    scores = []
-    for seed in (21, 22):
-        config = Config(testbed=TestbedConfig(seed=seed, realtime=False, duration_s=1.7),
-                        reasoner=ReasonerConfig(dictionary=str(dictionary)))
-        watch = BitWatch(Reasoner(Dictionary.load(dictionary),
-                                  load_actuator(default_actuator_path())))
-        with monitor_factory(config, icd)() as monitor:
-            events = watch.feed(SignalStream(icd).feed(list(monitor)))
-        assert len(events) == 1, "the healthy BIT was not found on the bus"
-        scores.append(float(events[0]["evidence"]["score"]))
-    return 2.0 * max(scores)

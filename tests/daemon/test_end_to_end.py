@@ -20,12 +20,12 @@ ROOT = Path(__file__).resolve().parents[2]
 ICD = ROOT / "configs" / "icd" / "ema-testbed.yaml"
 
 
-def flight(tmp: Path, dictionary: Path, threshold: float, fault: str | None,
+def flight(tmp: Path, dictionary: Path, fault: str | None,
            seed: int) -> str:
     return (f"icd: {ICD}\n"
             "testbed:\n  profile: bit\n  condition: cruise\n  realtime: false\n"
             f"  duration_s: 2.0\n  seed: {seed}\n  fault: {json.dumps(fault)}\n"
-            f"reasoner: {{dictionary: {dictionary}, threshold: {threshold}}}\n"
+            f"reasoner: {{dictionary: {dictionary}}}\n"
             "assets: [{name: EMA1, rt: 5}]\n"
             f"catalog: {{path: {tmp / 'catalog.sqlite'}, stats_interval_s: 0.5}}\n")
 
@@ -36,9 +36,8 @@ def events(path: Path) -> list[tuple[object, ...]]:
 
 
 def test_seeded_fault_reaches_the_catalog_and_the_cli(
-        tmp_path: Path, start_daemon: Callable[..., Daemon], dictionary: Path,
-        threshold: float) -> None:
-    daemon = start_daemon(flight(tmp_path, dictionary, threshold, "open=A_high", seed=3))
+        tmp_path: Path, start_daemon: Callable[..., Daemon], dictionary: Path) -> None:
+    daemon = start_daemon(flight(tmp_path, dictionary, "open=A_high", seed=3))
     daemon.wait_notify("READY=1", timeout=60)
     daemon.wait_log("event 1 written", timeout=60)
     daemon.wait_for(lambda: any("1 events" in s for s in daemon.lines("STATUS=")), 10,
@@ -54,9 +53,8 @@ def test_seeded_fault_reaches_the_catalog_and_the_cli(
 
 
 def test_nominal_flight_writes_no_event(
-        tmp_path: Path, start_daemon: Callable[..., Daemon], dictionary: Path,
-        threshold: float) -> None:
-    daemon = start_daemon(flight(tmp_path, dictionary, threshold, None, seed=1))
+        tmp_path: Path, start_daemon: Callable[..., Daemon], dictionary: Path) -> None:
+    daemon = start_daemon(flight(tmp_path, dictionary, None, seed=1))
     daemon.wait_log(": nominal (score", timeout=60)
     daemon.wait_log("stream ended", timeout=60)
     assert daemon.terminate()[0] == 0
