@@ -78,17 +78,18 @@ def clean_runs(starts: IntArray, levels: npt.NDArray[np.int8], n: int, *, dropou
     """
     if levels.size < 3:
         return starts, levels
-    # Inner runs (neither the first nor the last) no longer than either limit.
-    short = np.flatnonzero(starts[2:] - starts[1:-1] <= max(dropout_max, glitch_max)) + 1
+    # Inner runs (neither the first nor the last) no longer than either limit, between two
+    # runs of one level: a dead band (silence between opposite polarities) is not one.
+    short = np.flatnonzero((starts[2:] - starts[1:-1] <= max(dropout_max, glitch_max)) &
+                           (levels[:-2] == levels[2:])) + 1
     if short.size == 0:
         return starts, levels
     length = starts[short + 1] - starts[short]
     level, before = levels[short], levels[short - 1]
-    same_sides = before == levels[short + 1]
-    short_gap = same_sides & (level == 0) & (before != 0) & (length <= dropout_max)
+    short_gap = (level == 0) & (before != 0) & (length <= dropout_max)
     missed = short_gap & (length >= missed_pulse_min) if missed_pulse_min > 0 else \
         np.zeros(short.size, dtype=bool)
-    glitch = same_sides & (level != 0) & (length <= glitch_max)
+    glitch = (level != 0) & (length <= glitch_max)
     fix = short[(short_gap & ~missed) | glitch]
     restore = short[missed]
     if fix.size == 0 and restore.size == 0:
@@ -134,7 +135,15 @@ def segments(starts: IntArray, levels: npt.NDArray[np.int8], n: int, *, dead_ban
     """
     live = levels != 0
     bounds = np.append(starts, n)
-    s, e, lv = bounds[:-1][live], bounds[1:][live], levels[live]
+    if 16 * np.count_nonzero(live) > 15 * live.size:
+        # Few silences (clean traffic): a boolean mask copies long stretches at once.
+        s, e, lv = bounds[:-1][live], bounds[1:][live], levels[live]
+    else:
+        # Dead bands alternate with segments: gathering by index is cheaper than a mask
+        # that copies one element at a time.
+        index = np.flatnonzero(live)
+        s, e, lv = bounds[index], bounds[index + 1], levels[index]
+        del index
     del bounds
     adjacent = np.zeros(s.size, dtype=bool)
     silence = e[:-1] - s[1:]  # minus the silence between neighbours (0 where they touch)
