@@ -121,3 +121,18 @@ def test_a_file_that_is_not_chapter10_is_one_clear_error(tmp_path: Path) -> None
         list(Chapter10Reader(path))
     with pytest.raises(CaptureFormatError, match="cannot open"):
         Chapter10Reader(tmp_path / "missing.c10")
+
+
+def test_a_packet_holding_fewer_messages_than_it_announces_is_reported(c10: Any,
+                                                                       tmp_path: Path) -> None:
+    from chapter10.ms1553 import MS1553F1
+    packet = MS1553F1(data_type=0x19, channel_id=1, header_version=3, rtc=5, count=3)
+    packet.append(MS1553F1.Message(data=bytes.fromhex("212801000028"), ipts=5,
+                                   length=6, gap_time=70))
+    path = tmp_path / "count.c10"
+    path.write_bytes(bytes(packet))
+    reader = Chapter10Reader(path)
+    records = [r for b in reader for r in b.records]
+    assert [(r.rt, r.data, r.status) for r in records] == [(5, (1,), (0x2800,))]
+    assert [str(i) for i in reader.issues] == ["offset 0: 1553 packet announces 3 messages "
+                                               "but holds 1"]
