@@ -68,6 +68,7 @@ class Timebase:
         """The RTC value of the file's first packet: ``t_ns`` 0."""
         self.year = year
         self.reference: TimeReference | None = None
+        self._base = datetime(2000, 1, 1)
 
     def start(self, rtc: int) -> None:
         """Set the origin, once (the first packet's counter)."""
@@ -84,7 +85,14 @@ class Timebase:
         return delta * RTC_NS
 
     def add_time_packet(self, packet: Any, rtc: int) -> None:
-        self.reference = time_reference(packet, rtc, self.year)
+        ref = time_reference(packet, rtc, self.year)
+        self.reference = ref
+        if ref.date is not None:
+            self._base = ref.date
+        else:
+            assert ref.day_of_year is not None  # 2000 is a leap year: day 366 exists
+            self._base = datetime(2000, 1, 1) + timedelta(days=ref.day_of_year - 1,
+                                                          seconds=ref.seconds_of_day)
 
     def absolute(self, rtc: int) -> str | None:
         """The time of counter value ``rtc`` as ISO 8601 text (None before any time packet)."""
@@ -94,11 +102,7 @@ class Timebase:
         delta = (rtc - ref.rtc) % _RTC_MOD
         if delta >= _RTC_HALF:
             delta -= _RTC_MOD
-        offset = timedelta(microseconds=delta * RTC_NS / 1000)
+        moment = self._base + timedelta(microseconds=delta * RTC_NS / 1000)
         if ref.date is not None:
-            return (ref.date + offset).isoformat(timespec="microseconds")
-        assert ref.day_of_year is not None
-        moment = datetime(2000, 1, 1) + timedelta(days=ref.day_of_year - 1,
-                                                  seconds=ref.seconds_of_day) + offset
-        day = moment.timetuple().tm_yday  # 2000 is a leap year: day 366 exists
-        return f"day {day:03d} {moment.time().isoformat(timespec='microseconds')}"
+            return moment.isoformat(timespec="microseconds")
+        return f"day {moment.timetuple().tm_yday:03d} {moment:%H:%M:%S.%f}"
