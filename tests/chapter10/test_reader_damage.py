@@ -136,3 +136,21 @@ def test_a_packet_holding_fewer_messages_than_it_announces_is_reported(c10: Any,
     assert [(r.rt, r.data, r.status) for r in records] == [(5, (1,), (0x2800,))]
     assert [str(i) for i in reader.issues] == ["offset 0: 1553 packet announces 3 messages "
                                                "but holds 1"]
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_random_damage_to_the_sample_never_stops_the_reader(sample_c10: Path, tmp_path: Path,
+                                                            seed: int) -> None:
+    import numpy as np
+    rng = np.random.default_rng(seed)
+    blob = bytearray(sample_c10.read_bytes())
+    for at in rng.integers(0, len(blob), size=6):
+        blob[at] ^= int(rng.integers(1, 256))
+    cut = int(rng.integers(len(blob) // 2, len(blob)))
+    path = tmp_path / "damaged.c10"
+    path.write_bytes(bytes(blob[:cut]))
+    reader = Chapter10Reader(path)
+    records = [r for b in reader for r in b.records]
+    assert len(records) <= 475
+    assert reader.issues  # the cut at least is reported
+    assert all(r.command is not None for r in records)
