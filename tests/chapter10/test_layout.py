@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
 from drivers.chapter10.layout import split_message
 from drivers.mil1553.record import TransferFormat as F
@@ -104,3 +106,57 @@ def test_errors_the_words_and_gaps_show_are_found_again() -> None:
     rt_rt_same = split_message((cmd(6, "R", 3, 1), cmd(6, "T", 4, 1), status(6), D1,
                                 status(6)), rt_to_rt=True, timed_out=False)
     assert rt_rt_same.errors == {"illegal_format"}
+
+
+def on_the_bus(command: int, command2: int | None, payload: list[int]
+               ) -> tuple[list[int], int, int, list[int]]:
+    """A complete message built from the standard's formats, independently of the layout
+    code: (words in bus order, index of the first data word, data words, status indices)."""
+    from drivers.mil1553.modecodes import MODE_CODES
+    rt, tx, sa, count = command >> 11, command >> 10 & 1, command >> 5 & 31, command & 31
+    if command2 is not None:
+        rt2, n = command2 >> 11, (command2 & 31) or 32
+        words = [command, command2, status(rt2), *payload[:n]]
+        if rt == 31:
+            return words, 3, n, [2]
+        return [*words, status(rt)], 3, n, [2, 3 + n]
+    if sa in (0, 31):
+        n = 1 if MODE_CODES[count].has_data else 0
+        if rt == 31:
+            n = 0 if tx else n
+            return [command, *payload[:n]], 1, n, []
+        if tx:
+            return [command, status(rt), *payload[:n]], 2, n, [1]
+        return [command, *payload[:n], status(rt)], 1, n, [1 + n]
+    n = count or 32
+    if rt == 31:
+        n = 0 if tx else n
+        return [command, *payload[:n]], 1, n, []
+    if tx:
+        return [command, status(rt), *payload[:n]], 2, n, [1]
+    return [command, *payload[:n], status(rt)], 1, n, [1 + n]
+
+
+@given(rt=st.integers(0, 31), tx=st.booleans(), sa=st.integers(0, 31), count=st.integers(0, 31),
+       rt_rt=st.booleans(), rt2=st.integers(0, 30), sa2=st.integers(1, 30),
+       payload=st.lists(st.integers(0, 0xFFFF), min_size=32, max_size=32))
+def test_any_complete_message_splits_back_into_its_parts(rt: int, tx: bool, sa: int,
+                                                         count: int, rt_rt: bool, rt2: int,
+                                                         sa2: int, payload: list[int]) -> None:
+    command = cmd(rt, "T" if tx else "R", sa, count)
+    rt_rt = rt_rt and not tx and sa not in (0, 31) and rt2 != rt
+    command2 = cmd(rt2, "T", sa2, count) if rt_rt else None
+    words, first, n, status_at = on_the_bus(command, command2, payload)
+    split = split_message(tuple(words), rt_to_rt=rt_rt, timed_out=False)
+    assert split.data == tuple(words[first:first + n])
+    assert split.status == tuple(words[i] for i in status_at)
+    assert (split.command, split.command2, split.expected_words) == \
+        (command, command2, len(words))
+    assert "wrong_rt_address" not in split.errors
+    if status_at:
+        # the last terminal silent: only the words before its status were on the bus
+        kept = tuple(words[:status_at[-1]])
+        silent = split_message(kept, rt_to_rt=rt_rt, timed_out=True)
+        assert silent.status == tuple(words[i] for i in status_at[:-1])
+        assert silent.data == tuple(words[first:min(first + n, len(kept))])
+        assert silent.expected_words == len(kept)
