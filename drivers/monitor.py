@@ -151,7 +151,8 @@ class BusMonitor(ABC):
         while True:
             while self._queue:
                 record = self._queue.popleft()
-                if self._wanted(record):
+                self.stats.add(record)   # counted as taken, filtered or not: the stats are the
+                if self._wanted(record):  # bus's, up to the last record handed out
                     return record
             if self._closed:
                 raise MonitorClosed("the monitor is closed")
@@ -167,8 +168,6 @@ class BusMonitor(ABC):
             if batch is None:
                 self._ended = True
                 continue
-            for record in batch:
-                self.stats.add(record)
             self._queue.extend(batch)
             if not batch and deadline is not None and time.monotonic() >= deadline:
                 return None

@@ -55,6 +55,20 @@ def test_iteration_statistics_and_end_of_stream() -> None:
     assert 0 < monitor.stats.load("A") <= 100
 
 
+def test_statistics_stop_at_the_last_record_handed_out() -> None:
+    """A consumer that stops after three records (``mapr monitor --count 3 --stats``) reads
+    statistics of those three, not of the whole batch the backend delivered at once."""
+    monitor = ScriptedMonitor([[rec(t * 100_000) for t in range(13)]])
+    taken = [monitor.recv() for _ in range(3)]
+    assert all(r is not None for r in taken)
+    assert monitor.stats.messages == {"A": 3}
+    filtered = ScriptedMonitor([[rec(0, command=0x2822), rec(1, command=0x3022),
+                                 rec(2, command=0x2822), rec(3, command=0x3022)]],
+                               filters=[MonitorFilter(rt=6)])
+    assert filtered.recv().t_ns == 1  # type: ignore[union-attr]
+    assert filtered.stats.messages == {"A": 2}, "the skipped record on the way counts too"
+
+
 def test_filters_combine_as_python_can_does() -> None:
     records = [rec(0, command=0x2822), rec(1, command=0x3022, errors=("no_response",)),
                rec(2, command=0x2C22, fmt=TransferFormat.RT_BC)]
