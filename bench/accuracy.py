@@ -13,12 +13,17 @@ and flight condition (dynamic pressures drawn between 100 and 2400 Pa, not the g
 
 Both protocols are scored with both classifiers (the paper's chosen-curve one, and ours).
 Severity error is |estimated - true| as % of the fault's Table 1 range, over correctly
-isolated parametric runs. Run:  python3 bench/accuracy.py  (~3-4 min on two cores).
+isolated parametric runs. Detection is printed over all faulted runs and over the faults the
+observability table does not mark weakly observable (named). A run our classifier calls
+inconclusive (aircraft-bus voltage below the SMPS's headroom) counts as not detected when
+faulted and as no alarm when healthy; their number is printed.
+Run:  python3 bench/accuracy.py  (~5-8 min on two cores, more under load).
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import time
 from collections import Counter, defaultdict
@@ -75,9 +80,11 @@ def score(name: str, truth: Plan, decisions: list[classifier.Decision],
     labels = [*modes, "other", ""]
     conf: Counter[tuple[str, str]] = Counter()
     sev_err: dict[str, list[float]] = defaultdict(list)
+    inconclusive: Counter[str] = Counter()
     for (kind, _, s), d in zip(truth, decisions, strict=True):
-        got = d.fault if d.anomaly and d.fault else ""
+        got = (d.fault or "other") if d.anomaly else ""
         got = got if got in labels else "other"
+        inconclusive[kind or "healthy"] += "inconclusive" in d.evidence
         conf[(kind, got)] += 1
         if got == kind and kind and d.severity is not None:
             sev_err[kind].append(100 * abs(d.severity - s))
@@ -90,12 +97,15 @@ def score(name: str, truth: Plan, decisions: list[classifier.Decision],
         print(f"{(r or 'healthy'):>20}" + " ".join(f"{conf[(r, c)]:>9d}" for c in labels))
     print(f"{'fault':>20} {'runs':>5} {'detected':>12} {'isolated':>12} {'sev err %':>9}  note")
     faulted = detected = isolated = 0
+    obs_faulted = obs_detected = 0
     all_err: list[float] = []
     for m in modes:
         n = sum(conf[(m, c)] for c in labels)
         det = n - conf[(m, "")]
         iso = conf[(m, m)]
         faulted, detected, isolated = faulted + n, detected + det, isolated + iso
+        if m not in OBSERVABILITY:
+            obs_faulted, obs_detected = obs_faulted + n, obs_detected + det
         err = sev_err.get(m, [])
         all_err += err
         e = f"{np.mean(err):9.1f}" if err else f"{'-':>9}"
@@ -104,7 +114,15 @@ def score(name: str, truth: Plan, decisions: list[classifier.Decision],
     healthy = sum(conf[("", c)] for c in labels)
     fa = healthy - conf[("", "")]
     correct = detected + (healthy - fa)
-    print(f"detection accuracy {100 * detected / faulted:.1f} % ({detected}/{faulted}); "
+    weak = [m for m in modes if m in OBSERVABILITY]
+    if weak:
+        print(f"detection over the observable faults (all but {', '.join(weak)}): "
+              f"{100 * obs_detected / obs_faulted:.1f} % ({obs_detected}/{obs_faulted})")
+    if sum(inconclusive.values()):
+        print("inconclusive (supply below the SMPS headroom): " + ", ".join(
+            f"{k} {v}" for k, v in inconclusive.items() if v))
+    print(f"detection accuracy over all faults {100 * detected / faulted:.1f} % "
+          f"({detected}/{faulted}); "
           f"false alarms {fa}/{healthy}; anomaly decisions correct {correct}/{faulted + healthy}"
           f" ({100 * correct / (faulted + healthy):.1f} %)")
     iso_pct = 100 * isolated / faulted
@@ -130,9 +148,19 @@ def main() -> int:
     else:
         d = build(params, DictionarySpec.load(root / "configs/reasoner/dictionary.yaml"))
     t_dict = time.monotonic() - start
+    cal = d.calibration
+    print(f"load average {' '.join(f'{x:.2f}' for x in os.getloadavg())} (2 cores, shared)")
     print(f"dictionary: {len(d.templates)} templates at {len(d.pressures_pa)} pressures, "
-          f"threshold {d.threshold:.1f} (healthy calibration max {d.calibration['score_max']:.1f}"
-          f" x {d.calibration['margin']:g}), {t_dict:.1f} s")
+          f"{t_dict:.1f} s; ours: threshold {d.threshold:.1f} for a false-alarm rate of "
+          f"{cal['false_alarm_rate']:g} per BIT (scaled chi-square {cal['chi2_scale']:.2f} x "
+          f"chi2({cal['chi2_dof']:.2f}) fitted on {cal['runs']:.0f} healthy calibration runs: "
+          f"median {cal['score_median']:.1f}, max {cal['score_max']:.1f}, "
+          f"{cal['expected_above_max']:.2f} expected above that max); healthy-residual threshold"
+          f" {cal['null_threshold']:.1f} (calibration max {cal['null_max']:.1f}"
+          f"{', which governs: the fitted tail is lighter' if cal['null_tail_governs'] else ''})"
+          f"; healthy model fitted on "
+          f"{cal['healthy_fit_runs']:.0f} runs, shrinkage {cal['shrinkage']:.2f}, "
+          f"{cal['subspace_dims']:.0f} subspace dimensions")
     rng = np.random.default_rng(args.seed)
     paper = plan("paper", rng, params)
     ours = plan("ours", rng, params)
@@ -142,7 +170,7 @@ def main() -> int:
     t0 = time.monotonic()
     sim = simulate_bit(params, [fs for _, fs, _ in runs], list(qs), seeds)
     t_sim = time.monotonic() - t0
-    m = run_matrices(sim, d.window_starts, d.window_samples)
+    m = run_matrices(sim, d.window_starts, d.window_samples, d.signals)
     t0 = time.monotonic()
     dec_ours = [classifier.decide(d, m[i], float(qs[i])) for i in range(len(runs))]
     dec_paper = [classifier.paper_decide(d, m[i], float(qs[i])) for i in range(len(runs))]
@@ -155,7 +183,8 @@ def main() -> int:
     score("(a) paper protocol, our GLR template classifier", paper, dec_ours[:np_], PAPER_MODES)
     score("(b) our protocol, paper's chosen-curve classifier", ours, dec_paper[np_:], MODES)
     score("(b) our protocol, our GLR template classifier", ours, dec_ours[np_:], MODES)
-    print(f"\ntotal runtime {time.monotonic() - start:.1f} s")
+    print(f"\ntotal runtime {time.monotonic() - start:.1f} s; load average "
+          f"{' '.join(f'{x:.2f}' for x in os.getloadavg())}")
     return 0
 
 

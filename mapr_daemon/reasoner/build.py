@@ -1,10 +1,18 @@
 """Build a fault dictionary from fault-seeded BIT runs, and calibrate its thresholds.
 
-One batch holds every run: at each dictionary pressure, ``nominal_per_pressure`` healthy runs
-(their spread is the noise model), each parametric kind at each severity, each short and each
-open switch; plus ``calibration_runs`` healthy runs at random pressures *between* the grid
-points, with their own seeds, which set the anomaly thresholds (the largest healthy score times
-``threshold_margin``), so the threshold also covers the pressure interpolation error.
+One batch holds every run, each with its own seed (sensor noise, aircraft-bus voltage, ambient
+temperature, friction scatter): at each dictionary pressure, ``nominal_per_pressure`` healthy
+runs, each parametric kind at each severity (``seeds_per_point`` runs), each short and each
+open switch; ``healthy_runs`` healthy runs at random pressures; ``calibration_runs`` healthy
+runs at random pressures that nothing is fitted on, which set the thresholds.
+
+* The paper's part: nominal M and spread per pressure, the templates' M, G/V/chosen curves;
+  a chosen curve's threshold is the largest calibration N times ``threshold_margin``.
+* Ours: the healthy model (:mod:`~mapr_daemon.reasoner.healthy`) is fitted on all healthy runs
+  but the calibration ones, the fault subspace and signature models
+  (:mod:`~mapr_daemon.reasoner.fault_models`) on the fault runs, and the anomaly threshold is
+  set for ``false_alarm_rate`` (:mod:`~mapr_daemon.reasoner.false_alarm`) on the calibration
+  runs' scores.
 
 >>> # d = build(load_actuator(default_actuator_path()), DictionarySpec())
 >>> # d.save("dictionary.npz")
@@ -17,10 +25,17 @@ from collections.abc import Callable
 
 import numpy as np
 
-from mapr_daemon.ema.faults import PARAMETRIC, Fault, FaultSet, at_severity
+from mapr_daemon.ema.faults import (
+    PARAMETRIC,
+    Fault,
+    FaultSet,
+    at_severity,
+    nominal_value,
+    range_end,
+)
 from mapr_daemon.ema.params import ActuatorParams
 from mapr_daemon.errors import ConfigError
-from mapr_daemon.reasoner import classifier, curves
+from mapr_daemon.reasoner import classifier, curves, fault_models, healthy
 from mapr_daemon.reasoner.corpus import Runs, simulate_bit
 from mapr_daemon.reasoner.dictionary import (
     Dictionary,
@@ -29,13 +44,17 @@ from mapr_daemon.reasoner.dictionary import (
     Template,
     pressure_weights,
 )
+from mapr_daemon.reasoner.false_alarm import calibrate as calibrate_rate
 from mapr_daemon.reasoner.features import (
     EXTENDED_SIGNALS,
+    SECTOR_SIGNALS,
     FloatArray,
     WindowSpec,
     column_names,
     derived_signals,
     feature_matrix,
+    reasoner_signals,
+    record_starts,
 )
 
 PAPER_THRESHOLD_SD = 3.0
@@ -48,20 +67,36 @@ spectrum of pure quantisation noise) have nearly zero spread, which would make a
 look like an anomaly."""
 
 
-def run_matrices(runs: Runs, starts: np.ndarray, length: int) -> FloatArray:
-    """M ``(n, 32, 72)`` of every run."""
+SUPPLY_HEADROOM_V = 0.5
+"""Input-voltage margin above ``Vout/max_duty`` that a BIT needs to say anything: at the BIT's
+current peaks the healthy converter drops some 0.4 V across its switch, inductor and feeder
+resistances; below that the output sags whatever the SMPS's health (the regulator is at its
+duty limit), so such a record is inconclusive rather than a fault."""
+
+
+def run_matrices(runs: Runs, starts: np.ndarray, length: int,
+                 signals: tuple[str, ...] | None = None) -> FloatArray:
+    """M ``(n, W, C)`` of every run (corner windows, then the record rows); ``signals`` by
+    default :func:`~mapr_daemon.reasoner.features.reasoner_signals` of the runs' channels."""
     sig = derived_signals(runs.channels, runs.command_deg)
-    return feature_matrix(sig, starts, length, runs.sample_rate_hz, EXTENDED_SIGNALS)
+    names = reasoner_signals(tuple(runs.channels)) if signals is None else signals
+    return feature_matrix(sig, starts, length, runs.sample_rate_hz, names)
 
 
 def _plan(params: ActuatorParams, spec: DictionarySpec) -> tuple[list[FaultSet], list[float],
                                                                  list[int], list[str]]:
-    """Fault sets, pressures, seeds and a role tag for every run of the build batch."""
+    """Fault sets, pressures, seeds and a role tag for every run of the build batch.
+
+    Roles: ``nominal@q``, ``<kind>@q@s`` (s the severity), ``short:<sw>@q``, ``open:<sw>@q``,
+    ``healthy`` and ``calibration``.
+    """
     for k in spec.kinds:
         if k not in PARAMETRIC:
             raise ConfigError(f"not a parametric fault kind: {k}", field="kinds")
     if len(spec.pressures_pa) < 1 or spec.nominal_per_pressure < 2:
         raise ConfigError("need pressures and >= 2 nominal runs per pressure", field="spec")
+    if spec.seeds_per_point < 1:
+        raise ConfigError("need >= 1 run per point", field="seeds_per_point")
     fs: list[FaultSet] = []
     qs: list[float] = []
     seeds: list[int] = []
@@ -81,28 +116,61 @@ def _plan(params: ActuatorParams, spec: DictionarySpec) -> tuple[list[FaultSet],
             add(FaultSet(), q, f"nominal@{q:g}")
         for kind in spec.kinds:
             for s in spec.severities:
-                add(FaultSet.of([at_severity(params, kind, s)]), q, f"{kind}@{q:g}")
+                for _ in range(spec.seeds_per_point):
+                    add(FaultSet.of([at_severity(params, kind, s)]), q, f"{kind}@{q:g}@{s:g}")
         for sw in spec.shorts:
             add(FaultSet.of([Fault("short", switch=sw)]), q, f"short:{sw}@{q:g}")
         for sw in spec.opens:
             add(FaultSet.of([Fault("open", switch=sw)]), q, f"open:{sw}@{q:g}")
     rng = np.random.default_rng(spec.seed_base + 7919)
     lo, hi = spec.calibration_pressure_pa
+    for q in rng.uniform(lo, hi, spec.healthy_runs):
+        add(FaultSet(), float(q), "healthy")
     for q in rng.uniform(lo, hi, spec.calibration_runs):
         add(FaultSet(), float(q), "calibration")
     return fs, qs, seeds, roles
 
 
+def windows(spec: DictionarySpec, corners: tuple[int, ...], n_samples: int) -> np.ndarray:
+    """First sample of every row of M: the paper's corner windows, then the record rows."""
+    win = WindowSpec(spec.window_samples)
+    return np.concatenate([win.starts(corners, n_samples),
+                           record_starts(n_samples, win.length, spec.record_skip_samples)])
+
+
 def build(params: ActuatorParams, spec: DictionarySpec,
           progress: Callable[[float], None] | None = None) -> Dictionary:
-    """Simulate, extract M, keep the nominal statistics and templates, calibrate."""
+    """Simulate, extract M, keep the nominal statistics and templates, fit, calibrate."""
     fs, qs, seeds, roles = _plan(params, spec)
     runs = simulate_bit(params, fs, qs, seeds, progress=progress)
-    win = WindowSpec(spec.window_samples)
-    starts = win.starts(runs.corners, runs.command_deg.size)
-    m = run_matrices(runs, starts, win.length)
+    starts = windows(spec, runs.corners, runs.command_deg.size)
+    m = run_matrices(runs, starts, spec.window_samples)
     return assemble(params, spec, m, runs.dynamic_pressure_pa, roles, starts,
                     runs.sample_rate_hz)
+
+
+BAND_SIGMAS = 4.0
+"""How far (in its flight-to-flight standard deviations) a healthy parameter may scatter."""
+
+
+def healthy_band(params: ActuatorParams, kind: str) -> float:
+    """The severity a healthy actuator may show with nothing measured to predict it.
+
+    Friction scatters from flight to flight (log-normal, ``motor.friction_flight_sd``) and no
+    channel measures it, so friction up to ``exp(4 sd)`` of nominal is healthy, not a fault.
+    The temperature-driven scatter of Ron, ESR and capacitance is predicted by the healthy
+    model from the measured temperature, so their band is 0.
+    """
+    if kind != "friction":
+        return 0.0
+    lo, hi = nominal_value(params, kind), range_end(params, kind)
+    factor = math.exp(BAND_SIGMAS * params.motor.friction_flight_sd)
+    return float(min(max((lo * factor - lo) / (hi - lo), 0.0), 1.0))
+
+
+def supply_floor_v(params: ActuatorParams) -> float:
+    """The lowest aircraft-bus voltage at which a BIT is conclusive."""
+    return params.smps.output_voltage_v / params.smps.max_duty + SUPPLY_HEADROOM_V
 
 
 def assemble(params: ActuatorParams, spec: DictionarySpec, m: FloatArray, q: FloatArray,
@@ -110,6 +178,7 @@ def assemble(params: ActuatorParams, spec: DictionarySpec, m: FloatArray, q: Flo
     """The dictionary from already computed matrices (split out so tests can reuse a batch)."""
     grid = np.asarray(spec.pressures_pa, dtype=np.float64)
     role = np.asarray(roles)
+    rows = classifier.PAPER_COLUMNS
     nom = np.stack([m[role == f"nominal@{q:g}"].mean(axis=0) for q in spec.pressures_pa])
     resid = np.concatenate([m[role == f"nominal@{q:g}"] - nom[k]
                             for k, q in enumerate(spec.pressures_pa)])
@@ -120,23 +189,106 @@ def assemble(params: ActuatorParams, spec: DictionarySpec, m: FloatArray, q: Flo
     sd = np.maximum(sd, np.maximum(floor, 1e-9)[None, :])
     templates: list[Template] = []
     tpl_m: list[FloatArray] = []
+    paper_cells = (slice(None), slice(None), slice(0, rows), slice(0, rows))
     for kind in spec.kinds:
         vals = tuple(at_severity(params, kind, s).value for s in spec.severities)
         templates.append(Template(kind, kind, "", spec.severities, vals, PARAMETRIC[kind].unit))
-        tpl_m.append(np.stack([m[role == f"{kind}@{q:g}"] for q in spec.pressures_pa]))
+        tpl_m.append(np.stack([np.stack([m[role == f"{kind}@{q:g}@{s:g}"].mean(axis=0)
+                                         for s in spec.severities])
+                               for q in spec.pressures_pa])[paper_cells])
     for kind, switches in (("short", spec.shorts), ("open", spec.opens)):
         for sw in switches:
             templates.append(Template(f"{kind}:{sw}", kind, sw, (1.0,), (1.0,), "on/off"))
-            tpl_m.append(np.stack([m[role == f"{kind}:{sw}@{q:g}"] for q in spec.pressures_pa]))
+            tpl_m.append(np.stack([m[role == f"{kind}:{sw}@{q:g}"]
+                                   for q in spec.pressures_pa])[paper_cells])
+    signals = EXTENDED_SIGNALS if m.shape[2] == len(column_names(EXTENDED_SIGNALS)) else \
+        (*EXTENDED_SIGNALS, *SECTOR_SIGNALS)
+    columns = tuple(column_names(signals))
+    if len(columns) != m.shape[2]:
+        raise ConfigError(f"M has {m.shape[2]} columns, no known signal set has",
+                          field="signals")
     d = Dictionary(actuator=params.name, sample_rate_hz=sample_rate_hz,
                    window_samples=spec.window_samples, window_starts=starts,
-                   signals=EXTENDED_SIGNALS, columns=tuple(column_names(EXTENDED_SIGNALS)),
+                   signals=signals, columns=columns,
                    pressures_pa=grid, nominal_mean=nom, nominal_sd=sd, templates=templates,
                    template_m=tpl_m, paper={})
     d.paper = paper_curves(d)
+    fit_ours(d, params, spec, m, q, roles)
     calib = role == "calibration"
-    calibrate(d, m[calib], q[calib], spec.threshold_margin)
+    calibrate_paper(d, m[calib], q[calib], spec.threshold_margin)
     return d
+
+
+def fit_ours(d: Dictionary, params: ActuatorParams, spec: DictionarySpec, m: FloatArray,
+             q: FloatArray, roles: list[str]) -> None:
+    """Our healthy model, fault subspace, signature models and threshold."""
+    conds = [healthy.conditions(m[i], d.columns, float(q[i])) for i in range(m.shape[0])]
+    floor = supply_floor_v(params)
+    valid = np.array([c.supply_min_v >= floor for c in conds])
+    role = np.asarray(roles)
+    fit_rows = np.flatnonzero(valid & ((role == "healthy") | np.char.startswith(role, "nominal@")))
+    cells = healthy.record_cells(d.columns, m.shape[1], spec.record_pool)
+    nominal_v = params.bus.nominal_v
+    model, whiten = healthy.fit(m[fit_rows], [conds[i] for i in fit_rows], cells, nominal_v,
+                                floor, spec.shrinkage_floor)
+    fault_rows = np.flatnonzero(valid & ~np.isin(role, ["healthy", "calibration"])
+                                & ~np.char.startswith(role, "nominal@"))
+    sig = np.stack([model.standardized(m[i], conds[i]) for i in fault_rows]) @ whiten
+    model = healthy.with_subspace(model, sig, spec.subspace_dims)
+    y = {int(i): model.coordinates(m[i], conds[i]) for i in fault_rows}
+    knots = np.asarray(spec.knots, dtype=np.float64)
+    coef: list[FloatArray | None] = []
+    sev_coef: list[FloatArray | None] = []
+    grids: list[FloatArray | None] = []
+    k_dims = model.projection.shape[1]
+    points: list[FloatArray | None] = []
+    for t in d.templates:
+        if t.switch:
+            coef.append(None)
+            sev_coef.append(None)
+            grids.append(None)
+            points.append(np.stack([
+                np.mean([y[int(i)] for i in np.flatnonzero(role == f"{t.name}@{p:g}")
+                         if int(i) in y] or [np.zeros(k_dims)], axis=0)
+                for p in spec.pressures_pa]))
+            continue
+        rows = [int(i) for i in fault_rows if roles[i].startswith(f"{t.kind}@")]
+        sev = np.array([float(roles[i].rsplit("@", 1)[1]) for i in rows])
+        ys = np.stack([y[i] for i in rows])
+        coef.append(fault_models.fit_parametric(ys, sev, [conds[i] for i in rows], knots,
+                                                nominal_v))
+        sev_coef.append(fault_models.fit_severity(ys, sev, [conds[i] for i in rows]))
+        grids.append(np.stack([np.stack([
+            np.mean([y[int(i)] for i in np.flatnonzero(role == f"{t.kind}@{p:g}@{sv:g}")
+                     if int(i) in y] or [np.zeros(k_dims)], axis=0)
+            for sv in spec.severities]) for p in spec.pressures_pa]))
+        points.append(None)
+    d.healthy = model
+    d.models = fault_models.FaultModels(knots, coef, points, d.pressures_pa, nominal_v,
+                                        [healthy_band(params, t.kind) for t in d.templates],
+                                        grids, np.asarray(spec.severities, dtype=np.float64),
+                                        sev_coef)
+    calib = np.flatnonzero(valid & (role == "calibration"))
+    both = np.array([classifier.score_of(d, m[i], float(q[i])) for i in calib])
+    scores = both[:, 0]
+    # the rate is shared by the two statistics (either one raises the alarm)
+    cal = calibrate_rate(scores, spec.false_alarm_rate / 2)
+    cal_null = calibrate_rate(both[:, 1], spec.false_alarm_rate / 2)
+    d.threshold = cal.threshold
+    d.score_spread = float(max(scores.std(), 1e-6))
+    d.log_score_spread = float(max(np.log(np.maximum(scores, 1e-9)).std(), 0.05))
+    d.calibration = {"runs": float(cal.runs), "score_max": cal.score_max,
+                     "score_median": cal.score_median, "false_alarm_rate": spec.false_alarm_rate,
+                     "null_threshold": cal_null.threshold, "null_max": cal_null.score_max,
+                     "null_chi2_dof": cal_null.dof,
+                     "null_expected_above_max": cal_null.expected_above_max,
+                     "null_tail_governs": float(cal_null.tail_governs),
+                     "tail_governs": float(cal.tail_governs),
+                     "chi2_scale": cal.scale, "chi2_dof": cal.dof,
+                     "expected_above_max": cal.expected_above_max,
+                     "shrinkage": model.shrinkage, "subspace_dims":
+                     float(model.projection.shape[1]), "healthy_fit_runs": float(fit_rows.size),
+                     "inconclusive_runs": float((~valid).sum())}
 
 
 def paper_curves(d: Dictionary, reference_pressure: int = 0) -> dict[str, PaperCurve]:
@@ -150,39 +302,27 @@ def paper_curves(d: Dictionary, reference_pressure: int = 0) -> dict[str, PaperC
     for t, tm in zip(d.templates, d.template_m, strict=True):
         if t.switch:
             continue
-        nom = d.nominal_mean[:, :, :cols]
-        n_all = curves.distance(tm[:, :, :, :cols], nom[:, None])  # (K, S, W, 32)
+        nom = d.nominal_mean[:, :cols, :cols]
+        n_all = curves.distance(tm[:, :, :cols, :cols], nom[:, None])  # (K, S, 32, 32)
         n_all = np.concatenate([np.zeros_like(n_all[:, :1]), n_all], axis=1)
         k = reference_pressure
         g = curves.good_times(n_all[k, 1:])
         v = curves.final_values(n_all[k, 1:], g)
         if v.shape[0] == 0:
             continue
-        c = curves.chosen_curve(v, scale=d.nominal_sd[:, :cols])
+        c = curves.chosen_curve(v, scale=d.nominal_sd[:cols, :cols])
         out[t.kind] = PaperCurve(t.kind, g, v, c.row, c.col, c.reference,
                                  n_all[:, :, c.row, c.col], math.inf)
     return out
 
 
-def calibrate(d: Dictionary, m: FloatArray, q: FloatArray, margin: float) -> None:
-    """Thresholds from healthy runs: ours (GLR score) and the paper's (per-curve N)."""
+def calibrate_paper(d: Dictionary, m: FloatArray, q: FloatArray, margin: float) -> None:
+    """The paper classifier's thresholds from healthy runs (per-curve N)."""
     if m.shape[0] < 2:
         raise ConfigError("need >= 2 calibration runs", field="calibration_runs")
-    scores = []
-    for i in range(m.shape[0]):
-        z = classifier.zscores(d, m[i], float(q[i]))
-        scores.append(classifier.glr_score(z, classifier.fit_templates(
-            d, z, classifier.signatures(d, float(q[i])))))
-    s = np.asarray(scores)
-    d.threshold = float(s.max() * margin)
-    d.score_spread = float(max(s.std(), 1e-6))
-    d.log_score_spread = float(max(np.log(np.maximum(s, 1e-9)).std(), 0.05))
-    d.calibration = {"runs": float(s.size), "score_max": float(s.max()),
-                     "score_median": float(np.median(s)), "margin": margin}
     for c in d.paper.values():
         w = np.stack([np.tensordot(pressure_weights(d.pressures_pa, float(qi)),
                                    d.nominal_mean, axes=1) for qi in q])
         n = np.abs(m[:, c.row, c.col] - w[:, c.row, c.col])
         floor = PAPER_THRESHOLD_SD * float(d.nominal_sd[c.row, c.col])
         object.__setattr__(c, "threshold", float(max(n.max() * margin, floor)))
-

@@ -2,14 +2,18 @@
 
 Two classifiers read the same dictionary:
 
-* :func:`decide` (ours) scales the deviation from the nominal M (interpolated to the run's
-  dynamic pressure) by the healthy spread, ``z = (M - M_nom(q)) / sd`` over all 32 x 72 cells,
-  and fits every template's signature curve ``d_t(s)`` (piecewise linear in severity, exact
-  projection per segment). The anomaly score is the generalised likelihood ratio
-  ``|z|^2 - min_{t,s} |z - d_t(s)|^2`` — how much of the deviation a fault explains — compared
-  with a threshold calibrated on healthy runs across pressures. The best template gives the
-  fault mode and the severity; the margin to the best template of *another* mode gives the
-  isolation confidence.
+* :func:`decide` (ours) reads the run's record cells through the healthy model
+  (:mod:`~mapr_daemon.reasoner.healthy`): their deviation from what a healthy actuator does at
+  the run's dynamic pressure, supply voltage and temperature, whitened, on the fault subspace
+  ``y``. Every template's signature is fitted (:mod:`~mapr_daemon.reasoner.fault_models`). The
+  anomaly score is the generalised likelihood ratio ``|y|^2 - min_{t,s} |y - y_t(s)|^2`` — how
+  much of the deviation a fault explains — against a threshold set for a stated false-alarm
+  rate (:mod:`~mapr_daemon.reasoner.false_alarm`). The best template gives the fault mode and
+  the severity; the margin to the best template of *another* mode gives the isolation
+  confidence. A second statistic catches runs no template fits well: the residual that the
+  best healthy explanation leaves, against its own threshold at the same rate. A record flown
+  below the SMPS's supply headroom is *inconclusive*: no anomaly,
+  confidence 0, the reason in the evidence.
 * :func:`paper_decide` (the paper, III.D) reads only each fault kind's chosen curve cell of
   the 32 x 32 M: N there against a per-kind threshold from healthy runs; the kind with the
   largest ratio wins; the severity comes from the curve by the variable-stride descent.
@@ -29,22 +33,18 @@ from typing import Any
 import numpy as np
 
 from mapr_daemon.ema.faults import PARAMETRIC
+from mapr_daemon.errors import ConfigError
+from mapr_daemon.reasoner import fault_models, healthy
 from mapr_daemon.reasoner.curves import variable_stride_descent
-from mapr_daemon.reasoner.dictionary import Dictionary, pressure_weights
+from mapr_daemon.reasoner.dictionary import Dictionary, Template, pressure_weights
+from mapr_daemon.reasoner.fault_models import Fit
 from mapr_daemon.reasoner.features import FloatArray
 
 PAPER_COLUMNS = 32
-COMPRESS = 3.0
-"""Where :func:`compress` turns from linear to logarithmic, in healthy spreads."""
+TOP_CELLS = 5
 
-
-@dataclasses.dataclass(frozen=True)
-class Fit:
-    """The best severity of one template and its residual ``|z - d(s)|^2``."""
-
-    template: int
-    severity: float
-    residual: float
+__all__ = ["PAPER_COLUMNS", "Decision", "Fit", "decide", "kind_severity", "paper_decide",
+           "score_of"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -64,82 +64,83 @@ class Decision:
     threshold: float
     evidence: dict[str, Any]
 
+    @property
+    def inconclusive(self) -> bool:
+        """True when the record could not be judged (see ``evidence["inconclusive"]``)."""
+        return "inconclusive" in self.evidence
+
 
 def _sigmoid(x: float) -> float:
     return 1.0 / (1.0 + math.exp(-max(-50.0, min(50.0, x))))
 
 
-def zscores(d: Dictionary, m: FloatArray, q: float) -> FloatArray:
-    """The run's M as deviations from the nominal M at its pressure, in healthy spreads."""
-    w = pressure_weights(d.pressures_pa, q)
-    nom = np.tensordot(w, d.nominal_mean, axes=1)
-    return compress(((m - nom) / d.nominal_sd).ravel())
+def _models(d: Dictionary) -> tuple[healthy.HealthyModel, fault_models.FaultModels]:
+    if d.healthy is None or d.models is None:
+        raise ConfigError("the dictionary has no healthy model (rebuild it with "
+                          "`mapr dictionary build`)", field="dictionary")
+    return d.healthy, d.models
 
 
-def compress(z: FloatArray) -> FloatArray:
-    """``c*sign(z)*log1p(|z|/c)``: linear within the noise, logarithmic far outside it, so a
-    few cells a fault moves by thousands of spreads do not drown the pattern of the rest."""
-    out: FloatArray = COMPRESS * np.sign(z) * np.log1p(np.abs(z) / COMPRESS)
-    return out
+def _fits(d: Dictionary, m: FloatArray, q: float) -> tuple[healthy.Conditions, FloatArray,
+                                                            list[Fit]]:
+    """Conditions, coordinates and every template's fit; a parametric fit's severity is its
+    inverse model's reading (the signature fit's point where there is none)."""
+    hm, fm = _models(d)
+    c = healthy.conditions(m, d.columns, q)
+    y = hm.coordinates(m, c)
+    fits = [f if (s := fault_models.severity(fm, f.template, y, c)) is None
+            else dataclasses.replace(f, severity=s) for f in fault_models.fit_all(fm, y, c)]
+    return c, y, fits
 
 
-def signatures(d: Dictionary, q: float) -> list[FloatArray]:
-    """Per template, its signatures ``(S+1, W*C)`` in z units, severity 0 (zero) first."""
-    w = pressure_weights(d.pressures_pa, q)
-    nom = np.tensordot(w, d.nominal_mean, axes=1)
-    out = []
-    for m in d.template_m:
-        sig = compress((np.tensordot(w, m, axes=1) - nom) / d.nominal_sd)  # (S, W, C)
-        flat = sig.reshape(sig.shape[0], -1)
-        out.append(np.vstack([np.zeros((1, flat.shape[1])), flat]))
-    return out
-
-
-def fit_templates(d: Dictionary, z: FloatArray, sigs: list[FloatArray]) -> list[Fit]:
-    """Every template's best severity along its piecewise-linear signature curve."""
-    fits = []
-    for i, (t, sig) in enumerate(zip(d.templates, sigs, strict=True)):
-        sev = np.array([0.0, *t.severities])
-        a, delta = sig[:-1], np.diff(sig, axis=0)  # segment starts and directions
-        dd = np.einsum("ij,ij->i", delta, delta)
-        frac = np.clip(((z - a) * delta).sum(axis=1) / np.where(dd > 0, dd, 1.0), 0.0, 1.0)
-        pts = a + frac[:, None] * delta
-        res = ((z - pts) ** 2).sum(axis=1)
-        if t.switch:  # on/off: only the faulted end counts, not the way there
-            fits.append(Fit(i, 1.0, float(((z - sig[-1]) ** 2).sum())))
-            continue
-        k = int(np.argmin(res))
-        fits.append(Fit(i, float(sev[k] + frac[k] * (sev[k + 1] - sev[k])), float(res[k])))
-    return fits
-
-
-def glr_score(z: FloatArray, fits: list[Fit]) -> float:
-    """How much of ``|z|^2`` the best template explains."""
-    return float(z @ z - min(f.residual for f in fits))
+def score_of(d: Dictionary, m: FloatArray, q: float) -> tuple[float, float]:
+    """The two anomaly statistics of one run's M (what the thresholds are calibrated on): the
+    likelihood ratio of the best fault, and the residual of the best healthy explanation."""
+    _, y, fits = _fits(d, m, q)
+    return fault_models.glr_score(y, fits), fault_models.null_residual(y, fits)
 
 
 def decide(d: Dictionary, m: FloatArray, q: float) -> Decision:
     """Our decision for one run's M ``(W, C)`` flown at dynamic pressure ``q``."""
-    z = zscores(d, m, q)
-    fits = fit_templates(d, z, signatures(d, q))
-    score = glr_score(z, fits)
+    hm, _ = _models(d)
+    c, y, fits = _fits(d, m, q)
+    if c.supply_min_v < hm.supply_floor_v:
+        reason = (f"aircraft-bus voltage fell to {c.supply_min_v:.2f} V, below the "
+                  f"{hm.supply_floor_v:.2f} V the SMPS needs to regulate at the BIT's peaks")
+        return Decision(False, None, None, None, None, None, 0.0, 0.0, d.threshold,
+                        {"inconclusive": reason})
+    score = fault_models.glr_score(y, fits)
+    null = fault_models.null_residual(y, fits)
+    null_threshold = d.calibration.get("null_threshold", math.inf)
     best = min(fits, key=lambda f: f.residual)
     t = d.templates[best.template]
     other = [f.residual for f in fits if d.templates[f.template].kind != t.kind]
     margin = (min(other) - best.residual) if other else float("inf")
     p_anom = _sigmoid(math.log(max(score, 1e-9) / d.threshold) / d.log_score_spread)
-    anomaly = score > d.threshold
-    cells = np.argsort(-np.abs(z))[:5]
+    anomaly = score > d.threshold or null > null_threshold
+    if null > null_threshold:  # nothing healthy explains the run, whatever the best fault
+        p_anom = max(p_anom, 0.5 + 0.5 * (1.0 - null_threshold / null))
+    z = hm.standardized(m, c)
+    cells = np.argsort(-np.abs(z))[:TOP_CELLS]
+    ncol = len(d.columns)
     evidence: dict[str, Any] = {
         "template": t.name, "isolation_margin": round(margin, 3),
-        "top_cells": [{"window": int(c // len(d.columns)) + 1,
-                       "column": d.columns[int(c % len(d.columns))],
-                       "z": round(float(z[c]), 2)} for c in cells],
+        "healthy_residual": round(null, 1), "healthy_residual_threshold": round(null_threshold, 1),
+        "top_cells": [{"window": int(hm.cells[i, 0] // ncol) + 1,
+                       "column": d.columns[int(hm.cells[i, 0] % ncol)],
+                       "z": round(float(z[i]), 2)} for i in cells],
         "fits": {d.templates[f.template].name: round(f.residual, 1)
                  for f in sorted(fits, key=lambda f: f.residual)[:4]},
+        "conditions": {"dynamic_pressure_pa": round(c.pressure_pa, 1),
+                       "supply_v": round(c.supply_v, 2),
+                       "temperature_c": round(c.temperature_c, 1)},
     }
     if not anomaly:
         return Decision(False, None, None, None, None, None, 1.0 - p_anom, score, d.threshold,
+                        evidence)
+    if score <= 0.0:  # nothing healthy explains the run, and no fault explains it better
+        evidence["unexplained"] = "no dictionary fault explains this record better than health"
+        return Decision(True, None, None, None, None, None, p_anom, score, d.threshold,
                         evidence)
     conf = p_anom * math.tanh(margin / (2.0 * d.score_spread))
     if t.switch:
@@ -150,7 +151,7 @@ def decide(d: Dictionary, m: FloatArray, q: float) -> Decision:
                     evidence)
 
 
-def _nominal(t: Any) -> float:
+def _nominal(t: Template) -> float:
     """The healthy value of a parametric template (extrapolated from its first two points)."""
     s0, s1 = t.severities[0], t.severities[1]
     v0, v1 = t.values[0], t.values[1]
@@ -159,10 +160,8 @@ def _nominal(t: Any) -> float:
 
 def kind_severity(d: Dictionary, m: FloatArray, q: float, kind: str) -> float:
     """The best severity of one parametric kind, whatever the anomaly decision (for trends)."""
-    z = zscores(d, m, q)
-    sigs = signatures(d, q)
+    _, _, fits = _fits(d, m, q)
     idx = [i for i, t in enumerate(d.templates) if t.kind == kind and not t.switch]
-    fits = fit_templates(d, z, sigs)
     return min((fits[i] for i in idx), key=lambda f: f.residual).severity
 
 

@@ -6,15 +6,18 @@ dynamic pressures, and stored as one versioned ``.npz`` (numpy only, no pickle):
 * ``nominal_mean`` ``(K, W, C)`` — M of the healthy actuator at each of the K pressures;
 * ``nominal_sd`` ``(W, C)`` — the healthy spread (seeds: sensor noise, aircraft-bus voltage,
   ambient temperature, friction scatter), pooled over the pressures;
-* ``tpl_<i>`` ``(K, S, W, C)`` — M of template i (one fault kind, or one switch for
-  short/open) at each pressure and severity;
+* ``tpl_<i>`` ``(K, S, 32, 32)`` — the paper's M of template i (one fault kind, or one switch
+  for short/open) at each pressure and severity;
+* ``healthy_*`` — our healthy model (:mod:`~mapr_daemon.reasoner.healthy`), ``fm_*`` the
+  fault signatures in its subspace (:mod:`~mapr_daemon.reasoner.fault_models`);
 * ``paper_<kind>_G`` / ``_V`` / ``_curve`` — the paper's good-times and final-values matrices
   at the reference pressure and the chosen curve's N at every pressure;
 * ``meta_json`` — format version, actuator, windows, signals, columns, pressures, templates,
   calibrated thresholds.
 
-M has W = 32 windows and C = 72 columns (:data:`~mapr_daemon.reasoner.features.EXTENDED_SIGNALS`);
-its first 32 columns are the paper's 32 x 32 M.
+M has W windows and C = 96 columns (:data:`~mapr_daemon.reasoner.features.EXTENDED_SIGNALS`):
+its first 32 rows are the corner windows and its first 32 columns the paper's signals (the
+paper's 32 x 32 M); the further rows tile the whole record (our healthy model's cells).
 """
 
 from __future__ import annotations
@@ -28,9 +31,12 @@ import numpy as np
 import yaml
 
 from mapr_daemon.errors import ConfigError
+from mapr_daemon.reasoner.fault_models import FaultModels
 from mapr_daemon.reasoner.features import FloatArray
+from mapr_daemon.reasoner.healthy import HealthyModel, pressure_weights
 
-FORMAT = "mapr-dictionary/1"
+FORMAT = "mapr-dictionary/2"
+__all__ = ["FORMAT", "Dictionary", "DictionarySpec", "PaperCurve", "Template", "pressure_weights"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -44,10 +50,26 @@ class DictionarySpec:
                               "inverter_ron_a_high", "friction")
     shorts: tuple[str, ...] = ("A_high", "A_low", "B_high", "B_low", "C_high", "C_low")
     opens: tuple[str, ...] = ("A_high", "A_low", "B_high", "B_low", "C_high", "C_low")
+    seeds_per_point: int = 1
+    """Runs per (pressure, severity) of a parametric kind (their mean is the paper's M)."""
+    healthy_runs: int = 48
+    """Healthy runs at random pressures that, with the grid's nominal runs, fit the healthy
+    model (ours)."""
     calibration_runs: int = 48
     calibration_pressure_pa: tuple[float, float] = (0.0, 2500.0)
     window_samples: int = 32
+    record_skip_samples: int = 32
+    """Our record rows tile the record after this many samples."""
+    record_pool: int = 1
+    """Our healthy model's cells average this many consecutive record rows."""
     threshold_margin: float = 1.5
+    """The paper classifier's thresholds: largest healthy calibration N times this."""
+    false_alarm_rate: float = 1.0e-4
+    """Ours: the per-BIT probability that a healthy actuator is flagged."""
+    subspace_dims: int = 32
+    shrinkage_floor: float = 0.0
+    """Least covariance shrinkage of the healthy model (Ledoit-Wolf's estimate if larger)."""
+    knots: tuple[float, ...] = (0.0, 0.125, 0.25, 0.375, 0.5, 0.625, 0.75, 0.875, 1.0)
     seed_base: int = 0
 
     @classmethod
@@ -116,10 +138,17 @@ class Dictionary:
     templates: list[Template]
     template_m: list[FloatArray]
     paper: dict[str, PaperCurve]
+    healthy: HealthyModel | None = None
+    models: FaultModels | None = None
     threshold: float = float("inf")
     score_spread: float = 1.0
     log_score_spread: float = 1.0
     calibration: dict[str, float] = dataclasses.field(default_factory=dict)
+
+    @property
+    def paper_rows(self) -> int:
+        """M's first rows, the paper's corner windows (the rest tile the record)."""
+        return min(32, int(self.window_starts.size))
 
     def save(self, path: str | Path) -> None:
         """Write the versioned ``.npz``."""
@@ -129,6 +158,9 @@ class Dictionary:
         }
         for i, m in enumerate(self.template_m):
             arrays[f"tpl_{i}"] = m
+        if self.healthy is not None and self.models is not None:
+            arrays.update(self.healthy.arrays())
+            arrays.update(self.models.arrays())
         for kind, c in self.paper.items():
             arrays[f"paper_{kind}_G"] = c.g
             arrays[f"paper_{kind}_V"] = c.v
@@ -167,6 +199,9 @@ class Dictionary:
         paper = {k: PaperCurve(k, a[f"paper_{k}_G"], a[f"paper_{k}_V"], int(c["row"]),
                                int(c["col"]), int(c["reference"]), a[f"paper_{k}_curve"],
                                float(c["threshold"])) for k, c in meta["paper"].items()}
+        healthy = HealthyModel.from_arrays(a) if "healthy_coef" in a else None
+        models = (FaultModels.from_arrays(a, len(templates), a["pressures_pa"])
+                  if "fm_knots" in a else None)
         return cls(
             actuator=meta["actuator"], sample_rate_hz=float(meta["sample_rate_hz"]),
             window_samples=int(meta["window_samples"]), window_starts=a["window_starts"],
@@ -174,20 +209,7 @@ class Dictionary:
             pressures_pa=a["pressures_pa"], nominal_mean=a["nominal_mean"],
             nominal_sd=a["nominal_sd"], templates=templates,
             template_m=[a[f"tpl_{i}"] for i in range(len(templates))], paper=paper,
-            threshold=float(meta["threshold"]), score_spread=float(meta["score_spread"]),
+            healthy=healthy, models=models, threshold=float(meta["threshold"]),
+            score_spread=float(meta["score_spread"]),
             log_score_spread=float(meta["log_score_spread"]),
             calibration={k: float(v) for k, v in meta["calibration"].items()})
-
-
-def pressure_weights(grid: FloatArray, q: float) -> FloatArray:
-    """Linear-interpolation weights over the pressure grid (clamped at its ends)."""
-    w = np.zeros(grid.size)
-    if q <= grid[0]:
-        w[0] = 1.0
-    elif q >= grid[-1]:
-        w[-1] = 1.0
-    else:
-        j = int(np.searchsorted(grid, q)) - 1
-        t = (q - grid[j]) / (grid[j + 1] - grid[j])
-        w[j], w[j + 1] = 1.0 - t, t
-    return w

@@ -46,8 +46,18 @@ PAPER_SIGNALS: tuple[str, ...] = ("phase_a_current_a", "phase_b_current_a", "pha
                                   "position_deg")
 """The paper's M: the three phase currents and position (32 columns)."""
 EXTENDED_SIGNALS: tuple[str, ...] = (*PAPER_SIGNALS, "dc_link_current_a", "dc_bus_voltage_v",
-                                     "ripple_rms_v", "smps_input_current_a", "tracking_error_deg")
-"""Ours: the paper's signals plus the DC-bus side and the tracking error (72 columns)."""
+                                     "ripple_rms_v", "smps_input_current_a", "tracking_error_deg",
+                                     "smps_loss_w", "smps_input_voltage_v", "stage_temperature_c")
+"""Ours: the paper's signals plus the DC-bus side, the tracking error, the SMPS conversion loss
+and the two operating-condition channels (aircraft-bus voltage, power-stage temperature, which
+reads ambient at the start of a BIT) — 96 columns."""
+SECTOR_SIGNALS: tuple[str, ...] = ("duty_a_high", "duty_other", "dc_link_a_high_a",
+                                   "a_high_share")
+"""Ours, when the drive reports its commutation sector and applied duty: the duty while phase
+A's high side is the PWM'd switch and while another is, the DC-link current in A-high sectors
+and the share of time in them (phase A's high-side Ron is only visible per sector)."""
+A_HIGH_SECTORS = {1: (1, 2), -1: (4, 5)}
+"""Hall sectors where phase A's high side is PWM'd, by torque sign (the plant's convention)."""
 CURRENT_GROUP: tuple[str, ...] = PAPER_SIGNALS[:3]
 DEFAULT_WINDOW = 32
 WINDOWS_PER_SIDE = 4
@@ -70,6 +80,14 @@ class WindowSpec:
             raise ConfigError(f"windows run outside the record ({n_samples} samples)",
                               field="windows")
         return np.asarray(out, dtype=np.int64)
+
+
+def record_starts(n_samples: int, length: int, skip: int) -> npt.NDArray[np.int64]:
+    """Windows tiling the whole record after the first ``skip`` samples (our record rows)."""
+    if length < 4 or skip < 0 or skip + length > n_samples:
+        raise ConfigError(f"record windows of {length} samples after {skip} do not fit "
+                          f"{n_samples} samples", field="windows")
+    return np.arange(skip, n_samples - length + 1, length, dtype=np.int64)
 
 
 def corner_samples(corners_s: Sequence[float], sample_rate_hz: float) -> tuple[int, ...]:
@@ -130,14 +148,56 @@ def window_values(x: FloatArray, rate: float) -> FloatArray:
                      sp[..., 3] - sp[..., 2]], axis=-1)
 
 
+LOSS_INPUTS = ("smps_input_voltage_v", "smps_input_current_a", "dc_bus_voltage_v",
+               "dc_link_current_a")
+
+
 def derived_signals(channels: Mapping[str, FloatArray],
                     command_deg: FloatArray | None) -> dict[str, FloatArray]:
-    """The channels plus ``tracking_error_deg`` (position minus command) when a command is known."""
+    """The channels plus what is computed from them.
+
+    ``tracking_error_deg`` is position minus command (when a command is known);
+    ``smps_loss_w`` is the SMPS's conversion loss, input power minus output power
+    ``Vin*Iin - Vbus*Idc``: the switch resistances dissipate ``(D*Ron_high + (1-D)*Ron_low)*I^2``
+    there, which the regulated output voltage hides.
+    """
     out = dict(channels)
     if command_deg is not None and "position_deg" in channels:
         pos = channels["position_deg"]
         out["tracking_error_deg"] = pos - np.broadcast_to(command_deg, pos.shape)
+    if all(k in channels for k in LOSS_INPUTS):
+        vin, iin, vbus, idc = (np.asarray(channels[k], dtype=np.float64) for k in LOSS_INPUTS)
+        out["smps_loss_w"] = vin * iin - vbus * idc
+    if "commutation_sector" in channels and "inverter_duty" in channels:
+        out.update(sector_signals(channels))
     return out
+
+
+def sector_signals(channels: Mapping[str, FloatArray]) -> dict[str, FloatArray]:
+    """:data:`SECTOR_SIGNALS` from the drive's sector and signed duty channels.
+
+    Why: a phase-A high-side Ron fault adds its resistance only while that switch carries the
+    current, so the current loop asks for a little more duty there than in the other sectors for
+    the same current; averaged over all sectors that difference drowns.
+    """
+    sector = np.rint(np.asarray(channels["commutation_sector"], dtype=np.float64))
+    duty = np.asarray(channels["inverter_duty"], dtype=np.float64)
+    pos, neg = A_HIGH_SECTORS[1], A_HIGH_SECTORS[-1]
+    a_high = ((duty > 0) & np.isin(sector, pos)) | ((duty < 0) & np.isin(sector, neg))
+    mask = a_high.astype(np.float64)
+    out = {"duty_a_high": np.abs(duty) * mask, "duty_other": np.abs(duty) * (1.0 - mask),
+           "a_high_share": mask}
+    if "dc_link_current_a" in channels:
+        out["dc_link_a_high_a"] = np.asarray(channels["dc_link_current_a"]) * mask
+    return out
+
+
+def reasoner_signals(channels: Sequence[str]) -> tuple[str, ...]:
+    """Our M's signals for records carrying ``channels``: :data:`EXTENDED_SIGNALS`, plus
+    :data:`SECTOR_SIGNALS` when the drive reports its sector and duty."""
+    if "commutation_sector" in channels and "inverter_duty" in channels:
+        return (*EXTENDED_SIGNALS, *SECTOR_SIGNALS)
+    return EXTENDED_SIGNALS
 
 
 def column_names(signals: Sequence[str]) -> list[str]:

@@ -17,12 +17,13 @@ from mapr_daemon.ema.params import ActuatorParams, default_actuator_path, load_a
 from mapr_daemon.reasoner import build
 from mapr_daemon.reasoner.corpus import Runs, simulate_bit
 from mapr_daemon.reasoner.dictionary import Dictionary, DictionarySpec
-from mapr_daemon.reasoner.features import FloatArray, WindowSpec
+from mapr_daemon.reasoner.features import FloatArray
 
 SPEC = DictionarySpec(
-    pressures_pa=(0.0, 1600.0), nominal_per_pressure=4, severities=(0.25, 0.5, 0.75, 1.0),
-    kinds=("esr", "friction"), shorts=("A_high",), opens=("A_high",), calibration_runs=8,
-    calibration_pressure_pa=(200.0, 1400.0), threshold_margin=1.5)
+    pressures_pa=(0.0, 800.0, 1600.0), nominal_per_pressure=4, severities=(0.25, 0.5, 0.75, 1.0),
+    kinds=("esr", "friction"), shorts=("A_high",), opens=("A_high",), seeds_per_point=2,
+    healthy_runs=24, calibration_runs=12, record_pool=3, calibration_pressure_pa=(200.0, 1400.0),
+    threshold_margin=1.5, subspace_dims=8, knots=(0.0, 0.5, 1.0))
 
 HELD_OUT: list[tuple[str, float, float]] = [
     ("healthy", 0.0, 700.0), ("healthy", 0.0, 1100.0), ("healthy", 0.0, 300.0),
@@ -64,7 +65,7 @@ def bench() -> Bench:
     seeds += [50_000 + i for i in range(len(held))]
     roles += ["held"] * len(held)
     runs = simulate_bit(params, fs, qs, seeds)
-    starts = WindowSpec(SPEC.window_samples).starts(runs.corners, runs.command_deg.size)
+    starts = build.windows(SPEC, runs.corners, runs.command_deg.size)
     m = build.run_matrices(runs, starts, SPEC.window_samples)
     role = np.asarray(roles)
     own = role != "held"

@@ -52,7 +52,7 @@ def test_paper_matrix_is_32_by_32_in_the_paper_column_order() -> None:
                          "mean:phase_c_current_a"]
     assert names[3] == "std:phase_a_current_a"
     assert names[24:] == [f"{f}:position_deg" for f in FEATURES]
-    assert len(column_names(EXTENDED_SIGNALS)) == 72
+    assert len(column_names(EXTENDED_SIGNALS)) == 96
     assert column_names(EXTENDED_SIGNALS)[:32] == names
     rng = np.random.default_rng(0)
     sig = {s: rng.standard_normal((2, 2000)) for s in PAPER_SIGNALS}

@@ -1,0 +1,59 @@
+"""The anomaly threshold for a stated false-alarm rate, from healthy calibration runs.
+
+The anomaly score of a healthy run is the energy the best fault template explains of a nearly
+white residual: roughly a scaled chi-square variable. Its scale ``g`` and degrees of freedom
+``h`` are matched to the calibration scores' mean and variance (Satterthwaite's moment match:
+``g = var/(2 mean)``, ``h = 2 mean^2/var``), and the threshold is the ``1 - rate`` quantile of
+``g * chi2(h)`` — but never below the largest calibration score: where the fitted law's tail
+is lighter than the data's, the data wins (``tail_governs``). The calibration runs are not
+used to fit the healthy model (their scores are out of sample, like a flight's), and they are
+flown at random pressures, supply voltages and temperatures. The largest calibration score
+is reported beside the threshold, so a fit that does not describe the tail shows up at once.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+from scipy import stats
+
+from mapr_daemon.errors import ConfigError
+from mapr_daemon.reasoner.features import FloatArray
+
+
+@dataclasses.dataclass(frozen=True)
+class Calibration:
+    """A threshold and how it was reached."""
+
+    threshold: float
+    rate: float
+    scale: float
+    dof: float
+    runs: int
+    score_max: float
+    score_median: float
+    expected_above_max: float
+    """How many of the calibration runs the fitted law expects above their largest score."""
+    tail_governs: bool
+    """True when the largest calibration score, not the fitted quantile, set the threshold."""
+
+
+def calibrate(scores: FloatArray, rate: float) -> Calibration:
+    """The threshold that healthy runs exceed with probability ``rate`` (fitted law)."""
+    s = np.asarray(scores, dtype=np.float64)
+    if s.size < 10:
+        raise ConfigError("need >= 10 healthy calibration runs", field="calibration_runs")
+    if not 0.0 < rate < 0.5:
+        raise ConfigError("the false-alarm rate is a probability below 0.5",
+                          field="false_alarm_rate")
+    s = np.maximum(s, 0.0)
+    mean = float(s.mean())
+    var = float(max(s.var(ddof=1), 1e-12))
+    scale = var / (2.0 * mean) if mean > 0 else 1.0
+    dof = 2.0 * mean * mean / var if mean > 0 else 1.0
+    fitted = float(scale * stats.chi2.isf(rate, dof))
+    above = float(s.size * stats.chi2.sf(s.max() / scale, dof))
+    threshold = max(fitted, float(s.max()))
+    return Calibration(threshold, rate, scale, dof, int(s.size), float(s.max()),
+                       float(np.median(s)), above, fitted < float(s.max()))

@@ -1,0 +1,221 @@
+"""The healthy actuator's model: what a healthy BIT looks like at a run's operating conditions.
+
+Flight-to-flight variation is *removed*, not thresholded. A BIT record's cells (window means
+and spreads of the currents, bus voltage, SMPS input current and conversion loss, ripple,
+position and tracking error over the whole record; :func:`record_cells`) are predicted from the
+run's operating conditions — dynamic pressure (from the air data on the bus), aircraft-bus
+voltage and ambient temperature (both measured by the actuator: the SMPS input voltage and the
+power stage's temperature at the start of a BIT) — by a polynomial least-squares fit over many
+healthy runs. The residual is divided by its healthy spread and whitened with the healthy
+residuals' covariance, shrunk towards the identity by the Ledoit-Wolf formula (there are more
+cells than healthy runs, and what is left — friction scatter, sensor noise, bus drift — is
+correlated across cells). In whitened units a healthy run is close to white noise, so a fault's
+small but consistent pattern stands out.
+
+Last, the whitened residual is projected on the *fault subspace*: the leading directions of the
+fault dictionary's whitened signatures. The classifier works on these few coordinates, whose
+healthy distribution is known (close to chi-square), instead of on thousands of noisy cells.
+
+Ledoit & Wolf, "A well-conditioned estimator for large-dimensional covariance matrices",
+J. Multivariate Analysis 88 (2004) 365-411: the shrinkage intensity of their Lemma 3.3/3.4.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Sequence
+
+import numpy as np
+import numpy.typing as npt
+
+from mapr_daemon.errors import ConfigError
+from mapr_daemon.reasoner.features import FloatArray
+
+PAPER_ROWS = 32
+"""M's first 32 rows are the paper's corner windows; the record rows follow."""
+RECORD_MEANS: tuple[str, ...] = (
+    "dc_link_current_a", "phase_a_current_a", "phase_b_current_a", "phase_c_current_a",
+    "dc_bus_voltage_v", "position_deg", "smps_input_current_a", "ripple_rms_v",
+    "tracking_error_deg", "smps_loss_w", "duty_a_high", "duty_other", "dc_link_a_high_a",
+    "a_high_share")
+"""Signals whose window mean over the record rows is a cell of the healthy model (the sector
+signals only when the dictionary has them)."""
+RECORD_SPREADS: tuple[str, ...] = ("dc_link_current_a", "phase_a_current_a", "dc_bus_voltage_v",
+                                   "ripple_rms_v")
+"""... and whose window standard deviation is one too (the fast response inside a window)."""
+SUPPLY = "mean:smps_input_voltage_v"
+TEMPERATURE = "mean:stage_temperature_c"
+PRESSURE_SCALE_PA = 2500.0
+TEMPERATURE_REF_C = 25.0
+TEMPERATURE_SCALE_K = 10.0
+SD_FLOOR_COLUMN = 0.1
+"""Least healthy spread of a cell, as a share of its column's median spread ..."""
+SD_FLOOR_REL = 1e-3
+"""... and as a share of the column's largest magnitude."""
+
+
+def record_cells(columns: Sequence[str], n_rows: int, pool: int = 1) -> npt.NDArray[np.int64]:
+    """Flat indices into M ``(n_rows, len(columns))`` of the healthy model's cells ``(D, pool)``:
+    each cell is the mean of ``pool`` consecutive record rows of one column (fewer cells than
+    healthy runs keeps the covariance estimable; the windows stay short for the spectra)."""
+    wanted = [f"mean:{s}" for s in RECORD_MEANS] + [f"std:{s}" for s in RECORD_SPREADS]
+    cols = np.asarray([columns.index(c) for c in wanted if c in columns], dtype=np.int64)
+    n_groups = (n_rows - PAPER_ROWS) // max(pool, 1)
+    if cols.size == 0 or n_groups < 1:
+        raise ConfigError("the dictionary's M has no record rows or columns", field="signals")
+    rows = PAPER_ROWS + np.arange(n_groups * pool, dtype=np.int64).reshape(n_groups, pool)
+    flat: npt.NDArray[np.int64] = (rows[:, None, :] * len(columns)
+                                   + cols[None, :, None]).reshape(-1, pool)
+    return flat
+
+
+@dataclasses.dataclass(frozen=True)
+class Conditions:
+    """A run's operating conditions, as the healthy model reads them."""
+
+    pressure_pa: float
+    supply_v: float
+    """Mean aircraft-bus (SMPS input) voltage over the record."""
+    supply_min_v: float
+    """Lowest window mean of it: below the SMPS's headroom a BIT says nothing about faults."""
+    temperature_c: float
+
+
+def conditions(m: FloatArray, columns: Sequence[str], pressure_pa: float) -> Conditions:
+    """The operating conditions of one run from its M ``(W, C)`` and the air data."""
+    vin = m[PAPER_ROWS:, columns.index(SUPPLY)]
+    temp = m[PAPER_ROWS:, columns.index(TEMPERATURE)]
+    return Conditions(float(pressure_pa), float(vin.mean()), float(vin.min()), float(temp.mean()))
+
+
+def pressure_weights(grid: FloatArray, q: float) -> FloatArray:
+    """Linear-interpolation weights over the pressure grid (clamped at its ends)."""
+    w = np.zeros(grid.size)
+    if q <= grid[0]:
+        w[0] = 1.0
+    elif q >= grid[-1]:
+        w[-1] = 1.0
+    else:
+        j = int(np.searchsorted(grid, q)) - 1
+        t = (q - grid[j]) / (grid[j + 1] - grid[j])
+        w[j], w[j + 1] = 1.0 - t, t
+    return w
+
+
+def basis(c: Conditions, supply_nominal_v: float) -> FloatArray:
+    """The regressors of the healthy fit: cubics in pressure and temperature (ESR and Ron follow
+    temperature exponentially over the flight envelope), a quadratic in supply voltage, and the
+    pairwise products."""
+    q = c.pressure_pa / PRESSURE_SCALE_PA
+    v = c.supply_v - supply_nominal_v
+    t = (c.temperature_c - TEMPERATURE_REF_C) / TEMPERATURE_SCALE_K
+    return np.array([1.0, q, q * q, q**3, v, v * v, t, t * t, t**3, q * v, q * t, v * t])
+
+
+def ledoit_wolf(z: FloatArray, floor: float = 0.0) -> tuple[FloatArray, float]:
+    """Shrunk covariance of the rows of ``z`` (zero-mean residuals) and the shrinkage intensity.
+
+    ``S* = (1-a) S + a mu I`` with ``mu = tr(S)/p``; ``a = min(b2, d2)/d2``, ``d2`` the distance
+    of S from ``mu I`` and ``b2`` the sampling noise of S, both per dimension (Frobenius);
+    ``floor`` is a lower bound on ``a``.
+    """
+    n, p = z.shape
+    s = z.T @ z / n
+    mu = float(np.trace(s)) / p
+    d2 = float(((s - mu * np.eye(p)) ** 2).sum()) / p
+    b2 = (float(((z * z).sum(axis=1) ** 2).sum()) / n - float((s * s).sum())) / (n * p)
+    a = 1.0 if d2 <= 0 else min(max(b2, 0.0), d2) / d2
+    a = max(a, floor)
+    return (1.0 - a) * s + a * mu * np.eye(p), a
+
+
+@dataclasses.dataclass
+class HealthyModel:
+    """Prediction, scaling and whitening of the record cells; the fault subspace."""
+
+    cells: npt.NDArray[np.int64]
+    """``(D, pool)`` flat indices into M; a cell is the mean of its ``pool`` entries."""
+    coef: FloatArray
+    """``(P, D)`` least-squares coefficients of the cells on :func:`basis`."""
+    sd: FloatArray
+    """``(D,)`` healthy residual spread per cell."""
+    projection: FloatArray
+    """``(D, K)``: whitening followed by the projection on the fault subspace."""
+    supply_nominal_v: float
+    supply_floor_v: float
+    """Below this input voltage the SMPS cannot hold its output (duty at its maximum)."""
+    shrinkage: float
+
+    def standardized(self, m: FloatArray, c: Conditions) -> FloatArray:
+        """The cells' deviation from the healthy prediction, in healthy spreads ``(D,)``."""
+        x = m.ravel()[self.cells].mean(axis=1)
+        out: FloatArray = (x - basis(c, self.supply_nominal_v) @ self.coef) / self.sd
+        return out
+
+    def coordinates(self, m: FloatArray, c: Conditions) -> FloatArray:
+        """The run's whitened deviation on the fault subspace ``(K,)``."""
+        out: FloatArray = self.standardized(m, c) @ self.projection
+        return out
+
+    def arrays(self) -> dict[str, np.ndarray]:
+        """What :meth:`Dictionary.save` stores."""
+        return {"healthy_cells": self.cells, "healthy_coef": self.coef, "healthy_sd": self.sd,
+                "healthy_projection": self.projection,
+                "healthy_scalars": np.array([self.supply_nominal_v, self.supply_floor_v,
+                                             self.shrinkage])}
+
+    @classmethod
+    def from_arrays(cls, a: dict[str, np.ndarray]) -> HealthyModel:
+        sc = a["healthy_scalars"]
+        return cls(a["healthy_cells"].astype(np.int64), a["healthy_coef"], a["healthy_sd"],
+                   a["healthy_projection"], float(sc[0]), float(sc[1]), float(sc[2]))
+
+
+def fit(m: FloatArray, conds: Sequence[Conditions], cells: npt.NDArray[np.int64],
+        supply_nominal_v: float, supply_floor_v: float,
+        shrinkage_floor: float = 0.0) -> tuple[HealthyModel, FloatArray]:
+    """Fit the prediction and the shrunk whitening on healthy runs ``m (n, W, C)``.
+
+    Returns the model with an identity projection (``(D, D)`` whitening, no subspace yet) and
+    the whitening matrix; :func:`with_subspace` then keeps the fault directions.
+    """
+    x = m.reshape(m.shape[0], -1)[:, cells].mean(axis=2)
+    b = np.stack([basis(c, supply_nominal_v) for c in conds])
+    if x.shape[0] < 2 * b.shape[1]:
+        raise ConfigError(f"need >= {2 * b.shape[1]} healthy runs for the healthy model",
+                          field="healthy_runs")
+    coef: FloatArray = np.linalg.lstsq(b, x, rcond=None)[0]
+    resid = x - b @ coef
+    dof = max(x.shape[0] - b.shape[1], 1)
+    raw_sd = np.sqrt((resid**2).sum(axis=0) / dof)
+    # a cell that barely moves in healthy runs (a parked position, quantised to the same count
+    # every time; a sector share while parked) gets a floor: a tenth of its column's median
+    # spread over the record, and a thousandth of the column's largest magnitude, so a
+    # one-count change there does not count as thousands of spreads
+    col = cells[:, 0] % m.shape[2]
+    floor = np.zeros_like(raw_sd)
+    scale = np.abs(x).max(axis=0)
+    for c in np.unique(col):
+        own = col == c
+        floor[own] = max(SD_FLOOR_COLUMN * float(np.median(raw_sd[own])),
+                         SD_FLOOR_REL * float(scale[own].max()))
+    sd = np.maximum(raw_sd, np.maximum(floor, 1e-9))
+    z = resid / sd
+    cov, a = ledoit_wolf(z, shrinkage_floor)
+    ev, vec = np.linalg.eigh(cov)
+    whiten = vec / np.sqrt(np.maximum(ev, 1e-12 * float(ev.max())))
+    model = HealthyModel(cells, coef, sd, whiten, supply_nominal_v, supply_floor_v, a)
+    return model, whiten
+
+
+def with_subspace(model: HealthyModel, signatures: FloatArray, dims: int) -> HealthyModel:
+    """Keep the ``dims`` leading directions of the whitened fault signatures ``(n, D)``.
+
+    Each signature is scaled to unit length first, so a dead capacitor does not outweigh a
+    slightly worn MOSFET in choosing the directions.
+    """
+    norms = np.linalg.norm(signatures, axis=1, keepdims=True)
+    unit = signatures[norms[:, 0] > 0] / norms[norms[:, 0] > 0]
+    _, _, vt = np.linalg.svd(unit, full_matrices=False)
+    k = min(dims, vt.shape[0])
+    return dataclasses.replace(model, projection=model.projection @ vt[:k].T)
