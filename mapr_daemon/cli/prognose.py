@@ -68,7 +68,8 @@ def run(args: argparse.Namespace) -> int:
         "alpha_lambda": {str(k): v for k, v in s.alpha_lambda.items()},
         "relative_accuracy": {str(k): _num(v) for k, v in s.relative_accuracy.items()},
         "prognostic_horizon_flights": _num(s.horizon),
-        "noise": dataclasses.asdict(s.noise),
+        "noise": None if s.noise is None else dataclasses.asdict(s.noise),
+        "unobservable": s.unobservable,
         "prior": None if s.prior is None else dataclasses.asdict(s.prior),
     }))
     return 0

@@ -31,6 +31,7 @@ import numpy as np
 from mapr_daemon.ema.degradation import Trajectory, trajectory
 from mapr_daemon.ema.faults import Fault, FaultSet, at_severity, nominal_value
 from mapr_daemon.ema.params import ActuatorParams
+from mapr_daemon.errors import ConfigError
 from mapr_daemon.reasoner import classifier, prognosis, trend
 from mapr_daemon.reasoner.build import run_matrices
 from mapr_daemon.reasoner.corpus import simulate_bit
@@ -61,8 +62,10 @@ class Scored:
     alpha_lambda: dict[float, bool]
     relative_accuracy: dict[float, float]
     horizon: float
-    noise: trend.Noise
+    noise: trend.Noise | None
     prior: trend.ShapePrior | None
+    unobservable: str | None = None
+    """Why no RUL was predicted (the per-BIT estimate does not follow the degradation)."""
 
 
 def bit_flights(t: Trajectory, every: int) -> FloatArray:
@@ -86,11 +89,28 @@ def learn_prior(params: ActuatorParams, kind: str, units: int,
     return trend.ShapePrior.learn(kind, paths)
 
 
-def score_units(d: Dictionary, params: ActuatorParams, units: Sequence[tuple[str, int]],
-                bit_every: int = 4, lambdas: Sequence[float] = (0.5, 0.75),
-                alpha: float = 0.2, mean_life: float = 200.0, calibration_reps: int = 4,
-                training_units: int = 8, use_prior: bool = True) -> list[Scored]:
-    """Simulate and score every (kind, unit seed)."""
+@dataclasses.dataclass(frozen=True)
+class Observed:
+    """One unit's BITs: flights, true and estimated degradation, the estimate's noise.
+
+    ``noise`` is None (and ``unobservable`` says why) when the kind's per-BIT estimate does
+    not follow the degradation on the calibration BITs: no trend can be fitted to it.
+    """
+
+    kind: str
+    seed: int
+    trajectory: Trajectory
+    flights: FloatArray
+    h_true: FloatArray
+    h_est: FloatArray
+    noise: trend.Noise | None
+    unobservable: str | None
+
+
+def observe_units(d: Dictionary, params: ActuatorParams, units: Sequence[tuple[str, int]],
+                  bit_every: int = 4, mean_life: float = 200.0,
+                  calibration_reps: int = 4) -> list[Observed]:
+    """Fly every unit's BITs and the calibration BITs (one batch); estimate and calibrate."""
     trajs = [trajectory(params, k, int(mean_life * 2), seed, mean_life) for k, seed in units]
     flights = [bit_flights(t, bit_every) for t in trajs]
     kinds = sorted({k for k, _ in units})
@@ -115,13 +135,16 @@ def score_units(d: Dictionary, params: ActuatorParams, units: Sequence[tuple[str
         value = at_severity(params, kind, min(max(s, 0.0), 1.0)).value
         return prognosis.degradation(params, kind, value)
 
-    noise = {}
+    noise: dict[str, trend.Noise | None] = {}
+    why: dict[str, str | None] = {}
     for k in kinds:
         rows = [n_units + i for i, (kk, _) in enumerate(cal) if kk == k]
-        noise[k] = trend.Noise.measure(np.array([cal[r - n_units][1] for r in rows]),
-                                       np.array([estimate(r, k) for r in rows]))
-    priors = {k: learn_prior(params, k, training_units, mean_life) if use_prior else None
-              for k in kinds}
+        try:
+            noise[k], why[k] = trend.Noise.measure(
+                np.array([cal[r - n_units][1] for r in rows]),
+                np.array([estimate(r, k) for r in rows])), None
+        except ConfigError as e:
+            noise[k], why[k] = None, e.detail
     out = []
     row = 0
     for (kind, seed), t, fl in zip(units, trajs, flights, strict=True):
@@ -129,21 +152,37 @@ def score_units(d: Dictionary, params: ActuatorParams, units: Sequence[tuple[str
         row += fl.size
         h_true = np.array([prognosis.degradation(params, kind, float(t.values[int(f)]))
                            for f in fl])
-        out.append(_score(kind, seed, t, fl, h_true, h_est, lambdas, alpha, noise[kind],
-                          priors[kind]))
+        out.append(Observed(kind, seed, t, fl, h_true, h_est, noise[kind], why[kind]))
     return out
 
 
-def _score(kind: str, seed: int, t: Trajectory, fl: FloatArray, h_true: FloatArray,
-           h_est: FloatArray, lambdas: Sequence[float], alpha: float, noise: trend.Noise,
+def score(observed: Sequence[Observed], params: ActuatorParams, use_prior: bool = True,
+          lambdas: Sequence[float] = (0.5, 0.75), alpha: float = 0.2,
+          training_units: int = 8, mean_life: float = 200.0) -> list[Scored]:
+    """RUL predictions of observed units against their truth."""
+    kinds = sorted({o.kind for o in observed})
+    priors = {k: learn_prior(params, k, training_units, mean_life) if use_prior else None
+              for k in kinds}
+    return [_score(o, lambdas, alpha, priors[o.kind]) for o in observed]
+
+
+def score_units(d: Dictionary, params: ActuatorParams, units: Sequence[tuple[str, int]],
+                bit_every: int = 4, use_prior: bool = True,
+                lambdas: Sequence[float] = (0.5, 0.75), alpha: float = 0.2) -> list[Scored]:
+    """Simulate and score every (kind, unit seed)."""
+    return score(observe_units(d, params, units, bit_every), params, use_prior, lambdas, alpha)
+
+
+def _score(o: Observed, lambdas: Sequence[float], alpha: float,
            prior: trend.ShapePrior | None) -> Scored:
+    t, fl, kind = o.trajectory, o.flights, o.kind
     times, true_rul, est, lo, hi = [], [], [], [], []
     draws_at: dict[float, FloatArray] = {}
     for j in range(fl.size):
         now = float(fl[j])
-        if now < 0.25 * t.eol_flight or j < 3 or t.rul(int(now)) <= 0:
+        if o.noise is None or now < 0.25 * t.eol_flight or j < 3 or t.rul(int(now)) <= 0:
             continue
-        r = trend.fit_rul(fl[: j + 1], h_est[: j + 1], now, kind, noise, prior, seed=j)
+        r = trend.fit_rul(fl[: j + 1], o.h_est[: j + 1], now, kind, o.noise, prior, seed=j)
         times.append(now)
         true_rul.append(t.eol_flight - now)
         est.append(r.rul)
@@ -154,10 +193,12 @@ def _score(kind: str, seed: int, t: Trajectory, fl: FloatArray, h_true: FloatArr
     al: dict[float, bool] = {}
     ra: dict[float, float] = {}
     for lam in lambdas:
-        t_lam = lam * t.eol_flight
-        k = int(np.argmin(np.abs(tt - t_lam)))
+        if tt.size == 0:  # unobservable: every lambda fails
+            al[lam], ra[lam] = False, math.nan
+            continue
+        k = int(np.argmin(np.abs(tt - lam * t.eol_flight)))
         al[lam] = prognosis.alpha_lambda_pass(float(tr[k]), draws_at[float(tt[k])], alpha)
         ra[lam] = prognosis.relative_accuracy(float(tr[k]), float(er[k]))
-    ph = prognosis.prognostic_horizon(tt, tr, er, t.eol_flight, alpha)
-    return Scored(kind, seed, t.eol_flight, fl, h_true, h_est, tt, tr, er, np.array(lo),
-                  np.array(hi), al, ra, ph, noise, prior)
+    ph = prognosis.prognostic_horizon(tt, tr, er, t.eol_flight, alpha) if tt.size else 0.0
+    return Scored(kind, o.seed, t.eol_flight, fl, o.h_true, o.h_est, tt, tr, er, np.array(lo),
+                  np.array(hi), al, ra, ph, o.noise, prior, o.unobservable)
