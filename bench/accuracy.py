@@ -47,6 +47,12 @@ OBSERVABILITY = {
     "smps_ron_low": "weakly observable in the bus data (docs/observability.md)",
     "inverter_ron_a_high": "weakly observable in the bus data (docs/observability.md)",
 }
+ASSEMBLY = {"capacitance": "SMPS output capacitor", "esr": "SMPS output capacitor",
+            "smps_ron_high": "SMPS switches", "smps_ron_low": "SMPS switches",
+            "inverter_ron_a_high": "inverter bridge", "short": "inverter bridge",
+            "open": "inverter bridge", "friction": "motor and gear"}
+"""The part a maintainer replaces for each mode (isolation to it is printed beside the
+mode-level figure, which stays the target's)."""
 
 
 Plan = list[tuple[str, FaultSet, float]]
@@ -125,6 +131,10 @@ def score(name: str, truth: Plan, decisions: list[classifier.Decision],
           f"({detected}/{faulted}); "
           f"false alarms {fa}/{healthy}; anomaly decisions correct {correct}/{faulted + healthy}"
           f" ({100 * correct / (faulted + healthy):.1f} %)")
+    to_part = sum(n for (r, c), n in conf.items()
+                  if r and c in ASSEMBLY and ASSEMBLY[c] == ASSEMBLY.get(r))
+    print(f"isolation to the replaceable part ({', '.join(sorted(set(ASSEMBLY.values())))}):"
+          f" {100 * to_part / faulted:.1f} % ({to_part}/{faulted})")
     iso_pct = 100 * isolated / faulted
     print(f"isolation accuracy {iso_pct:.1f} % ({isolated}/{faulted} faulted runs); "
           f"severity error mean {np.mean(all_err) if all_err else float('nan'):.1f} % of range"
