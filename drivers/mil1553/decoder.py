@@ -79,6 +79,10 @@ class DecoderSettings:
     where no legitimate segment can be a single sample."""
 
 
+BLOCK_SAMPLES = 1 << 18
+"""Largest piece of a chunk decoded at once (see :meth:`ManchesterDecoder.feed`)."""
+
+
 class ManchesterDecoder:
     """Decode a capture stream (DESIGN.md's bit-level format) into words, both buses at once.
 
@@ -100,8 +104,14 @@ class ManchesterDecoder:
         spus = self.sample_rate / 1e6
         self._spus = spus
         self._half = spus / 2
-        self._tail = math.ceil(32 * spus)
-        self._horizon = math.ceil(25 * spus)
+        # A word is decided in a buffer when its sync starts at least this long before the
+        # buffer's end: its 20 µs, and the grid fit of the next word's sync (which ends it),
+        # must be whole in the buffer for the result not to depend on where chunks end.
+        self._horizon = math.ceil(45 * spus)
+        # The undecided part is decoded again with the next samples, with enough before it
+        # for the sync candidates its syncs are checked against (the previous word's, up to
+        # 20 µs back, and the one before that for overlaps).
+        self._tail = self._horizon + math.ceil(30 * spus)
         self._min_batch = math.ceil(64 * spus)
         glitch = self.settings.glitch_filter
         if glitch is None:
@@ -116,9 +126,12 @@ class ManchesterDecoder:
         self._last_sync = {BUS_A: -math.inf, BUS_B: -math.inf}
         self._last_burst = {BUS_A: -math.inf, BUS_B: -math.inf}
         self._covered_until = {BUS_A: -math.inf, BUS_B: -math.inf}
+        self._judged_until = {BUS_A: -math.inf, BUS_B: -math.inf}
         self._open_burst: dict[int, tuple[float, float, float]] = {}
         self._held = empty_words()
         self._complete_until = -math.inf
+        self._decided_until = -math.inf
+        """Sample index (from capture start) before which every sync has been judged."""
         self.samples_seen = 0
 
     # --- public API --------------------------------------------------------------------
@@ -126,6 +139,16 @@ class ManchesterDecoder:
         """Add samples; return the words completed so far (sorted by time)."""
         chunk = np.frombuffer(samples, dtype=np.uint8) if isinstance(samples, bytes) else \
             np.asarray(samples, dtype=np.uint8)
+        if chunk.size <= BLOCK_SAMPLES:
+            return self._feed_block(chunk)
+        # Streaming gives the same words as one call, so a large chunk is decoded in blocks:
+        # the working arrays of a block stay small enough to be reused from one block to
+        # the next instead of being mapped afresh (on a busy bus that costs as much as the
+        # decoding), and to stay in the processor's cache.
+        return np.concatenate([self._feed_block(chunk[start:start + BLOCK_SAMPLES])
+                               for start in range(0, chunk.size, BLOCK_SAMPLES)])
+
+    def _feed_block(self, chunk: npt.NDArray[np.uint8]) -> WordBatch:
         self.samples_seen += chunk.size
         self._buf = np.concatenate([self._buf, chunk]) if self._buf.size else chunk
         if self._buf.size < self._min_batch + self._tail:
@@ -180,6 +203,7 @@ class ManchesterDecoder:
         values = buf[changes]
         out = [self._decode_bus(values, changes, buf.size, bus, horizon, final)
                for bus in (BUS_A, BUS_B)]
+        self._decided_until = self._base + horizon
         return _in_time_order(np.concatenate(out) if out[0].size and out[1].size else
                               out[1] if out[1].size else out[0])
 
@@ -197,7 +221,10 @@ class ManchesterDecoder:
         # ones already emitted from an earlier buffer come again in the kept tail: skip them.
         absolute = anchors + self._base
         decided = anchors < horizon
-        fresh = np.flatnonzero(decided & (absolute > self._last_sync[bus] + 2 * self._spus))
+        # A sync before the previous buffer's horizon was judged there (and emitted or
+        # rejected), whatever this buffer, with less context at its start, makes of it.
+        fresh = np.flatnonzero(decided & (absolute >= self._decided_until) &
+                               (absolute > self._last_sync[bus] + 2 * self._spus))
         if np.any(decided):
             self._last_sync[bus] = max(self._last_sync[bus], float(absolute[decided].max()))
         # A word owns what lies at or after its sync's start less a quarter bit, up to the
@@ -211,9 +238,12 @@ class ManchesterDecoder:
         words["bus"] = bus
         bursts = self._bursts(seg, owned_from, span_end,
                               horizon=math.inf if final else horizon, bus=bus)
-        if np.any(decided):
+        # Words the next buffer decodes again (their sync in its kept tail) cover their
+        # activity there; the others' coverage is remembered.
+        settled = anchors < (horizon if final else min(horizon, n - self._tail))
+        if np.any(settled):
             self._covered_until[bus] = max(self._covered_until[bus],
-                                           float(span_end[decided].max()) + self._base)
+                                           float(span_end[settled].max()) + self._base)
         return np.concatenate([words, bursts]) if bursts.size else words
 
     def _find_syncs(self, seg: Segments) -> tuple[FloatArray, npt.NDArray[np.int8]]:
@@ -316,7 +346,11 @@ class ManchesterDecoder:
         gap_lo = np.r_[0, np.maximum(span_stop, owner_start)]
         gap_hi = np.r_[owner_start, seg.left.size]
         candidates, _ = range_indices(gap_lo, gap_hi)
-        seen = max(self._last_burst[bus], self._covered_until[bus]) - base
+        # Activity before the last buffer's limit was judged there (reported, held open, or
+        # covered), and so was what earlier words cover.
+        seen = max(self._last_burst[bus], self._covered_until[bus],
+                   self._judged_until[bus]) - base
+        self._judged_until[bus] = math.nextafter(limit + base, -math.inf)  # left >= limit
         cand_left = seg.left[candidates]
         loose = candidates[(cand_left > seen) & (cand_left < limit)]
         left, right = seg.left[loose] + base, seg.right[loose] + base
@@ -354,11 +388,12 @@ class ManchesterDecoder:
 
 
 def _in_time_order(words: WordBatch) -> WordBatch:
-    """The words sorted by time (stable); most batches already are, and are not copied."""
-    t_ns = words["t_ns"]
-    if t_ns.size < 2 or bool(np.all(t_ns[1:] >= t_ns[:-1])):
+    """The words sorted by time, bus A first at equal times (so that the order does not
+    depend on which call returned which); most batches already are, and are not copied."""
+    key = words["t_ns"] * 2 + words["bus"]
+    if key.size < 2 or bool(np.all(key[1:] >= key[:-1])):
         return words
-    ordered: WordBatch = words[np.argsort(t_ns, kind="stable")]
+    ordered: WordBatch = words[np.argsort(key, kind="stable")]
     return ordered
 
 
