@@ -52,15 +52,18 @@ def read_words(crossings: FloatArray, crossing_level: npt.NDArray[np.int8], anch
     if count == 0 or rows.size == 0:
         return empty_words()
     owned = crossings[first_owned[0]:]
-    per_word = np.diff(first_owned, append=crossings.size)
-    position = owned - np.repeat(anchors, per_word)
+    per_word = np.empty_like(first_owned)
+    per_word[:-1] = first_owned[1:] - first_owned[:-1]
+    per_word[-1] = crossings.size - first_owned[-1]
+    position = np.repeat(anchors, per_word)
+    np.subtract(owned, position, out=position)
     position /= half
     slot = np.rint(position, out=position).astype(np.int32)
     np.clip(slot, FIRST_SLOT - 1, FIRST_SLOT + BIT_SLOTS, out=slot)
     key = np.repeat(np.arange(-FIRST_SLOT + 1, count * _COLUMNS - FIRST_SLOT + 1, _COLUMNS,
                               dtype=np.int32), per_word)
     key += slot
-    key += (crossing_level[first_owned[0]:] > 0) * np.int32(count * _COLUMNS)
+    np.add(key, np.int32(count * _COLUMNS), out=key, where=crossing_level[first_owned[0]:] > 0)
     tally = np.bincount(key, minlength=2 * count * _COLUMNS).reshape(2, count, _COLUMNS)
     falling, rising = tally[0, rows], tally[1, rows]
     anchors, stop, first_level = anchors[rows], stop[rows], first_level[rows]

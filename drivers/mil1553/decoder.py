@@ -79,7 +79,7 @@ class DecoderSettings:
     where no legitimate segment can be a single sample."""
 
 
-BLOCK_SAMPLES = 1 << 18
+BLOCK_SAMPLES = 1 << 20
 """Largest piece of a chunk decoded at once (see :meth:`ManchesterDecoder.feed`)."""
 
 
@@ -141,10 +141,8 @@ class ManchesterDecoder:
             np.asarray(samples, dtype=np.uint8)
         if chunk.size <= BLOCK_SAMPLES:
             return self._feed_block(chunk)
-        # Streaming gives the same words as one call, so a large chunk is decoded in blocks:
-        # the working arrays of a block stay small enough to be reused from one block to
-        # the next instead of being mapped afresh (on a busy bus that costs as much as the
-        # decoding), and to stay in the processor's cache.
+        # Streaming gives the same words as one call, so a large chunk (a whole file) is
+        # decoded in blocks: the working arrays stay a few MB, whatever the chunk's size.
         return np.concatenate([self._feed_block(chunk[start:start + BLOCK_SAMPLES])
                                for start in range(0, chunk.size, BLOCK_SAMPLES)])
 
@@ -225,7 +223,7 @@ class ManchesterDecoder:
         # rejected), whatever this buffer, with less context at its start, makes of it.
         fresh = np.flatnonzero(decided & (absolute >= self._decided_until) &
                                (absolute > self._last_sync[bus] + 2 * self._spus))
-        if np.any(decided):
+        if decided.any():
             self._last_sync[bus] = max(self._last_sync[bus], float(absolute[decided].max()))
         # A word owns what lies at or after its sync's start less a quarter bit, up to the
         # next word's.
@@ -241,7 +239,7 @@ class ManchesterDecoder:
         # Words the next buffer decodes again (their sync in its kept tail) cover their
         # activity there; the others' coverage is remembered.
         settled = anchors < (horizon if final else min(horizon, n - self._tail))
-        if np.any(settled):
+        if settled.any():
             self._covered_until[bus] = max(self._covered_until[bus],
                                            float(span_end[settled].max()) + self._base)
         return np.concatenate([words, bursts]) if bursts.size else words
@@ -274,7 +272,7 @@ class ManchesterDecoder:
         # previous word's 20 µs and is not followed by the mid-bit crossings of bits 0 and 1,
         # which every real word has (a word with a missing transition there does not start
         # inside another word, so it is kept).
-        inside_previous = np.flatnonzero(np.diff(anchors) < 39.5 * self._half) + 1
+        inside_previous = np.flatnonzero(anchors[1:] - anchors[:-1] < 39.5 * self._half) + 1
         if inside_previous.size:
             suspect = anchors[inside_previous]
             followed = np.ones(suspect.size, dtype=bool)
@@ -288,7 +286,7 @@ class ManchesterDecoder:
         # Two syncs cannot overlap: a sync-like pattern starting inside the previous sync
         # (its second half continued by a bit without its transition) is data.
         overlaps = np.zeros(anchors.size, dtype=bool)
-        overlaps[1:] = np.diff(anchors) < 5.5 * self._half
+        overlaps[1:] = anchors[1:] - anchors[:-1] < 5.5 * self._half
         return anchors[~overlaps], first[~overlaps]
 
     def _phase_correction(self, seg: Segments, middle: FloatArray) -> FloatArray:
@@ -343,8 +341,8 @@ class ManchesterDecoder:
         # bursts) is skipped.
         owner_start = np.searchsorted(seg.left, owned_from)
         span_stop = np.searchsorted(seg.left, words_span_end + margin)
-        gap_lo = np.r_[0, np.maximum(span_stop, owner_start)]
-        gap_hi = np.r_[owner_start, seg.left.size]
+        gap_lo = np.concatenate(([0], np.maximum(span_stop, owner_start)))
+        gap_hi = np.concatenate((owner_start, [seg.left.size]))
         candidates, _ = range_indices(gap_lo, gap_hi)
         # Activity before the last buffer's limit was judged there (reported, held open, or
         # covered), and so was what earlier words cover.
@@ -391,7 +389,7 @@ def _in_time_order(words: WordBatch) -> WordBatch:
     """The words sorted by time, bus A first at equal times (so that the order does not
     depend on which call returned which); most batches already are, and are not copied."""
     key = words["t_ns"] * 2 + words["bus"]
-    if key.size < 2 or bool(np.all(key[1:] >= key[:-1])):
+    if key.size < 2 or bool((key[1:] >= key[:-1]).all()):
         return words
     ordered: WordBatch = words[np.argsort(key, kind="stable")]
     return ordered

@@ -38,9 +38,16 @@ def range_indices(lo: IntArray, hi: IntArray) -> tuple[IntArray, IntArray]:
     """The indices of the concatenated ranges ``[lo[i], hi[i])``, and each range's length
     (0 where ``hi <= lo``). No Python loop: one ``repeat`` and one ``arange``."""
     count = np.maximum(hi - lo, 0)
-    before = np.cumsum(count) - count
-    index: IntArray = np.arange(int(count.sum()), dtype=np.int64) + \
-        np.repeat(lo - before, count)
+    filled = np.flatnonzero(count)
+    # Steps of +1, except at the start of each range, which jumps from the previous one's
+    # end; a running sum (in place, one array) turns them into the indices.
+    index: IntArray = np.ones(int(count.sum()), dtype=np.int64)
+    if index.size:
+        first = (np.cumsum(count) - count)[filled]
+        starts = lo[filled]
+        index[first[0]] = starts[0]
+        index[first[1:]] = starts[1:] - (starts[:-1] + count[filled][:-1] - 1)
+        np.cumsum(index, out=index)
     return index, count
 
 
@@ -51,7 +58,10 @@ def grid_phases(crossings: FloatArray, lo: IntArray, hi: IntArray, centre: Float
     crossing count."""
     index, count = range_indices(lo, hi)
     scale = PHASE_BINS / half
-    phase = (crossings[index] - np.repeat(centre, count)) * scale
+    phase = crossings[index]
+    del index
+    phase -= np.repeat(centre, count)
+    phase *= scale
     bins = np.floor(phase, out=phase).astype(np.int32)
     bins &= PHASE_BINS - 1
     return bins, count
@@ -83,7 +93,7 @@ def fit_grid(bins: npt.NDArray[np.int32], count: IntArray) -> FloatArray:
     middle = (before + 0.5 + (PHASE_BINS + gap) / 2) / PHASE_BINS
     out[filled] = middle - np.floor(middle + 0.5)
     unclear = (gap < CLEAR_GAP * PHASE_BINS) | (np.bitwise_count(starts) > 1)
-    if np.any(unclear):
+    if unclear.any():
         groups = filled[unclear]
         member = np.zeros(count.size, dtype=bool)
         member[groups] = True
