@@ -10,7 +10,8 @@ estimates so far and gives a RUL with 5/50/95 % bounds.
 What the trend is told, besides the unit's own estimates, and where it comes from:
 
 * the estimate's noise (:class:`trend.Noise`): measured on calibration BITs flown at known
-  degradations (0, 1/4 .. 5/4 of the failure threshold, ``calibration_reps`` each, seeds and
+  degradations (0 to 5/4 of the failure threshold, finer below 0.3 where the estimator leaves
+  its dead zone, ``calibration_reps`` each, seeds and
   pressures of their own);
 * optionally (``use_prior``) a fleet prior on the shape parameter (:class:`trend.ShapePrior`),
   learned from the true degradation paths of ``training_units`` other units of the kind
@@ -40,7 +41,7 @@ from mapr_daemon.reasoner.features import FloatArray
 
 TRAINING_SEED = 10_000
 """First unit seed of the fleet-prior training units (disjoint from scored units' seeds)."""
-CALIBRATION_LEVELS: tuple[float, ...] = (0.0, 0.25, 0.5, 0.75, 1.0, 1.25)
+CALIBRATION_LEVELS: tuple[float, ...] = (0.0, 0.05, 0.1, 0.15, 0.2, 0.3, 0.5, 0.75, 1.0, 1.25)
 """Degradations (fractions of the failure threshold) of the noise-calibration BITs."""
 
 
@@ -109,7 +110,7 @@ class Observed:
 
 def observe_units(d: Dictionary, params: ActuatorParams, units: Sequence[tuple[str, int]],
                   bit_every: int = 4, mean_life: float = 200.0,
-                  calibration_reps: int = 4) -> list[Observed]:
+                  calibration_reps: int = 3) -> list[Observed]:
     """Fly every unit's BITs and the calibration BITs (one batch); estimate and calibrate."""
     trajs = [trajectory(params, k, int(mean_life * 2), seed, mean_life) for k, seed in units]
     flights = [bit_flights(t, bit_every) for t in trajs]

@@ -25,7 +25,10 @@ enough to know nothing of the unit's life, or weighted by a fleet prior
 (:class:`ShapePrior`). Given it, ``A`` is linear-Gaussian (weighted least squares with the
 per-BIT estimate's *measured* noise, :class:`Noise`), and the grid's marginal likelihoods
 weight it. Draws of ``(parameter, A)`` give the flight where ``h`` crosses 1 in closed form;
-their 5/50/95 % points are the RUL and its bounds. A draw that
+their 5/50/95 % points are the RUL and its bounds. An estimate in the estimator's dead
+zone (:attr:`Noise.floor`) is censored: it weights the draws by the chance of reading the
+floor, measured as a function of the degradation (importance resampling), instead of being
+fitted as a value. A draw that
 never crosses (``A <= 0``, or beyond ``horizon`` flights) counts as ``inf``.
 """
 
@@ -35,6 +38,8 @@ import dataclasses
 import math
 
 import numpy as np
+import numpy.typing as npt
+from scipy.special import ndtr
 
 from mapr_daemon.ema.degradation import FAILURE
 from mapr_daemon.errors import ConfigError
@@ -48,6 +53,8 @@ SHAPES: dict[str, str] = {
 }
 """The shape family each aging kind is fitted with."""
 
+FLOOR_TOLERANCE = 1e-6
+"""Estimates within this of the lowest calibration estimate count as at the floor."""
 FIXED_AMPLITUDE: dict[str, float] = {"esr": 1.0 / (FAILURE["esr"] - 1.0)}
 """Kinds whose amplitude the physics fixes (the rest fit ``A``)."""
 
@@ -93,28 +100,66 @@ def crossing(shape: str, theta: FloatArray, amp: FloatArray) -> FloatArray:
     return out
 
 
+def _transition(h: FloatArray, at_floor: npt.NDArray[np.bool_]) -> tuple[float, float]:
+    """Where (and how sharply) the estimate leaves its floor as the degradation grows: the
+    degradation where the share of floored estimates, per calibration level, crosses one
+    half (interpolated), and as its sd a quarter of the span from the last all-floored to the
+    first never-floored level (the span taken as +/- 2 sd), at least 0.02."""
+    levels = np.unique(h)
+    share = np.array([at_floor[h == v].mean() for v in levels])
+    below = np.nonzero(share >= 0.5)[0]
+    if below.size == 0:
+        return float(levels[0]), 0.02
+    i = int(below.max())
+    if i + 1 >= levels.size:
+        mid = float(levels[-1])
+    else:
+        f0, f1 = share[i], share[i + 1]
+        mid = float(levels[i] + (f0 - 0.5) / max(f0 - f1, 1e-9) * (levels[i + 1] - levels[i]))
+    full = levels[share >= 1.0]
+    none = levels[share <= 0.0]
+    lo = float(full.max()) if full.size else float(levels[0])
+    hi = float(none[none > lo].min()) if (none > lo).any() else float(levels[-1])
+    return mid, max(0.25 * (hi - lo), 0.02)
+
+
 @dataclasses.dataclass(frozen=True)
 class Noise:
     """The per-BIT degradation estimate as measured against known degradations.
 
     ``estimate = offset + gain*h + e`` with ``sd(e) = sd0 + sd1*h``: measured on BITs flown at
     known degradation (:meth:`measure`), so the trend is fitted on the estimate's own scale
-    error and scatter, not on an assumed one.
+    error and scatter, not on an assumed one. ``floor``: the estimator's dead zone — a value it
+    reports for every degradation too small to tell from healthy scatter (the classifier's
+    healthy band). An estimate at the floor says only "at most this much" and is treated as
+    censored, not as a measurement of zero.
     """
 
     sd0: float
     sd1: float = 0.0
     offset: float = 0.0
     gain: float = 1.0
+    floor: float | None = None
+    detection: float = 0.0
+    """Degradation at which half the estimates leave the floor (measured)."""
+    detection_sd: float = 0.02
+    """Width of that transition (measured; at least 0.02)."""
 
     @classmethod
     def measure(cls, h_true: FloatArray, h_est: FloatArray) -> Noise:
-        """Linear calibration of the estimate on the truth, and its scatter's growth."""
+        """Linear calibration of the estimate on the truth (above its floor), its scatter."""
         x = np.asarray(h_true, dtype=np.float64)
         y = np.asarray(h_est, dtype=np.float64)
+        low = float(y.min())
+        at_floor = y <= low + FLOOR_TOLERANCE
+        floor = low if at_floor.sum() >= 2 else None
+        detection, detection_sd = 0.0, 0.02
+        if floor is not None:
+            detection, detection_sd = _transition(x, at_floor)
+            x, y = x[~at_floor], y[~at_floor]
         if x.size < 4 or np.ptp(x) <= 0.0:
-            raise ConfigError("need at least four estimates at two or more degradations",
-                              field="noise")
+            raise ConfigError("need at least four estimates above the floor at two or more "
+                              "degradations", field="noise")
         gain, offset = np.polyfit(x, y, 1)
         if gain <= 0.05:
             raise ConfigError(f"the estimate does not follow the degradation (gain {gain:.3g})",
@@ -124,10 +169,19 @@ class Noise:
         if s0 <= 0.0 or s1 < 0.0:  # keep the growth non-negative and the floor positive
             s1 = max(s1, 0.0)
             s0 = max(float(np.mean(resid - s1 * x)), 1e-3)
-        return cls(float(s0), float(s1), float(offset), float(gain))
+        return cls(float(s0), float(s1), float(offset), float(gain), floor, detection,
+                   detection_sd)
 
     def sd(self, h: FloatArray) -> FloatArray:
         out: FloatArray = self.sd0 + self.sd1 * np.clip(h, 0.0, 1.5)
+        return out
+
+    def censored(self, h_est: FloatArray) -> npt.NDArray[np.bool_]:
+        """Which estimates sit at the floor."""
+        y = np.asarray(h_est, dtype=np.float64)
+        if self.floor is None:
+            return np.zeros(y.shape, dtype=bool)
+        out: npt.NDArray[np.bool_] = y <= self.floor + FLOOR_TOLERANCE
         return out
 
 
@@ -195,10 +249,16 @@ def fit_rul(flights: FloatArray, h_est: FloatArray, now: float, kind: str, noise
     if kind not in SHAPES:
         raise ConfigError(f"no aging shape for {kind!r}", field="kind")
     shape = SHAPES[kind]
-    n = np.asarray(flights, dtype=np.float64)
-    if n.size < 3:
+    n_all = np.asarray(flights, dtype=np.float64)
+    est = np.asarray(h_est, dtype=np.float64)
+    if n_all.size < 3:
         raise ConfigError("need at least three BITs to trend", field="flights")
-    y = (np.asarray(h_est, dtype=np.float64) - noise.offset) / noise.gain
+    cens = noise.censored(est)
+    if (~cens).sum() < 2:  # nothing above the dead zone yet: no degradation to trend
+        return RulEstimate(math.inf, math.inf, math.inf, np.full(n_draws, math.inf),
+                           horizon=horizon)
+    n = n_all[~cens]
+    y = (est[~cens] - noise.offset) / noise.gain
     sd = noise.sd(y) / noise.gain
     w = 1.0 / (sd * sd)
     theta = _GRIDS[shape]
@@ -210,6 +270,15 @@ def fit_rul(flights: FloatArray, h_est: FloatArray, now: float, kind: str, noise
     rng = np.random.default_rng(seed)
     idx = rng.choice(theta.size, size=n_draws, p=post)
     a = amp[idx] + rng.standard_normal(n_draws) / np.sqrt(precision[idx])
+    if cens.any() and noise.floor is not None:
+        # censored BITs: weight each draw by P(its estimate would sit at the floor)
+        h_c = a[:, None] * basis(shape, theta[idx], n_all[cens])
+        h_c = np.where(np.isfinite(h_c), h_c, 1e6)
+        z = (noise.detection - h_c) / noise.detection_sd
+        logw = np.log(np.maximum(ndtr(z), 1e-300)).sum(axis=1)
+        wts = np.exp(logw - logw.max())
+        pick = rng.choice(n_draws, size=n_draws, p=wts / wts.sum())
+        idx, a = idx[pick], a[pick]
     ruls = np.maximum(crossing(shape, theta[idx], a) - now, 0.0)
     ruls = np.where(ruls > horizon, np.inf, ruls)
     q5, q50, q95 = quantiles(ruls)

@@ -85,3 +85,30 @@ def test_fleet_prior_learns_the_shape_of_other_units() -> None:
     # exponential Ron aging: a few e-foldings over lives of 140-260 flights
     r = learn_prior(PARAMS, "smps_ron_high", 6)
     assert 2.0 / 260 < math.exp(r.mean) < 4.0 / 140
+
+
+def test_a_dead_zone_is_measured_and_its_estimates_censored_not_fitted_as_zero() -> None:
+    """An estimator that reads 0 until the degradation passes 0.15: the floor and the
+    transition are measured, and the RUL from a path read through it stays within 20 %,
+    where fitting the zeros as values pulls the curve steep (RUL far too short)."""
+    rng = np.random.default_rng(6)
+    levels = np.repeat([0.0, 0.05, 0.1, 0.15, 0.2, 0.3, 0.5, 0.75, 1.0, 1.25], 6)
+
+    def read(h: FloatArray) -> FloatArray:
+        e = h + 0.03 * rng.standard_normal(h.size)
+        return np.where(h < 0.15, 0.0, np.maximum(e, 0.0))
+
+    noise = trend.Noise.measure(levels, read(levels))
+    assert noise.floor == 0.0
+    assert noise.detection == pytest.approx(0.15, abs=0.05)
+    eol, n, h = _path("capacitance", 4)
+    now = round(0.75 * eol)
+    seen = n <= now
+    est = read(h[seen])
+    assert (est == 0.0).sum() > 10
+    prior = learn_prior(PARAMS, "capacitance", 8)
+    r = trend.fit_rul(n[seen], est, now, "capacitance", noise, prior)
+    assert r.rul == pytest.approx(eol - now, rel=0.2)
+    naive = trend.fit_rul(n[seen], est, now, "capacitance",
+                          trend.Noise(noise.sd0, noise.sd1, noise.offset, noise.gain), prior)
+    assert abs(naive.rul - (eol - now)) > abs(r.rul - (eol - now))
