@@ -7,8 +7,10 @@ computer sends ``INITIATED_BIT`` with a new sequence number in the BIT request m
 the EMA's contract (docs/testbed.md) the profile's first sample is the drive's first sample
 after the request arrives. So the record starts at the first fast-block sample time-tagged
 after the request message: the EMA's sample blocks (2 kHz) are taken from there sample for
-sample, the slow block (100 Hz) is interpolated onto the same grid, and the record goes to
-:meth:`Reasoner.diagnose` with the dynamic pressure the air-data computer reported meanwhile.
+sample (and the power block's, taken with them), the slow block (100 Hz temperatures, which
+the reasoner uses only as a condition) is interpolated onto the same grid, and the record
+goes to :meth:`Reasoner.diagnose` with the dynamic pressure the air-data computer reported
+meanwhile.
 Other motion (a pilot's aileron inputs) is not a BIT and is ignored.
 """
 
@@ -23,7 +25,7 @@ import numpy as np
 from mapr_daemon.icd import Series
 from mapr_daemon.reasoner.events import Reasoner
 from mapr_daemon.reasoner.features import FloatArray
-from mapr_daemon.testbed.aircraft import FAST_CHANNELS, SLOW_CHANNELS
+from mapr_daemon.testbed.aircraft import FAST_CHANNELS, POWER_CHANNELS, SLOW_CHANNELS
 from mapr_daemon.testbed.profiles import Profile, bit_profile
 
 log = logging.getLogger("mapr.reasoner")
@@ -33,7 +35,7 @@ INITIATED_BIT = 2
 TIMEBASE = "phase_current_a"
 """A fast-block channel whose sample times are the BIT record's grid."""
 PRESSURE = "dynamic_pressure"
-CHANNELS = {**FAST_CHANNELS, **SLOW_CHANNELS}
+CHANNELS = {**FAST_CHANNELS, **POWER_CHANNELS, **SLOW_CHANNELS}
 """ICD parameter -> reasoner channel name (the testbed aircraft's wiring)."""
 SECTOR, DUTY, DIRECTION = "commutation_sector", "pwm_duty", "drive_direction"
 """The drive's own state in the fast block: Hall sector, and duty as sign-magnitude; they

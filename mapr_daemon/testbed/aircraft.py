@@ -46,10 +46,10 @@ HISTORY_S = 0.2
 FAST_CHANNELS = {"dc_link_current": "dc_link_current_a", "phase_current_a": "phase_a_current_a",
                  "phase_current_b": "phase_b_current_a", "phase_current_c": "phase_c_current_a",
                  "dc_bus_voltage": "dc_bus_voltage_v", "surface_position": "position_deg"}
+POWER_CHANNELS = {"smps_input_voltage": "smps_input_voltage_v",
+                  "smps_input_current": "smps_input_current_a", "smps_ripple_rms": "ripple_rms_v"}
 SLOW_CHANNELS = {"motor_temperature": "motor_temperature_c",
-                 "power_stage_temperature": "stage_temperature_c",
-                 "smps_input_voltage": "smps_input_voltage_v",
-                 "smps_input_current": "smps_input_current_a", "smps_ripple_rms": "ripple_rms_v"}
+                 "power_stage_temperature": "stage_temperature_c"}
 
 
 def isa(altitude_m: float) -> tuple[float, float]:
@@ -164,6 +164,13 @@ class EmaTerminal:
         values["pwm_duty"] = [min(1.0, abs(v)) for v in duty]
         values.update(fast_overrun=0, fast_adc_fault=0, fast_seq=self._next("fast"))
         return list(self.icd.encode("ema_fast_block", values, strict=False))
+
+    def power_block(self, t_ns: int) -> list[int]:
+        self.run_to(t_ns)
+        values: dict[str, Any] = {icd_name: self.latest(plant_name, 4)
+                                  for icd_name, plant_name in POWER_CHANNELS.items()}
+        values["power_seq"] = self._next("power")
+        return list(self.icd.encode("ema_power_block", values, strict=False))
 
     def slow_block(self, t_ns: int) -> list[int]:
         self.run_to(t_ns)
@@ -319,6 +326,7 @@ class Aircraft:
         ema_messages = {m.name: m for m in self.icd.messages if m.rt == 5}
         ema = RemoteTerminal(
             5, transmit={ema_messages["ema_fast_block"].subaddress: self.ema.fast_block,
+                         ema_messages["ema_power_block"].subaddress: self.ema.power_block,
                          ema_messages["ema_slow_block"].subaddress: self.ema.slow_block,
                          ema_messages["ema_position_feedback"].subaddress: self.ema.feedback,
                          ema_messages["ema_bit_result"].subaddress: self.ema.bit_result},

@@ -57,10 +57,11 @@ def test_decode_with_the_message_table_adds_engineering_values() -> None:
     result = mapr("decode", EMA, "--icd", ICD)
     assert result.returncode == 0, result.stderr
     records = [json.loads(x) for x in result.stdout.splitlines()]
-    assert len(records) == 19 and all(r["errors"] == [] for r in records)
+    assert len(records) == 29 and all(r["errors"] == [] for r in records)
     by_name = {r["values"]["message"]: r["values"] for r in records if "values" in r}
-    assert set(by_name) >= {"ema_fast_block", "ema_position_command", "ema_position_feedback",
-                            "adc_air_data", "ema_slow_block", "ema_air_data"}
+    assert set(by_name) >= {"ema_fast_block", "ema_power_block", "ema_position_command",
+                            "ema_position_feedback", "adc_air_data", "ema_slow_block",
+                            "ema_air_data"}
     air = by_name["adc_air_data"]
     assert air["pressure_altitude"] == 1500.0 and abs(air["true_airspeed"] - 55.0) < 0.01
     assert len(by_name["ema_fast_block"]["surface_position"]) == 4

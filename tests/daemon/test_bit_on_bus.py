@@ -17,7 +17,7 @@ from mapr_daemon.ema.params import default_actuator_path, load_actuator, with_sa
 from mapr_daemon.icd import SignalStream, load_icd
 from mapr_daemon.reasoner.dictionary import Dictionary
 from mapr_daemon.reasoner.events import Reasoner
-from mapr_daemon.testbed.aircraft import FAST_CHANNELS, Aircraft
+from mapr_daemon.testbed.aircraft import FAST_CHANNELS, POWER_CHANNELS, Aircraft
 from mapr_daemon.testbed.profiles import bit_profile, steady_profile
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -73,10 +73,10 @@ def test_the_watcher_rebuilds_the_emas_own_samples(
     start = aircraft.ema.bit_start
     assert start is not None
     n = watch.profile.n_samples
-    for plant_name in FAST_CHANNELS.values():
+    for plant_name in (*FAST_CHANNELS.values(), *POWER_CHANNELS.values()):
         took = aircraft.ema.history[plant_name][start:start + n]
-        # sample for sample, within the table's 1 mA / 1 mV / 1 mdeg quantization
-        np.testing.assert_allclose(channels[plant_name], took, atol=0.0011, err_msg=plant_name)
+        # sample for sample, within half the table's 1 mA / 1 mV / 1 mdeg / 0.1 mV step
+        np.testing.assert_allclose(channels[plant_name], took, atol=0.00051, err_msg=plant_name)
     # the drive's own state: the sector exactly, the signed duty within the table's lsb
     sector = aircraft.ema.history["commutation_sector"][start:start + n]
     np.testing.assert_array_equal(channels["commutation_sector"], sector)

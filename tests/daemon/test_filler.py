@@ -27,7 +27,7 @@ def fly(fill: bool) -> tuple[Counter[tuple[int, int]], float, int]:
 def test_filler_loads_the_bus_and_leaves_the_icd_traffic_alone() -> None:
     plain, plain_load, _ = fly(False)
     filled, load, filled_ns = fly(True)
-    assert plain_load < 40 and load > 90
+    assert plain_load < 60 and load > 90   # the ICD alone loads the bus to ~53 %
     spare = {rt for rt, _ in filled} - {rt for rt, _ in plain}
     assert len(spare) == 1
     assert {k: v for k, v in filled.items() if k[0] not in spare} == plain

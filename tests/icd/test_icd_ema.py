@@ -12,10 +12,11 @@ from mapr_daemon.icd.traffic import pattern_value, pattern_values, schedule_reco
 # Hand count, 10 µs response and 10 µs gap: words x 20 µs + responses x 10 + 10 µs.
 EXPECTED_US = {
     "ema_fast_block": (500, 31 * 20 + 10 + 10),       # cmd, status, 29 data
+    "ema_power_block": (500, 15 * 20 + 10 + 10),      # cmd, status, 13 data
     "ema_position_command": (100, 5 * 20 + 10 + 10),  # cmd, 3 data, status
     "ema_position_feedback": (100, 6 * 20 + 10 + 10),
     "adc_air_data": (50, 14 * 20 + 10 + 10),
-    "ema_slow_block": (20, 28 * 20 + 10 + 10),
+    "ema_slow_block": (20, 13 * 20 + 10 + 10),
     "ema_air_data": (10, 6 * 20 + 2 * 10 + 10),       # 2 cmds, 2 statuses, 2 data
     "ema_bit_request": (1, 3 * 20 + 10 + 10),
     "ema_bit_result": (1, 4 * 20 + 10 + 10),
@@ -52,17 +53,18 @@ def test_bus_load_matches_a_hand_count(ema):
     load = ema.bus_load()
     expected = sum(rate * us for rate, us in EXPECTED_US.values()) / 1e6
     assert load.load == pytest.approx(expected)
-    assert load.load == pytest.approx(0.37428)
-    assert load.busiest_frame_us == 640 + 580      # fast block + slow block in frame 3
+    assert load.load == pytest.approx(0.52828)
+    assert load.busiest_frame_us == 640 + 320 + 300    # fast, power, air data in frame 2
     assert load.peak_frame_load < 0.75
-    assert load.data_words_per_s == 500 * 29 + 100 * 3 + 100 * 4 + 50 * 12 + 20 * 26 + 10 * 2 \
-        + 1 + 2
+    assert load.data_words_per_s == 500 * 29 + 500 * 13 + 100 * 3 + 100 * 4 + 50 * 12 \
+        + 20 * 11 + 10 * 2 + 1 + 2
 
 
 def test_fast_channels_get_2_khz(ema):
-    message = ema.message("ema_fast_block")
-    assert message.group.sample_rate_hz == 2000
-    assert message.group.samples * message.rate_hz == 2000
+    for name in ("ema_fast_block", "ema_power_block"):   # every channel the reasoner compares
+        message = ema.message(name)
+        assert message.group.sample_rate_hz == 2000
+        assert message.group.samples * message.rate_hz == 2000
 
 
 def _values_at_limits(message, which):
@@ -121,7 +123,7 @@ def test_one_second_of_schedule_traffic_decodes_to_what_the_terminals_sent(ema):
     for name, s in series.items():
         p = s.parameter
         assert not s.flags.any(), name
-        if name in ("fast_seq", "slow_seq"):      # block counters: checked by the stream
+        if name in ("fast_seq", "power_seq", "slow_seq"):   # block counters: checked by the stream
             continue
         expected = np.array([pattern_value(p, int(t)) for t in s.t_ns])
         if p.type is ParamType.ENUM:
@@ -135,6 +137,7 @@ def test_one_second_of_schedule_traffic_decodes_to_what_the_terminals_sent(ema):
     fast = series["phase_current_a"]
     assert len(fast) == 2000
     assert np.abs(np.diff(fast.t_ns) - 500_000).max() < 1_000    # uniform 2 kHz within 1 µs
-    assert len(series["smps_ripple_rms"]) == 100
+    assert len(series["smps_ripple_rms"]) == 2000
+    assert len(series["motor_temperature"]) == 100
     assert len(series["position_command"]) == 100
 
