@@ -66,9 +66,14 @@ class BitWatch:
         self.bits_seen = 0
         self.last_onset: int | None = None
         """First-sample time tag of the last BIT diagnosed."""
+        self.failures: list[tuple[int, str]] = []
+        """(first-sample time tag, error) of each BIT the reasoner failed on in the last
+        :meth:`feed` call."""
+        self.failure_count = 0
 
     def feed(self, series: Mapping[str, Series]) -> list[dict[str, Any]]:
         """Take a batch of decoded series; returns the events of BITs completed by it."""
+        self.failures = []
         now = None
         for name, (times, values) in self.buffers.items():
             s = series.get(name)
@@ -86,8 +91,15 @@ class BitWatch:
             if self.pending is None or now is None or \
                     now < self.pending + self.span_ns + 4 * self.period_ns:
                 return events
-            event = self._diagnose(self.pending)
-            self.pending = None
+            onset, self.pending = self.pending, None
+            try:
+                event = self._diagnose(onset)
+            except Exception as error:  # a reasoner fault costs this BIT, not the daemon
+                log.exception("BIT at bus time %.3f s: the reasoner failed; BIT skipped",
+                              onset / 1e9)
+                self.failures.append((onset, f"{type(error).__name__}: {error}"))
+                self.failure_count += 1
+                continue
             if event is not None:
                 events.append(event)
 

@@ -207,7 +207,7 @@ def parse(raw: Any, path: str) -> Config:
         "realtime": ("bool", {}), "bit_level": ("bool", {}), "fill_bus": ("bool", {})})
     reasoner = _section(r, raw, "reasoner", ReasonerConfig, {
         "dictionary": ("path", {"optional": True}),
-        "threshold": ("float", {"minimum": 0.0, "optional": True}), "paper": ("bool", {})})
+        "threshold": ("float", {"minimum": 1e-9, "optional": True}), "paper": ("bool", {})})
     catalog = _section(r, raw, "catalog", CatalogConfig, {
         "path": ("path", {}), "durability": ("str", {"choices": ("power-loss", "crash")}),
         "stats_interval_s": ("float", {"minimum": 0.1})})

@@ -281,6 +281,9 @@ class Service:
         if self.pipe.watch is None:
             return
         decisions = self.pipe.watch.feed(series)
+        for _, error in self.pipe.watch.failures:  # logged by the watcher
+            now = time.time_ns()
+            self._catalog(self.catalog.record_gap, now, now, f"reasoner failed on a BIT: {error}")
         anomalies = [d for d in decisions if d["anomaly"]]
         if anomalies:
             asset = self.pipe.config.assets[0]

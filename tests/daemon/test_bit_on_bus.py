@@ -102,3 +102,17 @@ def test_healthy_bus_flown_bits_score_below_the_dictionarys_own_threshold(
     (event,) = watch.feed(SignalStream(ICD).feed(opened))
     assert event["anomaly"] is True and event["fault"] == "open"
     assert event["evidence"]["score"] > 10 * max(scores)
+
+
+def test_a_reasoner_failure_costs_the_bit_not_the_watcher(
+        healthy: tuple[Aircraft, list[object]], dictionary: Path) -> None:
+    """A damaged dictionary (its list of M's columns cut short) makes the reasoner raise: the
+    watcher logs it, names it in ``failures`` for the daemon's catalog, and carries on."""
+    damaged = Dictionary.load(dictionary)
+    damaged.columns = damaged.columns[:3]
+    watch = BitWatch(Reasoner(damaged, load_actuator(default_actuator_path())))
+    series = SignalStream(ICD).feed(healthy[1])
+    assert watch.feed(series) == []
+    assert watch.failure_count == 1 and len(watch.failures) == 1
+    assert watch.failures[0][0] == watch.last_onset
+    assert watch.feed({}) == [] and watch.failures == [], "the failed BIT is not retried"
