@@ -48,7 +48,7 @@ from mapr_daemon.testbed.profiles import CONDITIONS, bit_profile
 from mapr_daemon.testbed.profiles_jsbsim import jsbsim_flight
 
 DEFAULT_ICD = "configs/icd/ema-testbed.yaml"
-DEFAULT_FAULT = "inverter_ron_a_high=0.18"
+DEFAULT_FAULT = "esr@0.6"
 INJECTED = (Injection("parity", rt=5, sa=4, skip=40),
             Injection("no_response", rt=6, sa=1, skip=20))
 """Two bus errors the demo injects: a parity error in an EMA feedback word, and the air-data
