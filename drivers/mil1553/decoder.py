@@ -2,7 +2,8 @@
 
 Feed it chunks of any size (a chunk may split a word anywhere); the words come out once they
 are complete, and :meth:`ManchesterDecoder.flush` finishes the capture. The result is the same
-as one call on the whole capture.
+as one call on the whole capture: a sync is judged only with 45 µs of line after it, the end
+of a buffer is decoded again with the next samples, and what was judged is never re-emitted.
 
 How a word is found and read (all steps are numpy operations over every word at once):
 
@@ -13,14 +14,14 @@ How a word is found and read (all steps are numpy operations over every word at 
    0.5 µs circle that holds all the crossings' phases (the circular midrange) fixes the grid
    so that no crossing is further from its slot than half their spread, even when every
    crossing is off by ±150 ns; where the phases cover most of the circle (low sample rates
-   quantize them) the circular mean takes over.
+   quantize them) the circular mean takes over (:mod:`drivers.mil1553.gridfit`).
 3. *Validation.* A real sync holds its level for three half-bits on each side: the segment
    before the middle crossing must start at or before grid slot 0 and the one after it end at
    or after slot 6; anything else (a long data run) is not a sync.
 4. *Bits.* Crossings are counted per half-bit slot. A good bit has exactly one crossing at
    its middle slot (its direction is the bit: positive-to-negative = 1) and at most one at its
    start slot; a missing mid-bit transition leaves the middle empty, a glitch adds a pair.
-   Either way the word is flagged ``manchester``.
+   Either way the word is flagged ``manchester`` (:mod:`drivers.mil1553.bitread`).
 5. *Length.* Where activity stops (or the next sync starts) gives the number of bits sent:
    fewer than 17 is ``bit_count_low``, more is ``bit_count_high``. Parity is odd over 17 bits.
 6. *Leftovers.* Activity that no valid sync accounts for (noise, a mangled sync) is reported
@@ -92,7 +93,10 @@ class ManchesterDecoder:
     >>> dec = ManchesterDecoder(10e6)
     >>> words = np.concatenate([dec.feed(samples), dec.flush()])
     >>> hex(int(words["value"][0])), int(words["t_ns"][0]), int(words["errors"][0])
-    ('0x2822', 1000, 0)
+    ('0x2822', 958, 0)
+
+    (The sync starts at 1000 ns; at 10 MS/s a change is only known to within a 100 ns
+    sample, and is timed half a sample before the first sample that shows it.)
     """
 
     def __init__(self, sample_rate: float, settings: DecoderSettings | None = None) -> None:
