@@ -148,7 +148,9 @@ def test_a_slow_consumer_loses_nothing() -> None:
     """The reader thread keeps reading into its bounded queue while nobody calls recv()."""
     card = SerialCard(buses=1)
     done: queue.Queue[int] = queue.Queue()
-    with SerialMonitor(port=card.path(0), idle_s=0.01, queue_chunks=4) as monitor:
+    # idle_s well above any scheduling stall of the writer thread on a loaded machine: a pause
+    # longer than idle_s inside a message would (rightly) end its transmission early
+    with SerialMonitor(port=card.path(0), idle_s=0.5, queue_chunks=4) as monitor:
         writer = threading.Thread(target=lambda: [card.write(0, _bc_rt(i % 30 + 1))
                                                   for i in range(200)] and done.put(1))
         writer.start()
