@@ -129,7 +129,7 @@ class Service:
         if reader is not None:
             reader.stop()
             reader.join(timeout=0.5)
-            self._note_reader(reader)
+            self._report_dropped(self._note_reader(reader))   # drops up to the very end too
         while True:   # what is queued is still processed (nothing received is lost)
             try:
                 self._handle(self.queue.get_nowait())
@@ -316,7 +316,10 @@ class Service:
         reader = self.reader
         if reader is None:
             return
-        lost = self._note_reader(reader)
+        self._report_dropped(self._note_reader(reader))
+
+    def _report_dropped(self, lost: int) -> None:
+        """Every drop is said: a log line, a catalog gap and STATUS."""
         if not lost:
             return
         self.state = f"reasoner behind: {self.dropped} messages dropped"
