@@ -10,8 +10,7 @@ after the request message: the EMA's sample blocks (2 kHz) are taken from there 
 sample (and the power block's, taken with them), the slow block (100 Hz temperatures, which
 the reasoner uses only as a condition) is interpolated onto the same grid, and the record
 goes to :meth:`Reasoner.diagnose` with the dynamic pressure the air-data computer reported
-meanwhile.
-Other motion (a pilot's aileron inputs) is not a BIT and is ignored.
+meanwhile. Other motion (a pilot's aileron inputs) is not a BIT and is ignored.
 """
 
 from __future__ import annotations
