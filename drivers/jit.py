@@ -1,0 +1,42 @@
+"""Compiled kernels: the one place MAPR turns a Python function into machine code.
+
+Most of MAPR's hot paths are numpy batches. A few are not expressible as a handful of array
+passes without paying for twenty of them: a state machine over a stream of edges, or a
+switched-mode plant stepped every 25 µs, where each step depends on the one before. Those are
+written as plain loops over numpy arrays and compiled with numba's ``njit``; this module is the
+only importer of numba, so the options (cached to disk, no GIL, no Python objects) are chosen
+once and a kernel keeps its type signature for mypy.
+
+Kernels are cached next to their source (``__pycache__``) or, where that is read-only, in
+``NUMBA_CACHE_DIR`` (the systemd unit sets it to the service's cache directory). The first call
+in a fresh install compiles; later processes load the cached machine code.
+
+Example::
+
+    from drivers.jit import kernel
+
+    @kernel
+    def count_edges(samples: np.ndarray) -> int:
+        n = 0
+        for i in range(1, samples.size):
+            n += samples[i] != samples[i - 1]
+        return n
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any, TypeVar, cast
+
+import numba
+
+Function = TypeVar("Function", bound=Callable[..., Any])
+
+
+def kernel(function: Function) -> Function:
+    """Compile ``function`` in nopython mode, cached on disk, releasing the GIL.
+
+    The decorated function keeps its Python signature for type checkers; at run time it is
+    numba's dispatcher, which compiles once per argument-type combination.
+    """
+    return cast(Function, numba.njit(cache=True, nogil=True)(function))
