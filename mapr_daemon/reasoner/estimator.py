@@ -33,6 +33,7 @@ from typing import Any
 import numpy as np
 from filterpy.kalman import ExtendedKalmanFilter
 
+from drivers.jit import kernel
 from mapr_daemon.ema.params import ActuatorParams
 from mapr_daemon.errors import ConfigError
 from mapr_daemon.reasoner import estimator_model as em
@@ -116,14 +117,9 @@ class ParameterEstimator:
 
     def _health(self) -> None:
         """Symmetrise P and cap each variance at its prior (a congruence keeps P > 0)."""
-        p = self.kf.P
-        p = 0.5 * (p + p.T)
-        d = p.diagonal()
-        if not (np.isfinite(p).all() and d.min() > 0.0):
+        p = np.array(self.kf.P, dtype=np.float64)
+        if not _symmetrise_and_cap(p, self.p_cap):
             raise ConfigError("covariance lost positive definiteness", field="estimator")
-        if (d > self.p_cap).any():
-            scale = np.sqrt(np.minimum(1.0, self.p_cap / d))
-            p = p * np.outer(scale, scale)
         self.kf.P = p
 
     @property
@@ -249,3 +245,33 @@ def severity_check(fault: str | None, value: float | None,
     agrees = abs(v - value) <= max(3.0 * sd, 0.3 * max(value, 1.0))
     return {"parameter": "friction factor", "ekf": round(v, 4), "ekf_sd": round(sd, 4),
             "classifier": round(float(value), 4), "agrees": bool(agrees)}
+
+
+@kernel
+def _symmetrise_and_cap(p: FloatArray, cap: FloatArray) -> bool:
+    """In place: ``P = (P + P')/2``, then each variance above ``cap`` scaled back to it by the
+    congruence ``S P S`` with ``S = diag(sqrt(min(1, cap/d)))``, which keeps P positive
+    definite. False (P left symmetrised) when P has a non-finite entry or a variance <= 0."""
+    n = p.shape[0]
+    for i in range(n):
+        for j in range(i + 1, n):
+            m = 0.5 * (p[i, j] + p[j, i])
+            p[i, j] = m
+            p[j, i] = m
+    for i in range(n):
+        if not p[i, i] > 0.0:
+            return False
+        for j in range(n):
+            if not np.isfinite(p[i, j]):
+                return False
+    scale = np.ones(n)
+    capped = False
+    for i in range(n):
+        if p[i, i] > cap[i]:
+            scale[i] = np.sqrt(cap[i] / p[i, i])
+            capped = True
+    if capped:
+        for i in range(n):
+            for j in range(n):
+                p[i, j] *= scale[i] * scale[j]
+    return True

@@ -37,12 +37,11 @@ an explicit model step unstable near rest.
 from __future__ import annotations
 
 import dataclasses
-import functools
 from collections.abc import Mapping
 
 import numpy as np
-import numpy.typing as npt
 
+from drivers.jit import kernel
 from mapr_daemon.ema.inverter import trapezoid
 from mapr_daemon.ema.params import ActuatorParams
 from mapr_daemon.errors import ConfigError
@@ -181,24 +180,6 @@ def noise(mech_power: FloatArray, gram: FloatArray, theta_sd: float = 0.01,
     return r
 
 
-@dataclasses.dataclass(frozen=True)
-class _Powers:
-    """Index tables for the powers of the per-sample decay within one block."""
-
-    exponent: npt.NDArray[np.intp]
-    """``[j, i] = j - i`` clipped at 0: ``g**exponent`` is the lower-triangular Toeplitz
-    matrix of the decay, masked by ``lower``."""
-    lower: FloatArray
-    identity: FloatArray
-    """The state-sized identity ``F`` starts from (copied, not rebuilt, per block)."""
-
-
-@functools.cache
-def _powers(block: int, n_state: int) -> _Powers:
-    j, i = np.indices((block, block))
-    return _Powers(np.maximum(j - i, 0), (j >= i).astype(np.float64), np.eye(n_state))
-
-
 def propagate(plant: Plant, x: FloatArray, b: Blocks, k: int,
               block: int = BLOCK) -> tuple[FloatArray, FloatArray]:
     """Integrate block ``k`` sample by sample from state ``x``: the new state and ``F``.
@@ -208,34 +189,55 @@ def propagate(plant: Plant, x: FloatArray, b: Blocks, k: int,
     position), then ``theta += dt*omega`` (semi-implicit Euler). ``F`` is the
     product of the per-sample Jacobians, carried as the sensitivities of (theta, omega) to
     (theta0, omega0, viscous, coulomb); the parameters are random walks (identity rows).
+    The sample loop is a compiled kernel (:func:`_integrate`): the EKF calls it once per
+    block, and a block's 20 samples in numpy cost more in call overhead than in arithmetic.
+    """
+    del block  # the block length is the drive rows' length
+    out = x.copy()
+    f = np.eye(x.shape[0])
+    _integrate(b.drive[k], b.coulomb_sign[k], plant.dt, plant.dt / plant.j_eq,
+               plant.viscous_nom, plant.coulomb_nom, out, f)
+    return out, f
+
+
+@kernel
+def _integrate(drive: FloatArray, sgn: FloatArray, dt: float, dt_j: float, bn: float,
+               cn: float, x: FloatArray, f: FloatArray) -> None:
+    """One block's mechanics and sensitivities; updates ``x[0:2]`` and ``f[0:2, 0:4]``.
 
     Within a block the parameters are constant, so the speed recursion is linear with one
-    decay ``g = 1 - dt/J*B_nom*viscous`` per sample: ``omega_j = g**j*omega_0 +
-    sum_{i<j} g**(j-1-i)*c_i``. Every sample of the block (and of the sensitivities, which
-    follow the same recursion) is one product with the lower-triangular matrix of powers of
-    ``g`` — numpy instead of a Python loop over samples, with the same arithmetic.
+    decay ``g = 1 - dt/J*B_nom*viscous`` per sample, ``omega_j = g*omega_(j-1) + c_j`` with
+    ``c_j = drive_j - dt/J*Tc_nom*coulomb*sgn_j``. Its sensitivities follow the same
+    recursion: to ``omega0`` ``g**j``, to ``viscous`` ``g*w2 - dt/J*B_nom*omega_(j-1)``, to
+    ``coulomb`` ``g*w3 - dt/J*Tc_nom*sgn_j``; theta sums ``dt*omega`` and its sensitivities.
     """
-    dt_j = plant.dt / plant.j_eq
-    bn, cn = plant.viscous_nom, plant.coulomb_nom
-    th, om, vr, cr = float(x[0]), float(x[1]), float(x[2]), float(x[3])
-    g = 1.0 - dt_j * bn * vr
-    tables = _powers(block, x.shape[0])
-    gp = g ** np.arange(1, block + 1)                      # g^1 .. g^n
-    decay = g ** tables.exponent * tables.lower            # [j, i] = g^(j-i), i <= j
-    sgn = b.coulomb_sign[k]
-    # speeds after each sample; forcing c_i = drive_i - dt/J*Tc*coulomb*sgn_i
-    inputs = decay @ np.stack([b.drive[k], sgn], axis=1)   # (block, 2)
-    om_seq = gp * om + inputs[:, 0] - (dt_j * cn * cr) * inputs[:, 1]
-    om_prev = np.concatenate(([om], om_seq[:-1]))
-    w2 = decay @ (-dt_j * bn * om_prev)                    # d omega / d viscous
-    w3 = (-dt_j * cn) * inputs[:, 1]                       # d omega / d coulomb
-    dt = plant.dt
-    out = x.copy()
-    out[0], out[1] = th + dt * float(om_seq.sum()), float(om_seq[-1])
-    f = tables.identity.copy()
-    f[0, :4] = (1.0, dt * float(gp.sum()), dt * float(w2.sum()), dt * float(w3.sum()))
-    f[1, :4] = (0.0, float(gp[-1]), float(w2[-1]), float(w3[-1]))
-    return out, f
+    om = x[1]
+    g = 1.0 - dt_j * bn * x[2]
+    c_coulomb = dt_j * cn * x[3]
+    gp = 1.0
+    w2 = 0.0
+    w3 = 0.0
+    sum_om = 0.0
+    sum_gp = 0.0
+    sum_w2 = 0.0
+    sum_w3 = 0.0
+    for j in range(drive.size):
+        w2 = g * w2 - dt_j * bn * om
+        w3 = g * w3 - dt_j * cn * sgn[j]
+        om = g * om + drive[j] - c_coulomb * sgn[j]
+        gp = g * gp
+        sum_om += om
+        sum_gp += gp
+        sum_w2 += w2
+        sum_w3 += w3
+    x[0] = x[0] + dt * sum_om
+    x[1] = om
+    f[0, 1] = dt * sum_gp
+    f[0, 2] = dt * sum_w2
+    f[0, 3] = dt * sum_w3
+    f[1, 1] = gp
+    f[1, 2] = w2
+    f[1, 3] = w3
 
 
 def measure(x: FloatArray, b: Blocks, k: int) -> tuple[FloatArray, FloatArray, FloatArray]:
