@@ -37,6 +37,7 @@ an explicit model step unstable near rest.
 from __future__ import annotations
 
 import dataclasses
+import functools
 from collections.abc import Mapping
 
 import numpy as np
@@ -194,10 +195,16 @@ def propagate(plant: Plant, x: FloatArray, b: Blocks, k: int,
     """
     del block  # the block length is the drive rows' length
     out = x.copy()
-    f = np.eye(x.shape[0])
+    f = _identity(x.shape[0]).copy()
     _integrate(b.drive[k], b.coulomb_sign[k], plant.dt, plant.dt / plant.j_eq,
                plant.viscous_nom, plant.coulomb_nom, out, f)
     return out, f
+
+
+@functools.cache
+def _identity(n: int) -> FloatArray:
+    """The state-sized identity ``F`` starts from (copied per block, built once)."""
+    return np.eye(n)
 
 
 @kernel
