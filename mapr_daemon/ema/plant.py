@@ -1,17 +1,13 @@
-"""The EMA plant: a batch of runs integrated together, stepped in chunks of sensor samples.
+"""The EMA plant: a batch of runs sharing one clock, stepped in chunks of sensor samples.
 
-Integration is a fixed step (``sensors.step_s``, 25 us by default) with numpy vectorised
-*across runs*: every state is an array with one entry per run, so a 416-run fault dictionary
-costs one Python loop over time whose every operation handles all runs at once. Why this and
-not scipy's compiled integrators: the plant switches (six Hall sectors per electrical turn,
-PWM-averaged legs, diodes that start and stop conducting, a saturating voltage loop), so an
-adaptive solver would be cut at every event and still call back into Python for each
-right-hand side; a fixed step at ~1/30 of the 0.83 ms winding time constant with the stiff
-parts taken exactly (the SMPS 2x2 system) or implicitly (winding resistance) is stable and
-lets the per-step Python overhead be shared by the whole batch. A *single* run would pay that
-overhead (~200 numpy calls a step) alone, so small batches take the float path of
-:mod:`mapr_daemon.ema.scalar` instead: the same equations and step run by run on plain floats,
-equal to rounding (see ``path`` and ``bench/plant.py``).
+Integration is a fixed step (``sensors.step_s``, 25 us by default) compiled as one kernel
+(:mod:`mapr_daemon.ema.step`) that loops over the runs, the samples of a chunk and the steps of
+each sample; Python is entered once per :meth:`EmaBatch.advance`. Why a fixed step and not
+scipy's adaptive solvers: the plant switches (six Hall sectors per electrical turn, PWM-averaged
+legs, diodes that start and stop conducting, a saturating voltage loop), so an adaptive solver
+would be cut at every event; a step at ~1/30 of the 0.83 ms winding time constant with the stiff
+parts taken exactly (the SMPS 2x2 system) or implicitly (winding resistance) is stable. What
+numpy does well stays here: the noise (one generator per run), the ADC, the output channels.
 
 Example — a remote terminal pulling sensor blocks as simulated time goes on::
 
@@ -29,13 +25,10 @@ from collections.abc import Sequence
 import numpy as np
 import numpy.typing as npt
 
-from mapr_daemon.ema import inverter as inv
-from mapr_daemon.ema import motor, sensors, smps
+from mapr_daemon.ema import sensors
 from mapr_daemon.ema.batch import BatchArrays, FloatArray, RunSpec, build
-from mapr_daemon.ema.control import ControlState, control
-from mapr_daemon.ema.multirate import MultiRateRun
 from mapr_daemon.ema.params import CHANNELS, CONTROLLER_CHANNELS
-from mapr_daemon.ema.scalar import ScalarRun
+from mapr_daemon.ema.step import ACC, STATE, integrate, pack
 from mapr_daemon.errors import ConfigError
 
 TRUTH: tuple[str, ...] = (
@@ -45,12 +38,7 @@ TRUTH: tuple[str, ...] = (
 )
 """Noise-free signals recorded alongside the sensors (block means), for ground truth."""
 
-# rows of the per-step accumulator; the last ("sector") is not a mean but the sector of the
-# sample period's last step (1-6)
-_ACC = ("i_dc", "i_a", "i_b", "i_c", "v_out", "delta", "v_in", "i_in", "v_out2", "ripple2",
-        "p_motor", "p_stage", "torque", "omega", "hinge", "i_cmd", "i_q", "duty", "i_l", "u",
-        "sector")
-_ROW = {name: k for k, name in enumerate(_ACC)}
+_ROW = {name: k for k, name in enumerate(ACC)}
 
 
 @dataclasses.dataclass(frozen=True)
@@ -101,58 +89,65 @@ def _flight_scatter(p: BatchArrays, rngs: list[np.random.Generator]) -> BatchArr
         c_total=p.c_elec * (1.0 + CAP_TEMPCO * dt) + p.c_ceramic)
 
 
-SCALAR_MAX_RUNS = 64
-"""Batches up to this size step run by run in floats (:mod:`scalar`), larger ones in numpy.
+def bank_impedance(p: BatchArrays, f: FloatArray) -> FloatArray:
+    """|Z| of the SMPS output bank, (ESR + electrolytic) parallel to the ceramic, at ``f``.
 
-Measured on the 2-core reference machine (``bench/plant.py``): the float path gives 6-8
-actuator-seconds per wall second whatever the batch size, the numpy path 0.1 for one run, 4.4
-for 64 and 7.6 for 104; the two cross near 90-100 runs."""
-PATHS = ("auto", "scalar", "vector", "multirate")
+    The analytic sub-step ripple (inductor ripple at the switching frequency, the inverter's
+    pulsed current at its PWM frequency) goes through this impedance: the REFERENCE formula
+    dV = dI*ESR + dI/(8 f C), its two terms added in quadrature.
+    """
+    w = 2.0 * np.pi * f
+    z_e = p.esr - 1j / (w * np.maximum(p.c_elec, 1e-15))
+    z_c = -1j / (w * p.c_ceramic)
+    out: FloatArray = np.abs(z_e * z_c / (z_e + z_c))
+    return out
+
+
+def _column(name: str) -> int:
+    return STATE.index(name)
 
 
 class EmaBatch:
     """A batch of EMA runs sharing one clock. ``advance`` returns the next sensor samples.
 
-    ``path`` chooses how a step is computed: ``"vector"`` numpy across the runs (cheap per run
-    in a large batch), ``"scalar"`` plain floats run by run (no per-call overhead: a lone
-    actuator runs many times faster), ``"auto"`` scalar up to :data:`SCALAR_MAX_RUNS` runs.
-    These compute the same equations with the same step and agree to rounding.
-    ``"multirate"`` (:mod:`mapr_daemon.ema.multirate`) is floats too, with the drive updated
-    once per PWM period: faster, and equal to the others only within the tolerances of
-    ``tests/ema/test_multirate_path.py``.
+    Every run is integrated by the compiled step of :mod:`mapr_daemon.ema.step`, one run after
+    the other; a run does not depend on the batch it shares (nor on how ``advance`` chunks it).
     """
 
-    def __init__(self, runs: Sequence[RunSpec], *, powered: bool = True,
-                 path: str = "auto") -> None:
-        """``powered=True`` starts in the powered steady state (DC bus regulated, the SMPS idle
-        and settled: see :meth:`SmpsState.powered`); ``powered=False`` starts with the SMPS
-        off, so every run begins with its soft start (the capacitance observation needs it)."""
-        if path not in PATHS:
-            raise ConfigError(f"unknown path {path!r} (known: {', '.join(PATHS)})", field="path")
+    def __init__(self, runs: Sequence[RunSpec], *, powered: bool = True) -> None:
+        """``powered=True`` starts in the powered steady state; ``powered=False`` starts with
+        the SMPS off, so every run begins with its soft start (the capacitance observation
+        needs it).
+
+        The powered state: the supply switched on long ago (the soft start over), output and
+        capacitor at the reference, no load so no inductor or capacitor current, the voltage
+        loop's integral at the value that holds the duty at ``Vref/Vin`` with zero error
+        (``integ = D*Vin - Vref = R*i_l = 0``): the first step changes nothing until the motor
+        draws current. A shorted switch has no regulated steady state; it loads this one from
+        the first step, as it would a running supply at the moment of the fault.
+        """
         self.specs = tuple(runs)
         self.rngs = [np.random.default_rng(s.seed) for s in self.specs]
         self.p: BatchArrays = _flight_scatter(build(self.specs), self.rngs)
         p = self.p
         self.t = 0.0
         self.sample_index = 0
-        self.ctl = ControlState.zero(p.n)
-        self.slow = sensors.SlowState.start(p, self.rngs)
-        self.smps = (smps.SmpsState.powered(p, self.slow.bus_v) if powered
-                     else smps.SmpsState.cold(p.n))
-        self.i = np.zeros((3, p.n))
-        self.vn = np.zeros(p.n)
-        self.omega = np.zeros(p.n)
-        self.theta = np.zeros(p.n)
-        self.i_in = np.zeros(p.n)
-        self.z_sw = smps.bank_impedance(p, p.f_sw)
-        self.z_pwm = smps.bank_impedance(p, p.f_pwm)
-        scalar = path == "scalar" or (path == "auto" and p.n <= SCALAR_MAX_RUNS)
-        self.path = "multirate" if path == "multirate" else "scalar" if scalar else "vector"
-        self.scalar_runs: list[ScalarRun] = []
-        if self.path != "vector":
-            run_class = MultiRateRun if self.path == "multirate" else ScalarRun
-            self.scalar_runs = [run_class(p, r, t_on=self.smps.t_on) for r in range(p.n)]
-            self._to_scalar()
+        slow = sensors.SlowState.start(p, self.rngs)
+        self.state = np.zeros((p.n, len(STATE)))
+        """Every run's state, columns :data:`~mapr_daemon.ema.step.STATE`."""
+        for name, value in (("motor_c", slow.motor_c), ("stage_c", slow.stage_c),
+                            ("bus_drift", slow.bus_drift), ("bus_v", slow.bus_v)):
+            self.state[:, _column(name)] = value
+        self.t_on = 0.0
+        """When the SMPS was switched on: its soft start ramps the reference from here."""
+        if powered:
+            for name in ("v_c", "v_out"):
+                self.state[:, _column(name)] = p.v_ref
+            self.state[:, _column("duty")] = p.v_ref / np.maximum(slow.bus_v, 1.0)
+            self.t_on = -np.inf
+        self.par = pack(p, bank_impedance(p, p.f_sw), bank_impedance(p, p.f_pwm),
+                        slow.bus_offset)
+        """Every run's parameters, columns :data:`~mapr_daemon.ema.step.PAR`."""
 
     @property
     def n_runs(self) -> int:
@@ -177,127 +172,18 @@ class EmaBatch:
         amb = (np.broadcast_to(p.t_amb[:, None], (p.n, n)) if ambient_c is None
                else _per_run(ambient_c, p.n, n, "ambient_c"))
         z = sensors.draw(self.rngs, n, len(CHANNELS))
-        if self.scalar_runs:
-            return self._advance_scalar(n, cmd, q, amb, z)
-        means = np.empty((len(_ACC), p.n, n))
+        means = np.empty((len(ACC), p.n, n))
         bus = np.empty((p.n, n))
         rw = np.empty((p.n, n))
-        for k in range(n):
-            r_w = sensors.winding_resistance(p, self.slow)
-            means[:, :, k] = self._sample(cmd[:, k], q[:, k], r_w)
-            bus[:, k] = self.slow.bus_v
-            rw[:, k] = r_w
-            sensors.advance_slow(self.slow, p, self.sample_period_s,
-                                 means[_ROW["p_motor"], :, k], means[_ROW["p_stage"], :, k],
-                                 amb[:, k], z[-2, :, k], z[-1, :, k])
-            means[_ROW["p_motor"], :, k] = self.slow.motor_c  # reuse rows for temperatures
-            means[_ROW["p_stage"], :, k] = self.slow.stage_c
-        return self._block(means, z, cmd, q, bus, rw, n)
 
-    def _sample(self, cmd: FloatArray, q: FloatArray, r_w: FloatArray) -> FloatArray:
-        """Integrate one sample period; returns the step means of the accumulator rows."""
-        p = self.p
-        acc = np.zeros((len(_ACC) - 1, p.n))
-        h = p.step_s
-        sec = inv.sector(p.pole_pairs * self.theta)
-        for _ in range(p.samples_per_block):
-            theta_e = p.pole_pairs * self.theta
-            sec = inv.sector(theta_e)
-            shape = inv.trapezoid(theta_e)
-            e = p.k_e * self.omega * shape
-            vdc = self.smps.v_out
-            vin = self.slow.bus_v - p.r_source * self.i_in
-            duty = smps.voltage_loop(self.smps, p, self.t, vin)
-            u = control(self.ctl, p, cmd, self.theta, self.omega, self.i, sec, vdc)
-            a_high, a_low = inv.on_fractions(p, sec, u)
-            lg = inv.legs(p, a_high, a_low, vdc, self.i)
-            i_ext = inv.dc_link_current(p, lg, self.i)
-            p_inv = inv.conduction_loss(p, lg, self.i, vdc)
-            i_dc = i_ext + lg.g_shoot * vdc
-            ripple2 = smps.ripple_sq(self.smps, p, vin, i_dc, np.abs(u), self.z_sw, self.z_pwm)
-            i_l = self.smps.i_l
-            p_smps = i_l * i_l * (duty * p.ron_hi + (1.0 - duty) * p.ron_lo) + p.p_sw
-            smps.step(self.smps, p, vin, i_ext, lg.g_shoot)
-            self.i_in = duty * self.smps.i_l
-            self.i, self.vn = motor.solve_windings(p, lg, self.i, e, r_w, vdc)
-            torque = p.k_e * np.add.reduce(shape * self.i, axis=0)
-            delta = self.theta / p.ratio
-            hinge = motor.hinge_moment(p, q, delta)
-            self.omega, self.theta = motor.mechanics(p, self.omega, self.theta, torque, hinge)
-            v_out = self.smps.v_out
-            acc += np.stack((
-                i_dc, self.i[0], self.i[1], self.i[2], v_out, delta, vin, self.i_in,
-                v_out * v_out, ripple2, r_w * np.add.reduce(self.i * self.i, axis=0),
-                p_smps + p_inv,
-                torque, self.omega, hinge, self.ctl.i_cmd, self.ctl.i_q, duty, i_l, u))
-            self.t += h
-        self.sample_index += 1
-        out: FloatArray = np.concatenate((acc / p.samples_per_block, sec[None, :] + 1.0))
-        return out
+        def c(a: FloatArray) -> FloatArray:
+            return np.ascontiguousarray(a, dtype=np.float64)
 
-    def _advance_scalar(self, n: int, cmd: FloatArray, q: FloatArray, amb: FloatArray,
-                        z: FloatArray) -> SensorBlock:
-        """``advance`` with every run stepped in floats by :class:`ScalarRun`."""
-        p = self.p
-        dt = self.sample_period_s
-        means = np.empty((len(_ACC), p.n, n))
-        bus = np.empty((p.n, n))
-        rw = np.empty((p.n, n))
-        t_end = self.t
-        row_m, row_s = _ROW["p_motor"], _ROW["p_stage"]
-        for r, run in enumerate(self.scalar_runs):
-            cmd_r, q_r, amb_r = cmd[r].tolist(), q[r].tolist(), amb[r].tolist()
-            z_drift, z_ripple = z[-2, r].tolist(), z[-1, r].tolist()
-            z_sw, z_pwm = float(self.z_sw[r]), float(self.z_pwm[r])
-            offset = float(self.slow.bus_offset[r])
-            out = [0.0] * len(_ACC)
-            rows: list[list[float]] = []
-            bus_r: list[float] = []
-            rw_r: list[float] = []
-            t = self.t
-            for k in range(n):
-                bus_r.append(run.x[21])
-                t = run.sample(t, cmd_r[k], q_r[k], z_sw, z_pwm, out)
-                rw_r.append(run.r_w)
-                run.advance_slow(dt, out[row_m], out[row_s], amb_r[k], z_drift[k],
-                                 z_ripple[k], offset)
-                out[row_m], out[row_s] = run.x[18], run.x[19]
-                rows.append(out.copy())
-            means[:, r, :] = np.array(rows).T
-            bus[r], rw[r] = bus_r, rw_r
-            t_end = t
-        self.t = t_end
+        self.t = integrate(self.par, self.state, c(cmd), c(q), c(amb), c(z[-2]), c(z[-1]),
+                           self.t, self.t_on, p.step_s, p.samples_per_block,
+                           self.sample_period_s, means, bus, rw)
         self.sample_index += n
-        self._from_scalar()
         return self._block(means, z, cmd, q, bus, rw, n)
-
-    def _state_arrays(self) -> list[tuple[object, str, int | None]]:
-        """(holder, attribute, phase) of every state array, in ``ScalarRun.STATE`` order."""
-        sm, c, sl = self.smps, self.ctl, self.slow
-        return [(sm, "i_l", None), (sm, "v_c", None), (sm, "v_out", None), (sm, "integ", None),
-                (sm, "deriv", None), (sm, "prev_err", None), (sm, "duty", None),
-                (c, "pos_integ", None), (c, "cur_integ", None), (c, "i_cmd", None),
-                (c, "i_q", None), (self, "i", 0), (self, "i", 1), (self, "i", 2),
-                (self, "vn", None), (self, "omega", None), (self, "theta", None),
-                (self, "i_in", None), (sl, "motor_c", None), (sl, "stage_c", None),
-                (sl, "bus_drift", None), (sl, "bus_v", None)]
-
-    def _to_scalar(self) -> None:
-        """Load every run's state from the arrays into its :class:`ScalarRun`."""
-        for k, (holder, name, phase) in enumerate(self._state_arrays()):
-            arr = getattr(holder, name)
-            col = arr[phase] if phase is not None else arr
-            for r, run in enumerate(self.scalar_runs):
-                run.x[k] = float(col[r])
-
-    def _from_scalar(self) -> None:
-        """Write the runs' float state back to the arrays (so both views stay true)."""
-        for k, (holder, name, phase) in enumerate(self._state_arrays()):
-            values = np.array([run.x[k] for run in self.scalar_runs])
-            if phase is None:
-                setattr(holder, name, values)
-            else:
-                getattr(holder, name)[phase] = values
 
     def _block(self, m: FloatArray, z: FloatArray, cmd: FloatArray, q: FloatArray,
                bus: FloatArray, rw: FloatArray, n: int) -> SensorBlock:

@@ -29,13 +29,10 @@ class RunResult:
 
 
 def run_batch(specs: Sequence[RunSpec], profile: Profile, *, powered: bool = True,
-              chunk: int = 200, progress: Callable[[float], None] | None = None,
-              path: str = "auto") -> RunResult:
-    """Simulate every run over ``profile`` together; ``progress`` gets the done fraction.
-
-    ``path`` is :class:`EmaBatch`'s (``auto``, ``scalar`` or ``vector``).
-    """
-    plant = EmaBatch(specs, powered=powered, path=path)
+              chunk: int = 200,
+              progress: Callable[[float], None] | None = None) -> RunResult:
+    """Simulate every run over ``profile`` together; ``progress`` gets the done fraction."""
+    plant = EmaBatch(specs, powered=powered)
     rate = 1.0 / plant.sample_period_s
     if profile.n_samples > 1:
         prof_rate = 1.0 / float(profile.time_s[1] - profile.time_s[0])

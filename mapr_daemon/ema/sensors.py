@@ -21,15 +21,14 @@ import numpy as np
 
 from mapr_daemon.ema.batch import BatchArrays, FloatArray
 
-COPPER_ALPHA = 0.00393
-"""Temperature coefficient of copper resistance, 1/K."""
 EXTRA_DRAWS = 2
 """Random columns per sample besides the channels: bus drift and bus ripple."""
 
 
 @dataclasses.dataclass
 class SlowState:
-    """States updated once per output sample: temperatures and the aircraft bus."""
+    """States updated once per output sample — temperatures and the aircraft bus — at the
+    start of a flight (the compiled step, :mod:`mapr_daemon.ema.step`, advances them)."""
 
     motor_c: FloatArray
     stage_c: FloatArray
@@ -51,28 +50,6 @@ def draw(rngs: list[np.random.Generator], n_samples: int, n_channels: int) -> Fl
     per_run = [g.standard_normal((n_samples, cols)) for g in rngs]
     out: FloatArray = np.stack(per_run, axis=0).transpose(2, 0, 1)
     return out
-
-
-def winding_resistance(p: BatchArrays, s: SlowState) -> FloatArray:
-    """Per-phase winding resistance at the present motor temperature."""
-    out: FloatArray = p.r_w0 * (1.0 + COPPER_ALPHA * (s.motor_c - 25.0))
-    return out
-
-
-def advance_slow(s: SlowState, p: BatchArrays, dt: float, motor_loss_w: FloatArray,
-                 stage_loss_w: FloatArray, ambient_c: FloatArray, z_drift: FloatArray,
-                 z_ripple: FloatArray) -> None:
-    """Advance temperatures (exact first-order) and the aircraft bus by one sample period."""
-    am = np.exp(-dt / p.tau_m)
-    s.motor_c = ambient_c + p.rth_m * motor_loss_w + (s.motor_c - ambient_c
-                                                      - p.rth_m * motor_loss_w) * am
-    ast = np.exp(-dt / p.tau_s)
-    s.stage_c = ambient_c + p.rth_s * stage_loss_w + (s.stage_c - ambient_c
-                                                      - p.rth_s * stage_loss_w) * ast
-    ab = np.exp(-dt / p.bus_tau)
-    s.bus_drift = s.bus_drift * ab + p.bus_drift_sd * np.sqrt(1.0 - ab * ab) * z_drift
-    raw = p.bus_nominal + s.bus_offset + s.bus_drift + p.bus_ripple * z_ripple
-    s.bus_v = np.clip(raw, p.bus_min, p.bus_max)
 
 
 def adc(p: BatchArrays, values: FloatArray, z: FloatArray) -> FloatArray:

@@ -26,12 +26,12 @@ DUTY_LSB = RATE / (PARAMS.inverter.pwm_counter_period * PARAMS.inverter.pwm_freq
 HEALTHY = FaultSet()
 
 
-def move(path: str, faults: FaultSet = HEALTHY) -> SensorBlock:
+def move(faults: FaultSet = HEALTHY) -> SensorBlock:
     """Up to +15 deg in 0.1 s, hold 0.5 s against the cruise air load, back to -5 deg, hold."""
     up = np.linspace(0.0, 15.0, 200)
     down = np.linspace(15.0, -5.0, 200)
     cmd = np.r_[up, np.full(1000, 15.0), down, np.full(400, -5.0)]
-    plant = EmaBatch([RunSpec(PARAMS, faults, seed=4)], path=path)
+    plant = EmaBatch([RunSpec(PARAMS, faults, seed=4)])
     return plant.advance(cmd.size, cmd, 1600.0)
 
 
@@ -40,9 +40,8 @@ def sector_of(position_deg: np.ndarray) -> np.ndarray:
     return np.floor((theta_e - math.pi / 6) / (math.pi / 3)).astype(np.int64) % 6 + 1
 
 
-@pytest.mark.parametrize("path", ["scalar", "vector"])
-def test_sector_steps_through_one_to_six_with_the_motion(path: str) -> None:
-    block = move(path)
+def test_sector_steps_through_one_to_six_with_the_motion() -> None:
+    block = move()
     sec = block.channels["commutation_sector"][0]
     assert set(np.unique(sec)) == {1.0, 2.0, 3.0, 4.0, 5.0, 6.0}
     assert np.all(sec == np.round(sec))
@@ -58,9 +57,8 @@ def test_sector_steps_through_one_to_six_with_the_motion(path: str) -> None:
     assert agree.mean() > 0.8
 
 
-@pytest.mark.parametrize("path", ["scalar", "vector"])
-def test_duty_is_signed_counted_and_drives_the_winding_voltage(path: str) -> None:
-    block = move(path)
+def test_duty_is_signed_counted_and_drives_the_winding_voltage() -> None:
+    block = move()
     duty = block.channels["inverter_duty"][0]
     counts = duty / DUTY_LSB
     np.testing.assert_allclose(counts, np.round(counts), atol=1e-6)
@@ -82,7 +80,7 @@ def test_duty_is_signed_counted_and_drives_the_winding_voltage(path: str) -> Non
 
 def test_controller_channels_carry_no_sensor_noise() -> None:
     runs = [RunSpec(PARAMS, seed=1), RunSpec(PARAMS, seed=2)]
-    block = EmaBatch(runs, path="scalar").advance(200, 0.0, 0.0)
+    block = EmaBatch(runs).advance(200, 0.0, 0.0)
     for name in CONTROLLER_CHANNELS:
         assert np.ptp(block.channels[name]) == 0.0, name  # idle: no noise on these
     assert block.channels["inverter_duty"][0, 0] == 0.0
@@ -90,8 +88,8 @@ def test_controller_channels_carry_no_sensor_noise() -> None:
 
 
 def test_an_open_a_high_switch_leaves_the_drive_pushing_harder_in_its_sectors() -> None:
-    healthy = move("scalar")
-    faulted = move("scalar", FaultSet.of([Fault("open", switch="A_high")]))
+    healthy = move()
+    faulted = move(FaultSet.of([Fault("open", switch="A_high")]))
     def a_high_duty(block: SensorBlock) -> float:
         sec = block.channels["commutation_sector"][0]
         duty = block.channels["inverter_duty"][0]

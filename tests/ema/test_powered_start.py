@@ -2,14 +2,13 @@
 
 ``EmaBatch(powered=True)`` stands for an actuator whose supply has been on for a long time:
 the DC bus must sit at its regulated 24 V from the first sample, with no start-up transient,
-on both the numpy and the float path. ``powered=False`` keeps the soft start from t = 0 (the
+``powered=False`` keeps the soft start from t = 0 (the
 paper's capacitance observation is about that start-up).
 """
 
 from __future__ import annotations
 
 import numpy as np
-import pytest
 
 from mapr_daemon.ema.batch import RunSpec
 from mapr_daemon.ema.params import default_actuator_path, load_actuator
@@ -26,10 +25,9 @@ def tolerance(name: str) -> float:
     return 4.0 * spec.noise_rms + 2.0 * (2.0 * spec.full_scale / 2.0**spec.bits)
 
 
-@pytest.mark.parametrize("path", ["scalar", "vector"])
-def test_first_samples_of_a_powered_run_sit_at_the_steady_values(path: str) -> None:
+def test_first_samples_of_a_powered_run_sit_at_the_steady_values() -> None:
     runs = [RunSpec(PARAMS, seed=s) for s in (1, 2, 3)]
-    block = EmaBatch(runs, powered=True, path=path).advance(200, 0.0, 1200.0)
+    block = EmaBatch(runs, powered=True).advance(200, 0.0, 1200.0)
     # (the SMPS input voltage is the aircraft bus, which has its own ripple and drift)
     for name in ("dc_bus_voltage_v", "dc_link_current_a", "smps_input_current_a",
                  "ripple_rms_v", "phase_a_current_a", "position_deg"):
@@ -45,9 +43,8 @@ def test_first_samples_of_a_powered_run_sit_at_the_steady_values(path: str) -> N
     np.testing.assert_allclose(block.truth["smps_duty"][:, :10], duty_expected, rtol=1e-3)
 
 
-@pytest.mark.parametrize("path", ["scalar", "vector"])
-def test_unpowered_run_still_starts_with_the_soft_start(path: str) -> None:
-    block = EmaBatch([RunSpec(PARAMS, seed=1)], powered=False, path=path).advance(60, 0.0, 0.0)
+def test_unpowered_run_still_starts_with_the_soft_start() -> None:
+    block = EmaBatch([RunSpec(PARAMS, seed=1)], powered=False).advance(60, 0.0, 0.0)
     bus = block.channels["dc_bus_voltage_v"][0]
     soft_start = PARAMS.smps.soft_start_s
     rate = PARAMS.sensors.sample_rate_hz
