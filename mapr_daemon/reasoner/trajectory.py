@@ -1,24 +1,24 @@
 """RUL scored along run-to-failure trajectories (issue 5's aging paths with true end of life).
 
 Each unit ages over flights; a BIT is flown every ``bit_every`` flights from flight 0 to its end
-of life, each at its own dynamic pressure and seed. The reasoner's estimate of the unit's
-parameter on each BIT (:func:`classifier.kind_severity`, the best fit of that component's
-template whatever the anomaly decision) becomes a degradation fraction; at every BIT from the
-first quarter of the life on, :func:`trend.fit_rul` fits the kind's aging shape to the
-estimates so far and gives a RUL with 5/50/95 % bounds.
+of life, each at its own dynamic pressure and seed. The kind's degradation estimator
+(:mod:`~mapr_daemon.reasoner.wear`, trained on BITs flown at known degradations with seeds of
+their own) reads each BIT as a degradation fraction; at every BIT from the first quarter of
+the life on, :func:`trend.fit_rul` fits the kind's aging shape to the estimates so far and
+gives a RUL with 5/50/95 % bounds.
 
 What the trend is told, besides the unit's own estimates, and where it comes from:
 
-* the estimate's noise (:class:`trend.Noise`): measured on calibration BITs flown at known
-  degradations (0 to 5/4 of the failure threshold, finer below 0.3 where the estimator leaves
-  its dead zone, ``calibration_reps`` each, seeds and
-  pressures of their own);
+* the estimate's scale error and noise (:class:`trend.Noise`): measured on calibration BITs
+  flown at known degradations (0 to 5/4 of the failure threshold, finer below 0.3,
+  ``calibration_reps`` each, seeds and pressures of their own, disjoint from the estimators'
+  training BITs and from the scored units' BITs);
 * optionally (``use_prior``) a fleet prior on the shape parameter (:class:`trend.ShapePrior`),
   learned from the true degradation paths of ``training_units`` other units of the kind
   (unit seeds 10,000 and up; the scored units use small seeds) — the accelerated-aging
   records a fleet has of a part, measured directly in the lab.
 
-All BITs (units and calibration) are simulated in one batch.
+All BITs (units, training and calibration) are simulated in one batch.
 """
 
 from __future__ import annotations
@@ -30,10 +30,10 @@ from collections.abc import Sequence
 import numpy as np
 
 from mapr_daemon.ema.degradation import Trajectory, trajectory
-from mapr_daemon.ema.faults import Fault, FaultSet, at_severity, nominal_value
+from mapr_daemon.ema.faults import Fault, FaultSet, nominal_value
 from mapr_daemon.ema.params import ActuatorParams
 from mapr_daemon.errors import ConfigError
-from mapr_daemon.reasoner import classifier, prognosis, trend
+from mapr_daemon.reasoner import prognosis, trend, wear
 from mapr_daemon.reasoner.build import run_matrices
 from mapr_daemon.reasoner.corpus import simulate_bit
 from mapr_daemon.reasoner.dictionary import Dictionary
@@ -41,6 +41,12 @@ from mapr_daemon.reasoner.features import FloatArray
 
 TRAINING_SEED = 10_000
 """First unit seed of the fleet-prior training units (disjoint from scored units' seeds)."""
+UNIT_BIT_SEED = 3_000_000
+"""First simulation seed of the scored units' BITs and the calibration BITs."""
+TRAINING_BIT_SEED = 7_000_000
+"""First simulation seed of the estimators' training BITs (disjoint from the above)."""
+TRAINING_BITS = 150
+"""Training BITs per kind for its degradation estimator (:mod:`~mapr_daemon.reasoner.wear`)."""
 CALIBRATION_LEVELS: tuple[float, ...] = (0.0, 0.05, 0.1, 0.15, 0.2, 0.3, 0.5, 0.75, 1.0, 1.25)
 """Degradations (fractions of the failure threshold) of the noise-calibration BITs."""
 
@@ -109,32 +115,44 @@ class Observed:
 
 
 def observe_units(d: Dictionary, params: ActuatorParams, units: Sequence[tuple[str, int]],
-                  bit_every: int = 4, mean_life: float = 200.0,
-                  calibration_reps: int = 3) -> list[Observed]:
-    """Fly every unit's BITs and the calibration BITs (one batch); estimate and calibrate."""
+                  bit_every: int = 4, mean_life: float = 200.0, calibration_reps: int = 3,
+                  training_bits: int = TRAINING_BITS) -> list[Observed]:
+    """Fly every unit's BITs, the estimators' training BITs and the calibration BITs (one
+    batch, each with its own seeds); train the per-kind estimators, calibrate, estimate."""
     trajs = [trajectory(params, k, int(mean_life * 2), seed, mean_life) for k, seed in units]
     flights = [bit_flights(t, bit_every) for t in trajs]
-    kinds = sorted({k for k, _ in units})
+    kinds = list(dict.fromkeys(k for k, _ in units))
     fs: list[FaultSet] = []
-    rng = np.random.default_rng(4242)
     for t, fl in zip(trajs, flights, strict=True):
         fs += [FaultSet.of([t.fault(int(f))]) if f > 0 else FaultSet() for f in fl]
     n_units = len(fs)
-    cal: list[tuple[str, float]] = [(k, h) for k in kinds for h in CALIBRATION_LEVELS
+
+    def at(kind: str, h: float) -> FaultSet:
+        lo = nominal_value(params, kind)
+        return (FaultSet.of([Fault(kind, lo + h * (prognosis.failure_value(params, kind) - lo))])
+                if h > 0 else FaultSet())
+
+    cal: list[tuple[str, float]] = [(k, h) for k in sorted(kinds) for h in CALIBRATION_LEVELS
                                     for _ in range(calibration_reps)]
-    for k, h in cal:
-        lo = nominal_value(params, k)
-        fs.append(FaultSet.of([Fault(k, lo + h * (prognosis.failure_value(params, k) - lo))])
-                  if h > 0 else FaultSet())
+    fs += [at(k, h) for k, h in cal]
+    rng = np.random.default_rng(4242)
     qs = [float(q) for q in rng.uniform(100.0, 2400.0, len(fs))]
-    seeds = [3_000_000 + i for i in range(len(fs))]
+    seeds = [UNIT_BIT_SEED + i for i in range(len(fs))]
+    # the estimators' training BITs: degradations, pressures and seeds of their own
+    trng = np.random.default_rng(TRAINING_BIT_SEED)
+    train = [(k, float(h)) for k in kinds
+             for h in trng.uniform(*wear.TRAINING_RANGE, training_bits)]
+    fs += [at(k, h) for k, h in train]
+    qs += [float(q) for q in trng.uniform(100.0, 2400.0, len(train))]
+    seeds += [TRAINING_BIT_SEED + i for i in range(len(train))]
     runs = simulate_bit(params, fs, qs, seeds)
-    m = run_matrices(runs, d.window_starts, d.window_samples)
+    y, c = wear.observations(d, run_matrices(runs, d.window_starts, d.window_samples), qs)
+    n_cal = n_units + len(cal)
+    models = wear.fit_kinds(kinds, y[n_cal:], c[n_cal:], np.array([h for _, h in train]),
+                            [k for k, _ in train])
 
     def estimate(row: int, kind: str) -> float:
-        s = classifier.kind_severity(d, m[row], qs[row], kind)
-        value = at_severity(params, kind, min(max(s, 0.0), 1.0)).value
-        return prognosis.degradation(params, kind, value)
+        return models[kind].estimate(y[row], c[row])
 
     noise: dict[str, trend.Noise | None] = {}
     why: dict[str, str | None] = {}
