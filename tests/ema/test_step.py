@@ -113,7 +113,7 @@ def lsb(name: str) -> float:
         return PARAMS.sensors.sample_rate_hz / (PARAMS.inverter.pwm_counter_period
                                                 * PARAMS.inverter.pwm_frequency_hz)
     spec = PARAMS.sensors.channels[name]
-    return 2.0 * spec.full_scale / 2.0**spec.bits
+    return float(2.0 * spec.full_scale / 2.0**spec.bits)
 
 
 def full_scale(name: str) -> float:
