@@ -35,7 +35,8 @@ from mapr_daemon.reasoner.fault_models import FaultModels
 from mapr_daemon.reasoner.features import FloatArray
 from mapr_daemon.reasoner.healthy import HealthyModel, pressure_weights
 
-FORMAT = "mapr-dictionary/2"
+FORMAT = "mapr-dictionary/3"
+"""3: the sector-resolved phase-A loop resistance is a signal (one healthy-model cell)."""
 __all__ = ["FORMAT", "Dictionary", "DictionarySpec", "PaperCurve", "Template", "pressure_weights"]
 
 

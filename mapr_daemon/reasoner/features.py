@@ -37,6 +37,7 @@ import numpy as np
 import numpy.typing as npt
 
 from mapr_daemon.errors import ConfigError
+from mapr_daemon.reasoner.sector import A_HIGH_SECTORS, CHANNELS, a_high_resistance
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -52,12 +53,12 @@ EXTENDED_SIGNALS: tuple[str, ...] = (*PAPER_SIGNALS, "dc_link_current_a", "dc_bu
 and the two operating-condition channels (aircraft-bus voltage, power-stage temperature, which
 reads ambient at the start of a BIT) — 96 columns."""
 SECTOR_SIGNALS: tuple[str, ...] = ("duty_a_high", "duty_other", "dc_link_a_high_a",
-                                   "a_high_share")
+                                   "a_high_share", "a_high_resistance_ohm")
 """Ours, when the drive reports its commutation sector and applied duty: the duty while phase
-A's high side is the PWM'd switch and while another is, the DC-link current in A-high sectors
-and the share of time in them (phase A's high-side Ron is only visible per sector)."""
-A_HIGH_SECTORS = {1: (1, 2), -1: (4, 5)}
-"""Hall sectors where phase A's high side is PWM'd, by torque sign (the plant's convention)."""
+A's high side is the PWM'd switch and while another is, the DC-link current in A-high sectors,
+the share of time in them (phase A's high-side Ron is only visible per sector), and the
+record's sector-resolved loop resistance (:mod:`~mapr_daemon.reasoner.sector`; one value per
+record, repeated over its samples)."""
 CURRENT_GROUP: tuple[str, ...] = PAPER_SIGNALS[:3]
 DEFAULT_WINDOW = 32
 WINDOWS_PER_SIDE = 4
@@ -189,6 +190,10 @@ def sector_signals(channels: Mapping[str, FloatArray]) -> dict[str, FloatArray]:
            "a_high_share": mask}
     if "dc_link_current_a" in channels:
         out["dc_link_a_high_a"] = np.asarray(channels["dc_link_current_a"]) * mask
+    if all(k in channels for k in CHANNELS):
+        r = a_high_resistance({k: np.atleast_2d(channels[k]) for k in CHANNELS})
+        out["a_high_resistance_ohm"] = np.broadcast_to(
+            r[:, None], np.atleast_2d(duty).shape).reshape(duty.shape)
     return out
 
 

@@ -43,6 +43,8 @@ signals only when the dictionary has them)."""
 RECORD_SPREADS: tuple[str, ...] = ("dc_link_current_a", "phase_a_current_a", "dc_bus_voltage_v",
                                    "ripple_rms_v")
 """... and whose window standard deviation is one too (the fast response inside a window)."""
+RECORD_SCALARS: tuple[str, ...] = ("a_high_resistance_ohm",)
+"""Signals that hold one value per record (a fit over the whole record): one cell each."""
 SUPPLY = "mean:smps_input_voltage_v"
 TEMPERATURE = "mean:stage_temperature_c"
 PRESSURE_SCALE_PA = 2500.0
@@ -66,6 +68,10 @@ def record_cells(columns: Sequence[str], n_rows: int, pool: int = 1) -> npt.NDAr
     rows = PAPER_ROWS + np.arange(n_groups * pool, dtype=np.int64).reshape(n_groups, pool)
     flat: npt.NDArray[np.int64] = (rows[:, None, :] * len(columns)
                                    + cols[None, :, None]).reshape(-1, pool)
+    scalars = [columns.index(f"mean:{s}") for s in RECORD_SCALARS if f"mean:{s}" in columns]
+    if scalars:
+        one = PAPER_ROWS * len(columns) + np.asarray(scalars, dtype=np.int64)
+        flat = np.concatenate([flat, np.repeat(one[:, None], flat.shape[1], axis=1)])
     return flat
 
 

@@ -1,0 +1,61 @@
+"""The sector-resolved phase-A loop resistance and its one healthy-model cell."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from mapr_daemon.ema.inverter import NEGATIVE, POSITIVE
+from mapr_daemon.reasoner import healthy
+from mapr_daemon.reasoner.features import (
+    EXTENDED_SIGNALS,
+    SECTOR_SIGNALS,
+    column_names,
+    derived_signals,
+)
+from mapr_daemon.reasoner.sector import a_high_resistance
+
+
+def _synthetic(r_a_high: float, r_other: float, seed: int) -> dict[str, np.ndarray]:
+    """Two runs of a six-step drive obeying ``v = R * i_q + k * omega + offset`` exactly, with
+    ``R`` one value in the sectors where phase A's high side is PWM'd and another elsewhere."""
+    rng = np.random.default_rng(seed)
+    n = 3000
+    pos = np.cumsum(rng.normal(0.0, 0.5, (2, n)), axis=1)
+    sector = rng.integers(1, 7, (2, n)).astype(np.float64)
+    duty = rng.uniform(-0.9, 0.9, (2, n))
+    duty[np.abs(duty) < 0.05] = 0.1
+    i_q = rng.normal(0.0, 2.0, (2, n))
+    sec = sector.astype(np.int64) - 1
+    cur = np.zeros((3, 2, n))
+    plus, minus = POSITIVE.argmax(axis=1)[sec], NEGATIVE.argmax(axis=1)[sec]
+    np.put_along_axis(cur, plus[None], i_q[None], 0)
+    np.put_along_axis(cur, minus[None], -i_q[None], 0)
+    a_high = ((duty > 0) & np.isin(sector, (1, 2))) | ((duty < 0) & np.isin(sector, (4, 5)))
+    omega = np.gradient(pos, axis=-1)
+    v = np.where(a_high, r_a_high, r_other) * i_q + 0.3 * omega + 0.05
+    return {"commutation_sector": sector, "inverter_duty": duty, "phase_a_current_a": cur[0],
+            "phase_b_current_a": cur[1], "phase_c_current_a": cur[2], "position_deg": pos,
+            "dc_bus_voltage_v": v / duty}
+
+
+def test_the_fit_recovers_the_extra_resistance_of_phase_a_high_sectors() -> None:
+    ch = _synthetic(0.62, 0.5, 1)
+    assert np.allclose(a_high_resistance(ch), 0.12, atol=1e-9)
+    assert np.allclose(a_high_resistance(_synthetic(0.5, 0.5, 2)), 0.0, atol=1e-9)
+
+
+def test_the_resistance_is_one_value_per_record_and_one_healthy_cell() -> None:
+    ch = _synthetic(0.7, 0.5, 3)
+    sig = derived_signals(ch, None)["a_high_resistance_ohm"]
+    assert sig.shape == ch["inverter_duty"].shape
+    assert np.allclose(sig, 0.2) and np.all(sig == sig[:, :1])
+    one = derived_signals({k: v[0] for k, v in ch.items()}, None)["a_high_resistance_ohm"]
+    assert one.shape == (3000,) and np.allclose(one, 0.2)
+    columns = column_names((*EXTENDED_SIGNALS, *SECTOR_SIGNALS))
+    rows, pool = 122, 6
+    cells = healthy.record_cells(columns, rows, pool)
+    col = columns.index("mean:a_high_resistance_ohm")
+    own = cells[(cells % len(columns) == col).any(axis=1)]
+    assert own.shape == (1, pool) and np.all(own == own[0, 0])
+    without = healthy.record_cells(column_names(EXTENDED_SIGNALS), rows, pool)
+    assert cells.shape[0] == without.shape[0] + 4 * (rows - 32) // pool + 1
