@@ -1,13 +1,14 @@
 """Reading anchored words: bits, length and error flags from the crossings on their grid.
 
 Once a word's grid is fixed (its *anchor*, the sync's start, in samples), each crossing goes
-to the nearest half-bit slot, and crossings are counted per slot and direction for every word
-at once with one ``bincount``. A good bit has exactly one crossing at its middle slot (its
-direction is the bit: positive-to-negative = 1) and at most one at its start slot; a missing
-mid-bit transition leaves the middle empty, a glitch adds a pair. Either way the word is
-flagged ``manchester``. Where activity stops (or the next sync starts) gives the number of
-bits sent: fewer than 17 is ``bit_count_low``, more is ``bit_count_high``. Parity is odd over
-17 bits.
+to the nearest half-bit slot, and crossings are counted per slot and direction, one word
+after another in a compiled kernel (a loop over each word's few dozen crossings, where numpy
+needed a dozen passes over all of them and a table of every word's slots). A good bit has
+exactly one crossing at its middle slot (its direction is the bit: positive-to-negative = 1)
+and at most one at its start slot; a missing mid-bit transition leaves the middle empty, a
+glitch adds a pair. Either way the word is flagged ``manchester``. Where activity stops (or
+the next sync starts) gives the number of bits sent: fewer than 17 is ``bit_count_low``, more
+is ``bit_count_high``. Parity is odd over 17 bits.
 """
 
 from __future__ import annotations
@@ -15,7 +16,8 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
-from drivers.mil1553.edges import FloatArray, IntArray
+from drivers.jit import kernel
+from drivers.mil1553.edges import FloatArray, Int8Array, IntArray
 from drivers.mil1553.wordbatch import (
     ERR_BIT_COUNT_HIGH,
     ERR_BIT_COUNT_LOW,
@@ -31,60 +33,88 @@ FIRST_SLOT = 6
 """Half-bit slot of bit 0's first half (slots 0-5 are the sync)."""
 BIT_SLOTS = 34
 """Slots 6-39: the first and second half of bits 0-16."""
-_COLUMNS = BIT_SLOTS + 2
-"""Per word and direction, the tally's columns: one before the bit slots and one after, where
-every crossing outside them is counted and then ignored."""
-_BIT_WEIGHTS = (1 << np.arange(15, -1, -1)).astype(np.int64)
+BITS = 17
+"""16 data bits and the parity bit."""
 
 
-def read_words(crossings: FloatArray, crossing_level: npt.NDArray[np.int8], anchors: FloatArray,
-               first_owned: IntArray, stop: FloatArray, first_level: npt.NDArray[np.int8],
+def read_words(crossings: FloatArray, crossing_level: Int8Array, anchors: FloatArray,
+               first_owned: IntArray, stop: FloatArray, first_level: Int8Array,
                rows: IntArray, *, half: float, base: int, sample_rate: float) -> WordBatch:
     """Bits, length and errors of the anchored words ``rows`` (``bus`` left 0).
 
     Word ``i`` owns the crossings from ``first_owned[i]`` up to the next word's (the last
     one, to the end); ``stop[i]`` is where its activity ends (samples, like ``anchors``);
     ``base`` is the sample index of the buffer's start in the capture, for the times in ns.
-    Every owned crossing is placed in one pass over the crossings, without gathering: those
-    outside the bit slots land in a column that is then ignored.
     """
-    count = anchors.size
-    if count == 0 or rows.size == 0:
-        return empty_words()
-    owned = crossings[first_owned[0]:]
-    per_word = np.empty_like(first_owned)
-    per_word[:-1] = first_owned[1:] - first_owned[:-1]
-    per_word[-1] = crossings.size - first_owned[-1]
-    position = np.repeat(anchors, per_word)
-    np.subtract(owned, position, out=position)
-    position /= half
-    slot = np.rint(position, out=position).astype(np.int32)
-    np.clip(slot, FIRST_SLOT - 1, FIRST_SLOT + BIT_SLOTS, out=slot)
-    key = np.repeat(np.arange(-FIRST_SLOT + 1, count * _COLUMNS - FIRST_SLOT + 1, _COLUMNS,
-                              dtype=np.int32), per_word)
-    key += slot
-    np.add(key, np.int32(count * _COLUMNS), out=key, where=crossing_level[first_owned[0]:] > 0)
-    tally = np.bincount(key, minlength=2 * count * _COLUMNS).reshape(2, count, _COLUMNS)
-    falling, rising = tally[0, rows], tally[1, rows]
-    anchors, stop, first_level = anchors[rows], stop[rows], first_level[rows]
     words = empty_words(rows.size)
-    hits = falling + rising
-    mid, start = slice(2, _COLUMNS - 1, 2), slice(1, _COLUMNS - 2, 2)
-    spus = 2 * half
-    bits_sent = np.floor((stop - anchors) / spus - 3 + 0.25).astype(np.int64)
-    present = np.arange(17)[None, :] < np.minimum(bits_sent, 17)[:, None]
-    bad = (hits[:, mid] != 1) | (hits[:, start] > 1)
-    manchester = np.any(bad & present, axis=1)
-    ones = (falling[:, mid] > rising[:, mid]).astype(np.int64)
-    parity_ok = (ones.sum(axis=1) & 1) == 1
-    errors = np.where(manchester, ERR_MANCHESTER, 0)
-    errors |= np.where(bits_sent < 17, ERR_BIT_COUNT_LOW, 0)
-    errors |= np.where(bits_sent > 17, ERR_BIT_COUNT_HIGH, 0)
-    errors |= np.where((bits_sent >= 17) & ~manchester & ~parity_ok, ERR_PARITY, 0)
-    words["t_ns"] = np.rint((anchors + base) * 1e9 / sample_rate).astype(np.int64)
-    last_mid = anchors + (3.5 + np.maximum(bits_sent, 1) - 1) * spus
-    words["end_ns"] = np.rint((last_mid + base) * 1e9 / sample_rate).astype(np.int64)
-    words["sync"] = np.where(first_level > 0, SYNC_CMD, SYNC_DATA)
-    words["value"] = (ones[:, :16] @ _BIT_WEIGHTS).astype(np.uint16)
-    words["errors"] = errors.astype(np.uint16)
+    if rows.size == 0:
+        return words
+    t_ns, end_ns, sync, value, errors = _read(crossings, crossing_level, anchors, first_owned,
+                                              stop, first_level, rows, half, base,
+                                              sample_rate)
+    words["t_ns"] = t_ns
+    words["end_ns"] = end_ns
+    words["sync"] = sync
+    words["value"] = value
+    words["errors"] = errors
     return words
+
+
+@kernel
+def _read(crossings: FloatArray, crossing_level: Int8Array, anchors: FloatArray,
+          first_owned: IntArray, stop: FloatArray, first_level: Int8Array, rows: IntArray,
+          half: float, base: int, sample_rate: float
+          ) -> tuple[IntArray, IntArray, npt.NDArray[np.uint8], npt.NDArray[np.uint16],
+                     npt.NDArray[np.uint16]]:
+    """The fields of the words ``rows`` (see :func:`read_words`): each owned crossing goes to
+    the nearest half-bit slot, and is counted per slot and direction; crossings outside the
+    bit slots are ignored."""
+    spus = 2 * half
+    t_ns = np.empty(rows.size, dtype=np.int64)
+    end_ns = np.empty(rows.size, dtype=np.int64)
+    sync = np.empty(rows.size, dtype=np.uint8)
+    value = np.empty(rows.size, dtype=np.uint16)
+    errors = np.empty(rows.size, dtype=np.uint16)
+    falling = np.empty(BIT_SLOTS, dtype=np.int64)
+    rising = np.empty(BIT_SLOTS, dtype=np.int64)
+    for q in range(rows.size):
+        word = rows[q]
+        anchor = anchors[word]
+        end = first_owned[word + 1] if word + 1 < anchors.size else crossings.size
+        falling[:] = 0
+        rising[:] = 0
+        for j in range(first_owned[word], end):
+            slot = np.rint((crossings[j] - anchor) / half)
+            if FIRST_SLOT <= slot < FIRST_SLOT + BIT_SLOTS:
+                if crossing_level[j] > 0:
+                    rising[int(slot) - FIRST_SLOT] += 1
+                else:
+                    falling[int(slot) - FIRST_SLOT] += 1
+        bits_sent = int(np.floor((stop[word] - anchor) / spus - 3 + 0.25))
+        present = min(bits_sent, BITS)
+        manchester = False
+        ones = 0
+        bits = 0
+        for bit in range(BITS):
+            start, mid = 2 * bit, 2 * bit + 1
+            if bit < present and (falling[mid] + rising[mid] != 1 or
+                                  falling[start] + rising[start] > 1):
+                manchester = True
+            one = 1 if falling[mid] > rising[mid] else 0
+            ones += one
+            if bit < BITS - 1:
+                bits = (bits << 1) | one
+        flags = ERR_MANCHESTER if manchester else 0
+        if bits_sent < BITS:
+            flags |= ERR_BIT_COUNT_LOW
+        if bits_sent > BITS:
+            flags |= ERR_BIT_COUNT_HIGH
+        if bits_sent >= BITS and not manchester and ones % 2 == 0:
+            flags |= ERR_PARITY
+        t_ns[q] = np.int64(np.rint((anchor + base) * 1e9 / sample_rate))
+        last_mid = anchor + (3.5 + max(bits_sent, 1) - 1) * spus
+        end_ns[q] = np.int64(np.rint((last_mid + base) * 1e9 / sample_rate))
+        sync[q] = SYNC_CMD if first_level[word] > 0 else SYNC_DATA
+        value[q] = bits
+        errors[q] = flags
+    return t_ns, end_ns, sync, value, errors

@@ -1,14 +1,19 @@
-"""Streaming, vectorized Manchester-II decoder: capture samples in, word batches out.
+"""Streaming Manchester-II decoder: capture samples in, word batches out.
 
 Feed it chunks of any size (a chunk may split a word anywhere); the words come out once they
 are complete, and :meth:`ManchesterDecoder.flush` finishes the capture. The result is the same
 as one call on the whole capture: a sync is judged only with 45 µs of line after it, the end
 of a buffer is decoded again with the next samples, and what was judged is never re-emitted.
 
-How a word is found and read (all steps are numpy operations over every word at once):
+How a word is found and read. The one pass over the samples finds where the capture byte
+changes (:mod:`drivers.mil1553.edges`); every later step works on those edges, a few per
+microsecond of traffic, in compiled kernels (:mod:`drivers.jit`): a loop over the edges
+costs one pass where numpy needed a dozen, each allocating and paying its fixed cost. This
+module keeps the streaming state between buffers and calls the kernels once per buffer.
 
 1. *Sync.* A crossing with at least ~1 µs of one polarity before it and of the other after it
-   is a sync candidate (data bits never hold a level for more than 1 µs).
+   is a sync candidate (data bits never hold a level for more than 1 µs)
+   (:mod:`drivers.mil1553.syncs`).
 2. *Anchor.* Every crossing of a word lies near a multiple of the 0.5 µs half-bit from the
    sync's start, each displaced by its own jitter. The middle of the shortest arc of the
    0.5 µs circle that holds all the crossings' phases (the circular midrange) fixes the grid
@@ -37,18 +42,18 @@ import numpy as np
 import numpy.typing as npt
 
 from drivers.errors import EncodeError
+from drivers.jit import kernel
 from drivers.mil1553.bitread import read_words
 from drivers.mil1553.edges import (
     FloatArray,
     IntArray,
     Segments,
-    bus_runs,
+    Workspace,
     byte_changes,
-    clean_runs,
-    segments,
+    line_segments,
 )
 from drivers.mil1553.encoder import MAX_RATE_HZ, MIN_RATE_HZ
-from drivers.mil1553.gridfit import fit_grid, grid_phases, range_indices
+from drivers.mil1553.syncs import find_syncs, word_extents
 from drivers.mil1553.wordbatch import (
     BUS_A,
     BUS_B,
@@ -125,7 +130,10 @@ class ManchesterDecoder:
         # Below ~12.5 MS/s (a sample of 80 ns or more) a squeezed half-bit pulse can fall
         # between two samples; two or more silent samples between one polarity mark one.
         self._missed_pulse_min = 2 if self.sample_rate <= 12.5e6 else 0
-        self._buf = np.zeros(0, dtype=np.uint8)
+        self._store = np.zeros(0, dtype=np.uint8)
+        """The samples not yet decoded for good (the first ``_size``), kept in one array."""
+        self._size = 0
+        self._work = Workspace()
         self._base = 0
         self._last_sync = {BUS_A: -math.inf, BUS_B: -math.inf}
         self._last_burst = {BUS_A: -math.inf, BUS_B: -math.inf}
@@ -152,25 +160,31 @@ class ManchesterDecoder:
 
     def _feed_block(self, chunk: npt.NDArray[np.uint8]) -> WordBatch:
         self.samples_seen += chunk.size
-        self._buf = np.concatenate([self._buf, chunk]) if self._buf.size else chunk
-        if self._buf.size < self._min_batch + self._tail:
+        size = self._size + chunk.size
+        if size > self._store.size:
+            grown = np.empty(max(size, self._store.size * 5 // 4), dtype=np.uint8)
+            grown[:self._size] = self._store[:self._size]
+            self._store = grown
+        self._store[self._size:size] = chunk
+        self._size = size
+        if size < self._min_batch + self._tail:
             return empty_words()
-        words = self._decode(self._buf, self._buf.size - self._horizon)
-        self._complete_until = (self._base + self._buf.size - self._horizon) * 1e9 / \
-            self.sample_rate
-        keep_from = self._buf.size - self._tail
+        words = self._decode(self._store[:size], size - self._horizon)
+        self._complete_until = (self._base + size - self._horizon) * 1e9 / self.sample_rate
+        keep_from = size - self._tail
         self._base += keep_from
-        self._buf = self._buf[keep_from:].copy()
+        self._store[:self._tail] = self._store[keep_from:size]
+        self._size = self._tail
         return self._release(words)
 
     def flush(self) -> WordBatch:
         """End of capture: decode what is left. A word cut off by the end is flagged."""
-        real = self._buf.size
-        padded = np.concatenate([self._buf, np.zeros(self._tail, dtype=np.uint8)])
+        real = self._size
+        padded = np.concatenate([self._store[:real], np.zeros(self._tail, dtype=np.uint8)])
         words = self._decode(padded, real, final=True)
         self._complete_until = math.inf
         self._base += real
-        self._buf = np.zeros(0, dtype=np.uint8)
+        self._size = 0
         return self._release(words)
 
     def _release(self, words: WordBatch) -> WordBatch:
@@ -201,8 +215,7 @@ class ManchesterDecoder:
     # --- internals -----------------------------------------------------------------------
     def _decode(self, buf: npt.NDArray[np.uint8], horizon: int, final: bool = False
                 ) -> WordBatch:
-        changes = byte_changes(buf)
-        values = buf[changes]
+        changes, values = byte_changes(buf, self._work)
         out = [self._decode_bus(values, changes, buf.size, bus, horizon, final)
                for bus in (BUS_A, BUS_B)]
         self._decided_until = self._base + horizon
@@ -211,14 +224,16 @@ class ManchesterDecoder:
 
     def _decode_bus(self, values: npt.NDArray[np.uint8], changes: IntArray, n: int, bus: int,
                     horizon: int, final: bool) -> WordBatch:
-        starts, levels = bus_runs(values, changes, bus)
-        starts, levels = clean_runs(starts, levels, n, dropout_max=self._dropout_max,
-                                    glitch_max=self._glitch_max,
-                                    missed_pulse_min=self._missed_pulse_min)
-        seg = segments(starts, levels, n, dead_band_max=self._dropout_max)
+        spus = self._spus
+        seg = line_segments(values, changes, n, bus, self._work, dropout_max=self._dropout_max,
+                            glitch_max=self._glitch_max,
+                            missed_pulse_min=self._missed_pulse_min,
+                            dead_band_max=self._dropout_max,
+                            half_min=self.settings.sync_half_min_us * spus,
+                            span_min=self.settings.sync_span_min_us * spus)
         if seg.level.size == 0:
             return empty_words()
-        anchors, first_level = self._find_syncs(seg)
+        anchors, first_level = find_syncs(seg, self._half)
         # Only words whose sync lies before the horizon are complete in this buffer; the
         # ones already emitted from an earlier buffer come again in the kept tail: skip them.
         absolute = anchors + self._base
@@ -229,16 +244,13 @@ class ManchesterDecoder:
                                (absolute > self._last_sync[bus] + 2 * self._spus))
         if decided.any():
             self._last_sync[bus] = max(self._last_sync[bus], float(absolute[decided].max()))
-        # A word owns what lies at or after its sync's start less a quarter bit, up to the
-        # next word's.
-        owned_from = anchors - 0.5 * self._half
-        first_owned = np.searchsorted(seg.crossings, owned_from)
-        span_end = self._spans_end(seg, anchors, n)
+        first_owned, span_end = word_extents(anchors, seg.crossings, seg.silent_after, n,
+                                             self._half)
         words = read_words(seg.crossings, seg.crossing_level, anchors, first_owned, span_end,
                            first_level, fresh, half=self._half, base=self._base,
                            sample_rate=self.sample_rate)
         words["bus"] = bus
-        bursts = self._bursts(seg, owned_from, span_end,
+        bursts = self._bursts(seg, anchors, span_end,
                               horizon=math.inf if final else horizon, bus=bus)
         # Words the next buffer decodes again (their sync in its kept tail) cover their
         # activity there; the others' coverage is remembered.
@@ -248,85 +260,7 @@ class ManchesterDecoder:
                                            float(span_end[settled].max()) + self._base)
         return np.concatenate([words, bursts]) if bursts.size else words
 
-    def _find_syncs(self, seg: Segments) -> tuple[FloatArray, npt.NDArray[np.int8]]:
-        """Anchors (sync start, in samples) of valid syncs, and each sync's first polarity."""
-        half_min = self.settings.sync_half_min_us * self._spus
-        length = seg.right - seg.left
-        # Both sides of a sync's middle hold ~1.5 µs; the two together span 3 µs between
-        # the outer crossings (each off by at most 150 ns), where two long data runs span
-        # 2 µs: the sum separates them even when every crossing is at its tolerance.
-        both = self.settings.sync_span_min_us * self._spus
-        long = length >= half_min
-        k = np.flatnonzero(long[:-1] & long[1:] & seg.adjacent_prev[1:]) + 1
-        k = k[length[k - 1] + length[k] >= both]
-        if k.size == 0:
-            return np.zeros(0), np.zeros(0, np.int8)
-        middle = seg.left[k]
-        anchors = middle - 3 * self._half + self._phase_correction(seg, middle)
-        # The first half may follow idle (any length before it is silence), or follow the
-        # previous word's last half-bit (slot -1); a longer level before a crossing is data
-        # with a missing transition, not a sync.
-        before = seg.left[k - 1]
-        first_ok = ~seg.adjacent_prev[k - 1] | (before >= anchors - 1.6 * self._half)
-        valid = first_ok & (before <= anchors + 0.5 * self._half) & \
-            (seg.right[k] >= anchors + 5.5 * self._half)
-        anchors, first = anchors[valid], seg.level[k - 1][valid]
-        # At the tolerance limits, the end of a word can look like a sync (a long data run,
-        # then the parity bit or the next sync's first half). Such a candidate lies inside the
-        # previous word's 20 µs and is not followed by the mid-bit crossings of bits 0 and 1,
-        # which every real word has (a word with a missing transition there does not start
-        # inside another word, so it is kept).
-        inside_previous = np.flatnonzero(anchors[1:] - anchors[:-1] < 39.5 * self._half) + 1
-        if inside_previous.size:
-            suspect = anchors[inside_previous]
-            followed = np.ones(suspect.size, dtype=bool)
-            for bit in (0, 1):
-                centre = suspect + (3.5 + bit) * self._spus
-                followed &= np.searchsorted(seg.crossings, centre + 0.3 * self._spus) > \
-                    np.searchsorted(seg.crossings, centre - 0.3 * self._spus)
-            keep = np.ones(anchors.size, dtype=bool)
-            keep[inside_previous[~followed]] = False
-            anchors, first = anchors[keep], first[keep]
-        # Two syncs cannot overlap: a sync-like pattern starting inside the previous sync
-        # (its second half continued by a bit without its transition) is data.
-        overlaps = np.zeros(anchors.size, dtype=bool)
-        overlaps[1:] = anchors[1:] - anchors[:-1] < 5.5 * self._half
-        return anchors[~overlaps], first[~overlaps]
-
-    def _phase_correction(self, seg: Segments, middle: FloatArray) -> FloatArray:
-        """Per candidate, the offset (samples) of the 0.5 µs grid that best fits its crossings
-        (the circular midrange of their phases, see :mod:`drivers.mil1553.gridfit`). Working
-        on the circle, it needs no first guess: the sync's own middle crossing serves as the
-        reference."""
-        crossings = seg.crossings
-        # The window ends before slot 40, where a contiguous next word's sync would start,
-        # or where the line falls silent, so a later word's crossings never pull the grid;
-        # candidates inside a word (long data runs) are not used to cut it short.
-        lo = np.searchsorted(crossings, middle - 0.5 * self._half)
-        silent = self._silence_after(seg, middle)
-        hi = np.searchsorted(crossings, np.minimum(middle + 36.5 * self._half, silent))
-        bins, count = grid_phases(crossings, lo, hi, middle, self._half)
-        correction: FloatArray = fit_grid(bins, count) * self._half
-        return correction
-
-    @staticmethod
-    def _silence_after(seg: Segments, times: FloatArray) -> FloatArray:
-        """For each time, when the line next falls silent (inf if it never does here)."""
-        silent_after = seg.silent_after
-        idx = np.searchsorted(silent_after, times)
-        stop: FloatArray = np.where(idx < silent_after.size,
-                                    silent_after[np.minimum(idx, silent_after.size - 1)], np.inf)
-        return stop
-
-    def _spans_end(self, seg: Segments, anchors: FloatArray, n: int) -> FloatArray:
-        """Where each word's activity stops: the next silence or the next sync, whichever is
-        first."""
-        stop = np.minimum(self._silence_after(seg, anchors), float(n))
-        next_sync = np.append(anchors[1:], np.inf)
-        end: FloatArray = np.minimum(stop, next_sync)
-        return end
-
-    def _bursts(self, seg: Segments, owned_from: FloatArray, words_span_end: FloatArray,
+    def _bursts(self, seg: Segments, anchors: FloatArray, words_span_end: FloatArray,
                 horizon: float, bus: int) -> WordBatch:
         """Activity no valid sync explains, as ``sync``-flagged words (see module doc).
 
@@ -335,33 +269,16 @@ class ManchesterDecoder:
         its start remembered, so a burst longer than the kept tail comes out once, whole, as
         it would from a single call.
         """
-        margin = 0.5 * self._half
         base = self._base
         join = self.settings.burst_join_us * self._spus
         limit = horizon - self._spus
-        # A segment is explained when it starts inside its owner word's span: the
-        # unexplained ones lie before the first word, or between a word's span end and the
-        # next word. Activity an earlier buffer already accounted for (its words' tails, its
-        # bursts) is skipped.
-        owner_start = np.searchsorted(seg.left, owned_from)
-        span_stop = np.searchsorted(seg.left, words_span_end + margin)
-        gap_lo = np.concatenate(([0], np.maximum(span_stop, owner_start)))
-        gap_hi = np.concatenate((owner_start, [seg.left.size]))
-        candidates, _ = range_indices(gap_lo, gap_hi)
         # Activity before the last buffer's limit was judged there (reported, held open, or
         # covered), and so was what earlier words cover.
         seen = max(self._last_burst[bus], self._covered_until[bus],
                    self._judged_until[bus]) - base
         self._judged_until[bus] = math.nextafter(limit + base, -math.inf)  # left >= limit
-        cand_left = seg.left[candidates]
-        loose = candidates[(cand_left > seen) & (cand_left < limit)]
-        left, right = seg.left[loose] + base, seg.right[loose] + base
-        new_burst = np.ones(loose.size, dtype=bool)
-        new_burst[1:] = left[1:] - right[:-1] > join
-        first = np.flatnonzero(new_burst)
-        last = np.append(first[1:], loose.size) - 1 if loose.size else first
-        active = np.add.reduceat(right - left, first) if loose.size else np.zeros(0)
-        b_start, b_end = left[first], right[last]
+        b_start, b_end, active = _unexplained(seg.left, seg.right, anchors, words_span_end,
+                                              0.5 * self._half, seen, limit, base, join)
         pending = self._open_burst.pop(bus, None)
         if pending is not None:
             p_start, p_active, p_end = pending
@@ -387,6 +304,48 @@ class ManchesterDecoder:
         out["sync"] = SYNC_DATA
         out["bus"] = bus
         return out
+
+
+@kernel
+def _unexplained(left: FloatArray, right: FloatArray, anchors: FloatArray,
+                 span_end: FloatArray, margin: float, seen: float, limit: float, base: int,
+                 join: float) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """The segments no word explains, with ``seen < left < limit``, grouped into bursts
+    (neighbours closer than ``join``): each burst's start, end and active time, in samples
+    from the capture's start (``base`` is the buffer's).
+
+    A segment is explained when it starts inside its owner word's span: from the word's
+    sync start less a quarter bit (``margin``) to its span's end plus the same margin. The
+    unexplained ones lie before the first word, or between a word's span and the next word.
+    """
+    b_start = np.empty(left.size)
+    b_end = np.empty(left.size)
+    active = np.empty(left.size)
+    bursts = 0
+    # Where each gap starts and ends only moves forward: found by walking on from the last
+    # one (as np.searchsorted(..., side="left") would find it).
+    span_stop = owner_start = 0
+    for gap in range(anchors.size + 1):
+        lo = 0
+        if gap > 0:
+            while span_stop < left.size and left[span_stop] < span_end[gap - 1] + margin:
+                span_stop += 1
+            lo = max(span_stop, owner_start)
+        if gap < anchors.size:
+            while owner_start < left.size and left[owner_start] < anchors[gap] - margin:
+                owner_start += 1
+        hi = owner_start if gap < anchors.size else left.size
+        for j in range(lo, hi):
+            if not seen < left[j] < limit:
+                continue
+            start, end = left[j] + base, right[j] + base
+            if bursts == 0 or start - b_end[bursts - 1] > join:
+                b_start[bursts] = start
+                active[bursts] = 0.0
+                bursts += 1
+            active[bursts - 1] += end - start
+            b_end[bursts - 1] = end
+    return b_start[:bursts], b_end[:bursts], active[:bursts]
 
 
 def _in_time_order(words: WordBatch) -> WordBatch:

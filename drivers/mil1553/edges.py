@@ -1,9 +1,14 @@
-"""From capture samples to line-level runs and zero crossings, one bus at a time.
+"""From capture samples to line-level segments and zero crossings, one bus at a time.
 
-The decoder works on edges, never per sample in Python: the only pass over the samples is a
-comparison of neighbours and ``flatnonzero``, shared by both buses; everything after works on
-runs (a few per microsecond of traffic), and the rare cases (drop-outs, glitches, dead bands)
-are found once and then handled on their own few indices.
+Two stages, split where the work changes in kind:
+
+* Per sample, numpy: the only pass over the samples is a comparison of neighbours and
+  ``flatnonzero`` (:func:`byte_changes`), shared by both buses. It is one streaming pass over
+  bytes, which numpy runs at memory speed.
+* Per edge, one compiled kernel (:func:`line_segments`): the change points become runs of one
+  bus, short interruptions are repaired, and runs become segments with timed crossings. This is
+  a state machine over a few runs per microsecond of traffic; as numpy it took a dozen array
+  passes (each allocating, and paying its fixed cost), compiled it is one loop per step.
 
 Terms used here: a *run* is a maximal stretch of samples with one line level (+1 positive,
 -1 negative, 0 no signal). A *segment* is a run of +1 or -1. Two segments are *adjacent* when
@@ -15,91 +20,74 @@ to or from a long silence is the start or end of activity.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
+from drivers.jit import kernel
 from drivers.mil1553.encoder import RX_BITS
 
 IntArray = npt.NDArray[np.int64]
 FloatArray = npt.NDArray[np.float64]
+Int8Array = npt.NDArray[np.int8]
+BoolArray = npt.NDArray[np.bool_]
 
 
-def bus_levels(values: npt.NDArray[np.uint8], bus: int) -> npt.NDArray[np.int8]:
-    """Line level (+1 positive, -1 negative, 0 none) of one bus for each capture byte:
-    RX minus RXB, so both outputs high is no signal (0), as both low is."""
-    pos_bit, neg_bit = RX_BITS[bus]
-    shift = pos_bit.bit_length() - 1
-    shifted = values >> shift if shift else values
-    level = (shifted & 1).astype(np.int8)
-    level -= (shifted >> (neg_bit.bit_length() - 1 - shift)) & 1
-    return level
+class Workspace:
+    """Working arrays kept from one buffer to the next, grown when a buffer needs more.
 
-
-def byte_changes(samples: npt.NDArray[np.uint8]) -> IntArray:
-    """Indices where the capture byte differs from the one before, with 0 first.
-
-    This is the one full pass over the samples that both buses share.
+    A buffer's working arrays take a few MB; allocated afresh each time, they are returned to
+    the system and faulted back in page by page for the next buffer, which cost more than
+    the work done on them (about 3 µs a page on a virtual machine). Arrays taken from here
+    are valid until the same name is taken again.
     """
-    changed = np.empty(samples.size, dtype=bool)
-    changed[:1] = True
-    np.not_equal(samples[1:], samples[:-1], out=changed[1:])
-    changes: IntArray = np.flatnonzero(changed)
-    return changes
+
+    def __init__(self) -> None:
+        self._arrays: dict[str, npt.NDArray[Any]] = {}
+
+    def take(self, name: str, size: int, dtype: type[np.generic]) -> npt.NDArray[Any]:
+        """An uninitialised array of ``size`` elements (a view of the kept one)."""
+        kept = self._arrays.get(name)
+        if kept is None or kept.size < size:
+            kept = np.empty(max(size, 1024, 0 if kept is None else kept.size * 5 // 4),
+                            dtype=dtype)
+            self._arrays[name] = kept
+        return kept[:size]
 
 
-def bus_runs(values: npt.NDArray[np.uint8], changes: IntArray, bus: int
-             ) -> tuple[IntArray, npt.NDArray[np.int8]]:
-    """Run starts and levels of one bus, given the capture bytes at the shared change points
-    (``values = samples[changes]``)."""
-    levels = bus_levels(values, bus)
-    keep = np.empty(levels.size, dtype=bool)
-    keep[:1] = True
-    np.not_equal(levels[1:], levels[:-1], out=keep[1:])
-    return changes[keep], levels[keep]
+def byte_changes(samples: npt.NDArray[np.uint8], work: Workspace
+                 ) -> tuple[IntArray, npt.NDArray[np.uint8]]:
+    """Indices where the capture byte differs from the one before, with 0 first, and the
+    bytes there (views of ``work``'s arrays).
 
-
-def clean_runs(starts: IntArray, levels: npt.NDArray[np.int8], n: int, *, dropout_max: int,
-               glitch_max: int, missed_pulse_min: int = 0
-               ) -> tuple[IntArray, npt.NDArray[np.int8]]:
-    """Remove short interruptions inside a run, and restore pulses the sampling missed.
-
-    A silent run of at most ``dropout_max`` samples between two segments of the same polarity
-    is a drop-out, and a segment of at most ``glitch_max`` samples between two runs of the same
-    level is a glitch: both take their neighbours' level. Dead bands (silence between opposite
-    polarities) are kept; they are timed as crossings later.
-
-    At low sample rates a half-bit pulse squeezed by jitter and two dead bands can be shorter
-    than a sample and fall between samples: the line then shows silence between two segments
-    of the same polarity. With ``missed_pulse_min`` > 0, such a silence of at least that many
-    samples (and at most ``dropout_max``) becomes a pulse of the other polarity.
-
-    Only runs short enough to be one of these are examined (one comparison over all runs).
+    This is the one full pass over the samples that both buses share: a compiled loop that
+    writes every index and keeps it only where the byte changed, so there is no branch on the
+    data and no intermediate array (numpy needed a comparison, ``flatnonzero`` and a gather,
+    each a pass over freshly allocated memory).
     """
-    if levels.size < 3:
-        return starts, levels
-    # Inner runs (neither the first nor the last) no longer than either limit, between two
-    # runs of one level: a dead band (silence between opposite polarities) is not one.
-    short = np.flatnonzero((starts[2:] - starts[1:-1] <= max(dropout_max, glitch_max)) &
-                           (levels[:-2] == levels[2:])) + 1
-    if short.size == 0:
-        return starts, levels
-    length = starts[short + 1] - starts[short]
-    level, before = levels[short], levels[short - 1]
-    short_gap = (level == 0) & (before != 0) & (length <= dropout_max)
-    missed = short_gap & (length >= missed_pulse_min) if missed_pulse_min > 0 else \
-        np.zeros(short.size, dtype=bool)
-    glitch = (level != 0) & (length <= glitch_max)
-    fix = short[(short_gap & ~missed) | glitch]
-    restore = short[missed]
-    if fix.size == 0 and restore.size == 0:
-        return starts, levels
-    levels = levels.copy()
-    levels[fix] = levels[fix - 1]
-    levels[restore] = -levels[restore - 1]
-    keep = np.ones(levels.size, dtype=bool)
-    keep[1:] = levels[1:] != levels[:-1]
-    return starts[keep], levels[keep]
+    changes = work.take("changes", samples.size, np.int64)
+    values = work.take("values", samples.size, np.uint8)
+    count = _byte_changes(samples, changes, values)
+    return changes[:count], values[:count]
+
+
+@kernel
+def _byte_changes(samples: npt.NDArray[np.uint8], changes: IntArray,
+                  values: npt.NDArray[np.uint8]) -> int:
+    """:func:`byte_changes` into ``changes`` and ``values``; returns their number."""
+    count = 0
+    previous = ~samples[0] if samples.size else 0
+    for i in range(samples.size):
+        value = samples[i]
+        changes[count] = i
+        count += value != previous
+        previous = value
+    # The bytes are gathered afterwards: storing them in the loop above made it three times
+    # slower.
+    for j in range(count):
+        values[j] = samples[changes[j]]
+    return count
 
 
 @dataclass(frozen=True, slots=True)
@@ -111,51 +99,181 @@ class Segments:
     begins at a crossing (its ``left`` is one).
     """
 
-    level: npt.NDArray[np.int8]
+    level: Int8Array
     left: FloatArray
     right: FloatArray
-    adjacent_prev: npt.NDArray[np.bool_]
+    adjacent_prev: BoolArray
     crossings: FloatArray
     """Times of all crossings, sorted (the ``left`` of segments that begin at one)."""
-    crossing_level: npt.NDArray[np.int8]
+    crossing_level: Int8Array
     """The polarity each crossing goes to (+1: negative to positive)."""
     silent_after: FloatArray
     """Times at which activity stops (a segment's ``right`` followed by silence), sorted."""
+    candidates: IntArray
+    """Sync candidates: segments that begin at a crossing and, like the segment before them,
+    are long enough to be half a sync (see :func:`line_segments`)."""
+    candidate_crossing: IntArray
+    """The index in ``crossings`` of each candidate's crossing."""
 
 
-def segments(starts: IntArray, levels: npt.NDArray[np.int8], n: int, *, dead_band_max: int
-             ) -> Segments:
-    """Group runs into segments and time their boundaries.
+def line_segments(values: npt.NDArray[np.uint8], changes: IntArray, n: int, bus: int,
+                  work: Workspace, *, dropout_max: int, glitch_max: int,
+                  missed_pulse_min: int = 0, dead_band_max: int, half_min: float,
+                  span_min: float) -> Segments:
+    """The segments of ``bus`` in a buffer of ``n`` samples, given the capture bytes at the
+    shared change points (``values = samples[changes]``); their arrays are views of
+    ``work``'s, valid until its next use for a bus.
+
+    Runs are cleaned first (:func:`_clean_runs` says how), then grouped into segments whose
+    boundaries are timed (:func:`_segments` says how); ``dead_band_max`` is the longest
+    silence between opposite polarities that is still a crossing. A crossing between two
+    segments of at least ``half_min`` samples each, together at least ``span_min``, is a sync
+    candidate: both halves of a sync hold ~1.5 µs and span 3 µs between their outer crossings
+    (each off by at most 150 ns), where two long data runs hold 1 µs each and span 2 µs.
+    """
+    pos_bit, neg_bit = RX_BITS[bus]
+    size = changes.size
+    starts, levels = work.take("starts", size, np.int64), work.take("levels", size, np.int8)
+    runs = _bus_runs(values, changes, pos_bit.bit_length() - 1, neg_bit.bit_length() - 1,
+                     starts, levels)
+    runs = _clean_runs(starts, levels, runs, dropout_max, glitch_max, missed_pulse_min)
+    seg = Segments(work.take("level", runs, np.int8), work.take("left", runs, np.float64),
+                   work.take("right", runs, np.float64),
+                   work.take("adjacent", runs, np.bool_),
+                   work.take("crossings", runs, np.float64),
+                   work.take("crossing_level", runs, np.int8),
+                   work.take("silent_after", runs, np.float64),
+                   work.take("candidates", runs, np.int64),
+                   work.take("candidate_crossing", runs, np.int64))
+    live, crossings, ends, candidates = _segments(
+        starts, levels, runs, n, dead_band_max, half_min, span_min, seg.level, seg.left,
+        seg.right, seg.adjacent_prev, seg.crossings, seg.crossing_level, seg.silent_after,
+        seg.candidates, seg.candidate_crossing)
+    return Segments(seg.level[:live], seg.left[:live], seg.right[:live],
+                    seg.adjacent_prev[:live], seg.crossings[:crossings],
+                    seg.crossing_level[:crossings], seg.silent_after[:ends],
+                    seg.candidates[:candidates], seg.candidate_crossing[:candidates])
+
+
+@kernel
+def _bus_runs(values: npt.NDArray[np.uint8], changes: IntArray, pos_shift: int,
+              neg_shift: int, starts: IntArray, levels: Int8Array) -> int:
+    """Run starts and levels of one bus, written to ``starts`` and ``levels``; returns their
+    number. The level (RX minus RXB, so both outputs high is no signal, as both low is) is
+    taken at each change point, and kept where it changes."""
+    runs = 0
+    previous = 2  # no level
+    for i in range(changes.size):
+        value = int(values[i])
+        level = ((value >> pos_shift) & 1) - ((value >> neg_shift) & 1)
+        # Written every time, kept (by moving on) only where the level changes: no branch
+        # for the processor to mispredict on the line's data.
+        starts[runs] = changes[i]
+        levels[runs] = level
+        runs += level != previous
+        previous = level
+    return runs
+
+
+@kernel
+def _clean_runs(starts: IntArray, levels: Int8Array, count: int, dropout_max: int,
+                glitch_max: int, missed_pulse_min: int) -> int:
+    """Remove short interruptions inside the first ``count`` runs, and restore pulses the
+    sampling missed, in place; returns the new number of runs.
+
+    A silent run of at most ``dropout_max`` samples between two segments of the same polarity
+    is a drop-out, and a segment of at most ``glitch_max`` samples between two runs of the same
+    level is a glitch: both take their neighbours' level. Dead bands (silence between opposite
+    polarities) are kept; they are timed as crossings later.
+
+    At low sample rates a half-bit pulse squeezed by jitter and two dead bands can be shorter
+    than a sample and fall between samples: the line then shows silence between two segments
+    of the same polarity. With ``missed_pulse_min`` > 0, such a silence of at least that many
+    samples (and at most ``dropout_max``) becomes a pulse of the other polarity.
+
+    Each decision looks at the runs as they were found (not as already repaired), except that
+    a restored pulse takes the opposite of its neighbour's repaired level. Runs that end up
+    with their neighbour's level are merged into it.
+    """
+    longest = max(dropout_max, glitch_max)
+    kept = 0
+    found_before = 0  # the run before i as found, and as repaired
+    fixed_before = 0
+    for i in range(count):
+        found = fixed = levels[i]
+        if 0 < i < count - 1:
+            length = starts[i + 1] - starts[i]
+            if length <= longest and found_before == levels[i + 1]:
+                short_gap = found == 0 and found_before != 0 and length <= dropout_max
+                if short_gap and missed_pulse_min > 0 and length >= missed_pulse_min:
+                    fixed = -fixed_before
+                elif short_gap or (found != 0 and length <= glitch_max):
+                    fixed = found_before
+        if i == 0 or fixed != fixed_before:
+            starts[kept] = starts[i]
+            levels[kept] = fixed
+            kept += 1
+        found_before, fixed_before = found, fixed
+    return kept
+
+
+@kernel
+def _segments(starts: IntArray, levels: Int8Array, runs: int, n: int, dead_band_max: int,
+              half_min: float, span_min: float, level: Int8Array, left: FloatArray,
+              right: FloatArray, adjacent: BoolArray, crossings: FloatArray,
+              crossing_level: Int8Array, silent_after: FloatArray, candidates: IntArray,
+              candidate_crossing: IntArray) -> tuple[int, int, int, int]:
+    """Group the first ``runs`` runs into segments, time their boundaries and mark the sync
+    candidates, into the fields of :class:`Segments` (each at least ``runs`` long); returns
+    the number of segments, crossings, silences and candidates.
 
     A sample is the line state at its instant; a change happened between two samples, so a
     boundary is timed half a sample before the first sample of the new state, and a crossing
-    through a dead band at the middle of the silence. Where two segments touch (no dead
-    band), both rules give the same time, so only crossings through a dead band need the
-    second one.
+    through a dead band at the middle of the silence (between its last silent sample and the
+    first sample of the new polarity, each less half a sample).
     """
-    live = levels != 0
-    bounds = np.append(starts, n)
-    if 16 * np.count_nonzero(live) > 15 * live.size:
-        # Few silences (clean traffic): a boolean mask copies long stretches at once.
-        s, e, lv = bounds[:-1][live], bounds[1:][live], levels[live]
-    else:
-        # Dead bands alternate with segments: gathering by index is cheaper than a mask
-        # that copies one element at a time.
-        index = np.flatnonzero(live)
-        s, e, lv = bounds[index], bounds[index + 1], levels[index]
-        del index
-    del bounds
-    adjacent = np.zeros(s.size, dtype=bool)
-    silence = e[:-1] - s[1:]  # minus the silence between neighbours (0 where they touch)
-    adjacent[1:] = (silence >= -dead_band_max) & (lv[1:] != lv[:-1])
-    through = np.flatnonzero(adjacent[1:] & (silence != 0))
-    del silence
-    left = s - 0.5
-    right = e - 0.5
-    crossing_at = (e[through] - 1 + s[through + 1]) / 2.0
-    del s, e
-    left[through + 1] = crossing_at
-    right[through] = crossing_at
-    ends_activity = np.flatnonzero(~adjacent[1:])
-    silent_after = np.append(right[ends_activity], right[-1:])
-    return Segments(lv, left, right, adjacent, left[adjacent], lv[adjacent], silent_after)
+    live = crossing_count = ends = 0
+    previous_end = 0
+    for i in range(runs):
+        if levels[i] == 0:
+            continue
+        begin = starts[i]
+        end = starts[i + 1] if i + 1 < runs else n
+        level[live] = levels[i]
+        left[live] = begin - 0.5
+        right[live] = end - 0.5
+        adjacent[live] = False
+        if live > 0:
+            silence = begin - previous_end
+            if silence <= dead_band_max and levels[i] != level[live - 1]:
+                adjacent[live] = True
+                if silence != 0:
+                    at = (previous_end - 1 + begin) / 2.0
+                    left[live] = at
+                    right[live - 1] = at
+                crossings[crossing_count] = left[live]
+                crossing_level[crossing_count] = levels[i]
+                crossing_count += 1
+            else:
+                silent_after[ends] = right[live - 1]
+                ends += 1
+        previous_end = end
+        live += 1
+    if live:
+        silent_after[ends] = right[live - 1]
+        ends += 1
+    # Candidates, once every boundary is timed. Each one is written, and kept (by moving
+    # on) only if it is one: bitwise tests, no branch on the line's data for the processor
+    # to mispredict.
+    found = 0
+    crossing = -1
+    after = right[0] - left[0] if live else 0.0
+    for j in range(1, live):
+        crossing += adjacent[j]
+        before = after
+        after = right[j] - left[j]
+        candidates[found] = j
+        candidate_crossing[found] = crossing
+        found += adjacent[j] & (before >= half_min) & (after >= half_min) & \
+            (before + after >= span_min)
+    return live, crossing_count, ends, found

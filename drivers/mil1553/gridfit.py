@@ -10,11 +10,11 @@ assignment needs. Where the phases spread round most of the circle (a low sample
 quantizes them into a few values, all occupied) the widest gap says nothing, and the
 circular mean (the densest region) is used instead.
 
-Nothing here loops over words or sorts phases: each word's occupied bins become one 32-bit
-mask (one ``bitwise_or.reduceat`` over all crossings of a buffer), and the widest empty arc
-of every mask is found by a bit-parallel binary search (:func:`widest_free_arc`), a few
-operations on all masks at once. Only the words that need the circular mean build their
-per-bin counts.
+The midrange is a compiled kernel: per window, one pass over its crossings builds a 32-bit
+mask of occupied bins, and the widest empty arc of the mask is found with a few bit
+operations (:func:`_widest_free_arc`), without sorting the phases. Only windows that need the
+circular mean count their crossings per bin, in a second pass; their means are one numpy
+matrix product for all of them (:func:`circular_mean`).
 """
 
 from __future__ import annotations
@@ -22,6 +22,7 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
+from drivers.jit import kernel
 from drivers.mil1553.edges import FloatArray, IntArray
 
 PHASE_BINS = 32
@@ -32,110 +33,24 @@ circle (0.3 less the bins' quantization); otherwise the circular mean."""
 
 _BIN_ANGLE = 2 * np.pi * (np.arange(PHASE_BINS) + 0.5) / PHASE_BINS
 _BIN_COS, _BIN_SIN = np.cos(_BIN_ANGLE), np.sin(_BIN_ANGLE)
+_FULL = (1 << PHASE_BINS) - 1
 
 
-def range_indices(lo: IntArray, hi: IntArray) -> tuple[IntArray, IntArray]:
-    """The indices of the concatenated ranges ``[lo[i], hi[i])``, and each range's length
-    (0 where ``hi <= lo``). No Python loop: one ``repeat`` and one ``arange``."""
-    count = np.maximum(hi - lo, 0)
-    filled = np.flatnonzero(count)
-    # Steps of +1, except at the start of each range, which jumps from the previous one's
-    # end; a running sum (in place, one array) turns them into the indices.
-    index: IntArray = np.ones(int(count.sum()), dtype=np.int64)
-    if index.size:
-        first = (np.cumsum(count) - count)[filled]
-        starts = lo[filled]
-        index[first[0]] = starts[0]
-        index[first[1:]] = starts[1:] - (starts[:-1] + count[filled][:-1] - 1)
-        np.cumsum(index, out=index)
-    return index, count
+def fit_grids(crossings: FloatArray, lo: IntArray, hi: IntArray, centre: FloatArray,
+              half: float) -> FloatArray:
+    """Per window ``crossings[lo[i]:hi[i]]``, the offset in half-bits, in [-0.5, 0.5), of the
+    grid of ``half`` samples that best fits its crossings' phases relative to ``centre[i]``
+    (0 for an empty window): the circular midrange, or the circular mean where the phases
+    leave no one clear widest gap (see the module doc).
 
-
-def grid_phases(crossings: FloatArray, lo: IntArray, hi: IntArray, centre: FloatArray,
-                half: float) -> tuple[npt.NDArray[np.int32], IntArray]:
-    """The phase bin (0 to PHASE_BINS - 1) of each crossing of ``crossings[lo[i]:hi[i]]``
-    relative to ``centre[i]`` on a grid of ``half`` samples, concatenated, and each window's
-    crossing count."""
-    index, count = range_indices(lo, hi)
-    scale = PHASE_BINS / half
-    phase = crossings[index]
-    del index
-    phase -= np.repeat(centre, count)
-    phase *= scale
-    bins = np.floor(phase, out=phase).astype(np.int32)
-    bins &= PHASE_BINS - 1
-    return bins, count
-
-
-def fit_grid(bins: npt.NDArray[np.int32], count: IntArray) -> FloatArray:
-    """Per window of ``count`` consecutive phase bins, the grid offset in half-bits,
-    in [-0.5, 0.5) (0 for an empty window).
-
-    Each window's occupied bins become one 32-bit mask (a single ``bitwise_or.reduceat``
-    over every crossing of the buffer); the widest empty arc of every mask is then found
-    with a few bit operations on all masks at once (:func:`widest_free_arc`), so no per-word
-    sort or per-bin table is built. Only windows without one clear widest gap (see the
-    module doc) need their bin counts, for the circular mean.
+    The means of all such windows are taken together by numpy (:func:`circular_mean`), from
+    their bin counts: a mean near the circle's wrap point must come out the same, to the last
+    bit, however the windows are batched, and one matrix product does that.
     """
-    out = np.zeros(count.size)
-    filled = np.flatnonzero(count)
-    if filled.size == 0:
-        return out
-    first = (np.cumsum(count) - count)[filled]
-    marks = np.left_shift(np.uint64(1), bins.astype(np.uint64))
-    occupied = np.bitwise_or.reduceat(marks, first)
-    width, starts = widest_free_arc(occupied)
-    gap = width.astype(np.int64) + 1  # from the occupied bin before the arc to the one after
-    # The occupied bin before the widest arc (its lowest start when there are several).
-    lowest = starts & (~starts + np.uint64(1))
-    after = np.frexp(lowest.astype(np.float64))[1] - 1
-    before = (after - 1) % PHASE_BINS
-    middle = (before + 0.5 + (PHASE_BINS + gap) / 2) / PHASE_BINS
-    out[filled] = middle - np.floor(middle + 0.5)
-    unclear = (gap < CLEAR_GAP * PHASE_BINS) | (np.bitwise_count(starts) > 1)
-    if unclear.any():
-        groups = filled[unclear]
-        member = np.zeros(count.size, dtype=bool)
-        member[groups] = True
-        local = np.repeat(np.arange(groups.size), count[groups])
-        tally = np.bincount(local * PHASE_BINS + bins[np.repeat(member, count)],
-                            minlength=groups.size * PHASE_BINS)
-        out[groups] = circular_mean(tally.reshape(groups.size, PHASE_BINS))
-    return out
-
-
-_FULL = np.uint64((1 << PHASE_BINS) - 1)
-
-
-def _rotate_down(masks: npt.NDArray[np.uint64], by: npt.NDArray[np.uint64] | np.uint64
-                 ) -> npt.NDArray[np.uint64]:
-    """Rotate 32-bit masks so that bit ``j`` of the result is bit ``j + by`` (mod 32)."""
-    rotated: npt.NDArray[np.uint64] = (masks >> by) | ((masks << (np.uint64(PHASE_BINS) - by))
-                                                      & _FULL)
-    return rotated
-
-
-def widest_free_arc(occupied: npt.NDArray[np.uint64]
-                    ) -> tuple[npt.NDArray[np.uint64], npt.NDArray[np.uint64]]:
-    """Per 32-bit mask of occupied bins (at least one), the length of the longest circular
-    run of free bins, and the mask of the bins where such a longest run starts (one bit per
-    run, so more than one bit means a tie).
-
-    ``free_run[m]`` has bit ``j`` set when bins ``j .. j+m-1`` are all free; doubling ``m``
-    takes one AND of a rotation. The longest length is then built bit by bit from 16 down,
-    keeping the starts of runs that reach it: a binary search run on every mask at once.
-    """
-    free_run = {1: ~occupied & _FULL}
-    for m in (1, 2, 4, 8):
-        free_run[2 * m] = free_run[m] & _rotate_down(free_run[m], np.uint64(m))
-    width = np.zeros(occupied.size, dtype=np.uint64)
-    starts = np.full(occupied.size, _FULL, dtype=np.uint64)
-    for m in (16, 8, 4, 2, 1):
-        longer = starts & _rotate_down(free_run[m], width)
-        reach = longer != 0
-        starts = np.where(reach, longer, starts)
-        width += reach.astype(np.uint64) * np.uint64(m)
-    return width, starts
+    fitted, unclear, counts = _fit_midranges(crossings, lo, hi, centre, half)
+    if unclear.size:
+        fitted[unclear] = circular_mean(counts)
+    return fitted
 
 
 def circular_mean(counts: npt.NDArray[np.int64]) -> FloatArray:
@@ -144,3 +59,74 @@ def circular_mean(counts: npt.NDArray[np.int64]) -> FloatArray:
     mean = np.arctan2(sub @ _BIN_SIN, sub @ _BIN_COS) / (2 * np.pi)
     result: FloatArray = mean - np.floor(mean + 0.5)
     return result
+
+
+@kernel
+def _fit_midranges(crossings: FloatArray, lo: IntArray, hi: IntArray, centre: FloatArray,
+                   half: float) -> tuple[FloatArray, IntArray, npt.NDArray[np.int64]]:
+    """The circular midrange of each window of :func:`fit_grids` where one widest gap is
+    clear; for the other windows, their indices and their crossings' counts per phase bin."""
+    out = np.zeros(centre.size)
+    unclear = np.empty(centre.size, dtype=np.int64)
+    unclear_count = 0
+    scale = PHASE_BINS / half
+    for i in range(centre.size):
+        if hi[i] <= lo[i]:
+            continue
+        occupied = 0
+        for j in range(lo[i], hi[i]):
+            occupied |= 1 << (int(np.floor((crossings[j] - centre[i]) * scale)) &
+                              (PHASE_BINS - 1))
+        width, starts = _widest_free_arc(occupied)
+        gap = width + 1  # from the occupied bin before the arc to the one after
+        if gap < CLEAR_GAP * PHASE_BINS or starts & (starts - 1) != 0:
+            unclear[unclear_count] = i
+            unclear_count += 1
+            continue
+        after = 0  # the first free bin of the widest arc
+        while not (starts >> after) & 1:
+            after += 1
+        before = (after + PHASE_BINS - 1) % PHASE_BINS
+        middle = (before + 0.5 + (PHASE_BINS + gap) / 2) / PHASE_BINS
+        out[i] = middle - np.floor(middle + 0.5)
+    counts = np.zeros((unclear_count, PHASE_BINS), dtype=np.int64)
+    for row in range(unclear_count):
+        i = unclear[row]
+        for j in range(lo[i], hi[i]):
+            counts[row, int(np.floor((crossings[j] - centre[i]) * scale)) &
+                   (PHASE_BINS - 1)] += 1
+    return out, unclear[:unclear_count], counts
+
+
+@kernel
+def _rotate_down(mask: int, by: int) -> int:
+    """Rotate a 32-bit mask so that bit ``j`` of the result is bit ``j + by`` (mod 32)."""
+    rotated: int = ((mask >> by) | (mask << (PHASE_BINS - by))) & _FULL
+    return rotated
+
+
+@kernel
+def _widest_free_arc(occupied: int) -> tuple[int, int]:
+    """For a 32-bit mask of occupied bins (at least one), the length of the longest circular
+    run of free bins, and the mask of the bins where such a longest run starts (one bit per
+    run, so more than one bit means a tie).
+
+    ``free_run[m]`` has bit ``j`` set when bins ``j .. j+m-1`` are all free; doubling ``m``
+    takes one AND of a rotation. The longest length is then built bit by bit from 16 down,
+    keeping the starts of runs that reach it: a binary search in five steps.
+    """
+    free1 = ~occupied & _FULL
+    free2 = free1 & _rotate_down(free1, 1)
+    free4 = free2 & _rotate_down(free2, 2)
+    free8 = free4 & _rotate_down(free4, 4)
+    free16 = free8 & _rotate_down(free8, 8)
+    width = 0
+    starts = _FULL
+    m = 16
+    for free in (free16, free8, free4, free2, free1):
+        longer = starts & _rotate_down(free, width)
+        if longer != 0:
+            starts = longer
+            width += m
+        m >>= 1
+    return width, starts

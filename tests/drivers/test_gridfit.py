@@ -1,8 +1,8 @@
 """The grid fit's bit-parallel circular midrange against a plain per-word computation.
 
 The decoder fits each word's half-bit grid from the phase bins of its crossings. The fast
-version works on 32-bit occupancy masks of all words at once; this checks it against the
-definition, computed word by word with sorted bins: the middle of the shortest arc holding
+version (a compiled kernel) works on a 32-bit occupancy mask per word; this checks it against
+the definition, computed word by word with sorted bins: the middle of the shortest arc holding
 every occupied bin when one widest gap is clear, else the circular mean of the bin counts.
 """
 
@@ -14,7 +14,7 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from drivers.mil1553.gridfit import CLEAR_GAP, PHASE_BINS, fit_grid, grid_phases, range_indices
+from drivers.mil1553.gridfit import CLEAR_GAP, PHASE_BINS, fit_grids
 
 
 def midrange_by_definition(bins: list[int]) -> float | None:
@@ -40,6 +40,25 @@ def midrange_by_definition(bins: list[int]) -> float | None:
     return middle - math.floor(middle + 0.5)
 
 
+HALF = 4.0
+"""A half-bit of 4 samples: a crossing at the middle of each phase bin is then exact."""
+
+
+def fit_windows(windows: list[list[int]], centres: list[float] | None = None) -> list[float]:
+    """Fit windows of phase bins, each bin given as a crossing at its middle, in slots that
+    go on round the circle (a window spans several half-bits, as a word does)."""
+    centres = centres or [1000.0 * (i + 1) for i in range(len(windows))]
+    crossings, lo, hi = [], [], []
+    for centre, bins in zip(centres, windows, strict=True):
+        lo.append(len(crossings))
+        crossings += [centre + HALF * (slot + (b + 0.5) / PHASE_BINS)
+                      for slot, b in enumerate(bins)]
+        hi.append(len(crossings))
+    fitted = fit_grids(np.array(crossings, dtype=np.float64), np.array(lo, dtype=np.int64),
+                       np.array(hi, dtype=np.int64), np.array(centres), HALF)
+    return [float(f) for f in fitted]
+
+
 window = st.one_of(
     st.lists(st.integers(0, PHASE_BINS - 1), max_size=40),
     # Realistic words: phases clustered round one bin, a few bins either side.
@@ -53,9 +72,7 @@ window = st.one_of(
 @given(windows=st.lists(window, min_size=1, max_size=30))
 def test_fit_equals_the_definition_on_every_window(windows: list[list[int]]) -> None:
     """Every window, including those that tie or cover the circle, in one batch."""
-    bins = np.array([b for w in windows for b in w], dtype=np.int32)
-    count = np.array([len(w) for w in windows], dtype=np.int64)
-    fitted = fit_grid(bins, count)
+    fitted = fit_windows(windows)
     expected = [midrange_by_definition(w) for w in windows]
     for got, want, w in zip(fitted, expected, windows, strict=True):
         if want is None:
@@ -66,27 +83,24 @@ def test_fit_equals_the_definition_on_every_window(windows: list[list[int]]) -> 
 
 def test_a_clear_cluster_across_the_wrap_point_gets_its_middle() -> None:
     # Bins 30, 31, 0, 1: the arc straddles the circle's start; its middle is bin 31/0's edge.
-    fitted = fit_grid(np.array([30, 31, 0, 1, 31], dtype=np.int32), np.array([5]))
-    assert fitted[0] == 0.0
+    assert fit_windows([[30, 31, 0, 1, 31]]) == [0.0]
 
 
 def test_phases_all_round_the_circle_fall_back_to_the_mean() -> None:
-    bins = np.arange(PHASE_BINS, dtype=np.int32)
-    dense = np.concatenate([bins, np.full(20, 8, dtype=np.int32)])
-    fitted = fit_grid(dense, np.array([dense.size]))
-    assert abs(fitted[0] - (8.5 / PHASE_BINS)) < 0.02
+    dense = list(range(PHASE_BINS)) + [8] * 20
+    assert abs(fit_windows([dense])[0] - (8.5 / PHASE_BINS)) < 0.02
 
 
-def test_grid_phases_bins_each_window_relative_to_its_centre() -> None:
-    crossings = np.array([0.0, 5.0, 10.25, 15.0, 100.0, 104.9])
-    lo, hi = np.array([0, 4]), np.array([4, 6])
-    bins, count = grid_phases(crossings, lo, hi, np.array([0.0, 100.0]), half=5.0)
-    assert count.tolist() == [4, 2]
-    # 10.25 is 0.05 of a half-bit late: bin 1; 104.9 is 0.02 early: bin 31.
-    assert bins.tolist() == [0, 0, 1, 0, 0, 31]
+def test_crossings_are_binned_relative_to_each_window_centre() -> None:
+    # One crossing 0.05 of a half-bit late (bin 1) and one 0.02 early (bin 31), in windows
+    # centred 100 samples apart: each window's midrange is its own crossing's bin middle.
+    crossings = np.array([10.25, 104.9])
+    fitted = fit_grids(crossings, np.array([0, 1]), np.array([1, 2]), np.array([0.0, 100.0]),
+                       5.0)
+    assert fitted.tolist() == [1.5 / PHASE_BINS, 31.5 / PHASE_BINS - 1]
 
 
-def test_range_indices_concatenates_ranges_and_skips_empty_ones() -> None:
-    index, count = range_indices(np.array([2, 5, 9]), np.array([4, 5, 11]))
-    assert index.tolist() == [2, 3, 9, 10]
-    assert count.tolist() == [2, 0, 2]
+def test_an_empty_window_fits_nothing() -> None:
+    fitted = fit_grids(np.array([1.0, 2.0]), np.array([0, 2]), np.array([0, 2]),
+                       np.array([0.0, 5.0]), 5.0)
+    assert fitted.tolist() == [0.0, 0.0]

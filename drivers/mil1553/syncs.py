@@ -1,0 +1,144 @@
+"""Finding the syncs of one bus: where words start, each anchored on its own fitted grid.
+
+1. *Candidates.* A crossing with at least ~1 µs of one polarity before it and of the other
+   after it is a sync candidate (data bits never hold a level for more than 1 µs), if both
+   sides together span enough to tell it from two long data runs. They are marked while the
+   segments are built (:func:`drivers.mil1553.edges.line_segments`).
+2. *Anchor.* Each candidate's 0.5 µs grid is fitted to the crossings from its middle crossing
+   to slot 36.5, or to where the line falls silent (:mod:`drivers.mil1553.gridfit`); the
+   anchor is the grid's slot 0, the sync's start.
+3. *Validation.* A real sync holds its level for three half-bits on each side: the segment
+   before the middle crossing must start at or before grid slot 0 and the one after it end at
+   or after slot 6; anything else (a long data run) is not a sync. A candidate inside the
+   previous word that is not followed by the mid-bit crossings of bits 0 and 1 is the end of
+   that word, and a candidate overlapping the previous sync is data.
+
+Steps 2 and 3 are compiled kernels over the candidates, with the grid-fit kernel; Python only
+passes the arrays between them (a kernel calls no kernel of another module, so that the
+on-disk cache of each stays valid when the other module changes).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from drivers.jit import kernel
+from drivers.mil1553.edges import BoolArray, FloatArray, Int8Array, IntArray, Segments
+from drivers.mil1553.gridfit import fit_grids
+
+
+def find_syncs(seg: Segments, half: float) -> tuple[FloatArray, Int8Array]:
+    """Anchors (sync start, in samples) of the valid syncs among the segments' candidates,
+    in order, and each sync's first polarity. ``half`` is the half-bit in samples."""
+    k = seg.candidates
+    middle, lo, hi = _windows(k, seg.candidate_crossing, seg.left, seg.crossings,
+                              seg.silent_after, half)
+    correction = fit_grids(seg.crossings, lo, hi, middle, half)
+    return _validate(k, middle, correction, seg.level, seg.left, seg.right, seg.adjacent_prev,
+                     seg.crossings, half)
+
+
+@kernel
+def _windows(k: IntArray, crossing: IntArray, left: FloatArray, crossings: FloatArray,
+             silent_after: FloatArray, half: float) -> tuple[FloatArray, IntArray, IntArray]:
+    """Per candidate (the segment ``k`` after its middle crossing, that crossing's index),
+    the crossing's time and the window of crossings its grid is fitted to: from a quarter bit
+    before it up to slot 36.5, before a contiguous next word's sync (slot 40) would start, or
+    up to where the line falls silent, so a later word's crossings never pull the grid.
+    """
+    middle = np.empty(k.size)
+    lo = np.empty(k.size, dtype=np.int64)
+    hi = np.empty(k.size, dtype=np.int64)
+    # Each bound is found by walking from a known index (as np.searchsorted(...,
+    # side="left") would find it): the window's start back from the candidate's crossing,
+    # its end and the next silence on from the last candidate's (both only move forward).
+    last = silent = 0
+    for i in range(k.size):
+        at = left[k[i]]
+        middle[i] = at
+        first = crossing[i]
+        while first > 0 and crossings[first - 1] >= at - 0.5 * half:
+            first -= 1
+        while silent < silent_after.size and silent_after[silent] < at:
+            silent += 1
+        stop = silent_after[silent] if silent < silent_after.size else np.inf
+        end = min(at + 36.5 * half, stop)
+        last = max(last, first)
+        while last < crossings.size and crossings[last] < end:
+            last += 1
+        lo[i], hi[i] = first, last
+    return middle, lo, hi
+
+
+@kernel
+def _validate(k: IntArray, middle: FloatArray, correction: FloatArray, level: Int8Array,
+              left: FloatArray, right: FloatArray, adjacent_prev: BoolArray,
+              crossings: FloatArray, half: float) -> tuple[FloatArray, Int8Array]:
+    """The anchors and first polarities of the candidates that are syncs (module doc, step 3).
+
+    The first half may follow idle (any length before it is silence), or follow the previous
+    word's last half-bit (slot -1); a longer level before a crossing is data with a missing
+    transition, not a sync. At the tolerance limits the end of a word can look like a sync (a
+    long data run, then the parity bit or the next sync's first half); such a candidate lies
+    inside the previous word's 20 µs and lacks the mid-bit crossings of bits 0 and 1, which
+    every real word has (a word with a missing transition there does not start inside another
+    word, so it is kept). Each test looks at the candidates the previous one kept.
+    """
+    spus = 2 * half
+    anchors = np.empty(k.size)
+    first = np.empty(k.size, dtype=np.int8)
+    valid = 0
+    for i in range(k.size):
+        anchor = middle[i] - 3 * half + correction[i] * half
+        before = left[k[i] - 1]
+        first_ok = not adjacent_prev[k[i] - 1] or before >= anchor - 1.6 * half
+        if first_ok and before <= anchor + 0.5 * half and right[k[i]] >= anchor + 5.5 * half:
+            anchors[valid] = anchor
+            first[valid] = level[k[i] - 1]
+            valid += 1
+    kept = np.ones(valid, dtype=np.bool_)
+    for i in range(1, valid):
+        if anchors[i] - anchors[i - 1] < 39.5 * half:
+            for bit in range(2):
+                centre = anchors[i] + (3.5 + bit) * spus
+                if np.searchsorted(crossings, centre + 0.3 * spus) <= \
+                        np.searchsorted(crossings, centre - 0.3 * spus):
+                    kept[i] = False
+    # Two syncs cannot overlap: a sync-like pattern starting inside the previous sync (its
+    # second half continued by a bit without its transition) is data.
+    out_anchors = np.empty(valid)
+    out_first = np.empty(valid, dtype=np.int8)
+    count = 0
+    previous = -np.inf
+    for i in range(valid):
+        if not kept[i]:
+            continue
+        if anchors[i] - previous >= 5.5 * half:
+            out_anchors[count] = anchors[i]
+            out_first[count] = first[i]
+            count += 1
+        previous = anchors[i]
+    return out_anchors[:count], out_first[:count]
+
+
+@kernel
+def word_extents(anchors: FloatArray, crossings: FloatArray, silent_after: FloatArray,
+                 n: int, half: float) -> tuple[IntArray, FloatArray]:
+    """Per anchored word, the index of its first crossing and where its activity stops.
+
+    A word owns what lies at or after its sync's start less a quarter bit, up to the next
+    word's; its activity stops at the next silence, the end of the buffer (``n`` samples) or
+    the next sync, whichever is first.
+    """
+    first_owned = np.empty(anchors.size, dtype=np.int64)
+    span_end = np.empty(anchors.size)
+    first = silent = 0
+    for i in range(anchors.size):
+        while first < crossings.size and crossings[first] < anchors[i] - 0.5 * half:
+            first += 1
+        first_owned[i] = first
+        while silent < silent_after.size and silent_after[silent] < anchors[i]:
+            silent += 1
+        end = min(silent_after[silent] if silent < silent_after.size else np.inf, float(n))
+        span_end[i] = min(end, anchors[i + 1]) if i + 1 < anchors.size else end
+    return first_owned, span_end
