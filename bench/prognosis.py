@@ -1,12 +1,15 @@
 """RUL along run-to-failure trajectories: alpha-lambda, relative accuracy on RUL, horizon.
 
 Two units of each aging kind of issue 5 (capacitance, ESR, SMPS high/low-side Ron, inverter
-phase-A Ron, friction), a BIT every 4 flights of each unit's life; at each BIT from a quarter
-of the life on, the reasoner fits the kind's aging shape (exponential, reciprocal, power; see
-mapr_daemon/reasoner/trend.py) to its per-BIT estimates of the component with their measured
-noise, and a fleet prior on the shape parameter learned from 8 other units per kind (and
-again without it, from the same BITs). alpha = 0.2 at lambda 0.5 and 0.75 (t0 = flight 0),
-beta = 0.5; relative accuracy on RUL; prognostic horizon. Target: alpha-lambda pass >= 90 %.
+phase-A Ron, friction), a BIT every 4 flights of each unit's life. Each BIT is read by the
+kind's degradation estimator (mapr_daemon/reasoner/wear.py), trained on BITs flown at known
+degradations with seeds of their own; its scale error and noise are measured on calibration
+BITs of yet other seeds. At each BIT from a quarter of the life on, the reasoner fits the
+kind's aging shape (exponential, reciprocal, power; see mapr_daemon/reasoner/trend.py) to the
+estimates so far, with a fleet prior (shape parameter jointly with the life, and the part's
+flight-to-flight scatter) learned from 30 other units per kind, and again without it, from
+the same BITs. alpha = 0.2 at lambda 0.5 and 0.75 (t0 = flight 0), beta = 0.5; relative
+accuracy on RUL; prognostic horizon. Target: alpha-lambda pass >= 90 %.
 Run:  python3 bench/prognosis.py --dictionary dictionary.npz  (builds one if absent).
 """
 
@@ -26,7 +29,15 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from mapr_daemon.ema.params import default_actuator_path, load_actuator
 from mapr_daemon.reasoner.build import build
 from mapr_daemon.reasoner.dictionary import Dictionary, DictionarySpec
-from mapr_daemon.reasoner.trajectory import Scored, observe_units, score
+from mapr_daemon.reasoner.trajectory import (
+    CALIBRATION_LEVELS,
+    CALIBRATION_REPS,
+    FLEET_UNITS,
+    TRAINING_BITS,
+    Scored,
+    observe_units,
+    score,
+)
 
 KINDS = ("capacitance", "esr", "smps_ron_high", "smps_ron_low", "inverter_ron_a_high",
          "friction")
@@ -77,7 +88,9 @@ def main() -> int:
     units = [(k, s) for k in KINDS for s in range(1, args.units + 1)]
     observed = observe_units(d, params, units, bit_every=args.bit_every)
     print(f"BIT every {args.bit_every} flights, {sum(o.flights.size for o in observed)} unit "
-          f"BITs; per-BIT estimate measured on calibration BITs:")
+          f"BITs; per kind: {TRAINING_BITS} estimator training BITs, "
+          f"{CALIBRATION_REPS * len(CALIBRATION_LEVELS)} calibration BITs, fleet prior from "
+          f"{FLEET_UNITS} units; per-BIT estimate measured on the calibration BITs:")
     for kind in KINDS:
         o = next(o for o in observed if o.kind == kind)
         n = o.noise

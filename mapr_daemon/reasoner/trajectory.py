@@ -14,9 +14,10 @@ What the trend is told, besides the unit's own estimates, and where it comes fro
   ``calibration_reps`` each, seeds and pressures of their own, disjoint from the estimators'
   training BITs and from the scored units' BITs);
 * optionally (``use_prior``) a fleet prior on the shape parameter (:class:`trend.ShapePrior`),
-  learned from the true degradation paths of ``training_units`` other units of the kind
-  (unit seeds 10,000 and up; the scored units use small seeds) — the accelerated-aging
-  records a fleet has of a part, measured directly in the lab.
+  learned from the true degradation paths of ``training_units`` (:data:`FLEET_UNITS`) other
+  units of the kind (unit seeds 10,000 and up; the scored units use small seeds) — the
+  accelerated-aging records a fleet has of a part, measured directly in the lab: the shape
+  parameter jointly with the life, and the part's own flight-to-flight scatter.
 
 All BITs (units, training and calibration) are simulated in one batch.
 """
@@ -41,14 +42,18 @@ from mapr_daemon.reasoner.features import FloatArray
 
 TRAINING_SEED = 10_000
 """First unit seed of the fleet-prior training units (disjoint from scored units' seeds)."""
+FLEET_UNITS = 30
+"""Run-to-failure units per kind behind the fleet prior."""
 UNIT_BIT_SEED = 3_000_000
 """First simulation seed of the scored units' BITs and the calibration BITs."""
 TRAINING_BIT_SEED = 7_000_000
 """First simulation seed of the estimators' training BITs (disjoint from the above)."""
-TRAINING_BITS = 150
+TRAINING_BITS = 300
 """Training BITs per kind for its degradation estimator (:mod:`~mapr_daemon.reasoner.wear`)."""
 CALIBRATION_LEVELS: tuple[float, ...] = (0.0, 0.05, 0.1, 0.15, 0.2, 0.3, 0.5, 0.75, 1.0, 1.25)
 """Degradations (fractions of the failure threshold) of the noise-calibration BITs."""
+CALIBRATION_REPS = 6
+"""Calibration BITs per level and kind."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -115,7 +120,8 @@ class Observed:
 
 
 def observe_units(d: Dictionary, params: ActuatorParams, units: Sequence[tuple[str, int]],
-                  bit_every: int = 4, mean_life: float = 200.0, calibration_reps: int = 3,
+                  bit_every: int = 4, mean_life: float = 200.0,
+                  calibration_reps: int = CALIBRATION_REPS,
                   training_bits: int = TRAINING_BITS) -> list[Observed]:
     """Fly every unit's BITs, the estimators' training BITs and the calibration BITs (one
     batch, each with its own seeds); train the per-kind estimators, calibrate, estimate."""
@@ -177,7 +183,7 @@ def observe_units(d: Dictionary, params: ActuatorParams, units: Sequence[tuple[s
 
 def score(observed: Sequence[Observed], params: ActuatorParams, use_prior: bool = True,
           lambdas: Sequence[float] = (0.5, 0.75), alpha: float = 0.2,
-          training_units: int = 8, mean_life: float = 200.0) -> list[Scored]:
+          training_units: int = FLEET_UNITS, mean_life: float = 200.0) -> list[Scored]:
     """RUL predictions of observed units against their truth."""
     kinds = sorted({o.kind for o in observed})
     priors = {k: learn_prior(params, k, training_units, mean_life) if use_prior else None

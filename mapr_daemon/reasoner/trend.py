@@ -70,6 +70,11 @@ def basis(shape: str, theta: FloatArray, n: FloatArray) -> FloatArray:
     reciprocal form has already diverged (the part failed before ``n``)."""
     t = np.asarray(theta, dtype=np.float64)[:, None]
     x = np.asarray(n, dtype=np.float64)[None, :]
+    return _g(shape, t, x)
+
+
+def _g(shape: str, t: FloatArray, x: FloatArray) -> FloatArray:
+    """``g_t(x)`` element by element (broadcast)."""
     if shape == "exponential":
         out: FloatArray = np.expm1(np.minimum(t * x, 300.0))  # squares stay finite
     elif shape == "reciprocal":
@@ -187,38 +192,104 @@ class Noise:
 
 @dataclasses.dataclass(frozen=True)
 class ShapePrior:
-    """Fleet knowledge of a kind's shape parameter: ``log(theta) ~ N(mean, sd)``.
+    """Fleet knowledge of a kind's aging: ``log(theta) ~ N(mean, sd)``, jointly with the life.
 
     Learned from run-to-failure units of the same kind (:meth:`learn`), as model-based
     prognostics does with accelerated-aging data of other devices (the papers above fit their
     model parameters on training devices before tracking a test device). Without it the
     curvature of an exponential is barely identifiable from the flat early part of a noisy
     trend, and the median RUL falls back to the straight-line extrapolation.
+
+    Where the amplitude is free, the prior is a joint normal of ``(log theta, log life)``
+    (``life`` the flight where ``h`` reaches 1): the two are tied (an exponential that bends
+    late must start low), and the fleet's spread of lives bounds what a noisy early trend
+    can claim. ``scatter0 + scatter1*h`` is the sd of the part's own flight-to-flight scatter
+    about its smooth aging path (measured on the same units); the trend adds it to the
+    estimate's noise, since the threshold is crossed by the smooth path.
     """
 
     mean: float
     sd: float
+    life_mean: float = 0.0
+    life_sd: float = 0.0
+    """``log(life)`` mean and sd; ``life_sd`` 0: no life prior (a fixed amplitude)."""
+    corr: float = 0.0
+    scatter0: float = 0.0
+    scatter1: float = 0.0
 
     @classmethod
     def learn(cls, kind: str, trajectories: list[tuple[FloatArray, FloatArray]]) -> ShapePrior:
         """From ``(flights, h)`` of training units (their true degradation to failure)."""
-        if len(trajectories) < 2:
-            raise ConfigError("need two or more training units", field="prior")
+        if len(trajectories) < 3:
+            raise ConfigError("need three or more training units", field="prior")
         shape = SHAPES[kind]
         grid = _GRIDS[shape]
-        logs = []
+        fixed = FIXED_AMPLITUDE.get(kind)
+        logs, lives, hs, res = [], [], [], []
         for n, h in trajectories:
-            # the true paths are smooth: weights of a tiny noise make this least squares
-            _, loglik = _grid_fit(shape, n, np.asarray(h, dtype=np.float64),
-                                  np.full(n.size, 1e8), FIXED_AMPLITUDE.get(kind))
-            logs.append(math.log(float(grid[int(np.argmax(loglik))])))
-        spread = float(np.std(logs, ddof=1))
-        return cls(float(np.mean(logs)), max(spread, 0.05))
+            y = np.asarray(h, dtype=np.float64)
+            # the paths' scatter is small: weights of a tiny noise make this least squares
+            (amp, _), loglik = _grid_fit(shape, n, y, np.full(n.size, 1e8), fixed)
+            i = int(np.argmax(loglik))
+            logs.append(math.log(float(grid[i])))
+            lives.append(math.log(float(crossing(shape, grid[i: i + 1], amp[i: i + 1])[0])))
+            fit = amp[i] * basis(shape, grid[i: i + 1], n)[0]
+            hs.append(y)
+            res.append(np.abs(y - fit) * math.sqrt(math.pi / 2.0))  # E|e| -> sd
+        s1, s0 = np.polyfit(np.concatenate(hs), np.concatenate(res), 1)
+        s1 = max(float(s1), 0.0)
+        s0 = max(float(s0), 1e-3)
+        spread = max(float(np.std(logs, ddof=1)), 0.05)
+        if fixed is not None:
+            return cls(float(np.mean(logs)), spread, scatter0=s0, scatter1=s1)
+        life_sd = max(float(np.std(lives, ddof=1)), 0.02)
+        corr = 0.0  # a shape parameter the fleet shares (friction's p) is not tied to life
+        if np.ptp(logs) > 0.0 and np.ptp(lives) > 0.0:
+            corr = min(max(float(np.corrcoef(logs, lives)[0, 1]), -0.95), 0.95)
+        return cls(float(np.mean(logs)), spread, float(np.mean(lives)), life_sd, corr, s0, s1)
 
     def logpdf(self, theta: FloatArray) -> FloatArray:
+        """Log density of the shape parameter alone (up to a constant)."""
         z = (np.log(theta) - self.mean) / self.sd
         out: FloatArray = -0.5 * z * z
         return out
+
+    def joint_logpdf(self, theta: FloatArray, life: FloatArray) -> FloatArray:
+        """Log density of ``(theta, life)`` on their grid ``(theta, life)`` (up to a constant)."""
+        zt = ((np.log(theta) - self.mean) / self.sd)[:, None]
+        zl = ((np.log(life) - self.life_mean) / self.life_sd)[None, :]
+        r = self.corr
+        out: FloatArray = -0.5 * (zt * zt - 2.0 * r * zt * zl + zl * zl) / (1.0 - r * r)
+        return out
+
+    def scatter(self, h: FloatArray) -> FloatArray:
+        out: FloatArray = self.scatter0 + self.scatter1 * np.clip(h, 0.0, 1.5)
+        return out
+
+
+LIVES: FloatArray = np.logspace(1.0, 3.7, 271)
+"""Lives (flights from 0 to the threshold) of the joint grid: 10 to 5000 flights."""
+
+
+def _joint_draws(shape: str, n: FloatArray, y: FloatArray, w: FloatArray, prior: ShapePrior,
+                 n_draws: int, rng: np.random.Generator) -> tuple[FloatArray, FloatArray]:
+    """Draws of ``(theta, A)`` from the posterior on the ``(theta, life)`` grid, where the
+    amplitude is the one that puts ``h = 1`` at the life: ``A = 1/g_theta(life)``."""
+    theta = _GRIDS[shape]
+    g = basis(shape, theta, n)
+    amp = 1.0 / np.maximum(basis(shape, theta, LIVES), 1e-300)
+    sgg, sgy, syy = (g * g) @ w, g @ (w * y), float(w @ (y * y))
+    loglik = -0.5 * (syy - 2.0 * amp * sgy[:, None] + amp * amp * sgg[:, None])
+    loglik = loglik + prior.joint_logpdf(theta, LIVES)
+    post = np.exp(loglik - loglik.max()).ravel()
+    pick = rng.choice(post.size, size=n_draws, p=post / post.sum())
+    it, il = np.divmod(pick, LIVES.size)
+    # jitter within the grid cell, both axes are log-spaced
+    lt = np.log(theta[it]) + math.log(theta[1] / theta[0]) * (rng.random(n_draws) - 0.5)
+    ll = np.log(LIVES[il]) + math.log(LIVES[1] / LIVES[0]) * (rng.random(n_draws) - 0.5)
+    th, life = np.exp(lt), np.exp(ll)
+    a: FloatArray = 1.0 / np.maximum(_g(shape, th, life), 1e-300)
+    return th, a
 
 
 def _grid_fit(shape: str, n: FloatArray, y: FloatArray, w: FloatArray,
@@ -259,27 +330,34 @@ def fit_rul(flights: FloatArray, h_est: FloatArray, now: float, kind: str, noise
                            horizon=horizon)
     n = n_all[~cens]
     y = (est[~cens] - noise.offset) / noise.gain
-    sd = noise.sd(y) / noise.gain
-    w = 1.0 / (sd * sd)
-    theta = _GRIDS[shape]
-    (amp, precision), loglik = _grid_fit(shape, n, y, w, FIXED_AMPLITUDE.get(kind))
+    var = (noise.sd(y) / noise.gain) ** 2
     if prior is not None:
-        loglik = loglik + prior.logpdf(theta)
-    post = np.exp(loglik - loglik.max())
-    post /= post.sum()
+        var = var + prior.scatter(y) ** 2
+    w = 1.0 / var
     rng = np.random.default_rng(seed)
-    idx = rng.choice(theta.size, size=n_draws, p=post)
-    a = amp[idx] + rng.standard_normal(n_draws) / np.sqrt(precision[idx])
+    fixed = FIXED_AMPLITUDE.get(kind)
+    if prior is not None and fixed is None and prior.life_sd > 0.0:
+        th, a = _joint_draws(shape, n, y, w, prior, n_draws, rng)
+    else:
+        theta = _GRIDS[shape]
+        (amp, precision), loglik = _grid_fit(shape, n, y, w, fixed)
+        if prior is not None:
+            loglik = loglik + prior.logpdf(theta)
+        post = np.exp(loglik - loglik.max())
+        post /= post.sum()
+        idx = rng.choice(theta.size, size=n_draws, p=post)
+        th = theta[idx]
+        a = amp[idx] + rng.standard_normal(n_draws) / np.sqrt(precision[idx])
     if cens.any() and noise.floor is not None:
         # censored BITs: weight each draw by P(its estimate would sit at the floor)
-        h_c = a[:, None] * basis(shape, theta[idx], n_all[cens])
+        h_c = a[:, None] * basis(shape, th, n_all[cens])
         h_c = np.where(np.isfinite(h_c), h_c, 1e6)
         z = (noise.detection - h_c) / noise.detection_sd
         logw = np.log(np.maximum(ndtr(z), 1e-300)).sum(axis=1)
         wts = np.exp(logw - logw.max())
         pick = rng.choice(n_draws, size=n_draws, p=wts / wts.sum())
-        idx, a = idx[pick], a[pick]
-    ruls = np.maximum(crossing(shape, theta[idx], a) - now, 0.0)
+        th, a = th[pick], a[pick]
+    ruls = np.maximum(crossing(shape, th, a) - now, 0.0)
     ruls = np.where(ruls > horizon, np.inf, ruls)
     q5, q50, q95 = quantiles(ruls)
     return RulEstimate(q50, q5, q95, ruls, horizon=horizon)

@@ -112,3 +112,17 @@ def test_a_dead_zone_is_measured_and_its_estimates_censored_not_fitted_as_zero()
     naive = trend.fit_rul(n[seen], est, now, "capacitance",
                           trend.Noise(noise.sd0, noise.sd1, noise.offset, noise.gain), prior)
     assert abs(naive.rul - (eol - now)) > abs(r.rul - (eol - now))
+
+
+def test_fleet_prior_learns_the_life_and_the_scatter() -> None:
+    """From 30 units' true paths: lives around the aging model's mean of 200 flights, the
+    exponential's rate tied to the life (a unit that bends late must start low: negative
+    correlation), and the part's own scatter about its smooth path (1 % of the value)."""
+    prior = learn_prior(PARAMS, "smps_ron_high", 30)
+    assert 170.0 < math.exp(prior.life_mean) < 230.0
+    assert 0.05 < prior.life_sd < 0.3
+    assert prior.corr < -0.3
+    sd = prior.scatter(np.array([0.0, 1.0]))
+    assert 0.003 < sd[0] < 0.03 and sd[1] >= sd[0]
+    esr = learn_prior(PARAMS, "esr", 30)
+    assert esr.life_sd == 0.0  # the amplitude is fixed: no joint life prior
