@@ -60,7 +60,9 @@ from drivers.mil1553.wordbatch import (
     ERR_SYNC,
     SYNC_DATA,
     WordBatch,
+    concat_words,
     empty_words,
+    take_words,
 )
 
 
@@ -155,8 +157,8 @@ class ManchesterDecoder:
             return self._feed_block(chunk)
         # Streaming gives the same words as one call, so a large chunk (a whole file) is
         # decoded in blocks: the working arrays stay a few MB, whatever the chunk's size.
-        return np.concatenate([self._feed_block(chunk[start:start + BLOCK_SAMPLES])
-                               for start in range(0, chunk.size, BLOCK_SAMPLES)])
+        return concat_words([self._feed_block(chunk[start:start + BLOCK_SAMPLES])
+                             for start in range(0, chunk.size, BLOCK_SAMPLES)])
 
     def _feed_block(self, chunk: npt.NDArray[np.uint8]) -> WordBatch:
         self.samples_seen += chunk.size
@@ -190,7 +192,7 @@ class ManchesterDecoder:
     def _release(self, words: WordBatch) -> WordBatch:
         """Release words in time order across calls: a noise burst still open on one bus
         holds back the other bus's later words until it is reported."""
-        held = _in_time_order(np.concatenate([self._held, words]) if self._held.size else words)
+        held = _in_time_order(concat_words([self._held, words]))
         if not self._open_burst:
             self._held = empty_words()
             return held
@@ -210,7 +212,7 @@ class ManchesterDecoder:
 
     def decode_all(self, samples: npt.NDArray[np.uint8]) -> WordBatch:
         """Decode a whole capture in one call (``feed`` then ``flush``)."""
-        return np.concatenate([self.feed(samples), self.flush()])
+        return concat_words([self.feed(samples), self.flush()])
 
     # --- internals -----------------------------------------------------------------------
     def _decode(self, buf: npt.NDArray[np.uint8], horizon: int, final: bool = False
@@ -219,8 +221,7 @@ class ManchesterDecoder:
         out = [self._decode_bus(values, changes, buf.size, bus, horizon, final)
                for bus in (BUS_A, BUS_B)]
         self._decided_until = self._base + horizon
-        return _in_time_order(np.concatenate(out) if out[0].size and out[1].size else
-                              out[1] if out[1].size else out[0])
+        return _in_time_order(concat_words(out))
 
     def _decode_bus(self, values: npt.NDArray[np.uint8], changes: IntArray, n: int, bus: int,
                     horizon: int, final: bool) -> WordBatch:
@@ -258,7 +259,7 @@ class ManchesterDecoder:
         if settled.any():
             self._covered_until[bus] = max(self._covered_until[bus],
                                            float(span_end[settled].max()) + self._base)
-        return np.concatenate([words, bursts]) if bursts.size else words
+        return concat_words([words, bursts])
 
     def _bursts(self, seg: Segments, anchors: FloatArray, words_span_end: FloatArray,
                 horizon: float, bus: int) -> WordBatch:
@@ -354,8 +355,7 @@ def _in_time_order(words: WordBatch) -> WordBatch:
     key = words["t_ns"] * 2 + words["bus"]
     if key.size < 2 or bool((key[1:] >= key[:-1]).all()):
         return words
-    ordered: WordBatch = words[np.argsort(key, kind="stable")]
-    return ordered
+    return take_words(words, np.argsort(key, kind="stable"))
 
 
 def decode_capture(samples: npt.NDArray[np.uint8], sample_rate: float,

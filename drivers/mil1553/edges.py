@@ -124,31 +124,47 @@ def line_segments(values: npt.NDArray[np.uint8], changes: IntArray, n: int, bus:
     shared change points (``values = samples[changes]``); their arrays are views of
     ``work``'s, valid until its next use for a bus.
 
-    Runs are cleaned first (:func:`_clean_runs` says how), then grouped into segments whose
-    boundaries are timed (:func:`_segments` says how); ``dead_band_max`` is the longest
-    silence between opposite polarities that is still a crossing. A crossing between two
-    segments of at least ``half_min`` samples each, together at least ``span_min``, is a sync
-    candidate: both halves of a sync hold ~1.5 µs and span 3 µs between their outer crossings
-    (each off by at most 150 ns), where two long data runs hold 1 µs each and span 2 µs.
+    The bus's runs are repaired where an interruption is too short to be real:
+
+    * a silent run of at most ``dropout_max`` samples between two segments of the same
+      polarity is a drop-out, and a segment of at most ``glitch_max`` samples between two runs
+      of the same level is a glitch: both take their neighbours' level. Dead bands (silence
+      between opposite polarities) are kept; they are timed as crossings.
+    * At low sample rates a half-bit pulse squeezed by jitter and two dead bands can be
+      shorter than a sample and fall between samples: the line then shows silence between two
+      segments of the same polarity. With ``missed_pulse_min`` > 0, such a silence of at least
+      that many samples (and at most ``dropout_max``) becomes a pulse of the other polarity.
+
+    Each decision looks at the runs as they were found (not as already repaired), except that
+    a restored pulse takes the opposite of its neighbour's repaired level; runs that end up
+    with their neighbour's level are merged into it.
+
+    Segments are then timed. A sample is the line state at its instant; a change happened
+    between two samples, so a boundary is timed half a sample before the first sample of the
+    new state, and a crossing through a dead band (a silence of at most ``dead_band_max``
+    samples between opposite polarities) at the middle of the silence.
+
+    A crossing between two segments of at least ``half_min`` samples each, together at least
+    ``span_min``, is a sync candidate: both halves of a sync hold ~1.5 µs and span 3 µs
+    between their outer crossings (each off by at most 150 ns), where two long data runs hold
+    1 µs each and span 2 µs.
     """
     pos_bit, neg_bit = RX_BITS[bus]
     size = changes.size
-    starts, levels = work.take("starts", size, np.int64), work.take("levels", size, np.int8)
-    runs = _bus_runs(values, changes, pos_bit.bit_length() - 1, neg_bit.bit_length() - 1,
-                     starts, levels)
-    runs = _clean_runs(starts, levels, runs, dropout_max, glitch_max, missed_pulse_min)
-    seg = Segments(work.take("level", runs, np.int8), work.take("left", runs, np.float64),
-                   work.take("right", runs, np.float64),
-                   work.take("adjacent", runs, np.bool_),
-                   work.take("crossings", runs, np.float64),
-                   work.take("crossing_level", runs, np.int8),
-                   work.take("silent_after", runs, np.float64),
-                   work.take("candidates", runs, np.int64),
-                   work.take("candidate_crossing", runs, np.int64))
-    live, crossings, ends, candidates = _segments(
-        starts, levels, runs, n, dead_band_max, half_min, span_min, seg.level, seg.left,
-        seg.right, seg.adjacent_prev, seg.crossings, seg.crossing_level, seg.silent_after,
-        seg.candidates, seg.candidate_crossing)
+    seg = Segments(work.take("level", size, np.int8), work.take("left", size, np.float64),
+                   work.take("right", size, np.float64),
+                   work.take("adjacent", size, np.bool_),
+                   work.take("crossings", size, np.float64),
+                   work.take("crossing_level", size, np.int8),
+                   work.take("silent_after", size, np.float64),
+                   work.take("candidates", size, np.int64),
+                   work.take("candidate_crossing", size, np.int64))
+    live, crossings, ends = _segments(
+        values, changes, n, pos_bit.bit_length() - 1, neg_bit.bit_length() - 1, dropout_max,
+        glitch_max, missed_pulse_min, dead_band_max, seg.level, seg.left, seg.right,
+        seg.adjacent_prev, seg.crossings, seg.crossing_level, seg.silent_after)
+    candidates = _candidates(seg.left[:live], seg.right[:live], seg.adjacent_prev[:live],
+                             half_min, span_min, seg.candidates, seg.candidate_crossing)
     return Segments(seg.level[:live], seg.left[:live], seg.right[:live],
                     seg.adjacent_prev[:live], seg.crossings[:crossings],
                     seg.crossing_level[:crossings], seg.silent_after[:ends],
@@ -156,119 +172,96 @@ def line_segments(values: npt.NDArray[np.uint8], changes: IntArray, n: int, bus:
 
 
 @kernel
-def _bus_runs(values: npt.NDArray[np.uint8], changes: IntArray, pos_shift: int,
-              neg_shift: int, starts: IntArray, levels: Int8Array) -> int:
-    """Run starts and levels of one bus, written to ``starts`` and ``levels``; returns their
-    number. The level (RX minus RXB, so both outputs high is no signal, as both low is) is
-    taken at each change point, and kept where it changes."""
-    runs = 0
-    previous = 2  # no level
-    for i in range(changes.size):
-        value = int(values[i])
-        level = ((value >> pos_shift) & 1) - ((value >> neg_shift) & 1)
-        # Written every time, kept (by moving on) only where the level changes: no branch
-        # for the processor to mispredict on the line's data.
-        starts[runs] = changes[i]
-        levels[runs] = level
-        runs += level != previous
-        previous = level
-    return runs
+def _segments(values: npt.NDArray[np.uint8], changes: IntArray, n: int, pos_shift: int,
+              neg_shift: int, dropout_max: int, glitch_max: int, missed_pulse_min: int,
+              dead_band_max: int, level: Int8Array, left: FloatArray, right: FloatArray,
+              adjacent: BoolArray, crossings: FloatArray, crossing_level: Int8Array,
+              silent_after: FloatArray) -> tuple[int, int, int]:
+    """The segments of :func:`line_segments`, written to the fields of :class:`Segments`
+    given (each at least ``changes.size`` long); returns the number of segments, crossings
+    and silences.
 
-
-@kernel
-def _clean_runs(starts: IntArray, levels: Int8Array, count: int, dropout_max: int,
-                glitch_max: int, missed_pulse_min: int) -> int:
-    """Remove short interruptions inside the first ``count`` runs, and restore pulses the
-    sampling missed, in place; returns the new number of runs.
-
-    A silent run of at most ``dropout_max`` samples between two segments of the same polarity
-    is a drop-out, and a segment of at most ``glitch_max`` samples between two runs of the same
-    level is a glitch: both take their neighbours' level. Dead bands (silence between opposite
-    polarities) are kept; they are timed as crossings later.
-
-    At low sample rates a half-bit pulse squeezed by jitter and two dead bands can be shorter
-    than a sample and fall between samples: the line then shows silence between two segments
-    of the same polarity. With ``missed_pulse_min`` > 0, such a silence of at least that many
-    samples (and at most ``dropout_max``) becomes a pulse of the other polarity.
-
-    Each decision looks at the runs as they were found (not as already repaired), except that
-    a restored pulse takes the opposite of its neighbour's repaired level. Runs that end up
-    with their neighbour's level are merged into it.
+    One pass over the change points, with three stages one run apart: a run is found where
+    the bus's level (RX minus RXB, so both outputs high is no signal, as both low is)
+    changes; it is repaired once the run after it is found; a repaired run that keeps its
+    neighbour's level is merged into it, and a merged run becomes a segment (if not silent)
+    once the next one begins. Two sentinel runs at the end flush the stages.
     """
     longest = max(dropout_max, glitch_max)
-    kept = 0
-    found_before = 0  # the run before i as found, and as repaired
-    fixed_before = 0
-    for i in range(count):
-        found = fixed = levels[i]
-        if 0 < i < count - 1:
-            length = starts[i + 1] - starts[i]
-            if length <= longest and found_before == levels[i + 1]:
-                short_gap = found == 0 and found_before != 0 and length <= dropout_max
-                if short_gap and missed_pulse_min > 0 and length >= missed_pulse_min:
-                    fixed = -fixed_before
-                elif short_gap or (found != 0 and length <= glitch_max):
-                    fixed = found_before
-        if i == 0 or fixed != fixed_before:
-            starts[kept] = starts[i]
-            levels[kept] = fixed
-            kept += 1
-        found_before, fixed_before = found, fixed
-    return kept
-
-
-@kernel
-def _segments(starts: IntArray, levels: Int8Array, runs: int, n: int, dead_band_max: int,
-              half_min: float, span_min: float, level: Int8Array, left: FloatArray,
-              right: FloatArray, adjacent: BoolArray, crossings: FloatArray,
-              crossing_level: Int8Array, silent_after: FloatArray, candidates: IntArray,
-              candidate_crossing: IntArray) -> tuple[int, int, int, int]:
-    """Group the first ``runs`` runs into segments, time their boundaries and mark the sync
-    candidates, into the fields of :class:`Segments` (each at least ``runs`` long); returns
-    the number of segments, crossings, silences and candidates.
-
-    A sample is the line state at its instant; a change happened between two samples, so a
-    boundary is timed half a sample before the first sample of the new state, and a crossing
-    through a dead band at the middle of the silence (between its last silent sample and the
-    first sample of the new polarity, each less half a sample).
-    """
     live = crossing_count = ends = 0
-    previous_end = 0
-    for i in range(runs):
-        if levels[i] == 0:
-            continue
-        begin = starts[i]
-        end = starts[i + 1] if i + 1 < runs else n
-        level[live] = levels[i]
-        left[live] = begin - 0.5
-        right[live] = end - 0.5
-        adjacent[live] = False
-        if live > 0:
-            silence = begin - previous_end
-            if silence <= dead_band_max and levels[i] != level[live - 1]:
-                adjacent[live] = True
-                if silence != 0:
-                    at = (previous_end - 1 + begin) / 2.0
-                    left[live] = at
-                    right[live - 1] = at
-                crossings[crossing_count] = left[live]
-                crossing_level[crossing_count] = levels[i]
-                crossing_count += 1
-            else:
-                silent_after[ends] = right[live - 1]
-                ends += 1
-        previous_end = end
-        live += 1
+    previous_end = previous_level = 0  # the last segment's
+    run_level = 5  # the level of the run being read (5: none yet)
+    have_run = have_before = have_merged = False
+    run_start = run_found = 0  # the run waiting for its successor to be repaired
+    before_found = before_fixed = 0  # the run before it, as found and as repaired
+    merged_begin = merged_level = 0  # the merged run being built
+    for i in range(changes.size + 2):
+        if i < changes.size:
+            value = int(values[i])
+            found = ((value >> pos_shift) & 1) - ((value >> neg_shift) & 1)
+            if found == run_level:
+                continue
+            next_start = changes[i]
+        else:
+            found = 3 + i - changes.size
+            next_start = n
+        run_level = found
+        if have_run:
+            fixed = run_found
+            if have_before:
+                length = next_start - run_start
+                if length <= longest and before_found == found:
+                    short_gap = run_found == 0 and before_found != 0 and \
+                        length <= dropout_max
+                    if short_gap and missed_pulse_min > 0 and length >= missed_pulse_min:
+                        fixed = -before_fixed
+                    elif short_gap or (run_found != 0 and length <= glitch_max):
+                        fixed = before_found
+            if not have_before or fixed != before_fixed:
+                if have_merged and merged_level != 0:
+                    begin, end = merged_begin, run_start
+                    start = begin - 0.5
+                    silence = begin - previous_end
+                    crossing = live > 0 and silence <= dead_band_max and \
+                        merged_level != previous_level
+                    if crossing:
+                        if silence != 0:
+                            start = (previous_end - 1 + begin) / 2.0
+                            right[live - 1] = start
+                        crossings[crossing_count] = start
+                        crossing_level[crossing_count] = merged_level
+                        crossing_count += 1
+                    elif live > 0:
+                        silent_after[ends] = right[live - 1]
+                        ends += 1
+                    level[live] = merged_level
+                    left[live] = start
+                    right[live] = end - 0.5
+                    adjacent[live] = crossing
+                    previous_end, previous_level = end, merged_level
+                    live += 1
+                merged_begin, merged_level, have_merged = run_start, fixed, True
+            before_found, before_fixed, have_before = run_found, fixed, True
+        run_start, run_found, have_run = next_start, found, True
     if live:
         silent_after[ends] = right[live - 1]
         ends += 1
-    # Candidates, once every boundary is timed. Each one is written, and kept (by moving
-    # on) only if it is one: bitwise tests, no branch on the line's data for the processor
-    # to mispredict.
+    return live, crossing_count, ends
+
+
+@kernel
+def _candidates(left: FloatArray, right: FloatArray, adjacent: BoolArray, half_min: float,
+                span_min: float, candidates: IntArray, candidate_crossing: IntArray) -> int:
+    """The sync candidates among the segments (see :func:`line_segments`), written to
+    ``candidates`` and ``candidate_crossing``; returns their number.
+
+    Each segment is written, and kept (by moving on) only if it is one: bitwise tests, no
+    branch on the line's data for the processor to mispredict.
+    """
     found = 0
     crossing = -1
-    after = right[0] - left[0] if live else 0.0
-    for j in range(1, live):
+    after = right[0] - left[0] if left.size else 0.0
+    for j in range(1, left.size):
         crossing += adjacent[j]
         before = after
         after = right[j] - left[j]
@@ -276,4 +269,4 @@ def _segments(starts: IntArray, levels: Int8Array, runs: int, n: int, dead_band_
         candidate_crossing[found] = crossing
         found += adjacent[j] & (before >= half_min) & (after >= half_min) & \
             (before + after >= span_min)
-    return live, crossing_count, ends, found
+    return found

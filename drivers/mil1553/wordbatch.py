@@ -64,6 +64,27 @@ def empty_words(n: int = 0) -> WordBatch:
     return np.zeros(n, dtype=WORD_DTYPE)
 
 
+def concat_words(batches: Sequence[WordBatch]) -> WordBatch:
+    """The batches one after the other (the only one as it is, when the others are empty).
+
+    The rows are copied as bytes: numpy copies structured rows field by field, about ten
+    times slower, which showed in the decoder's profile.
+    """
+    parts = [batch for batch in batches if batch.size]
+    if len(parts) < 2:
+        return parts[0] if parts else empty_words()
+    raw = np.concatenate([np.ascontiguousarray(batch).view(np.uint8) for batch in parts])
+    joined: WordBatch = raw.view(WORD_DTYPE)
+    return joined
+
+
+def take_words(words: WordBatch, order: npt.NDArray[np.intp]) -> WordBatch:
+    """The rows ``order`` of ``words``, copied as bytes (see :func:`concat_words`)."""
+    rows = np.ascontiguousarray(words).view(np.uint8).reshape(-1, WORD_DTYPE.itemsize)
+    taken: WordBatch = np.take(rows, order, axis=0).view(WORD_DTYPE).reshape(-1)
+    return taken
+
+
 def error_names(errors: int) -> list[str]:
     """The names of the error bits set in ``errors``."""
     return [name for bit, name in WORD_ERROR_NAMES if errors & bit]
