@@ -45,6 +45,7 @@ from mapr_daemon.reasoner.dictionary import (
     pressure_weights,
 )
 from mapr_daemon.reasoner.false_alarm import calibrate as calibrate_rate
+from mapr_daemon.reasoner.false_alarm import calibrate_gaussian
 from mapr_daemon.reasoner.features import (
     EXTENDED_SIGNALS,
     SECTOR_SIGNALS,
@@ -271,9 +272,11 @@ def fit_ours(d: Dictionary, params: ActuatorParams, spec: DictionarySpec, m: Flo
     calib = np.flatnonzero(valid & (role == "calibration"))
     both = np.array([classifier.score_of(d, m[i], float(q[i])) for i in calib])
     scores = both[:, 0]
-    # the rate is shared by the two statistics (either one raises the alarm)
-    cal = calibrate_rate(scores, spec.false_alarm_rate / 2)
-    cal_null = calibrate_rate(both[:, 1], spec.false_alarm_rate / 2)
+    matched = [classifier.matched_score(d, m[i], float(q[i])) for i in calib]
+    # the rate is shared by the statistics (any one raises the alarm)
+    share = spec.false_alarm_rate / (3 if all(x is not None for x in matched) else 2)
+    cal = calibrate_rate(scores, share)
+    cal_null = calibrate_rate(both[:, 1], share)
     d.threshold = cal.threshold
     d.score_spread = float(max(scores.std(), 1e-6))
     d.log_score_spread = float(max(np.log(np.maximum(scores, 1e-9)).std(), 0.05))
@@ -289,6 +292,11 @@ def fit_ours(d: Dictionary, params: ActuatorParams, spec: DictionarySpec, m: Flo
                      "shrinkage": model.shrinkage, "subspace_dims":
                      float(model.projection.shape[1]), "healthy_fit_runs": float(fit_rows.size),
                      "inconclusive_runs": float((~valid).sum())}
+    if all(x is not None for x in matched):
+        cal_m = calibrate_gaussian(np.array(matched, dtype=np.float64), share)
+        d.calibration.update({"matched_threshold": cal_m.threshold, "matched_mean": cal_m.mean,
+                              "matched_sd": cal_m.sd, "matched_max": cal_m.score_max,
+                              "matched_tail_governs": float(cal_m.tail_governs)})
 
 
 def paper_curves(d: Dictionary, reference_pressure: int = 0) -> dict[str, PaperCurve]:

@@ -11,7 +11,12 @@ Two classifiers read the same dictionary:
   rate (:mod:`~mapr_daemon.reasoner.false_alarm`). The best template gives the fault mode and
   the severity; the margin to the best template of *another* mode gives the isolation
   confidence. A second statistic catches runs no template fits well: the residual that the
-  best healthy explanation leaves, against its own threshold at the same rate. A record flown
+  best healthy explanation leaves, against its own threshold at the same rate. A third, the
+  *matched* test, reads the one cell made for a weak fault — phase A's sector-resolved loop
+  resistance (:mod:`~mapr_daemon.reasoner.sector`), in healthy spreads after the healthy
+  model's prediction — against a one-sided normal threshold: spread over the 32 coordinates,
+  that fault's few-spread shift drowns in the likelihood ratio's threshold, while alone its
+  healthy law is a unit normal. The three share the stated rate. A record flown
   below the SMPS's supply headroom is *inconclusive*: no anomaly,
   confidence 0, the reason in the evidence.
 * :func:`paper_decide` (the paper, III.D) reads only each fault kind's chosen curve cell of
@@ -42,9 +47,12 @@ from mapr_daemon.reasoner.features import FloatArray
 
 PAPER_COLUMNS = 32
 TOP_CELLS = 5
+MATCHED_COLUMN = "mean:a_high_resistance_ohm"
+MATCHED_KIND = "inverter_ron_a_high"
+"""The matched test's cell and the fault it is matched to."""
 
-__all__ = ["PAPER_COLUMNS", "Decision", "Fit", "decide", "kind_severity", "paper_decide",
-           "score_of"]
+__all__ = ["MATCHED_COLUMN", "MATCHED_KIND", "PAPER_COLUMNS", "Decision", "Fit", "decide",
+           "kind_severity", "matched_score", "paper_decide", "score_of"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -100,6 +108,22 @@ def score_of(d: Dictionary, m: FloatArray, q: float) -> tuple[float, float]:
     return fault_models.glr_score(y, fits), fault_models.null_residual(y, fits)
 
 
+def _matched(d: Dictionary, z: FloatArray) -> float | None:
+    """The matched test's statistic from the run's standardized cells (None without its cell)."""
+    hm, _ = _models(d)
+    if MATCHED_COLUMN not in d.columns:
+        return None
+    j = hm.cell_of(d.columns.index(MATCHED_COLUMN), len(d.columns))
+    return None if j is None else float(z[j])
+
+
+def matched_score(d: Dictionary, m: FloatArray, q: float) -> float | None:
+    """The matched test's statistic of one run's M (what its threshold is calibrated on):
+    the sector-resolved resistance's deviation from the healthy prediction, in healthy spreads."""
+    hm, _ = _models(d)
+    return _matched(d, hm.standardized(m, healthy.conditions(m, d.columns, q)))
+
+
 def decide(d: Dictionary, m: FloatArray, q: float) -> Decision:
     """Our decision for one run's M ``(W, C)`` flown at dynamic pressure ``q``."""
     hm, _ = _models(d)
@@ -112,15 +136,24 @@ def decide(d: Dictionary, m: FloatArray, q: float) -> Decision:
     score = fault_models.glr_score(y, fits)
     null = fault_models.null_residual(y, fits)
     null_threshold = d.calibration.get("null_threshold", math.inf)
-    best = min(fits, key=lambda f: f.residual)
+    z = hm.standardized(m, c)
+    matched = _matched(d, z)
+    matched_threshold = d.calibration.get("matched_threshold", math.inf)
+    matched_alarm = matched is not None and matched > matched_threshold
+    broad = score > d.threshold or null > null_threshold
+    # an alarm raised by the matched test alone names the fault it is matched to
+    named = [f for f in fits if d.templates[f.template].kind == MATCHED_KIND]
+    matched_only = matched_alarm and not broad
+    best = min(named if matched_only and named else fits, key=lambda f: f.residual)
     t = d.templates[best.template]
     other = [f.residual for f in fits if d.templates[f.template].kind != t.kind]
     margin = (min(other) - best.residual) if other else float("inf")
     p_anom = _sigmoid(math.log(max(score, 1e-9) / d.threshold) / d.log_score_spread)
-    anomaly = score > d.threshold or null > null_threshold
+    anomaly = broad or matched_alarm
     if null > null_threshold:  # nothing healthy explains the run, whatever the best fault
         p_anom = max(p_anom, 0.5 + 0.5 * (1.0 - null_threshold / null))
-    z = hm.standardized(m, c)
+    if matched is not None and math.isfinite(matched_threshold):
+        p_anom = max(p_anom, _sigmoid(matched - matched_threshold))
     cells = np.argsort(-np.abs(z))[:TOP_CELLS]
     ncol = len(d.columns)
     evidence: dict[str, Any] = {
@@ -129,6 +162,11 @@ def decide(d: Dictionary, m: FloatArray, q: float) -> Decision:
         "top_cells": [{"window": int(hm.cells[i, 0] // ncol) + 1,
                        "column": d.columns[int(hm.cells[i, 0] % ncol)],
                        "z": round(float(z[i]), 2)} for i in cells],
+        "matched": None if matched is None else {
+            "cell": MATCHED_COLUMN, "z": round(matched, 2),
+            "threshold": round(matched_threshold, 2) if math.isfinite(matched_threshold)
+            else None, "fault": MATCHED_KIND,
+            "alarm": matched_alarm},
         "fits": {d.templates[f.template].name: round(f.residual, 1)
                  for f in sorted(fits, key=lambda f: f.residual)[:4]},
         "conditions": {"dynamic_pressure_pa": round(c.pressure_pa, 1),
@@ -138,11 +176,13 @@ def decide(d: Dictionary, m: FloatArray, q: float) -> Decision:
     if not anomaly:
         return Decision(False, None, None, None, None, None, 1.0 - p_anom, score, d.threshold,
                         evidence)
-    if score <= 0.0:  # nothing healthy explains the run, and no fault explains it better
+    if (score <= 0.0 and broad) or (matched_only and not named):
+        # nothing healthy explains it, and no fault explains it better (or the dictionary
+        # lacks the fault the matched test is made for)
         evidence["unexplained"] = "no dictionary fault explains this record better than health"
         return Decision(True, None, None, None, None, None, p_anom, score, d.threshold,
                         evidence)
-    conf = p_anom * math.tanh(margin / (2.0 * d.score_spread))
+    conf = p_anom * math.tanh(max(margin, 0.0) / (2.0 * d.score_spread))
     if t.switch:
         return Decision(True, t.kind, t.switch, None, None, None, conf, score, d.threshold,
                         evidence)

@@ -57,3 +57,32 @@ def calibrate(scores: FloatArray, rate: float) -> Calibration:
     threshold = max(fitted, float(s.max()))
     return Calibration(threshold, rate, scale, dof, int(s.size), float(s.max()),
                        float(np.median(s)), above, fitted < float(s.max()))
+
+
+@dataclasses.dataclass(frozen=True)
+class GaussianCalibration:
+    """A one-sided threshold on a statistic that is Gaussian on healthy runs."""
+
+    threshold: float
+    rate: float
+    mean: float
+    sd: float
+    runs: int
+    score_max: float
+    tail_governs: bool
+
+
+def calibrate_gaussian(scores: FloatArray, rate: float) -> GaussianCalibration:
+    """The threshold that healthy runs exceed with probability ``rate``, for a statistic whose
+    healthy law is normal (one healthy-model cell in its healthy spreads): ``mean + sd * z``
+    with ``z`` the normal's upper ``rate`` point, never below the largest calibration score."""
+    s = np.asarray(scores, dtype=np.float64)
+    if s.size < 10:
+        raise ConfigError("need >= 10 healthy calibration runs", field="calibration_runs")
+    if not 0.0 < rate < 0.5:
+        raise ConfigError("the false-alarm rate is a probability below 0.5",
+                          field="false_alarm_rate")
+    mean, sd = float(s.mean()), float(max(s.std(ddof=1), 1e-12))
+    fitted = mean + sd * float(stats.norm.isf(rate))
+    return GaussianCalibration(max(fitted, float(s.max())), rate, mean, sd, int(s.size),
+                               float(s.max()), fitted < float(s.max()))

@@ -158,6 +158,11 @@ class HealthyModel:
         out: FloatArray = (x - basis(c, self.supply_nominal_v) @ self.coef) / self.sd
         return out
 
+    def cell_of(self, column: int, n_columns: int) -> int | None:
+        """Index of the first cell of M's ``column`` (None when the model has none)."""
+        hit = np.flatnonzero(self.cells[:, 0] % n_columns == column)
+        return int(hit[0]) if hit.size else None
+
     def coordinates(self, m: FloatArray, c: Conditions) -> FloatArray:
         """The run's whitened deviation on the fault subspace ``(K,)``."""
         out: FloatArray = self.standardized(m, c) @ self.projection

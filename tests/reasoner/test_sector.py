@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 
 from mapr_daemon.ema.inverter import NEGATIVE, POSITIVE
-from mapr_daemon.reasoner import healthy
+from mapr_daemon.reasoner import classifier, healthy
+from mapr_daemon.reasoner.false_alarm import calibrate_gaussian
 from mapr_daemon.reasoner.features import (
     EXTENDED_SIGNALS,
     SECTOR_SIGNALS,
@@ -13,6 +14,7 @@ from mapr_daemon.reasoner.features import (
     derived_signals,
 )
 from mapr_daemon.reasoner.sector import a_high_resistance
+from tests.reasoner.conftest import Bench
 
 
 def _synthetic(r_a_high: float, r_other: float, seed: int) -> dict[str, np.ndarray]:
@@ -59,3 +61,29 @@ def test_the_resistance_is_one_value_per_record_and_one_healthy_cell() -> None:
     assert own.shape == (1, pool) and np.all(own == own[0, 0])
     without = healthy.record_cells(column_names(EXTENDED_SIGNALS), rows, pool)
     assert cells.shape[0] == without.shape[0] + 4 * (rows - 32) // pool + 1
+
+
+def test_the_normal_threshold_is_the_stated_quantile_and_never_below_the_largest_score() -> None:
+    rng = np.random.default_rng(4)
+    s = rng.normal(0.5, 2.0, 20_000)
+    cal = calibrate_gaussian(s, 1e-6)
+    assert abs(cal.threshold - (0.5 + 2.0 * 4.7534)) < 0.1 and not cal.tail_governs
+    heavy = np.concatenate([rng.normal(0.0, 1.0, 99), [40.0]])
+    assert calibrate_gaussian(heavy, 1e-3).threshold == 40.0
+
+
+def test_the_matched_test_is_calibrated_and_raises_the_alarm_on_its_cell(bench: Bench) -> None:
+    d = bench.dictionary
+    assert d.calibration["matched_threshold"] >= d.calibration["matched_max"]
+    healthy_m = bench.held_m[0]
+    q = float(bench.held_q[0])
+    calm = classifier.decide(d, healthy_m, q)
+    assert not calm.anomaly and calm.evidence["matched"]["alarm"] is False
+    # the same record with the sector resistance 12 healthy spreads higher
+    j = d.healthy.cell_of(d.columns.index(classifier.MATCHED_COLUMN), len(d.columns))
+    assert j is not None
+    raised = healthy_m.copy()
+    raised.ravel()[d.healthy.cells[j]] += 12.0 * d.healthy.sd[j]
+    assert classifier.matched_score(d, raised, q) > d.calibration["matched_threshold"]
+    alarm = classifier.decide(d, raised, q)
+    assert alarm.anomaly and alarm.evidence["matched"]["alarm"] is True
