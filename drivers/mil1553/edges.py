@@ -149,20 +149,21 @@ def line_segments(values: npt.NDArray[np.uint8], changes: IntArray, n: int, bus:
     between their outer crossings (each off by at most 150 ns), where two long data runs hold
     1 µs each and span 2 µs.
     """
-    pos_bit, neg_bit = RX_BITS[bus]
     size = changes.size
-    seg = Segments(work.take("level", size, np.int8), work.take("left", size, np.float64),
-                   work.take("right", size, np.float64),
-                   work.take("adjacent", size, np.bool_),
-                   work.take("crossings", size, np.float64),
-                   work.take("crossing_level", size, np.int8),
-                   work.take("silent_after", size, np.float64),
-                   work.take("candidates", size, np.int64),
-                   work.take("candidate_crossing", size, np.int64))
+    starts, levels = work.take("starts", size, np.int64), work.take("levels", size, np.int64)
+    runs = _bus_runs(values, changes, _LEVELS[bus], starts, levels)
+    seg = Segments(work.take("level", runs, np.int8), work.take("left", runs, np.float64),
+                   work.take("right", runs, np.float64),
+                   work.take("adjacent", runs, np.bool_),
+                   work.take("crossings", runs, np.float64),
+                   work.take("crossing_level", runs, np.int8),
+                   work.take("silent_after", runs, np.float64),
+                   work.take("candidates", runs, np.int64),
+                   work.take("candidate_crossing", runs, np.int64))
     live, crossings, ends = _segments(
-        values, changes, n, pos_bit.bit_length() - 1, neg_bit.bit_length() - 1, dropout_max,
-        glitch_max, missed_pulse_min, dead_band_max, seg.level, seg.left, seg.right,
-        seg.adjacent_prev, seg.crossings, seg.crossing_level, seg.silent_after)
+        starts, levels, runs, n, dropout_max, glitch_max, missed_pulse_min, dead_band_max,
+        seg.level, seg.left, seg.right, seg.adjacent_prev, seg.crossings, seg.crossing_level,
+        seg.silent_after)
     candidates = _candidates(seg.left[:live], seg.right[:live], seg.adjacent_prev[:live],
                              half_min, span_min, seg.candidates, seg.candidate_crossing)
     return Segments(seg.level[:live], seg.left[:live], seg.right[:live],
@@ -171,41 +172,61 @@ def line_segments(values: npt.NDArray[np.uint8], changes: IntArray, n: int, bus:
                     seg.candidates[:candidates], seg.candidate_crossing[:candidates])
 
 
-@kernel
-def _segments(values: npt.NDArray[np.uint8], changes: IntArray, n: int, pos_shift: int,
-              neg_shift: int, dropout_max: int, glitch_max: int, missed_pulse_min: int,
-              dead_band_max: int, level: Int8Array, left: FloatArray, right: FloatArray,
-              adjacent: BoolArray, crossings: FloatArray, crossing_level: Int8Array,
-              silent_after: FloatArray) -> tuple[int, int, int]:
-    """The segments of :func:`line_segments`, written to the fields of :class:`Segments`
-    given (each at least ``changes.size`` long); returns the number of segments, crossings
-    and silences.
+_LEVELS = {bus: np.array([((value & pos) != 0) - ((value & neg) != 0) for value in range(256)],
+                         dtype=np.int64)
+           for bus, (pos, neg) in RX_BITS.items()}
+"""Per bus, the line level each capture byte shows: RX minus RXB, so both outputs high is no
+signal, as both low is."""
 
-    One pass over the change points, with three stages one run apart: a run is found where
-    the bus's level (RX minus RXB, so both outputs high is no signal, as both low is)
-    changes; it is repaired once the run after it is found; a repaired run that keeps its
-    neighbour's level is merged into it, and a merged run becomes a segment (if not silent)
-    once the next one begins. Two sentinel runs at the end flush the stages.
+
+@kernel
+def _bus_runs(values: npt.NDArray[np.uint8], changes: IntArray, line_level: IntArray,
+              starts: IntArray, levels: IntArray) -> int:
+    """The runs of one bus (where its level, ``line_level[value]``, changes), written to
+    ``starts`` and ``levels``; returns their number.
+
+    Every change point is written, and kept (by moving on) only where the level changes: no
+    branch for the processor to mispredict where the two buses' changes interleave.
+    """
+    runs = 0
+    previous = 5  # no level
+    for i in range(changes.size):
+        level = line_level[values[i]]
+        starts[runs] = changes[i]
+        levels[runs] = level
+        runs += level != previous
+        previous = level
+    return runs
+
+
+@kernel
+def _segments(starts: IntArray, levels: IntArray, runs: int, n: int, dropout_max: int,
+              glitch_max: int, missed_pulse_min: int, dead_band_max: int, level: Int8Array,
+              left: FloatArray, right: FloatArray, adjacent: BoolArray, crossings: FloatArray,
+              crossing_level: Int8Array, silent_after: FloatArray) -> tuple[int, int, int]:
+    """The segments of :func:`line_segments` from the bus's ``runs`` runs, written to the
+    fields of :class:`Segments` given (each at least ``runs`` long); returns the number of
+    segments, crossings and silences.
+
+    One pass over the runs, with two stages one run apart: a run is repaired once the run
+    after it is known; a repaired run that keeps its neighbour's level is merged into it,
+    and a merged run becomes a segment (if not silent) once the next one begins. Two
+    sentinel runs at the end flush the stages.
     """
     longest = max(dropout_max, glitch_max)
     live = crossing_count = ends = 0
     previous_end = previous_level = 0  # the last segment's
-    run_level = 5  # the level of the run being read (5: none yet)
     have_run = have_before = have_merged = False
     run_start = run_found = 0  # the run waiting for its successor to be repaired
     before_found = before_fixed = 0  # the run before it, as found and as repaired
     merged_begin = merged_level = 0  # the merged run being built
-    for i in range(changes.size + 2):
-        if i < changes.size:
-            value = int(values[i])
-            found = ((value >> pos_shift) & 1) - ((value >> neg_shift) & 1)
-            if found == run_level:
-                continue
-            next_start = changes[i]
+    for i in range(runs + 2):
+        if i < runs:
+            found = levels[i]
+            next_start = starts[i]
         else:
-            found = 3 + i - changes.size
+            found = 3 + i - runs
             next_start = n
-        run_level = found
         if have_run:
             fixed = run_found
             if have_before:
