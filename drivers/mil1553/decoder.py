@@ -51,6 +51,7 @@ from drivers.mil1553.edges import (
     Workspace,
     byte_changes,
     line_segments,
+    thread_workspace,
 )
 from drivers.mil1553.encoder import MAX_RATE_HZ, MIN_RATE_HZ
 from drivers.mil1553.syncs import find_syncs, word_extents
@@ -132,10 +133,9 @@ class ManchesterDecoder:
         # Below ~12.5 MS/s (a sample of 80 ns or more) a squeezed half-bit pulse can fall
         # between two samples; two or more silent samples between one polarity mark one.
         self._missed_pulse_min = 2 if self.sample_rate <= 12.5e6 else 0
-        self._store = np.zeros(0, dtype=np.uint8)
-        """The samples not yet decoded for good (the first ``_size``), kept in one array."""
-        self._size = 0
-        self._work = Workspace()
+        self._pending = np.zeros(0, dtype=np.uint8)
+        """The samples not yet decoded for good: the last buffer's tail, and chunks too small
+        to decode yet."""
         self._base = 0
         self._last_sync = {BUS_A: -math.inf, BUS_B: -math.inf}
         self._last_burst = {BUS_A: -math.inf, BUS_B: -math.inf}
@@ -162,31 +162,31 @@ class ManchesterDecoder:
 
     def _feed_block(self, chunk: npt.NDArray[np.uint8]) -> WordBatch:
         self.samples_seen += chunk.size
-        size = self._size + chunk.size
-        if size > self._store.size:
-            grown = np.empty(max(size, self._store.size * 5 // 4), dtype=np.uint8)
-            grown[:self._size] = self._store[:self._size]
-            self._store = grown
-        self._store[self._size:size] = chunk
-        self._size = size
+        size = self._pending.size + chunk.size
         if size < self._min_batch + self._tail:
+            self._pending = np.concatenate([self._pending, chunk])
             return empty_words()
-        words = self._decode(self._store[:size], size - self._horizon)
+        # The buffer (the pending samples, then the chunk) is assembled in the thread's
+        # workspace, so that a decoder keeps only its small tail between calls.
+        work = thread_workspace()
+        buf = work.take("samples", size, np.uint8)
+        buf[:self._pending.size] = self._pending
+        buf[self._pending.size:] = chunk
+        words = self._decode(buf, size - self._horizon, work)
         self._complete_until = (self._base + size - self._horizon) * 1e9 / self.sample_rate
         keep_from = size - self._tail
         self._base += keep_from
-        self._store[:self._tail] = self._store[keep_from:size]
-        self._size = self._tail
+        self._pending = buf[keep_from:].copy()
         return self._release(words)
 
     def flush(self) -> WordBatch:
         """End of capture: decode what is left. A word cut off by the end is flagged."""
-        real = self._size
-        padded = np.concatenate([self._store[:real], np.zeros(self._tail, dtype=np.uint8)])
-        words = self._decode(padded, real, final=True)
+        real = self._pending.size
+        padded = np.concatenate([self._pending, np.zeros(self._tail, dtype=np.uint8)])
+        words = self._decode(padded, real, thread_workspace(), final=True)
         self._complete_until = math.inf
         self._base += real
-        self._size = 0
+        self._pending = np.zeros(0, dtype=np.uint8)
         return self._release(words)
 
     def _release(self, words: WordBatch) -> WordBatch:
@@ -215,18 +215,18 @@ class ManchesterDecoder:
         return concat_words([self.feed(samples), self.flush()])
 
     # --- internals -----------------------------------------------------------------------
-    def _decode(self, buf: npt.NDArray[np.uint8], horizon: int, final: bool = False
-                ) -> WordBatch:
-        changes, values = byte_changes(buf, self._work)
-        out = [self._decode_bus(values, changes, buf.size, bus, horizon, final)
+    def _decode(self, buf: npt.NDArray[np.uint8], horizon: int, work: Workspace,
+                final: bool = False) -> WordBatch:
+        changes, values = byte_changes(buf, work)
+        out = [self._decode_bus(values, changes, buf.size, bus, horizon, final, work)
                for bus in (BUS_A, BUS_B)]
         self._decided_until = self._base + horizon
         return _in_time_order(concat_words(out))
 
     def _decode_bus(self, values: npt.NDArray[np.uint8], changes: IntArray, n: int, bus: int,
-                    horizon: int, final: bool) -> WordBatch:
+                    horizon: int, final: bool, work: Workspace) -> WordBatch:
         spus = self._spus
-        seg = line_segments(values, changes, n, bus, self._work, dropout_max=self._dropout_max,
+        seg = line_segments(values, changes, n, bus, work, dropout_max=self._dropout_max,
                             glitch_max=self._glitch_max,
                             missed_pulse_min=self._missed_pulse_min,
                             dead_band_max=self._dropout_max,

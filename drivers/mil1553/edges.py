@@ -19,6 +19,7 @@ to or from a long silence is the start or end of activity.
 
 from __future__ import annotations
 
+import threading
 from dataclasses import dataclass
 from typing import Any
 
@@ -54,6 +55,19 @@ class Workspace:
                             dtype=dtype)
             self._arrays[name] = kept
         return kept[:size]
+
+
+_THREAD = threading.local()
+
+
+def thread_workspace() -> Workspace:
+    """The calling thread's workspace: decoders that run one after another in a thread (a
+    file after a file) reuse its arrays. One per thread, as a decoder may be fed from any
+    thread, and its arrays are in use only during one call."""
+    work: Workspace | None = getattr(_THREAD, "work", None)
+    if work is None:
+        work = _THREAD.work = Workspace()
+    return work
 
 
 def byte_changes(samples: npt.NDArray[np.uint8], work: Workspace
