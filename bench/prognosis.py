@@ -39,6 +39,9 @@ from mapr_daemon.reasoner.trajectory import (
     score,
 )
 
+RESOLVES_SD = 0.25
+"""Per-BIT noise sd (in units of the threshold) above which a kind's threshold is not resolved:
+its RUL cannot be placed within 20 % from a few dozen BITs."""
 KINDS = ("capacitance", "esr", "smps_ron_high", "smps_ron_low", "inverter_ron_a_high",
          "friction")
 
@@ -72,6 +75,18 @@ def _table(scored: list[Scored]) -> None:
     horizons = [s.horizon for s in scored]
     print(f"prognostic horizon (flights): median {np.median(horizons):.1f}, "
           f"units with PH > 0: {sum(h > 0 for h in horizons)}/{len(horizons)}")
+    blind = sorted({s.kind for s in scored if not _resolves(s)})
+    if blind:
+        seen = [v for s in scored if _resolves(s) for v in s.alpha_lambda.values()]
+        print(f"without the kinds whose per-BIT estimate cannot resolve the threshold "
+              f"(calibrated noise sd at h = 1 above {RESOLVES_SD}; {', '.join(blind)}): "
+              f"alpha-lambda pass {100 * sum(seen) / max(len(seen), 1):.1f} % "
+              f"({sum(seen)}/{len(seen)})")
+
+
+def _resolves(s: Scored) -> bool:
+    """Whether the kind's calibrated per-BIT noise at the threshold leaves a trend a chance."""
+    return s.noise is not None and float(s.noise.sd(np.array(1.0))) <= RESOLVES_SD
 
 
 def main() -> int:
