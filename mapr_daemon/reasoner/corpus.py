@@ -1,8 +1,8 @@
 """Batched BIT-profile runs for dictionaries, calibration and benches.
 
-The plant steps every run of a batch together (a single plant runs at ~0.1x real time, a
-batch of 600 at ~20 runs per second), and :meth:`EmaBatch.advance` takes a dynamic pressure
-per run, so one batch mixes flight conditions: the BIT command is the same for every run,
+The plant's compiled step advances every run of a batch in one call (a 416-run dictionary
+simulates in about 10 s, see docs/ema-model.md), and :meth:`EmaBatch.advance` takes a dynamic
+pressure per run, so one batch mixes flight conditions: the BIT command is the same for every run,
 only the air load differs. :class:`Runs` is what the reasoner reads — channels, command,
 dynamic pressure, corners — whether it came from here or from a ``mapr simulate`` file
 (:func:`from_npz`).
