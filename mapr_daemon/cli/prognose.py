@@ -1,9 +1,11 @@
 """``mapr prognose``: score RUL along a run-to-failure trajectory.
 
 TRAJECTORY is ``KIND:SEED`` — one unit of issue 5's aging model (``esr:3``, ``friction:1``,
-...) with its true end of life. A BIT is flown every ``--bit-every`` flights of its life;
-the reasoner fits the component's aging shape to its estimates and predicts RUL with
-5/50/95 % bounds (docs/reasoner.md, 'SoH and RUL')::
+...) with its true end of life. A BIT is flown every ``--bit-every`` flights of its life,
+together with the kind's estimator training BITs and calibration BITs (seeds of their own);
+each BIT is read by the kind's degradation estimator, and the reasoner fits the component's
+aging shape to the estimates and predicts RUL with 5/50/95 % bounds (docs/reasoner.md, 'SoH
+and RUL')::
 
     mapr prognose friction:1 --dictionary dictionary.npz
 
