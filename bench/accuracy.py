@@ -168,10 +168,9 @@ def main() -> int:
           f"{cal['expected_above_max']:.2f} expected above that max); healthy-residual threshold"
           f" {cal['null_threshold']:.1f} (calibration max {cal['null_max']:.1f}"
           f"{', which governs: the fitted tail is lighter' if cal['null_tail_governs'] else ''})"
-          + (f"; matched test (sector resistance, one-sided normal) threshold "
-             f"{cal['matched_threshold']:.2f} healthy spreads (calibration mean "
-             f"{cal['matched_mean']:.2f}, sd {cal['matched_sd']:.2f}, max {cal['matched_max']:.2f})"
-             if "matched_threshold" in cal else "")
+          + (f"; matched filter (inverter phase-A Ron, one-sided normal) threshold "
+             f"{cal['matched_threshold']:.2f} of its healthy spreads (calibration max "
+             f"{cal['matched_max']:.2f})" if "matched_threshold" in cal else "")
           + f"; healthy model fitted on "
           f"{cal['healthy_fit_runs']:.0f} runs, shrinkage {cal['shrinkage']:.2f}, "
           f"{cal['subspace_dims']:.0f} subspace dimensions")

@@ -20,6 +20,7 @@ runs at random pressures that nothing is fitted on, which set the thresholds.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Callable
 
@@ -35,7 +36,7 @@ from mapr_daemon.ema.faults import (
 )
 from mapr_daemon.ema.params import ActuatorParams
 from mapr_daemon.errors import ConfigError
-from mapr_daemon.reasoner import classifier, curves, fault_models, healthy
+from mapr_daemon.reasoner import classifier, curves, fault_models, healthy, matched
 from mapr_daemon.reasoner.corpus import Runs, simulate_bit
 from mapr_daemon.reasoner.dictionary import (
     Dictionary,
@@ -236,6 +237,12 @@ def fit_ours(d: Dictionary, params: ActuatorParams, spec: DictionarySpec, m: Flo
                                 & ~np.char.startswith(role, "nominal@"))
     sig = np.stack([model.standardized(m[i], conds[i]) for i in fault_rows]) @ whiten
     model = healthy.with_subspace(model, sig, spec.subspace_dims)
+    weak = [int(i) for i in fault_rows if roles[i].startswith(f"{matched.KIND}@")]
+    if weak:
+        z_fit = np.stack([model.standardized(m[i], conds[i]) for i in fit_rows])
+        z_weak = np.stack([model.standardized(m[i], conds[i]) for i in weak])
+        sev_weak = np.array([float(roles[i].rsplit("@", 1)[1]) for i in weak])
+        model = dataclasses.replace(model, matched=matched.fit(z_fit, z_weak, sev_weak))
     y = {int(i): model.coordinates(m[i], conds[i]) for i in fault_rows}
     knots = np.asarray(spec.knots, dtype=np.float64)
     coef: list[FloatArray | None] = []
@@ -272,9 +279,9 @@ def fit_ours(d: Dictionary, params: ActuatorParams, spec: DictionarySpec, m: Flo
     calib = np.flatnonzero(valid & (role == "calibration"))
     both = np.array([classifier.score_of(d, m[i], float(q[i])) for i in calib])
     scores = both[:, 0]
-    matched = [classifier.matched_score(d, m[i], float(q[i])) for i in calib]
+    filtered = [classifier.matched_score(d, m[i], float(q[i])) for i in calib]
     # the rate is shared by the statistics (any one raises the alarm)
-    share = spec.false_alarm_rate / (3 if all(x is not None for x in matched) else 2)
+    share = spec.false_alarm_rate / (2 if model.matched is None else 3)
     cal = calibrate_rate(scores, share)
     cal_null = calibrate_rate(both[:, 1], share)
     d.threshold = cal.threshold
@@ -292,10 +299,12 @@ def fit_ours(d: Dictionary, params: ActuatorParams, spec: DictionarySpec, m: Flo
                      "shrinkage": model.shrinkage, "subspace_dims":
                      float(model.projection.shape[1]), "healthy_fit_runs": float(fit_rows.size),
                      "inconclusive_runs": float((~valid).sum())}
-    if all(x is not None for x in matched):
-        cal_m = calibrate_gaussian(np.array(matched, dtype=np.float64), share)
-        d.calibration.update({"matched_threshold": cal_m.threshold, "matched_mean": cal_m.mean,
-                              "matched_sd": cal_m.sd, "matched_max": cal_m.score_max,
+    if model.matched is not None:
+        raw = np.array(filtered, dtype=np.float64)  # raw output (mean 0, sd 1 not yet set)
+        mean, sd = float(raw.mean()), float(max(raw.std(ddof=1), 1e-12))
+        cal_m = calibrate_gaussian((raw - mean) / sd, share)
+        d.calibration.update({"matched_threshold": cal_m.threshold, "matched_mean": mean,
+                              "matched_sd": sd, "matched_max": cal_m.score_max,
                               "matched_tail_governs": float(cal_m.tail_governs)})
 
 

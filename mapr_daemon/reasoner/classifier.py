@@ -12,11 +12,11 @@ Two classifiers read the same dictionary:
   the severity; the margin to the best template of *another* mode gives the isolation
   confidence. A second statistic catches runs no template fits well: the residual that the
   best healthy explanation leaves, against its own threshold at the same rate. A third, the
-  *matched* test, reads the one cell made for a weak fault — phase A's sector-resolved loop
-  resistance (:mod:`~mapr_daemon.reasoner.sector`), in healthy spreads after the healthy
-  model's prediction — against a one-sided normal threshold: spread over the 32 coordinates,
-  that fault's few-spread shift drowns in the likelihood ratio's threshold, while alone its
-  healthy law is a unit normal. The three share the stated rate. A record flown
+  *matched filter* (:mod:`~mapr_daemon.reasoner.matched`), projects the standardized cells on
+  the direction of the weakest fault (the inverter's phase-A high-side Ron, mostly its
+  sector-resolved loop resistance) against a one-sided normal threshold: over the 32
+  coordinates and every template, that fault's few-spread shift drowns in the likelihood
+  ratio's threshold. The three share the stated rate. A record flown
   below the SMPS's supply headroom is *inconclusive*: no anomaly,
   confidence 0, the reason in the evidence.
 * :func:`paper_decide` (the paper, III.D) reads only each fault kind's chosen curve cell of
@@ -40,6 +40,7 @@ import numpy as np
 from mapr_daemon.ema.faults import PARAMETRIC
 from mapr_daemon.errors import ConfigError
 from mapr_daemon.reasoner import fault_models, healthy
+from mapr_daemon.reasoner import matched as matched_filter
 from mapr_daemon.reasoner.curves import variable_stride_descent
 from mapr_daemon.reasoner.dictionary import Dictionary, Template, pressure_weights
 from mapr_daemon.reasoner.fault_models import Fit
@@ -47,11 +48,9 @@ from mapr_daemon.reasoner.features import FloatArray
 
 PAPER_COLUMNS = 32
 TOP_CELLS = 5
-MATCHED_COLUMN = "mean:a_high_resistance_ohm"
-MATCHED_KIND = "inverter_ron_a_high"
-"""The matched test's cell and the fault it is matched to."""
+MATCHED_KIND = matched_filter.KIND
 
-__all__ = ["MATCHED_COLUMN", "MATCHED_KIND", "PAPER_COLUMNS", "Decision", "Fit", "decide",
+__all__ = ["MATCHED_KIND", "PAPER_COLUMNS", "Decision", "Fit", "decide",
            "kind_severity", "matched_score", "paper_decide", "score_of"]
 
 
@@ -109,17 +108,17 @@ def score_of(d: Dictionary, m: FloatArray, q: float) -> tuple[float, float]:
 
 
 def _matched(d: Dictionary, z: FloatArray) -> float | None:
-    """The matched test's statistic from the run's standardized cells (None without its cell)."""
+    """The matched filter's output for the run's standardized cells, in its healthy spreads
+    (raw before calibration); None when the dictionary has no filter."""
     hm, _ = _models(d)
-    if MATCHED_COLUMN not in d.columns:
+    if hm.matched is None:
         return None
-    j = hm.cell_of(d.columns.index(MATCHED_COLUMN), len(d.columns))
-    return None if j is None else float(z[j])
+    return matched_filter.statistic(hm.matched, z, d.calibration.get("matched_mean", 0.0),
+                                    d.calibration.get("matched_sd", 1.0))
 
 
 def matched_score(d: Dictionary, m: FloatArray, q: float) -> float | None:
-    """The matched test's statistic of one run's M (what its threshold is calibrated on):
-    the sector-resolved resistance's deviation from the healthy prediction, in healthy spreads."""
+    """The matched filter's output for one run's M (what its threshold is calibrated on)."""
     hm, _ = _models(d)
     return _matched(d, hm.standardized(m, healthy.conditions(m, d.columns, q)))
 
@@ -163,10 +162,9 @@ def decide(d: Dictionary, m: FloatArray, q: float) -> Decision:
                        "column": d.columns[int(hm.cells[i, 0] % ncol)],
                        "z": round(float(z[i]), 2)} for i in cells],
         "matched": None if matched is None else {
-            "cell": MATCHED_COLUMN, "z": round(matched, 2),
+            "fault": MATCHED_KIND, "z": round(matched, 2),
             "threshold": round(matched_threshold, 2) if math.isfinite(matched_threshold)
-            else None, "fault": MATCHED_KIND,
-            "alarm": matched_alarm},
+            else None, "alarm": matched_alarm},
         "fits": {d.templates[f.template].name: round(f.residual, 1)
                  for f in sorted(fits, key=lambda f: f.residual)[:4]},
         "conditions": {"dynamic_pressure_pa": round(c.pressure_pa, 1),

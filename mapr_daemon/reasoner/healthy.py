@@ -151,17 +151,15 @@ class HealthyModel:
     supply_floor_v: float
     """Below this input voltage the SMPS cannot hold its output (duty at its maximum)."""
     shrinkage: float
+    matched: FloatArray | None = None
+    """``(D,)`` weights of the matched filter on the standardized cells
+    (:mod:`~mapr_daemon.reasoner.matched`); None when the dictionary has none."""
 
     def standardized(self, m: FloatArray, c: Conditions) -> FloatArray:
         """The cells' deviation from the healthy prediction, in healthy spreads ``(D,)``."""
         x = m.ravel()[self.cells].mean(axis=1)
         out: FloatArray = (x - basis(c, self.supply_nominal_v) @ self.coef) / self.sd
         return out
-
-    def cell_of(self, column: int, n_columns: int) -> int | None:
-        """Index of the first cell of M's ``column`` (None when the model has none)."""
-        hit = np.flatnonzero(self.cells[:, 0] % n_columns == column)
-        return int(hit[0]) if hit.size else None
 
     def coordinates(self, m: FloatArray, c: Conditions) -> FloatArray:
         """The run's whitened deviation on the fault subspace ``(K,)``."""
@@ -170,16 +168,20 @@ class HealthyModel:
 
     def arrays(self) -> dict[str, np.ndarray]:
         """What :meth:`Dictionary.save` stores."""
-        return {"healthy_cells": self.cells, "healthy_coef": self.coef, "healthy_sd": self.sd,
-                "healthy_projection": self.projection,
-                "healthy_scalars": np.array([self.supply_nominal_v, self.supply_floor_v,
-                                             self.shrinkage])}
+        out = {"healthy_cells": self.cells, "healthy_coef": self.coef, "healthy_sd": self.sd,
+               "healthy_projection": self.projection,
+               "healthy_scalars": np.array([self.supply_nominal_v, self.supply_floor_v,
+                                            self.shrinkage])}
+        if self.matched is not None:
+            out["healthy_matched"] = self.matched
+        return out
 
     @classmethod
     def from_arrays(cls, a: dict[str, np.ndarray]) -> HealthyModel:
         sc = a["healthy_scalars"]
         return cls(a["healthy_cells"].astype(np.int64), a["healthy_coef"], a["healthy_sd"],
-                   a["healthy_projection"], float(sc[0]), float(sc[1]), float(sc[2]))
+                   a["healthy_projection"], float(sc[0]), float(sc[1]), float(sc[2]),
+                   a.get("healthy_matched"))
 
 
 def fit(m: FloatArray, conds: Sequence[Conditions], cells: npt.NDArray[np.int64],
