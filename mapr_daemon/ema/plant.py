@@ -177,7 +177,9 @@ class EmaBatch:
         rw = np.empty((p.n, n))
 
         def c(a: FloatArray) -> FloatArray:
-            return np.ascontiguousarray(a, dtype=np.float64)
+            # always a fresh writable C array: a read-only view (what broadcast_to gives for one
+            # run or one sample) is another numba type, and would compile a second kernel
+            return np.array(a, dtype=np.float64, order="C")
 
         self.t = integrate(self.par, self.state, c(cmd), c(q), c(amb), c(z[-2]), c(z[-1]),
                            self.t, self.t_on, p.step_s, p.samples_per_block,

@@ -174,6 +174,20 @@ def test_chunking_and_batch_neighbours_do_not_change_a_run() -> None:
     np.testing.assert_array_equal(whole.time_s, np.concatenate([x.time_s for x in parts]))
 
 
+def test_inputs_of_any_shape_reuse_one_compiled_kernel() -> None:
+    """Scalars, per-sample and per-run inputs, one run or one sample: one kernel signature
+    (a read-only or strided argument would be a new numba type, compiled again)."""
+    EmaBatch(specs()[:2]).advance(4, 1.0, 500.0)
+    before = set(step.integrate.signatures)
+    one = EmaBatch(specs()[:1])
+    one.advance(5, np.linspace(0.0, 1.0, 5), np.full(5, 800.0))
+    one.advance(1, 0.0, 500.0)
+    two = EmaBatch(specs()[:2])
+    two.advance(3, 0.0, np.full((2, 3), 700.0), ambient_c=np.array([10.0, 20.0]))
+    two.advance(1, np.array([1.0, 2.0]), 300.0)
+    assert set(step.integrate.signatures) == before
+
+
 def test_parameter_and_state_layout() -> None:
     for k, name in enumerate(step.PAR):
         column = name.upper()
