@@ -163,7 +163,9 @@ class EmaBatch:
         """Simulate ``n_samples`` output samples; inputs are held over each sample period.
 
         Inputs are scalars, ``(n_samples,)`` (shared by all runs), ``(n_runs,)`` (constant per
-        run) or ``(n_runs, n_samples)``.
+        run) or ``(n_runs, n_samples)``. A 1-D input whose length is both is read as per run:
+        a caller whose chunk can be as long as the batch passes ``(1, n_samples)`` or
+        ``(n_runs, 1)``.
         """
         p = self.p
         n = int(n_samples)

@@ -44,8 +44,9 @@ def run_batch(specs: Sequence[RunSpec], profile: Profile, *, powered: bool = Tru
     truths: list[dict[str, FloatArray]] = []
     for start in range(0, n, chunk):
         stop = min(n, start + chunk)
-        block = plant.advance(stop - start, profile.command_deg[start:stop],
-                              profile.dynamic_pressure_pa[start:stop])
+        # (1, n): shared by the runs; a 1-D chunk as long as the batch would read as per-run
+        block = plant.advance(stop - start, profile.command_deg[None, start:stop],
+                              profile.dynamic_pressure_pa[None, start:stop])
         parts.append(block.channels)
         truths.append(block.truth)
         if progress is not None:

@@ -57,7 +57,10 @@ def simulate_bit(params: ActuatorParams, fault_sets: Sequence[FaultSet],
     parts: list[dict[str, FloatArray]] = []
     for start in range(0, prof.n_samples, chunk):
         stop = min(prof.n_samples, start + chunk)
-        parts.append(plant.advance(stop - start, prof.command_deg[start:stop], q).channels)
+        # command (1, n) and pressure (runs, 1): explicit, a 1-D chunk as long as the batch
+        # would be read as per-run
+        parts.append(plant.advance(stop - start, prof.command_deg[None, start:stop],
+                                   q[:, None]).channels)
         if progress is not None:
             progress(stop / prof.n_samples)
     channels = {k: np.concatenate([p[k] for p in parts], axis=1) for k in parts[0]}

@@ -11,7 +11,9 @@ from mapr_daemon.ema.batch import RunSpec
 from mapr_daemon.ema.faults import Fault, FaultSet, at_severity, parse_fault, range_end
 from mapr_daemon.ema.params import default_actuator_path, load_actuator, parse_actuator
 from mapr_daemon.ema.plant import EmaBatch
+from mapr_daemon.ema.run import run_batch
 from mapr_daemon.errors import ConfigError
+from mapr_daemon.testbed.profiles import bit_profile
 
 TEXT = default_actuator_path().read_text()
 
@@ -95,3 +97,15 @@ def test_aircraft_bus_stays_in_mil_std_704_band() -> None:
     vin = block.truth["aircraft_bus_v"]
     assert vin.min() >= 22.0 and vin.max() <= 29.0
     assert np.ptp(vin[:, 0]) > 0.3  # flights differ
+
+
+def test_run_batch_chunk_as_long_as_the_batch_keeps_the_shared_profile() -> None:
+    """A chunk of the profile as long as the batch is still the profile for every run, not
+    one held value per run (``advance`` reads a 1-D input of length ``n_runs`` as per-run)."""
+    p = load_actuator(default_actuator_path())
+    prof = bit_profile(p.sensors.sample_rate_hz, "ground")
+    specs = [RunSpec(p, seed=s) for s in range(3)]
+    res = run_batch(specs, prof, chunk=3)
+    for r in range(3):
+        np.testing.assert_allclose(res.truth["command_deg"][r], prof.command_deg)
+        np.testing.assert_allclose(res.truth["dynamic_pressure_pa"][r], prof.dynamic_pressure_pa)

@@ -5,8 +5,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from mapr_daemon.ema.faults import FaultSet
+from mapr_daemon.ema.params import default_actuator_path, load_actuator
 from mapr_daemon.errors import ConfigError
 from mapr_daemon.reasoner import curves
+from mapr_daemon.reasoner.corpus import simulate_bit
 from mapr_daemon.reasoner.features import (
     EXTENDED_SIGNALS,
     FEATURES,
@@ -119,3 +122,14 @@ def test_variable_stride_descent_finds_the_valley_and_stops_on_stride() -> None:
                                              np.array([0.0, 0.0]), np.array([1.0, 1.0]))
     assert bounded.x[0] == pytest.approx(1.0, abs=1e-3)
     assert bounded.x[1] == pytest.approx(0.0, abs=1e-3)
+
+
+def test_simulate_bit_chunk_as_long_as_the_batch_is_still_the_bit() -> None:
+    """The BIT command is shared and the pressure per run whatever the chunk: a chunk as long
+    as the batch gives the same runs as the default chunking."""
+    params = load_actuator(default_actuator_path())
+    faults, qs, seeds = [FaultSet()] * 3, [300.0, 900.0, 1800.0], [1, 2, 3]
+    same = simulate_bit(params, faults, qs, seeds, chunk=3)
+    ref = simulate_bit(params, faults, qs, seeds)
+    for name, values in ref.channels.items():
+        np.testing.assert_array_equal(same.channels[name], values, err_msg=name)
