@@ -1,4 +1,4 @@
-"""Three-phase MOSFET bridge: six-step commutation, PWM-averaged legs, body diodes, faults.
+"""Three-phase bridge geometry: six-step commutation tables and the back-EMF trapezoids.
 
 Commutation (complementary PWM on the driven leg, low side on at the return leg): in each
 Hall sector one phase's flat-top back-EMF is +1 and another's is -1. For positive torque the
@@ -8,13 +8,11 @@ torque the roles swap. The third phase is off. Phase A's high side therefore con
 of the six sectors (for a given torque sign), which is what lets a per-sector resistance
 separate its Ron from a winding change.
 
-Each leg is averaged over a PWM period from its switches' on-fractions ``a_high``, ``a_low``
-(a shorted switch is forced to 1, an open one to 0). The period splits into fractions where
-only the high switch conducts, only the low one, both (shoot-through through a shorted
-switch: the leg is a divider across the DC link and draws ``Vdc/(Rh+Rl)``), or neither (the
-body diodes decide: positive phase current returns through the low diode, negative through
-the high one, and a phase with no current floats). Every leg becomes a Thevenin source
-``v_leg - r_leg*i`` seen by its winding, plus its share of the DC-link current.
+The bridge itself (legs averaged per PWM period with per-switch Ron, body diodes, shorted and
+open switches) is part of the plant's compiled step (:mod:`mapr_daemon.ema.step`, which
+carries these tables as ``PLUS``/``MINUS``); this module keeps the geometry for analysis code
+(the reasoner's sector-resolved resistance, the EKF's back-EMF shapes, the observability
+bench).
 """
 
 from __future__ import annotations
@@ -34,13 +32,6 @@ def trapezoid(theta_e: npt.NDArray[np.floating[Any]]) -> FloatArray:
     phi = np.mod(theta_e[None, :] - shifts - math.pi / 2.0, 2.0 * math.pi)
     dist = np.minimum(phi, 2.0 * math.pi - phi)  # circular distance to the peak
     out: FloatArray = np.minimum(np.maximum(3.0 - dist * (6.0 / math.pi), -1.0), 1.0)
-    return out
-
-
-def sector(theta_e: FloatArray) -> npt.NDArray[np.int64]:
-    """Hall sector 0..5; sector k spans electrical angles [pi/6 + k*pi/3, pi/6 + (k+1)*pi/3)."""
-    out: npt.NDArray[np.int64] = (
-        np.floor((theta_e - math.pi / 6.0) / (math.pi / 3.0)).astype(np.int64) % 6)
     return out
 
 
