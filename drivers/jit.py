@@ -7,9 +7,14 @@ written as plain loops over numpy arrays and compiled with numba's ``njit``; thi
 only importer of numba, so the options (cached to disk, no GIL, no Python objects) are chosen
 once and a kernel keeps its type signature for mypy.
 
-Kernels are cached next to their source (``__pycache__``) or, where that is read-only, in
-``NUMBA_CACHE_DIR`` (the systemd unit sets it to the service's cache directory). The first call
-in a fresh install compiles; later processes load the cached machine code.
+Kernels are cached in ``NUMBA_CACHE_DIR`` when it is set (it then takes precedence; the
+systemd unit sets it to the service's cache directory), otherwise next to their source
+(``__pycache__``) or, where that is read-only, in numba's per-user cache directory. The first
+call in a fresh install compiles; later processes load the cached machine code. The cache of
+a kernel is keyed on its own source file only: a kernel calling a kernel of another file
+keeps stale machine code when only that other file changes, so keep such call chains in one
+file. Each new combination of argument types (dtype, layout, read-only flag) compiles and
+caches another copy: give a kernel fresh, writable, C-ordered float64 arrays.
 
 Example::
 
