@@ -1,9 +1,9 @@
 """A powered run starts in the powered steady state; an unpowered one with the soft start.
 
 ``EmaBatch(powered=True)`` stands for an actuator whose supply has been on for a long time:
-the DC bus must sit at its regulated 24 V from the first sample, with no start-up transient,
-``powered=False`` keeps the soft start from t = 0 (the
-paper's capacitance observation is about that start-up).
+the DC bus must sit at its regulated 24 V from the first sample, with no start-up transient.
+``powered=False`` keeps the soft start from t = 0 (the paper's capacitance observation is
+about that start-up).
 """
 
 from __future__ import annotations
