@@ -219,6 +219,11 @@ def _groups(signals: Sequence[str]) -> list[tuple[str, ...]]:
     return [(s,) for s in sig]
 
 
+BATCH_SAMPLES = 1 << 18
+"""Window samples :func:`feature_matrix` hands :func:`window_values` at once (2 MiB of float64):
+one record's windows of every signal fit; many runs go through in groups of this size."""
+
+
 def feature_matrix(signals: Mapping[str, FloatArray], starts: npt.NDArray[np.int64],
                    length: int, rate: float,
                    names: Sequence[str] = PAPER_SIGNALS) -> FloatArray:
@@ -230,11 +235,14 @@ def feature_matrix(signals: Mapping[str, FloatArray], starts: npt.NDArray[np.int
     if missing:
         raise ConfigError(f"missing signals {', '.join(missing)}", field="signals")
     idx = starts[:, None] + np.arange(length)[None, :]
-    # every signal's windows in one batch: one pass of each numpy call instead of one per signal
-    runs = np.broadcast_arrays(*(np.atleast_2d(np.asarray(signals[s], dtype=np.float64))
-                                 for s in names))
-    values = window_values(np.stack(runs)[:, :, idx], rate)  # (signals, runs, windows, 8)
-    per_signal = dict(zip(names, values, strict=True))
+    runs = np.stack(np.broadcast_arrays(*(np.atleast_2d(np.asarray(signals[s], dtype=np.float64))
+                                          for s in names)))     # (signals, runs, n)
+    # every signal's windows in one batch (one pass of each numpy call, not one per signal),
+    # in groups of runs small enough that the temporaries stay in cache and memory stays flat
+    group = max(1, BATCH_SAMPLES // (len(names) * idx.size))
+    values = np.concatenate([window_values(runs[:, r:r + group][:, :, idx], rate)
+                             for r in range(0, runs.shape[1], group)], axis=1)
+    per_signal = dict(zip(names, values, strict=True))  # (runs, windows, 8) each
     cols = [per_signal[s][..., f] for g in _groups(names) for f in range(len(FEATURES))
             for s in g]
     return np.stack(cols, axis=-1)
