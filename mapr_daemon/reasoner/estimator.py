@@ -103,7 +103,7 @@ class ParameterEstimator:
         kf.P[:, 0:2] = 0.0
         kf.P[0, 0], kf.P[1, 1] = self.p_cap[0], self.p_cap[1]
         for k in range(b.n):
-            x, f = em.propagate(self.plant, x, b, k, self.block)
+            x, f = em.propagate(self.plant, x, b, k)
             kf.x = x.reshape(-1, 1)
             kf.F = f
             kf.predict()

@@ -181,8 +181,7 @@ def noise(mech_power: FloatArray, gram: FloatArray, theta_sd: float = 0.01,
     return r
 
 
-def propagate(plant: Plant, x: FloatArray, b: Blocks, k: int,
-              block: int = BLOCK) -> tuple[FloatArray, FloatArray]:
+def propagate(plant: Plant, x: FloatArray, b: Blocks, k: int) -> tuple[FloatArray, FloatArray]:
     """Integrate block ``k`` sample by sample from state ``x``: the new state and ``F``.
 
     ``J domega/dt = T_e + H_m - B_nom*viscous*omega - Tc_nom*coulomb*sgn(omega)``,
@@ -193,7 +192,6 @@ def propagate(plant: Plant, x: FloatArray, b: Blocks, k: int,
     The sample loop is a compiled kernel (:func:`_integrate`): the EKF calls it once per
     block, and a block's 20 samples in numpy cost more in call overhead than in arithmetic.
     """
-    del block  # the block length is the drive rows' length
     out = x.copy()
     f = _identity(x.shape[0]).copy()
     _integrate(b.drive[k], b.coulomb_sign[k], plant.dt, plant.dt / plant.j_eq,
