@@ -237,7 +237,10 @@ def fit_ours(d: Dictionary, params: ActuatorParams, spec: DictionarySpec, m: Flo
                                 & ~np.char.startswith(role, "nominal@"))
     sig = np.stack([model.standardized(m[i], conds[i]) for i in fault_rows]) @ whiten
     model = healthy.with_subspace(model, sig, spec.subspace_dims)
-    weak = [int(i) for i in fault_rows if roles[i].startswith(f"{matched.KIND}@")]
+    # the matched filter learns the fault's small-severity signature; a spec without such runs
+    # of that kind builds a dictionary without it (the two other statistics share the rate)
+    weak = [int(i) for i in fault_rows if roles[i].startswith(f"{matched.KIND}@")
+            and 0.0 < float(roles[i].rsplit("@", 1)[1]) <= matched.MAX_SEVERITY]
     if weak:
         z_fit = np.stack([model.standardized(m[i], conds[i]) for i in fit_rows])
         z_weak = np.stack([model.standardized(m[i], conds[i]) for i in weak])
