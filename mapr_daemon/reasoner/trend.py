@@ -284,8 +284,10 @@ def _joint_draws(shape: str, n: FloatArray, y: FloatArray, w: FloatArray, prior:
     post = np.exp(loglik - loglik.max()).ravel()
     pick = rng.choice(post.size, size=n_draws, p=post / post.sum())
     it, il = np.divmod(pick, LIVES.size)
-    # jitter within the grid cell, both axes are log-spaced
-    lt = np.log(theta[it]) + math.log(theta[1] / theta[0]) * (rng.random(n_draws) - 0.5)
+    # jitter within the grid cell, in the logarithm: each cell's own width (the power grid is
+    # linear, the others and the lives log-spaced)
+    cell = np.gradient(np.log(theta))
+    lt = np.log(theta[it]) + cell[it] * (rng.random(n_draws) - 0.5)
     ll = np.log(LIVES[il]) + math.log(LIVES[1] / LIVES[0]) * (rng.random(n_draws) - 0.5)
     th, life = np.exp(lt), np.exp(ll)
     a: FloatArray = 1.0 / np.maximum(_g(shape, th, life), 1e-300)
