@@ -6,7 +6,8 @@ Builds a capture at 10 MS/s in which the bus is never idle: messages of 32 back-
 alternate between bus A and bus B (one bus active at a time, as on a dual-redundant bus), with
 the standard's worst receiver impairments. Measures, in one run on one core:
 
-* the vectorized streaming decoder fed 1 MiB chunks (as ``mapr decode`` reads a file);
+* the streaming decoder (a numpy pass over the samples, compiled kernels over the edges) fed
+  1 MiB chunks (as ``mapr decode`` reads a file);
 * the same on a stress capture with both buses fully loaded at once (twice the words);
 * a naive per-sample Python decoder (bench/naive_decoder.py) on a slice of the clean capture.
 
@@ -122,7 +123,7 @@ def main() -> None:
               f"{sps / rate:>11.1f} {n_samples / cpu / rate:>13.1f}")
     vec = rows[1][1] / rows[1][4]
     naive = rows[-1][1] / rows[-1][4]
-    print(f"vectorized vs naive on the same clean traffic: {vec / naive:.0f}x faster "
+    print(f"decoder vs naive on the same clean traffic: {vec / naive:.0f}x faster "
           f"(naive agrees with the decoder: {agree}); load average {os.getloadavg()[0]:.2f}")
 
 
