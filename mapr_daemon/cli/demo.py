@@ -35,6 +35,7 @@ from mapr_daemon.catalog import CatalogWriter, event_from_reasoner
 from mapr_daemon.cli import exitcodes
 from mapr_daemon.cli.demo_reasoner import cache_dir, cached_dictionary, describe, diagnose_bits
 from mapr_daemon.cli.render import record_line
+from mapr_daemon.daemon.config import DEFAULT_ICD
 from mapr_daemon.ema.faults import FaultSet, parse_fault
 from mapr_daemon.ema.params import (
     ActuatorParams,
@@ -47,7 +48,6 @@ from mapr_daemon.testbed.aircraft import Aircraft
 from mapr_daemon.testbed.profiles import CONDITIONS, bit_profile
 from mapr_daemon.testbed.profiles_jsbsim import jsbsim_flight
 
-DEFAULT_ICD = "configs/icd/ema-testbed.yaml"
 DEFAULT_FAULT = "esr@0.6"
 INJECTED = (Injection("parity", rt=5, sa=4, skip=40),
             Injection("no_response", rt=6, sa=1, skip=20))

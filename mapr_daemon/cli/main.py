@@ -84,6 +84,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         # `mapr decode ... | head`: the reader went away, which is not an error of ours.
         sys.stderr.close()
         return exitcodes.OK
+    except OSError as error:
+        # a file a subcommand was given (or defaults to) that cannot be read or written
+        print(f"mapr {args.command}: {error}", file=sys.stderr)
+        return exitcodes.USAGE
     except KeyboardInterrupt:
         return exitcodes.INTERRUPTED
 

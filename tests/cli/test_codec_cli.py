@@ -127,3 +127,16 @@ def test_demo_rejects_a_bad_fault_with_one_line() -> None:
     result = run_mapr("demo", "--fault", "warp=9")
     assert result.returncode == 78
     assert len(result.stderr.decode().strip().splitlines()) == 1
+
+
+def test_demo_runs_from_any_directory_and_names_a_missing_icd(tmp_path: Path) -> None:
+    """The default message table is found wherever the user stands; a missing one is a line."""
+    result = subprocess.run([sys.executable, "-m", "mapr_daemon.cli.main", "demo", "--seconds",
+                             "0.2", "--icd", str(tmp_path / "absent.yaml")], cwd=tmp_path,
+                            capture_output=True, timeout=120, check=False)
+    err = result.stderr.decode().strip()
+    assert result.returncode == 2 and len(err.splitlines()) == 1 and "absent.yaml" in err, err
+    result = subprocess.run([sys.executable, "-m", "mapr_daemon.cli.main", "demo", "--seconds",
+                             "0.2", "--word-level"], cwd=tmp_path, capture_output=True,
+                            timeout=120, check=False)
+    assert result.returncode == 0, result.stderr.decode()
