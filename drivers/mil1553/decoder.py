@@ -329,12 +329,10 @@ def _unexplained(left: FloatArray, right: FloatArray, anchors: FloatArray,
     for gap in range(anchors.size + 1):
         lo = 0
         if gap > 0:
-            while span_stop < left.size and left[span_stop] < span_end[gap - 1] + margin:
-                span_stop += 1
+            span_stop = _walk_to(left, span_end[gap - 1] + margin, span_stop)
             lo = max(span_stop, owner_start)
         if gap < anchors.size:
-            while owner_start < left.size and left[owner_start] < anchors[gap] - margin:
-                owner_start += 1
+            owner_start = _walk_to(left, anchors[gap] - margin, owner_start)
         hi = owner_start if gap < anchors.size else left.size
         for j in range(lo, hi):
             if not seen < left[j] < limit:
@@ -347,6 +345,27 @@ def _unexplained(left: FloatArray, right: FloatArray, anchors: FloatArray,
             active[bursts - 1] += end - start
             b_end[bursts - 1] = end
     return b_start[:bursts], b_end[:bursts], active[:bursts]
+
+
+@kernel
+def _walk_to(sorted_times: FloatArray, value: float, start: int) -> int:
+    """:func:`drivers.mil1553.syncs.walk_to`, repeated here: a kernel calls only kernels of
+    its own module, whose on-disk cache is invalidated with it."""
+    size = sorted_times.size
+    probe = start
+    stride = 1
+    while probe < size and sorted_times[probe] < value:
+        start = probe + 1
+        probe += stride
+        stride *= 2
+    stop = min(probe, size)
+    while start < stop:
+        middle = (start + stop) // 2
+        if sorted_times[middle] < value:
+            start = middle + 1
+        else:
+            stop = middle
+    return start
 
 
 def _in_time_order(words: WordBatch) -> WordBatch:

@@ -59,13 +59,10 @@ def _windows(k: IntArray, crossing: IntArray, left: FloatArray, crossings: Float
         first = crossing[i]
         while first > 0 and crossings[first - 1] >= at - 0.5 * half:
             first -= 1
-        while silent < silent_after.size and silent_after[silent] < at:
-            silent += 1
+        silent = walk_to(silent_after, at, silent)
         stop = silent_after[silent] if silent < silent_after.size else np.inf
         end = min(at + 36.5 * half, stop)
-        last = max(last, first)
-        while last < crossings.size and crossings[last] < end:
-            last += 1
+        last = walk_to(crossings, end, max(last, first))
         lo[i], hi[i] = first, last
     return middle, lo, hi
 
@@ -134,11 +131,33 @@ def word_extents(anchors: FloatArray, crossings: FloatArray, silent_after: Float
     span_end = np.empty(anchors.size)
     first = silent = 0
     for i in range(anchors.size):
-        while first < crossings.size and crossings[first] < anchors[i] - 0.5 * half:
-            first += 1
+        first = walk_to(crossings, anchors[i] - 0.5 * half, first)
         first_owned[i] = first
-        while silent < silent_after.size and silent_after[silent] < anchors[i]:
-            silent += 1
+        silent = walk_to(silent_after, anchors[i], silent)
         end = min(silent_after[silent] if silent < silent_after.size else np.inf, float(n))
         span_end[i] = min(end, anchors[i + 1]) if i + 1 < anchors.size else end
     return first_owned, span_end
+
+
+@kernel
+def walk_to(sorted_times: FloatArray, value: float, start: int) -> int:
+    """The first index at or after ``start`` whose time is not below ``value`` (the size if
+    none): what walking on from ``start`` finds, as ``np.searchsorted(..., side="left")``
+    would from there. Strides doubling from ``start``, then a bisection: the distances
+    walked here are a few dozen crossings, the arrays a hundred thousand.
+    """
+    size = sorted_times.size
+    probe = start
+    stride = 1
+    while probe < size and sorted_times[probe] < value:
+        start = probe + 1
+        probe += stride
+        stride *= 2
+    stop = min(probe, size)
+    while start < stop:
+        middle = (start + stop) // 2
+        if sorted_times[middle] < value:
+            start = middle + 1
+        else:
+            stop = middle
+    return start
