@@ -41,12 +41,7 @@ class Calibration:
 
 def calibrate(scores: FloatArray, rate: float) -> Calibration:
     """The threshold that healthy runs exceed with probability ``rate`` (fitted law)."""
-    s = np.asarray(scores, dtype=np.float64)
-    if s.size < 10:
-        raise ConfigError("need >= 10 healthy calibration runs", field="calibration_runs")
-    if not 0.0 < rate < 0.5:
-        raise ConfigError("the false-alarm rate is a probability below 0.5",
-                          field="false_alarm_rate")
+    s = _checked(scores, rate)
     s = np.maximum(s, 0.0)
     mean = float(s.mean())
     var = float(max(s.var(ddof=1), 1e-12))
@@ -76,13 +71,19 @@ def calibrate_gaussian(scores: FloatArray, rate: float) -> GaussianCalibration:
     """The threshold that healthy runs exceed with probability ``rate``, for a statistic whose
     healthy law is normal (one healthy-model cell in its healthy spreads): ``mean + sd * z``
     with ``z`` the normal's upper ``rate`` point, never below the largest calibration score."""
+    s = _checked(scores, rate)
+    mean, sd = float(s.mean()), float(max(s.std(ddof=1), 1e-12))
+    fitted = mean + sd * float(stats.norm.isf(rate))
+    return GaussianCalibration(max(fitted, float(s.max())), rate, mean, sd, int(s.size),
+                               float(s.max()), fitted < float(s.max()))
+
+
+def _checked(scores: FloatArray, rate: float) -> FloatArray:
+    """The calibration scores as float64, once the run count and the rate are valid."""
     s = np.asarray(scores, dtype=np.float64)
     if s.size < 10:
         raise ConfigError("need >= 10 healthy calibration runs", field="calibration_runs")
     if not 0.0 < rate < 0.5:
         raise ConfigError("the false-alarm rate is a probability below 0.5",
                           field="false_alarm_rate")
-    mean, sd = float(s.mean()), float(max(s.std(ddof=1), 1e-12))
-    fitted = mean + sd * float(stats.norm.isf(rate))
-    return GaussianCalibration(max(fitted, float(s.max())), rate, mean, sd, int(s.size),
-                               float(s.max()), fitted < float(s.max()))
+    return s
