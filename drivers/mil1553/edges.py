@@ -2,9 +2,8 @@
 
 Two stages, split where the work changes in kind:
 
-* Per sample, numpy: the only pass over the samples is a comparison of neighbours and
-  ``flatnonzero`` (:func:`byte_changes`), shared by both buses. It is one streaming pass over
-  bytes, which numpy runs at memory speed.
+* Per sample: the only pass over the samples finds where the capture byte changes
+  (:func:`byte_changes`), shared by both buses, eight samples at a time.
 * Per edge, one compiled kernel (:func:`line_segments`): the change points become runs of one
   bus, short interruptions are repaired, and runs become segments with timed crossings. This is
   a state machine over a few runs per microsecond of traffic; as numpy it took a dozen array
