@@ -42,7 +42,6 @@ import numpy as np
 import numpy.typing as npt
 
 from drivers.errors import EncodeError
-from drivers.jit import kernel
 from drivers.mil1553.bitread import read_words
 from drivers.mil1553.edges import (
     FloatArray,
@@ -54,7 +53,7 @@ from drivers.mil1553.edges import (
     thread_workspace,
 )
 from drivers.mil1553.encoder import MAX_RATE_HZ, MIN_RATE_HZ
-from drivers.mil1553.syncs import find_syncs, word_extents
+from drivers.mil1553.syncs import find_syncs, unexplained_segments, word_extents
 from drivers.mil1553.wordbatch import (
     BUS_A,
     BUS_B,
@@ -278,8 +277,9 @@ class ManchesterDecoder:
         seen = max(self._last_burst[bus], self._covered_until[bus],
                    self._judged_until[bus]) - base
         self._judged_until[bus] = math.nextafter(limit + base, -math.inf)  # left >= limit
-        b_start, b_end, active = _unexplained(seg.left, seg.right, anchors, words_span_end,
-                                              0.5 * self._half, seen, limit, base, join)
+        b_start, b_end, active = unexplained_segments(
+            seg.left, seg.right, anchors, words_span_end, 0.5 * self._half, seen, limit, base,
+            join)
         pending = self._open_burst.pop(bus, None)
         if pending is not None:
             p_start, p_active, p_end = pending
@@ -305,67 +305,6 @@ class ManchesterDecoder:
         out["sync"] = SYNC_DATA
         out["bus"] = bus
         return out
-
-
-@kernel
-def _unexplained(left: FloatArray, right: FloatArray, anchors: FloatArray,
-                 span_end: FloatArray, margin: float, seen: float, limit: float, base: int,
-                 join: float) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """The segments no word explains, with ``seen < left < limit``, grouped into bursts
-    (neighbours closer than ``join``): each burst's start, end and active time, in samples
-    from the capture's start (``base`` is the buffer's).
-
-    A segment is explained when it starts inside its owner word's span: from the word's
-    sync start less a quarter bit (``margin``) to its span's end plus the same margin. The
-    unexplained ones lie before the first word, or between a word's span and the next word.
-    """
-    b_start = np.empty(left.size)
-    b_end = np.empty(left.size)
-    active = np.empty(left.size)
-    bursts = 0
-    # Where each gap starts and ends only moves forward: found by walking on from the last
-    # one (as np.searchsorted(..., side="left") would find it).
-    span_stop = owner_start = 0
-    for gap in range(anchors.size + 1):
-        lo = 0
-        if gap > 0:
-            span_stop = _walk_to(left, span_end[gap - 1] + margin, span_stop)
-            lo = max(span_stop, owner_start)
-        if gap < anchors.size:
-            owner_start = _walk_to(left, anchors[gap] - margin, owner_start)
-        hi = owner_start if gap < anchors.size else left.size
-        for j in range(lo, hi):
-            if not seen < left[j] < limit:
-                continue
-            start, end = left[j] + base, right[j] + base
-            if bursts == 0 or start - b_end[bursts - 1] > join:
-                b_start[bursts] = start
-                active[bursts] = 0.0
-                bursts += 1
-            active[bursts - 1] += end - start
-            b_end[bursts - 1] = end
-    return b_start[:bursts], b_end[:bursts], active[:bursts]
-
-
-@kernel
-def _walk_to(sorted_times: FloatArray, value: float, start: int) -> int:
-    """:func:`drivers.mil1553.syncs.walk_to`, repeated here: a kernel calls only kernels of
-    its own module, whose on-disk cache is invalidated with it."""
-    size = sorted_times.size
-    probe = start
-    stride = 1
-    while probe < size and sorted_times[probe] < value:
-        start = probe + 1
-        probe += stride
-        stride *= 2
-    stop = min(probe, size)
-    while start < stop:
-        middle = (start + stop) // 2
-        if sorted_times[middle] < value:
-            start = middle + 1
-        else:
-            stop = middle
-    return start
 
 
 def _in_time_order(words: WordBatch) -> WordBatch:

@@ -13,9 +13,11 @@
    previous word that is not followed by the mid-bit crossings of bits 0 and 1 is the end of
    that word, and a candidate overlapping the previous sync is data.
 
-Steps 2 and 3 are compiled kernels over the candidates, with the grid-fit kernel; Python only
-passes the arrays between them (a kernel calls no kernel of another module, so that the
-on-disk cache of each stays valid when the other module changes).
+Steps 2 and 3 are compiled kernels over the candidates, with the grid-fit kernel; so are the
+words' extents and the segments no word explains (the decoder's noise bursts), which walk the
+same sorted arrays with :func:`walk_to`. Python only passes the arrays between them (a
+kernel calls no kernel of another module, so that the on-disk cache of each stays valid when
+the other module changes).
 """
 
 from __future__ import annotations
@@ -137,6 +139,46 @@ def word_extents(anchors: FloatArray, crossings: FloatArray, silent_after: Float
         end = min(silent_after[silent] if silent < silent_after.size else np.inf, float(n))
         span_end[i] = min(end, anchors[i + 1]) if i + 1 < anchors.size else end
     return first_owned, span_end
+
+
+@kernel
+def unexplained_segments(left: FloatArray, right: FloatArray, anchors: FloatArray,
+                 span_end: FloatArray, margin: float, seen: float, limit: float, base: int,
+                 join: float) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """The segments no word explains, with ``seen < left < limit``, grouped into bursts
+    (neighbours closer than ``join``): each burst's start, end and active time, in samples
+    from the capture's start (``base`` is the buffer's).
+
+    A segment is explained when it starts inside its owner word's span: from the word's
+    sync start less a quarter bit (``margin``) to its span's end plus the same margin. The
+    unexplained ones lie before the first word, or between a word's span and the next word.
+    """
+    b_start = np.empty(left.size)
+    b_end = np.empty(left.size)
+    active = np.empty(left.size)
+    bursts = 0
+    # Where each gap starts and ends only moves forward: found by walking on from the last
+    # one (as np.searchsorted(..., side="left") would find it).
+    span_stop = owner_start = 0
+    for gap in range(anchors.size + 1):
+        lo = 0
+        if gap > 0:
+            span_stop = walk_to(left, span_end[gap - 1] + margin, span_stop)
+            lo = max(span_stop, owner_start)
+        if gap < anchors.size:
+            owner_start = walk_to(left, anchors[gap] - margin, owner_start)
+        hi = owner_start if gap < anchors.size else left.size
+        for j in range(lo, hi):
+            if not seen < left[j] < limit:
+                continue
+            start, end = left[j] + base, right[j] + base
+            if bursts == 0 or start - b_end[bursts - 1] > join:
+                b_start[bursts] = start
+                active[bursts] = 0.0
+                bursts += 1
+            active[bursts - 1] += end - start
+            b_end[bursts - 1] = end
+    return b_start[:bursts], b_end[:bursts], active[:bursts]
 
 
 @kernel
