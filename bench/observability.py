@@ -25,7 +25,6 @@ import numpy as np
 
 from mapr_daemon.ema.batch import RunSpec
 from mapr_daemon.ema.faults import Fault, FaultSet, at_severity
-from mapr_daemon.ema.inverter import NEGATIVE, POSITIVE
 from mapr_daemon.ema.params import (
     CHANNELS,
     default_actuator_path,
@@ -33,6 +32,8 @@ from mapr_daemon.ema.params import (
     with_sample_rate,
 )
 from mapr_daemon.ema.run import RunResult, run_batch
+from mapr_daemon.reasoner.sector import CHANNELS as SECTOR_CHANNELS
+from mapr_daemon.reasoner.sector import a_high_resistance
 from mapr_daemon.testbed.profiles import bit_profile
 
 KINDS = ("capacitance", "esr", "smps_ron_high", "smps_ron_low", "inverter_ron_a_high", "friction")
@@ -43,7 +44,6 @@ FASTER_RATES = (8000.0,)
 """Sensor rates at which the sector-resolved resistance is measured again."""
 FAULT_FLIGHTS = 2
 SLOW = {"motor_temperature_c", "stage_temperature_c"}
-RATIO = load_actuator(default_actuator_path()).gear.ratio
 VISIBLE_WITH = {
     "smps_ron_low": "a switch-node (phase) voltage sampled during the low-side interval, or the "
                     "low-side MOSFET's own temperature: its loss is (1-D)*I^2*Ron, ~14 % duty",
@@ -52,38 +52,17 @@ VISIBLE_WITH = {
 }
 
 
-def sector_resistance(res: RunResult, ratio: float) -> np.ndarray:
+def sector_resistance(res: RunResult) -> np.ndarray:
     """Loop resistance where phase A's high side is the PWM'd switch, minus elsewhere (ohm).
 
-    Per sample the drive applies ``v = duty * Vdc`` across the two conducting windings; by
-    the six-step circuit ``v = R_loop * i_q + Ke_eff * omega (+ offset)``, with ``i_q`` the
-    sector's torque current from the phase sensors and ``omega`` the motor speed from the
-    position's derivative. The fit is made separately over the samples whose sector and drive
-    direction put phase A's high side in the PWM'd leg (sectors 1-2 driving positive, 4-5
-    driving negative) and over the rest; an inverter phase-A high-side Ron fault raises only
-    the first. Sharing one trajectory, the two fits see the same winding, temperature and
-    friction, so flight-to-flight variation largely cancels in the difference.
+    The reasoner's own per-record fit (:func:`mapr_daemon.reasoner.sector.a_high_resistance`:
+    ``duty * Vdc`` on the sector's torque current and the speed, over the samples whose sector
+    and drive direction put phase A's high side in the PWM'd leg and over the rest; an
+    inverter phase-A high-side Ron fault raises only the first), over the profile after its
+    first 50 ms like every other feature of the table.
     """
-    ch = res.channels
-    sec = ch["commutation_sector"].astype(np.int64) - 1
-    duty = ch["inverter_duty"]
-    cur = np.stack([ch["phase_a_current_a"], ch["phase_b_current_a"], ch["phase_c_current_a"]])
-    plus = POSITIVE.argmax(axis=1)[sec]
-    minus = NEGATIVE.argmax(axis=1)[sec]
-    i_q = 0.5 * (np.take_along_axis(cur, plus[None], 0)[0]
-                 - np.take_along_axis(cur, minus[None], 0)[0])
-    omega = np.gradient(np.radians(ch["position_deg"]) * ratio, res.time_s, axis=1)
-    v = duty * ch["dc_bus_voltage_v"]
-    a_high = (((duty > 0) & np.isin(sec, (0, 1))) | ((duty < 0) & np.isin(sec, (3, 4))))
     keep = res.time_s > 0.05
-    out = np.empty(v.shape[0])
-    for r in range(v.shape[0]):
-        fits = []
-        for rows in (a_high[r] & keep, ~a_high[r] & keep):
-            x = np.stack([i_q[r][rows], omega[r][rows], np.ones(int(rows.sum()))], axis=1)
-            fits.append(np.linalg.lstsq(x, v[r][rows], rcond=None)[0][0])
-        out[r] = fits[0] - fits[1]
-    return out
+    return a_high_resistance({k: res.channels[k][:, keep] for k in SECTOR_CHANNELS})
 
 
 def features(res: RunResult) -> tuple[list[str], np.ndarray]:
@@ -109,7 +88,7 @@ def features(res: RunResult) -> tuple[list[str], np.ndarray]:
         np.sqrt(np.mean((ch["position_deg"] - cmd)[:, keep] ** 2, axis=1)),
         np.mean((ch["smps_input_voltage_v"] * ch["smps_input_current_a"]
                  - ch["dc_bus_voltage_v"] * ch["dc_link_current_a"])[:, keep], axis=1),
-        sector_resistance(res, RATIO),
+        sector_resistance(res),
     ]
     return names, np.stack(cols, axis=1)
 
@@ -129,7 +108,7 @@ def sector_feature_at(rate: float) -> tuple[float, float]:
             fs = FaultSet.of([at_severity(params, "inverter_ron_a_high", sev)])
             specs += [RunSpec(params, fs, seed=10_000 + 100 * ci + 10 * j + k)
                       for k in range(FAULT_FLIGHTS)]
-        feat = sector_resistance(run_batch(specs, bit_profile(rate, cond)), RATIO)
+        feat = sector_resistance(run_batch(specs, bit_profile(rate, cond)))
         healthy = feat[:HEALTHY_FLIGHTS]
         z = (feat[HEALTHY_FLIGHTS:] - healthy.mean()) / healthy.std(ddof=1)
         z = z.reshape(len(SEVERITIES), FAULT_FLIGHTS)

@@ -37,7 +37,7 @@ import numpy as np
 import numpy.typing as npt
 
 from mapr_daemon.errors import ConfigError
-from mapr_daemon.reasoner.sector import A_HIGH_SECTORS, CHANNELS, a_high_resistance
+from mapr_daemon.reasoner.sector import CHANNELS, a_high_driven, a_high_resistance
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -183,9 +183,7 @@ def sector_signals(channels: Mapping[str, FloatArray]) -> dict[str, FloatArray]:
     """
     sector = np.rint(np.asarray(channels["commutation_sector"], dtype=np.float64))
     duty = np.asarray(channels["inverter_duty"], dtype=np.float64)
-    pos, neg = A_HIGH_SECTORS[1], A_HIGH_SECTORS[-1]
-    a_high = ((duty > 0) & np.isin(sector, pos)) | ((duty < 0) & np.isin(sector, neg))
-    mask = a_high.astype(np.float64)
+    mask = a_high_driven(sector, duty).astype(np.float64)
     out = {"duty_a_high": np.abs(duty) * mask, "duty_other": np.abs(duty) * (1.0 - mask),
            "a_high_share": mask}
     if "dc_link_current_a" in channels:

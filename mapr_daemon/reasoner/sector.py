@@ -47,6 +47,15 @@ def _slope(x: FloatArray, v: FloatArray, mask: FloatArray) -> FloatArray:
     return out
 
 
+def a_high_driven(sector: FloatArray, duty: FloatArray) -> npt.NDArray[np.bool_]:
+    """Where phase A's high side is the PWM'd switch: the drive's Hall ``sector`` (1..6) and
+    signed ``duty`` (its sign is the torque's), sample by sample."""
+    pos, neg = A_HIGH_SECTORS[1], A_HIGH_SECTORS[-1]
+    out: npt.NDArray[np.bool_] = ((duty > 0) & np.isin(sector, pos)) | \
+        ((duty < 0) & np.isin(sector, neg))
+    return out
+
+
 def a_high_resistance(channels: Mapping[str, FloatArray]) -> FloatArray:
     """Loop resistance while phase A's high side is PWM'd minus elsewhere, per run (ohm).
 
@@ -64,8 +73,7 @@ def a_high_resistance(channels: Mapping[str, FloatArray]) -> FloatArray:
     # speed in position units per sample: its scale only rescales the back-EMF coefficient
     omega = np.gradient(np.asarray(channels["position_deg"], dtype=np.float64), axis=-1)
     v = duty * np.asarray(channels["dc_bus_voltage_v"], dtype=np.float64)
-    pos, neg = A_HIGH_SECTORS[1], A_HIGH_SECTORS[-1]
-    a_high = ((duty > 0) & np.isin(sector, pos)) | ((duty < 0) & np.isin(sector, neg))
+    a_high = a_high_driven(sector, duty)
     x = np.stack([i_q, omega, np.ones_like(i_q)], axis=-1)
     m = a_high.astype(np.float64)
     out: FloatArray = _slope(x, v, m) - _slope(x, v, 1.0 - m)
