@@ -108,13 +108,19 @@ def pressure_weights(grid: FloatArray, q: float) -> FloatArray:
     return w
 
 
+def scaled(c: Conditions, supply_nominal_v: float) -> tuple[float, float, float]:
+    """The flight condition as regressors take it: dynamic pressure in units of
+    :data:`PRESSURE_SCALE_PA`, supply voltage above nominal (V), temperature from
+    :data:`TEMPERATURE_REF_C` in units of :data:`TEMPERATURE_SCALE_K`."""
+    return (c.pressure_pa / PRESSURE_SCALE_PA, c.supply_v - supply_nominal_v,
+            (c.temperature_c - TEMPERATURE_REF_C) / TEMPERATURE_SCALE_K)
+
+
 def basis(c: Conditions, supply_nominal_v: float) -> FloatArray:
     """The regressors of the healthy fit: cubics in pressure and temperature (ESR and Ron follow
     temperature exponentially over the flight envelope), a quadratic in supply voltage, and the
     pairwise products."""
-    q = c.pressure_pa / PRESSURE_SCALE_PA
-    v = c.supply_v - supply_nominal_v
-    t = (c.temperature_c - TEMPERATURE_REF_C) / TEMPERATURE_SCALE_K
+    q, v, t = scaled(c, supply_nominal_v)
     return np.array([1.0, q, q * q, q**3, v, v * v, t, t * t, t**3, q * v, q * t, v * t])
 
 

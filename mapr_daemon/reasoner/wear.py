@@ -60,8 +60,7 @@ def observations(d: Dictionary, m: FloatArray, q: Sequence[float]) -> tuple[Floa
     for i in range(m.shape[0]):
         c = healthy.conditions(m[i], d.columns, float(q[i]))
         ys.append(hm.coordinates(m[i], c))
-        cs.append([c.pressure_pa / healthy.PRESSURE_SCALE_PA, c.supply_v - hm.supply_nominal_v,
-                   (c.temperature_c - healthy.TEMPERATURE_REF_C) / healthy.TEMPERATURE_SCALE_K])
+        cs.append(healthy.scaled(c, hm.supply_nominal_v))
     return np.stack(ys), np.asarray(cs, dtype=np.float64)
 
 
