@@ -4,6 +4,12 @@ Single run (or a few faults at once, a compound fault)::
 
     mapr simulate --fault esr=0.5 --fault friction=3 --profile bit --condition cruise -o run.npz
 
+Any point of the envelope, not only the named conditions: ``--pressure`` (dynamic pressure,
+Pa; 0 is a BIT on the ground), ``--ambient`` (C) and ``--bus-voltage`` (the aircraft bus's
+mean over the flight, V) replace the condition's air load and the plant's own draws::
+
+    mapr simulate --pressure 0 --ambient -35 --bus-voltage 22.5 -o cold-ground-bit.npz
+
 A whole dictionary from a spec file, with a progress bar on stderr::
 
     mapr simulate --batch configs/profiles/dictionary-416.yaml -o dictionary.npz
@@ -12,11 +18,14 @@ A whole dictionary from a spec file, with a progress bar on stderr::
 from __future__ import annotations
 
 import argparse
+import dataclasses
+import math
 import sys
 import time
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import yaml
 
 from mapr_daemon.ema import dataset
@@ -44,11 +53,40 @@ def add_subparser(subparsers: Any) -> None:
                    help="kind=value, kind@severity or short|open=SWITCH; repeat for compound")
     p.add_argument("--profile", choices=("bit", "jsbsim"), default="bit")
     p.add_argument("--condition", default="cruise", help="ground, approach, climb, cruise, dash")
+    p.add_argument("--pressure", type=_finite(0.0, 1e5), metavar="PA",
+                   help="dynamic pressure, Pa (replaces the condition's; 0 = on the ground)")
+    p.add_argument("--ambient", type=_finite(-60.0, 125.0), metavar="C",
+                   help="ambient temperature, C (default: drawn around the actuator file's)")
+    p.add_argument("--bus-voltage", type=_finite(0.0, 60.0), metavar="V",
+                   help="aircraft bus mean, V (default: drawn around its nominal; the plant "
+                        "clips it to the file's bus.min_v..max_v)")
     p.add_argument("--duration", type=float, default=30.0, help="JSBSim flight length (s)")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--sample-rate", type=float, help="sensor output rate, Hz (default: file)")
     p.add_argument("--cold", action="store_true", help="start with the SMPS off (soft start)")
     p.set_defaults(func=run)
+
+
+def _finite(lo: float, hi: float) -> Any:
+    """An argparse type: a finite number in ``[lo, hi]`` (a bad value exits 2, naming it)."""
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+        if not math.isfinite(value) or not lo <= value <= hi:
+            raise argparse.ArgumentTypeError(f"{text} is outside {lo:g}..{hi:g}")
+        return value
+    return parse
+
+
+def _at_pressure(prof: Profile, pressure_pa: float | None) -> Profile:
+    """The profile with its dynamic pressure replaced (the command stays as it is)."""
+    if pressure_pa is None:
+        return prof
+    q = np.full_like(prof.dynamic_pressure_pa, pressure_pa)
+    return dataclasses.replace(prof, dynamic_pressure_pa=q,
+                               name=f"{prof.name.split('@')[0]}@{pressure_pa:g}Pa")
 
 
 def _profile(kind: str, cond: str, rate: float, duration: float, seed: int) -> Profile:
@@ -131,9 +169,11 @@ def run(args: argparse.Namespace) -> int:
     else:
         params = _params(args.actuator, args.sample_rate)
         faults = FaultSet.of([parse_fault(f, params) for f in args.fault])
-        prof = _profile(args.profile, args.condition, params.sensors.sample_rate_hz,
-                        args.duration, args.seed)
-        groups = [(prof, [RunSpec(params, faults, seed=args.seed)])]
+        prof = _at_pressure(_profile(args.profile, args.condition,
+                                     params.sensors.sample_rate_hz, args.duration, args.seed),
+                            args.pressure)
+        groups = [(prof, [RunSpec(params, faults, seed=args.seed, ambient_c=args.ambient,
+                                  bus_v=args.bus_voltage)])]
         meta = {"actuator": params.name}
     total = sum(len(runs) for _, runs in groups)
     bar = _Progress(total, enabled=sys.stderr.isatty() or total > 1)

@@ -26,11 +26,22 @@ BoolArray = npt.NDArray[np.bool_]
 
 @dataclasses.dataclass(frozen=True)
 class RunSpec:
-    """One simulated run: actuator parameters, seeded faults and the noise seed."""
+    """One simulated run: actuator parameters, seeded faults, the noise seed and, optionally,
+    this flight's condition.
+
+    ``ambient_c`` (ambient temperature, C) and ``bus_v`` (the aircraft bus's mean over the
+    flight, V) fix what the plant otherwise draws from the actuator file's flight-to-flight
+    spread (``thermal.ambient_c`` +- ``ambient_flight_sd_k``, ``bus.nominal_v`` +-
+    ``flight_mean_sd_v``). The run's random draws are the same either way (a fixed value
+    replaces the draw, it does not skip it), so the sensor noise of a seed does not depend on
+    whether its condition was given. The bus still drifts and ripples within the flight.
+    """
 
     params: ActuatorParams
     faults: fl.FaultSet = dataclasses.field(default_factory=fl.FaultSet)
     seed: int = 0
+    ambient_c: float | None = None
+    bus_v: float | None = None
 
 
 def _arr(values: Sequence[float]) -> FloatArray:
@@ -131,6 +142,17 @@ def _switch_masks(specs: Sequence[RunSpec], kind: str) -> tuple[FloatArray, Floa
     return high, low
 
 
+def _given(specs: Sequence[RunSpec], name: str, default: FloatArray) -> FloatArray:
+    """A condition's centre per run: the spec's value where it gives one, else ``default``."""
+    given = [getattr(s, name) for s in specs]
+    return _arr([default[k] if v is None else float(v) for k, v in enumerate(given)])
+
+
+def _spread(specs: Sequence[RunSpec], name: str, default: FloatArray) -> FloatArray:
+    """A condition's flight-to-flight spread per run: 0 where the spec fixes the condition."""
+    return _arr([default[k] if getattr(s, name) is None else 0.0 for k, s in enumerate(specs)])
+
+
 def build(specs: Sequence[RunSpec]) -> BatchArrays:
     """Arrays for a batch of runs; raises ConfigError if the runs cannot share one integrator."""
     if not specs:
@@ -208,15 +230,15 @@ def build(specs: Sequence[RunSpec]) -> BatchArrays:
         ki_pos=kp_pos * 2 * math.pi * col(lambda p: p.control.position_integral_hz),
         i_lim=col(lambda p: p.control.current_limit_a),
         kp_i=l_loop * wc, ki_i=r_loop * wc,
-        t_amb=col(lambda p: p.thermal.ambient_c),
-        t_amb_sd=col(lambda p: p.thermal.ambient_flight_sd_k),
+        t_amb=_given(specs, "ambient_c", col(lambda p: p.thermal.ambient_c)),
+        t_amb_sd=_spread(specs, "ambient_c", col(lambda p: p.thermal.ambient_flight_sd_k)),
         friction_sd=col(lambda p: p.motor.friction_flight_sd),
         rth_m=col(lambda p: p.thermal.motor_thermal_resistance_k_per_w),
         tau_m=col(lambda p: p.thermal.motor_time_constant_s),
         rth_s=col(lambda p: p.thermal.stage_thermal_resistance_k_per_w),
         tau_s=col(lambda p: p.thermal.stage_time_constant_s),
-        bus_nominal=col(lambda p: p.bus.nominal_v),
-        bus_mean_sd=col(lambda p: p.bus.flight_mean_sd_v),
+        bus_nominal=_given(specs, "bus_v", col(lambda p: p.bus.nominal_v)),
+        bus_mean_sd=_spread(specs, "bus_v", col(lambda p: p.bus.flight_mean_sd_v)),
         bus_drift_sd=col(lambda p: p.bus.drift_sd_v),
         bus_tau=col(lambda p: p.bus.drift_time_constant_s),
         bus_ripple=col(lambda p: p.bus.ripple_rms_v),

@@ -134,6 +134,20 @@ class BusParams:
 
 
 @dataclasses.dataclass(frozen=True)
+class EnvelopeParams:
+    """The operating envelope the actuator is specified for, and the reasoner must cover.
+
+    Dynamic pressure from 0 (a BIT on the ground) to ``max_dynamic_pressure_pa``; ambient
+    temperature from ``ambient_min_c`` to ``ambient_max_c`` (DO-160 operating categories: -40
+    to +70 C is a common one); the aircraft bus voltage over ``bus.min_v``..``bus.max_v``.
+    """
+
+    max_dynamic_pressure_pa: float
+    ambient_min_c: float
+    ambient_max_c: float
+
+
+@dataclasses.dataclass(frozen=True)
 class ChannelSpec:
     """One ADC channel: signed full scale, resolution bits and white-noise RMS (in units)."""
 
@@ -164,6 +178,7 @@ class ActuatorParams:
     control: ControlParams
     thermal: ThermalParams
     bus: BusParams
+    envelope: EnvelopeParams
     sensors: SensorParams
 
 
@@ -190,12 +205,13 @@ _T = TypeVar("_T")
 _SECTIONS: dict[str, type[Any]] = {
     "smps": SmpsParams, "inverter": InverterParams, "motor": MotorParams, "gear": GearParams,
     "surface": SurfaceParams, "control": ControlParams, "thermal": ThermalParams,
-    "bus": BusParams,
+    "bus": BusParams, "envelope": EnvelopeParams,
 }
 _MAY_BE_ZERO_OR_NEGATIVE = {
     "ch0", "ch_delta_per_rad", "ambient_c", "loop_kd", "soft_start_s", "noise_rms",
     "drift_sd_v", "flight_mean_sd_v", "ripple_rms_v", "source_resistance_ohm",
     "switching_loss_w", "position_integral_hz", "friction_flight_sd", "ambient_flight_sd_k",
+    "ambient_min_c", "ambient_max_c",
 }
 
 
@@ -306,6 +322,9 @@ def _check_consistency(p: ActuatorParams, path: str) -> None:
                           path=path, field="sensors.step_s")
     if p.bus.min_v >= p.bus.max_v:
         raise ConfigError("min_v must be below max_v", path=path, field="bus.min_v")
+    if p.envelope.ambient_min_c >= p.envelope.ambient_max_c:
+        raise ConfigError("ambient_min_c must be below ambient_max_c", path=path,
+                          field="envelope.ambient_min_c")
 
 
 def load_actuator(path: str | Path) -> ActuatorParams:

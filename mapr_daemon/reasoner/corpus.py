@@ -45,13 +45,24 @@ class Runs:
 
 def simulate_bit(params: ActuatorParams, fault_sets: Sequence[FaultSet],
                  dynamic_pressure_pa: Sequence[float], seeds: Sequence[int],
-                 chunk: int = 250, progress: Callable[[float], None] | None = None) -> Runs:
-    """Fly the BIT profile once per (faults, q, seed), all in one batch."""
-    if not (len(fault_sets) == len(dynamic_pressure_pa) == len(seeds)) or not fault_sets:
-        raise ConfigError("faults, pressures and seeds must be equally long", field="runs")
+                 chunk: int = 250, progress: Callable[[float], None] | None = None,
+                 ambient_c: Sequence[float | None] | None = None,
+                 bus_v: Sequence[float | None] | None = None) -> Runs:
+    """Fly the BIT profile once per (faults, q, seed), all in one batch.
+
+    ``ambient_c`` and ``bus_v`` give each run's flight condition (ambient temperature, the
+    aircraft bus's mean); ``None`` (for all runs or one) leaves it to the plant's own draw.
+    """
+    n = len(fault_sets)
+    amb = [None] * n if ambient_c is None else list(ambient_c)
+    bus = [None] * n if bus_v is None else list(bus_v)
+    if not (n == len(dynamic_pressure_pa) == len(seeds) == len(amb) == len(bus)) or not n:
+        raise ConfigError("faults, pressures, seeds and conditions must be equally long",
+                          field="runs")
     rate = params.sensors.sample_rate_hz
     prof = bit_profile(rate, "ground")
-    specs = [RunSpec(params, fs, seed=int(s)) for fs, s in zip(fault_sets, seeds, strict=True)]
+    specs = [RunSpec(params, fs, seed=int(s), ambient_c=a, bus_v=b)
+             for fs, s, a, b in zip(fault_sets, seeds, amb, bus, strict=True)]
     plant = EmaBatch(specs)
     q = np.asarray(dynamic_pressure_pa, dtype=np.float64)
     parts: list[dict[str, FloatArray]] = []

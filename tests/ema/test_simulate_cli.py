@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -35,3 +36,25 @@ def test_bad_fault_is_a_one_line_config_error(tmp_path: Path, capsys: object) ->
     code = main(["simulate", "--fault", "esr=lots", "-o", str(tmp_path / "x.npz")])
     assert code == exitcodes.CONFIG
     assert not (tmp_path / "x.npz").exists()
+
+
+def test_a_condition_anywhere_in_the_envelope_is_flown_as_given(tmp_path: Path) -> None:
+    """--pressure, --ambient and --bus-voltage set the run's condition (a cold ground BIT on a
+    low bus): the air data is 0 Pa, the power stage reads the ambient, the SMPS input the bus."""
+    out = tmp_path / "cold.npz"
+    assert main(["simulate", "--pressure", "0", "--ambient", "-35", "--bus-voltage", "23",
+                 "-o", str(out)]) == 0
+    data = np.load(out)
+    assert np.all(data["in_dynamic_pressure_pa"] == 0.0)
+    assert abs(data["ch_stage_temperature_c"][0, :20].mean() - (-35.0)) < 1.0
+    assert abs(data["ch_smps_input_voltage_v"][0].mean() - 23.0) < 0.5
+
+
+def test_a_condition_outside_its_range_is_refused_with_exit_2(tmp_path: Path,
+                                                               capsys: Any) -> None:
+    try:
+        code = main(["simulate", "--pressure", "-5", "-o", str(tmp_path / "x.npz")])
+    except SystemExit as stop:
+        code = int(stop.code or 0)
+    assert code == exitcodes.USAGE
+    assert "--pressure" in capsys.readouterr().err and not (tmp_path / "x.npz").exists()
