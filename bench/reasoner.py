@@ -32,7 +32,7 @@ from mapr_daemon.reasoner.events import Reasoner
 SPEC = DictionarySpec(
     pressures_pa=(0.0, 800.0, 1600.0), nominal_per_pressure=4, severities=(0.25, 0.5, 0.75, 1.0),
     kinds=("esr", "friction"), shorts=("A_high",), opens=("A_high",), seeds_per_point=2,
-    healthy_runs=24, calibration_runs=12, record_pool=3, calibration_pressure_pa=(200.0, 1400.0),
+    healthy_runs=60, calibration_runs=12, record_pool=3, calibration_pressure_pa=(200.0, 1400.0),
     threshold_margin=1.5, subspace_dims=8, knots=(0.0, 0.5, 1.0))
 """The test suite's small dictionary (tests/reasoner/conftest.py): the per-record cost of the
 classifier grows with the number of templates; the EKF's does not."""
@@ -47,15 +47,7 @@ def main() -> int:
     args = ap.parse_args()
     params = load_actuator(default_actuator_path())
     t0 = time.perf_counter()
-    if args.dictionary:
-        d = Dictionary.load(args.dictionary)
-    else:
-        fs, qs, seeds, roles = build._plan(params, SPEC)
-        runs = simulate_bit(params, fs, qs, seeds)
-        starts = build.windows(SPEC, runs.corners, runs.command_deg.size)
-        m = build.run_matrices(runs, starts, SPEC.window_samples)
-        d = build.assemble(params, SPEC, m, runs.dynamic_pressure_pa, roles, starts,
-                           runs.sample_rate_hz)
+    d = Dictionary.load(args.dictionary) if args.dictionary else build.build(params, SPEC)
     print(f"dictionary: {args.dictionary or 'small (the test suite spec)'}, "
           f"{len(d.templates)} templates")
     kinds = [FaultSet()] + [FaultSet.of([at_severity(params, k, s)])

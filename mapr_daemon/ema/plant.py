@@ -25,7 +25,7 @@ from collections.abc import Sequence
 import numpy as np
 import numpy.typing as npt
 
-from mapr_daemon.ema import sensors
+from mapr_daemon.ema import sensors, temperature
 from mapr_daemon.ema.batch import BatchArrays, FloatArray, RunSpec, build
 from mapr_daemon.ema.params import CHANNELS, CONTROLLER_CHANNELS
 from mapr_daemon.ema.step import ACC, STATE, integrate, pack
@@ -59,14 +59,6 @@ def _per_run(value: float | npt.ArrayLike, n_runs: int, n: int, name: str) -> Fl
         raise ConfigError(f"shape {arr.shape} does not fit ({n_runs}, {n})", field=name) from None
 
 
-RON_TEMPCO = 0.006
-"""MOSFET Ron rise per kelvin (datasheet normalised-Ron curves: ~1.6x from 25 to 125 C)."""
-ESR_TEMPCO = 0.02
-"""Electrolytic ESR: exp(-0.02*(T-25)), about doubling from 25 to -10 C."""
-CAP_TEMPCO = 0.002
-"""Electrolytic capacitance change per kelvin."""
-
-
 def _flight_scatter(p: BatchArrays, rngs: list[np.random.Generator]) -> BatchArrays:
     """This flight's ambient temperature and friction (grease) scatter, from each run's seed.
 
@@ -78,15 +70,14 @@ def _flight_scatter(p: BatchArrays, rngs: list[np.random.Generator]) -> BatchArr
     z = np.array([g.standard_normal(2) for g in rngs]).T
     friction = np.exp(p.friction_sd * z[1])
     t_amb = p.t_amb + p.t_amb_sd * z[0]
-    dt = t_amb - 25.0
-    ron = 1.0 + RON_TEMPCO * dt
-    esr = np.exp(-ESR_TEMPCO * dt)
+    ron = temperature.ron_factor(t_amb)
+    esr = temperature.esr_factor(t_amb)
+    cap = temperature.capacitance_factor(t_amb)
     return dataclasses.replace(
         p, t_amb=t_amb, b_visc=p.b_visc * friction, t_coul=p.t_coul * friction,
         ron_hi=p.ron_hi * ron, ron_lo=p.ron_lo * ron, r_high=p.r_high * ron,
         r_low=p.r_low * ron, esr=p.esr * esr, esr_eff=p.esr_eff * esr,
-        c_elec=p.c_elec * (1.0 + CAP_TEMPCO * dt),
-        c_total=p.c_elec * (1.0 + CAP_TEMPCO * dt) + p.c_ceramic)
+        c_elec=p.c_elec * cap, c_total=p.c_elec * cap + p.c_ceramic)
 
 
 def bank_impedance(p: BatchArrays, f: FloatArray) -> FloatArray:

@@ -69,11 +69,8 @@ spectrum of pure quantisation noise) have nearly zero spread, which would make a
 look like an anomaly."""
 
 
-SUPPLY_HEADROOM_V = 0.5
-"""Input-voltage margin above ``Vout/max_duty`` that a BIT needs to say anything: at the BIT's
-current peaks the healthy converter drops some 0.4 V across its switch, inductor and feeder
-resistances; below that the output sags whatever the SMPS's health (the regulator is at its
-duty limit), so such a record is inconclusive rather than a fault."""
+SUPPLY_HEADROOM_V = healthy.PEAK_HEADROOM_V
+"""Input-voltage margin above ``Vout/max_duty`` that the BIT's current peaks need."""
 
 
 def run_matrices(runs: Runs, starts: np.ndarray, length: int,
@@ -85,12 +82,27 @@ def run_matrices(runs: Runs, starts: np.ndarray, length: int,
     return feature_matrix(sig, starts, length, runs.sample_rate_hz, names)
 
 
-def _plan(params: ActuatorParams, spec: DictionarySpec) -> tuple[list[FaultSet], list[float],
-                                                                 list[int], list[str]]:
-    """Fault sets, pressures, seeds and a role tag for every run of the build batch.
+@dataclasses.dataclass(frozen=True)
+class Plan:
+    """Every run of a build batch: faults, dynamic pressure, seed, role, and the flight
+    condition (``None``: the plant's own draw around the actuator file's values)."""
+
+    faults: list[FaultSet]
+    pressures_pa: list[float]
+    seeds: list[int]
+    roles: list[str]
+    ambient_c: list[float | None]
+    bus_v: list[float | None]
+
+
+def _plan(params: ActuatorParams, spec: DictionarySpec) -> Plan:
+    """Fault sets, pressures, seeds, roles and conditions of every run of the build batch.
 
     Roles: ``nominal@q``, ``<kind>@q@s`` (s the severity), ``short:<sw>@q``, ``open:<sw>@q``,
-    ``healthy`` and ``calibration``.
+    ``healthy`` and ``calibration``. With ``spec.envelope`` every run's ambient temperature and
+    bus mean are drawn uniformly over the actuator's envelope (``envelope.ambient_*_c``,
+    ``bus.min_v..max_v``), and a ``spec.ground_share`` of the healthy and calibration runs are
+    BITs on the ground (0 Pa), the others at pressures uniform up to the envelope's maximum.
     """
     for k in spec.kinds:
         if k not in PARAMETRIC:
@@ -126,11 +138,22 @@ def _plan(params: ActuatorParams, spec: DictionarySpec) -> tuple[list[FaultSet],
             add(FaultSet.of([Fault("open", switch=sw)]), q, f"open:{sw}@{q:g}")
     rng = np.random.default_rng(spec.seed_base + 7919)
     lo, hi = spec.calibration_pressure_pa
-    for q in rng.uniform(lo, hi, spec.healthy_runs):
-        add(FaultSet(), float(q), "healthy")
-    for q in rng.uniform(lo, hi, spec.calibration_runs):
-        add(FaultSet(), float(q), "calibration")
-    return fs, qs, seeds, roles
+    if spec.envelope:
+        lo, hi = 0.0, params.envelope.max_dynamic_pressure_pa
+    for n, role in ((spec.healthy_runs, "healthy"), (spec.calibration_runs, "calibration")):
+        draws = rng.uniform(lo, hi, n)
+        if spec.ground_share > 0:
+            draws[rng.random(n) < spec.ground_share] = 0.0
+        for q in draws:
+            add(FaultSet(), float(q), role)
+    amb: list[float | None] = [None] * len(fs)
+    bus: list[float | None] = [None] * len(fs)
+    if spec.envelope:
+        env = np.random.default_rng(spec.seed_base + 104729)
+        env_t = env.uniform(params.envelope.ambient_min_c, params.envelope.ambient_max_c, len(fs))
+        env_v = env.uniform(params.bus.min_v, params.bus.max_v, len(fs))
+        amb, bus = [float(t) for t in env_t], [float(v) for v in env_v]
+    return Plan(fs, qs, seeds, roles, amb, bus)
 
 
 def windows(spec: DictionarySpec, corners: tuple[int, ...], n_samples: int) -> np.ndarray:
@@ -143,11 +166,12 @@ def windows(spec: DictionarySpec, corners: tuple[int, ...], n_samples: int) -> n
 def build(params: ActuatorParams, spec: DictionarySpec,
           progress: Callable[[float], None] | None = None) -> Dictionary:
     """Simulate, extract M, keep the nominal statistics and templates, fit, calibrate."""
-    fs, qs, seeds, roles = _plan(params, spec)
-    runs = simulate_bit(params, fs, qs, seeds, progress=progress)
+    plan = _plan(params, spec)
+    runs = simulate_bit(params, plan.faults, plan.pressures_pa, plan.seeds, progress=progress,
+                        ambient_c=plan.ambient_c, bus_v=plan.bus_v)
     starts = windows(spec, runs.corners, runs.command_deg.size)
     m = run_matrices(runs, starts, spec.window_samples)
-    return assemble(params, spec, m, runs.dynamic_pressure_pa, roles, starts,
+    return assemble(params, spec, m, runs.dynamic_pressure_pa, plan.roles, starts,
                     runs.sample_rate_hz)
 
 
@@ -171,8 +195,19 @@ def healthy_band(params: ActuatorParams, kind: str) -> float:
 
 
 def supply_floor_v(params: ActuatorParams) -> float:
-    """The lowest aircraft-bus voltage at which a BIT is conclusive."""
+    """The SMPS's dropout knee: below this aircraft-bus voltage its duty saturates at the BIT's
+    current peaks and the DC link follows the input instead of its reference."""
     return params.smps.output_voltage_v / params.smps.max_duty + SUPPLY_HEADROOM_V
+
+
+def conclusive_floor_v(params: ActuatorParams, spec: DictionarySpec) -> float:
+    """The lowest aircraft-bus voltage at which a BIT is conclusive: with healthy runs over the
+    whole bus band (``spec.envelope``) the healthy model knows the dropout regime, so a BIT is
+    conclusive down to the band's lower limit (less the headroom); without, only above the
+    dropout knee."""
+    if spec.envelope:
+        return params.bus.min_v - SUPPLY_HEADROOM_V
+    return supply_floor_v(params)
 
 
 def assemble(params: ActuatorParams, spec: DictionarySpec, m: FloatArray, q: FloatArray,
@@ -225,14 +260,14 @@ def fit_ours(d: Dictionary, params: ActuatorParams, spec: DictionarySpec, m: Flo
              q: FloatArray, roles: list[str]) -> None:
     """Our healthy model, fault subspace, signature models and threshold."""
     conds = [healthy.conditions(m[i], d.columns, float(q[i])) for i in range(m.shape[0])]
-    floor = supply_floor_v(params)
+    floor = conclusive_floor_v(params, spec)
     valid = np.array([c.supply_min_v >= floor for c in conds])
     role = np.asarray(roles)
     fit_rows = np.flatnonzero(valid & ((role == "healthy") | np.char.startswith(role, "nominal@")))
     cells = healthy.record_cells(d.columns, m.shape[1], spec.record_pool)
     nominal_v = params.bus.nominal_v
     model, whiten = healthy.fit(m[fit_rows], [conds[i] for i in fit_rows], cells, nominal_v,
-                                floor, spec.shrinkage_floor)
+                                floor, supply_floor_v(params), spec.shrinkage_floor)
     fault_rows = np.flatnonzero(valid & ~np.isin(role, ["healthy", "calibration"])
                                 & ~np.char.startswith(role, "nominal@"))
     sig = np.stack([model.standardized(m[i], conds[i]) for i in fault_rows]) @ whiten

@@ -35,8 +35,10 @@ from mapr_daemon.reasoner.fault_models import FaultModels
 from mapr_daemon.reasoner.features import FloatArray
 from mapr_daemon.reasoner.healthy import HealthyModel, pressure_weights
 
-FORMAT = "mapr-dictionary/3"
-"""3: the sector-resolved phase-A loop resistance is a signal (one healthy-model cell)."""
+FORMAT = "mapr-dictionary/4"
+"""3: the sector-resolved phase-A loop resistance is a signal (one healthy-model cell);
+4: the healthy model's physical regressors (ground, dropout, ESR's temperature law) and its
+condition-dependent spread."""
 __all__ = ["FORMAT", "Dictionary", "DictionarySpec", "PaperCurve", "Template", "pressure_weights"]
 
 
@@ -58,6 +60,12 @@ class DictionarySpec:
     model (ours)."""
     calibration_runs: int = 48
     calibration_pressure_pa: tuple[float, float] = (0.0, 2500.0)
+    envelope: bool = False
+    """Every run's ambient temperature and bus mean drawn over the actuator's envelope, the
+    healthy and calibration runs' pressures up to its maximum (else the plant's own draws
+    around the file's values and ``calibration_pressure_pa``)."""
+    ground_share: float = 0.0
+    """Share of the healthy and calibration runs flown on the ground (0 Pa)."""
     window_samples: int = 32
     record_skip_samples: int = 32
     """Our record rows tile the record after this many samples."""

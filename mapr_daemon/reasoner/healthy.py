@@ -28,6 +28,7 @@ from collections.abc import Sequence
 import numpy as np
 import numpy.typing as npt
 
+from mapr_daemon.ema import temperature
 from mapr_daemon.errors import ConfigError
 from mapr_daemon.reasoner.features import FloatArray
 
@@ -50,6 +51,20 @@ TEMPERATURE = "mean:stage_temperature_c"
 PRESSURE_SCALE_PA = 2500.0
 TEMPERATURE_REF_C = 25.0
 TEMPERATURE_SCALE_K = 10.0
+GROUND_PA = 1.0
+"""Below this dynamic pressure a BIT is flown on the ground: no air load at all, so the position
+loop holds the surface against friction alone and the sector cells take another regime (which
+side of the bridge holds is decided by friction, not by a hinge moment); a regressor of its own."""
+PEAK_HEADROOM_V = 0.5
+"""What the healthy converter drops across its switch, inductor and feeder resistances at the
+BIT's current peaks (~0.4 V): the regulator saturates at its peaks below ``Vout/max_duty`` plus
+this, all the time below ``Vout/max_duty``."""
+SPREAD_CLIP = (0.25, 8.0)
+"""Bounds of a cell's condition-dependent spread, relative to its typical spread."""
+SPREAD_MIN_RUNS = 200
+"""Healthy runs below which the spread is not made condition-dependent (fitted from single
+residuals, its seven coefficients per cell would follow their noise)."""
+"""Bounds of a cell's condition-dependent spread, relative to its typical spread."""
 SD_FLOOR_COLUMN = 0.1
 """Least healthy spread of a cell, as a share of its column's median spread ..."""
 SD_FLOOR_REL = 1e-3
@@ -116,12 +131,40 @@ def scaled(c: Conditions, supply_nominal_v: float) -> tuple[float, float, float]
             (c.temperature_c - TEMPERATURE_REF_C) / TEMPERATURE_SCALE_K)
 
 
-def basis(c: Conditions, supply_nominal_v: float) -> FloatArray:
-    """The regressors of the healthy fit: cubics in pressure and temperature (ESR and Ron follow
-    temperature exponentially over the flight envelope), a quadratic in supply voltage, and the
-    pairwise products."""
+def basis(c: Conditions, supply_nominal_v: float, dropout_v: float) -> FloatArray:
+    """The regressors of the healthy prediction, shaped by the physics of each condition.
+
+    * air load: a cubic in dynamic pressure, and an indicator of a BIT on the ground;
+    * aircraft bus: linear and quadratic above nominal, and two dropout knees: how far the
+      record's lowest supply is below ``dropout_v`` (``Vout/max_duty`` plus the drops at the
+      BIT's current peaks: there the regulator saturates at its peaks), linear, quadratic and
+      times the air load; and how far the mean supply is below ``Vout/max_duty`` itself
+      (``dropout_v - PEAK_HEADROOM_V``: there it saturates all the time and the DC link follows
+      the input instead of its reference), linear and times the air load;
+    * temperature: linear (copper, MOSFET Ron and capacitance are linear in it,
+      :mod:`mapr_daemon.ema.temperature`) and quadratic, plus the electrolytic's ESR law
+      ``esr_factor(T) - 1``, which is not (it grows ~3.7x from 25 to -40 C);
+    * the products that carry one condition's effect through another (air load times supply,
+      temperature and ESR; supply times temperature; the ground indicator times temperature).
+    """
     q, v, t = scaled(c, supply_nominal_v)
-    return np.array([1.0, q, q * q, q**3, v, v * v, t, t * t, t**3, q * v, q * t, v * t])
+    g = 1.0 if c.pressure_pa < GROUND_PA else 0.0
+    d = max(0.0, dropout_v - c.supply_min_v)
+    d_steady = max(0.0, dropout_v - PEAK_HEADROOM_V - c.supply_v)
+    e = float(temperature.esr_factor(c.temperature_c)) - 1.0
+    return np.array([1.0, q, q * q, q**3, g, v, v * v, d, d * d, q * d, d_steady, q * d_steady,
+                     t, t * t, e, q * v, q * t, q * e, v * t, g * t])
+
+
+def spread_basis(c: Conditions, supply_nominal_v: float, dropout_v: float) -> FloatArray:
+    """Regressors of a cell's log healthy spread: a BIT on the ground, in dropout or in the cold
+    is noisier in some cells than one in flight at room temperature (the sector cells on the
+    ground swing with friction)."""
+    q, _, t = scaled(c, supply_nominal_v)
+    g = 1.0 if c.pressure_pa < GROUND_PA else 0.0
+    d = max(0.0, dropout_v - c.supply_min_v)
+    e = float(temperature.esr_factor(c.temperature_c)) - 1.0
+    return np.array([1.0, q, q * q, g, d, t, e])
 
 
 def ledoit_wolf(z: FloatArray, floor: float = 0.0) -> tuple[FloatArray, float]:
@@ -150,21 +193,40 @@ class HealthyModel:
     coef: FloatArray
     """``(P, D)`` least-squares coefficients of the cells on :func:`basis`."""
     sd: FloatArray
-    """``(D,)`` healthy residual spread per cell."""
+    """``(D,)`` typical healthy residual spread per cell."""
     projection: FloatArray
     """``(D, K)``: whitening followed by the projection on the fault subspace."""
     supply_nominal_v: float
     supply_floor_v: float
-    """Below this input voltage the SMPS cannot hold its output (duty at its maximum)."""
+    """Below this input voltage a BIT is inconclusive (outside the bus's normal band)."""
     shrinkage: float
     matched: FloatArray | None = None
     """``(D,)`` weights of the matched filter on the standardized cells
     (:mod:`~mapr_daemon.reasoner.matched`); None when the dictionary has none."""
+    dropout_v: float = 0.0
+    """The SMPS's dropout knee (:func:`basis`)."""
+    sd_coef: FloatArray | None = None
+    """``(S, D)``: a cell's log spread relative to :attr:`sd` on :func:`spread_basis`."""
+    sd_floor: FloatArray | None = None
+    """``(D,)`` least spread of a cell, whatever the conditions."""
+
+    def spread(self, c: Conditions) -> FloatArray:
+        """Every cell's healthy spread at the run's conditions ``(D,)``."""
+        if self.sd_coef is None:
+            return self.sd
+        rel = np.exp(spread_basis(c, self.supply_nominal_v, self.dropout_v) @ self.sd_coef)
+        out: FloatArray = self.sd * np.clip(rel, *SPREAD_CLIP)
+        return out if self.sd_floor is None else np.maximum(out, self.sd_floor)
+
+    def predicted(self, c: Conditions) -> FloatArray:
+        """The healthy actuator's cells at the run's conditions ``(D,)``."""
+        out: FloatArray = basis(c, self.supply_nominal_v, self.dropout_v) @ self.coef
+        return out
 
     def standardized(self, m: FloatArray, c: Conditions) -> FloatArray:
         """The cells' deviation from the healthy prediction, in healthy spreads ``(D,)``."""
         x = m.ravel()[self.cells].mean(axis=1)
-        out: FloatArray = (x - basis(c, self.supply_nominal_v) @ self.coef) / self.sd
+        out: FloatArray = (x - self.predicted(c)) / self.spread(c)
         return out
 
     def coordinates(self, m: FloatArray, c: Conditions) -> FloatArray:
@@ -177,9 +239,11 @@ class HealthyModel:
         out = {"healthy_cells": self.cells, "healthy_coef": self.coef, "healthy_sd": self.sd,
                "healthy_projection": self.projection,
                "healthy_scalars": np.array([self.supply_nominal_v, self.supply_floor_v,
-                                            self.shrinkage])}
-        if self.matched is not None:
-            out["healthy_matched"] = self.matched
+                                            self.shrinkage, self.dropout_v])}
+        for key, value in (("healthy_matched", self.matched), ("healthy_sd_coef", self.sd_coef),
+                           ("healthy_sd_floor", self.sd_floor)):
+            if value is not None:
+                out[key] = value
         return out
 
     @classmethod
@@ -187,23 +251,25 @@ class HealthyModel:
         sc = a["healthy_scalars"]
         return cls(a["healthy_cells"].astype(np.int64), a["healthy_coef"], a["healthy_sd"],
                    a["healthy_projection"], float(sc[0]), float(sc[1]), float(sc[2]),
-                   a.get("healthy_matched"))
+                   a.get("healthy_matched"), float(sc[3]), a.get("healthy_sd_coef"),
+                   a.get("healthy_sd_floor"))
 
 
 def fit(m: FloatArray, conds: Sequence[Conditions], cells: npt.NDArray[np.int64],
-        supply_nominal_v: float, supply_floor_v: float,
+        supply_nominal_v: float, supply_floor_v: float, dropout_v: float,
         shrinkage_floor: float = 0.0) -> tuple[HealthyModel, FloatArray]:
-    """Fit the prediction and the shrunk whitening on healthy runs ``m (n, W, C)``.
+    """Fit the prediction, the condition-dependent spread and the shrunk whitening on healthy
+    runs ``m (n, W, C)``.
 
     Returns the model with an identity projection (``(D, D)`` whitening, no subspace yet) and
     the whitening matrix; :func:`with_subspace` then keeps the fault directions.
     """
     x = m.reshape(m.shape[0], -1)[:, cells].mean(axis=2)
-    b = np.stack([basis(c, supply_nominal_v) for c in conds])
+    b = np.stack([basis(c, supply_nominal_v, dropout_v) for c in conds])
     if x.shape[0] < 2 * b.shape[1]:
         raise ConfigError(f"need >= {2 * b.shape[1]} healthy runs for the healthy model",
                           field="healthy_runs")
-    coef: FloatArray = np.linalg.lstsq(b, x, rcond=None)[0]
+    coef = _least_squares(b, x)
     resid = x - b @ coef
     dof = max(x.shape[0] - b.shape[1], 1)
     raw_sd = np.sqrt((resid**2).sum(axis=0) / dof)
@@ -218,13 +284,60 @@ def fit(m: FloatArray, conds: Sequence[Conditions], cells: npt.NDArray[np.int64]
         own = col == c
         floor[own] = max(SD_FLOOR_COLUMN * float(np.median(raw_sd[own])),
                          SD_FLOOR_REL * float(scale[own].max()))
-    sd = np.maximum(raw_sd, np.maximum(floor, 1e-9))
-    z = resid / sd
+    floor = np.maximum(floor, 1e-9)
+    sd = np.maximum(raw_sd, floor)
+    sd_coef = None if x.shape[0] < SPREAD_MIN_RUNS else _spread_fit(
+        resid / sd, [spread_basis(c, supply_nominal_v, dropout_v) for c in conds])
+    model = HealthyModel(cells, coef, sd, np.eye(cells.shape[0]), supply_nominal_v,
+                         supply_floor_v, 0.0, None, dropout_v, sd_coef, floor)
+    z = resid / np.stack([model.spread(c) for c in conds])
     cov, a = ledoit_wolf(z, shrinkage_floor)
     ev, vec = np.linalg.eigh(cov)
     whiten = vec / np.sqrt(np.maximum(ev, 1e-12 * float(ev.max())))
-    model = HealthyModel(cells, coef, sd, whiten, supply_nominal_v, supply_floor_v, a)
+    model = dataclasses.replace(model, projection=whiten, shrinkage=a)
     return model, whiten
+
+
+BASIS_RCOND = 1e-3
+"""Directions of the standardized regressors weaker than this share of the strongest are left
+out of the healthy fit: over a narrow spread of conditions the physical regressors are nearly
+collinear (ESR's law and a quadratic in temperature over +-10 K), and fitting them would
+follow the runs' noise; over the whole envelope none is cut."""
+
+
+MIN_SUPPORT = 20
+"""Least number of healthy runs in which a regressor must differ from its median to be fitted."""
+
+
+def _least_squares(b: FloatArray, x: FloatArray) -> FloatArray:
+    """Coefficients of ``x ~ b @ coef``, the regressors standardized and weak directions cut
+    (:data:`BASIS_RCOND`); a regressor that never varies in these runs gets 0."""
+    scale = b.std(axis=0)
+    scale[0] = 1.0  # the intercept
+    # a regressor that is zero but in a few runs (the ground indicator, the dropout knees)
+    # needs enough of them: fitted on a handful it would memorise their noise
+    support = (np.abs(b - np.median(b, axis=0)) > 1e-12).sum(axis=0)
+    live = (scale > 1e-12) & ((support >= MIN_SUPPORT) | (np.arange(b.shape[1]) == 0))
+    coef = np.zeros((b.shape[1], x.shape[1]))
+    sol = np.linalg.lstsq(b[:, live] / scale[live], x, rcond=BASIS_RCOND)[0]
+    coef[live] = sol / scale[live][:, None]
+    return coef
+
+
+LOG_CHI2_1_MEAN = -1.2704
+"""E[log chi2(1)]: half of it is the bias of log|z| as an estimate of log sd."""
+
+
+def _spread_fit(z: FloatArray, sb: Sequence[FloatArray]) -> FloatArray:
+    """Per cell, log spread of the residuals ``z (n, D)`` (already in typical spreads) as a
+    linear function of :func:`spread_basis`: least squares on ``log|z|`` corrected for its bias,
+    lightly ridged (a cell's spread is estimated from single residuals)."""
+    a = np.stack(sb)
+    target = np.log(np.abs(z) + 1e-6) - 0.5 * LOG_CHI2_1_MEAN
+    ridge = 1.0 * np.eye(a.shape[1])
+    ridge[0, 0] = 0.0
+    out: FloatArray = np.asarray(np.linalg.solve(a.T @ a + ridge, a.T @ target), np.float64)
+    return out
 
 
 def with_subspace(model: HealthyModel, signatures: FloatArray, dims: int) -> HealthyModel:

@@ -22,7 +22,7 @@ from mapr_daemon.reasoner.features import FloatArray
 SPEC = DictionarySpec(
     pressures_pa=(0.0, 800.0, 1600.0), nominal_per_pressure=4, severities=(0.25, 0.5, 0.75, 1.0),
     kinds=("esr", "friction"), shorts=("A_high",), opens=("A_high",), seeds_per_point=2,
-    healthy_runs=24, calibration_runs=12, record_pool=3, calibration_pressure_pa=(200.0, 1400.0),
+    healthy_runs=60, calibration_runs=12, record_pool=3, calibration_pressure_pa=(200.0, 1400.0),
     threshold_margin=1.5, subspace_dims=8, knots=(0.0, 0.5, 1.0))
 
 HELD_OUT: list[tuple[str, float, float]] = [
@@ -58,13 +58,16 @@ def _held_faults(params: ActuatorParams) -> list[FaultSet]:
 @pytest.fixture(scope="session")
 def bench() -> Bench:
     params = load_actuator(default_actuator_path())
-    fs, qs, seeds, roles = build._plan(params, SPEC)
+    plan = build._plan(params, SPEC)
+    fs, qs, seeds, roles = plan.faults, plan.pressures_pa, plan.seeds, plan.roles
     held = _held_faults(params)
     fs += held
     qs += [q for _, _, q in HELD_OUT]
     seeds += [50_000 + i for i in range(len(held))]
     roles += ["held"] * len(held)
-    runs = simulate_bit(params, fs, qs, seeds)
+    runs = simulate_bit(params, fs, qs, seeds,
+                        ambient_c=plan.ambient_c + [None] * len(held),
+                        bus_v=plan.bus_v + [None] * len(held))
     starts = build.windows(SPEC, runs.corners, runs.command_deg.size)
     m = build.run_matrices(runs, starts, SPEC.window_samples)
     role = np.asarray(roles)
