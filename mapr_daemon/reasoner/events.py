@@ -6,7 +6,8 @@
 ``channels`` maps the ICD's signal names (``phase_a_current_a``, ``position_deg``,
 ``dc_bus_voltage_v``, ...) to arrays of one BIT record at the dictionary's sample rate;
 the event has the keys of ``mapr diagnose``: anomaly, fault, severity (physical unit), unit,
-confidence, parameters, soh, rul, evidence.
+confidence, parameters, soh, component, part (the replaceable part), ambiguity (its members'
+probabilities, :mod:`~.parts`), rul, evidence.
 
 A record that cannot be diagnosed (non-finite samples, too short, a numerical failure on its
 data: :data:`RECORD_ERRORS`) raises from :meth:`Reasoner.diagnose`;
@@ -24,7 +25,7 @@ import numpy as np
 
 from mapr_daemon.ema.params import ActuatorParams
 from mapr_daemon.errors import RecordError
-from mapr_daemon.reasoner import classifier, prognosis
+from mapr_daemon.reasoner import classifier, parts, prognosis
 from mapr_daemon.reasoner.dictionary import Dictionary
 from mapr_daemon.reasoner.estimator import (
     UNITS,
@@ -67,7 +68,8 @@ def error_event(error: BaseException) -> dict[str, Any]:
     undecided (``None``), confidence 0, and ``evidence.error`` = {type, message}."""
     return {
         "anomaly": None, "fault": None, "severity": None, "unit": None, "confidence": 0.0,
-        "parameters": {}, "soh": None, "component": None, "rul": None,
+        "parameters": {}, "soh": None, "component": None, "part": None, "ambiguity": None,
+        "rul": None,
         "evidence": {"error": {"type": type(error).__name__, "message": str(error)}},
     }
 
@@ -162,13 +164,21 @@ class Reasoner:
 
         ``parameters`` holds the EKF's estimates (value, sd, unit, reference value), and
         ``evidence.severity_check`` compares the classifier's severity with the EKF where the
-        fault moves an estimated parameter (friction).
+        fault moves an estimated parameter (friction). ``component`` is the monitored item the
+        fault degrades, ``part`` the replaceable part it belongs to, ``ambiguity`` that part's
+        members with their probabilities and the group the data cannot separate
+        (:func:`~.parts.ambiguity`); all three null without a decided fault.
         """
         soh = 1.0
-        component = None
+        component: str | None = None
+        part: str | None = None
+        ambiguity: dict[str, Any] | None = None
         if dec.anomaly and dec.fault is not None:
             soh = prognosis.soh(self.params, dec.fault, dec.value)
-            component = prognosis.COMPONENTS[dec.fault]
+            component = parts.COMPONENTS[dec.fault]
+            part = parts.PART_OF[dec.fault]
+            ambiguity = parts.ambiguity(dec.fault, dec.kind_residuals,
+                                        self.dictionary.calibration.get("chi2_scale", 1.0))
         evidence = dict(dec.evidence)
         evidence.update(score=round(dec.score, 3), threshold=round(dec.threshold, 3))
         if dec.switch:
@@ -185,5 +195,6 @@ class Reasoner:
             "unit": dec.unit, "confidence": round(dec.confidence, 4),
             "parameters": {} if estimate is None else estimate.as_event(self.reference),
             "soh": round(soh, 4),
-            "component": component, "rul": None, "evidence": evidence,
+            "component": component, "part": part, "ambiguity": ambiguity, "rul": None,
+            "evidence": evidence,
         }
