@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from typing import Any
 
 NEGLIGIBLE = 0.05
@@ -113,6 +113,20 @@ class Isolation:
     p_true: list[float] = dataclasses.field(default_factory=list)
     """Per run the probability the event gave the true member (0 when it named another part
     or no fault)."""
+    p_in_part: list[float] = dataclasses.field(default_factory=list)
+    """The same, over the runs isolated to the right part only."""
+
+    @classmethod
+    def total(cls, tallies: Iterable[Isolation]) -> Isolation:
+        """Tallies added up (e.g. over the fault modes)."""
+        out = cls()
+        for t in tallies:
+            out.runs, out.part, out.member = out.runs + t.runs, out.part + t.part, \
+                out.member + t.member
+            out.in_group += t.in_group
+            out.p_true += t.p_true
+            out.p_in_part += t.p_in_part
+        return out
 
     def add(self, true: str, decided: str | None, ambiguity_: Mapping[str, Any] | None) -> None:
         """One faulted run: its true mode, the decided mode (None: none) and the event's
@@ -129,4 +143,5 @@ class Isolation:
             else:  # nothing weighed: the decided member alone
                 self.in_group += decided == true
                 p = float(decided == true)
+            self.p_in_part.append(p)
         self.p_true.append(p)
