@@ -5,7 +5,8 @@
     MaprError (drivers.errors)
     ├── ConfigError       a configuration or ICD file is wrong; names file, line and field
     │   └── IcdError      an interface-control-document (message table) error
-    └── CatalogError      the fault catalog file is missing, corrupt, newer than us, or unusable
+    ├── CatalogError      the fault catalog file is missing, corrupt, newer than us, or unusable
+    └── RecordError       one record (a run of a file, one BIT) cannot be diagnosed
 """
 
 from __future__ import annotations
@@ -40,3 +41,18 @@ class CatalogError(MaprError):
         self.path = path
         self.detail = message
         super().__init__(f"catalog {path}: {message}" if path is not None else message)
+
+
+class RecordError(MaprError):
+    """One record cannot be diagnosed: non-finite samples, too few samples, or a numerical
+    failure on its data (the estimator's covariance, a statistic that is not finite).
+
+    It concerns that record alone: a batch flags the record (``mapr diagnose`` prints an event
+    whose ``evidence.error`` names this class and the message) and goes on with the others.
+    ``str()`` is one line: ``field: problem``.
+    """
+
+    def __init__(self, message: str, *, field: str | None = None) -> None:
+        self.field = field
+        self.detail = message
+        super().__init__(f"{field}: {message}" if field else message)

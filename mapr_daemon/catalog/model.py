@@ -72,15 +72,18 @@ def event_from_reasoner(decision: Mapping[str, Any], *, t_ns: int, asset: str,
     """The catalog event for one of the reasoner's JSON-ready events (``Reasoner.event``).
 
     Its keys: ``fault``, ``severity`` (physical value), ``unit``, ``confidence``,
-    ``parameters``, ``soh``, ``component``, ``rul``, ``evidence`` (which carries ``switch``
-    and ``severity_fraction_of_range``). ``rul`` (here or in the decision) may be a number,
+    ``parameters``, ``soh``, ``component``, ``part``, ``ambiguity``, ``rul``, ``evidence``
+    (which carries ``switch`` and ``severity_fraction_of_range``). ``component``, ``part``
+    (the replaceable part) and ``ambiguity`` (its members' probabilities) are kept in the
+    stored evidence. ``rul`` (here or in the decision) may be a number,
     a mapping with ``rul``/``low``/``high`` or an object with those attributes (the
     reasoner's ``RulEstimate``). Only a mapping is read, so the catalog never imports the
     reasoner.
     """
     evidence = dict(decision.get("evidence") or {})
-    if decision.get("component") is not None:
-        evidence.setdefault("component", decision["component"])
+    for key in ("component", "part", "ambiguity"):
+        if decision.get(key) is not None:
+            evidence.setdefault(key, decision[key])
     estimate = rul if rul is not None else decision.get("rul")
     value = low = high = None
     if isinstance(estimate, Mapping):

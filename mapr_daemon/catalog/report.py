@@ -86,6 +86,20 @@ def fault_name(e: Event) -> str:
     return f"{e.fault}/{e.switch}" if e.switch else e.fault
 
 
+def fmt_part(e: Event) -> str:
+    """``SMPS switches (smps_ron_high 62%, smps_ron_low 38%: not separable)`` from the stored
+    evidence; the part alone when no member is ambiguous; empty for events without a part."""
+    amb = e.evidence.get("ambiguity")
+    part = e.evidence.get("part") or (amb.get("part") if isinstance(amb, dict) else None)
+    if not part:
+        return ""
+    if not isinstance(amb, dict) or not amb.get("ambiguous"):
+        return str(part)
+    members = ", ".join(f"{m['fault']} {100 * m['probability']:.0f}%"
+                        for m in amb.get("members", []) if m["fault"] in amb.get("group", []))
+    return f"{part} ({members}: not separable in the bus data)"
+
+
 def _table(header: Sequence[str], rows: Iterable[Sequence[str]], right: set[int]) -> str:
     """Columns as wide as their widest cell; ``right`` are right-aligned (numbers)."""
     body = [list(header), *(list(r) for r in rows)]
@@ -110,6 +124,7 @@ def event_detail(e: Event, session: Session | None) -> str:
              f"  time        {fmt_time(e.t_ns)}",
              f"  asset       {where}",
              f"  fault       {fault_name(e)}",
+             *([f"  part        {part}"] if (part := fmt_part(e)) else []),
              f"  severity    {fmt_severity(e, ' of range')}",
              f"  confidence  {100 * e.confidence:.0f}%",
              f"  SoH         {_num(e.soh)}",

@@ -5,19 +5,33 @@
     mapr simulate --fault esr@0.5 --condition cruise -o run.npz
     mapr diagnose run.npz --dictionary dictionary.npz
 
-Prints one JSON object per run of the file (one line each): ``anomaly``, ``fault``,
-``severity`` (in ``unit``, the faulted parameter's value), ``confidence``, ``parameters``,
-``soh``, ``rul`` (null: one run has no trend, see ``mapr prognose``), ``evidence``.
-``--paper`` uses the paper's chosen-curve classifier instead of ours.
+Prints one JSON object per run of the file (one line each, in file order): ``run`` (its
+0-based index in the file), ``anomaly``, ``fault``, ``severity`` (in ``unit``, the faulted
+parameter's value), ``confidence``, ``parameters``, ``soh``, ``component``, ``rul`` (null: one
+run has no trend, see ``mapr prognose``), ``evidence``. ``--paper`` uses the paper's
+chosen-curve classifier instead of ours.
+
+The runs of a file are independent: each is diagnosed by a fresh reasoner, so its event is
+the one ``--index`` gives it alone. ``--same-unit`` says they are successive BITs of one
+actuator instead: one reasoner, in file order, adapts its reference model across them
+(docs/reasoner.md, model adaptation).
+
+A run that cannot be diagnosed (NaN or infinite samples, a numerical failure on its data)
+gets an event with ``anomaly`` null, ``confidence`` 0 and ``evidence.error`` = {type,
+message}; the other runs are diagnosed. Exit status: 0 every run diagnosed; 65 every run
+has its line but at least one is such an error event; 2 bad argument or unreadable file,
+78 dictionary or configuration error (then nothing, or only the lines before it, is printed).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import sys
 from pathlib import Path
 from typing import Any
 
+from mapr_daemon.cli import exitcodes
 from mapr_daemon.ema.params import default_actuator_path, load_actuator
 from mapr_daemon.errors import ConfigError
 
@@ -31,6 +45,9 @@ def add_subparser(subparsers: Any) -> None:
                    help="fault dictionary from mapr dictionary build")
     p.add_argument("--actuator", type=Path, help="actuator YAML (default: aileron-uav)")
     p.add_argument("--index", type=int, help="only this run of the file (0-based)")
+    p.add_argument("--same-unit", action="store_true",
+                   help="the runs are successive BITs of one actuator: adapt the reference "
+                        "model across them, in file order (default: each run on its own)")
     p.add_argument("--paper", action="store_true", help="the paper's curve classifier")
     p.set_defaults(func=run)
 
@@ -45,13 +62,17 @@ def run(args: argparse.Namespace) -> int:
     if abs(runs.sample_rate_hz - d.sample_rate_hz) > 1e-9:
         raise ConfigError(f"run at {runs.sample_rate_hz:g} Hz, dictionary at "
                           f"{d.sample_rate_hz:g} Hz", path=str(args.run), field="sample_rate_hz")
-    reasoner = Reasoner(d, load_actuator(args.actuator or default_actuator_path()))
-    indices = range(runs.n) if args.index is None else [args.index]
-    for i in indices:
-        if not 0 <= i < runs.n:
-            raise ConfigError(f"no run {i} (the file has {runs.n})", field="index")
+    if args.index is not None and not 0 <= args.index < runs.n:
+        print(f"mapr diagnose: no run {args.index} (the file has {runs.n})", file=sys.stderr)
+        return exitcodes.USAGE
+    params = load_actuator(args.actuator or default_actuator_path())
+    unit = Reasoner(d, params) if args.same_unit else None
+    flagged = 0
+    for i in range(runs.n) if args.index is None else [args.index]:
+        reasoner = unit if unit is not None else Reasoner(d, params)
         channels = {k: v[i] for k, v in runs.channels.items()}
-        event = reasoner.diagnose(channels, runs.command_deg,
-                                  float(runs.dynamic_pressure_pa[i]), paper=args.paper)
-        print(json.dumps(event))
-    return 0
+        event = reasoner.diagnose_or_flag(channels, runs.command_deg,
+                                          float(runs.dynamic_pressure_pa[i]), paper=args.paper)
+        flagged += "error" in event["evidence"]
+        print(json.dumps({"run": i, **event}), flush=True)
+    return exitcodes.DATAERR if flagged else exitcodes.OK

@@ -5,6 +5,9 @@ FAILURE = 1
 """An unexpected internal error (a bug): the traceback is logged."""
 USAGE = 2
 """A bad argument, or an input file that cannot be read (one line names it)."""
+DATAERR = 65
+"""Some input records could not be diagnosed (sysexits EX_DATAERR): each has its own error event
+and every other record was diagnosed (``mapr diagnose``)."""
 CONFIG = 78
 """A configuration or ICD error (sysexits EX_CONFIG); listed in RestartPreventExitStatus=."""
 UNAVAILABLE = 69

@@ -17,7 +17,7 @@ from typing import NoReturn
 from drivers.errors import BackendUnavailable, CaptureFormatError, EncodeError, MaprError
 from mapr_daemon import __version__
 from mapr_daemon.cli import exitcodes
-from mapr_daemon.errors import ConfigError
+from mapr_daemon.errors import ConfigError, RecordError
 
 SUBCOMMANDS: tuple[str, ...] = (
     "demo",
@@ -64,6 +64,8 @@ def exit_code_for(error: MaprError) -> int:
     """The exit code for an expected error."""
     if isinstance(error, ConfigError):
         return exitcodes.CONFIG
+    if isinstance(error, RecordError):
+        return exitcodes.DATAERR
     if isinstance(error, BackendUnavailable):
         return exitcodes.UNAVAILABLE
     if isinstance(error, (CaptureFormatError, EncodeError)):

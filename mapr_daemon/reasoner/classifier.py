@@ -70,6 +70,11 @@ class Decision:
     score: float
     threshold: float
     evidence: dict[str, Any]
+    kind_residuals: dict[str, float] = dataclasses.field(default_factory=dict)
+    """Each fault mode's best template residual among the templates the decision weighed
+    (all of them; only the matched filter's mode when it alone raised the alarm); empty for
+    the paper's classifier and an inconclusive record. What :mod:`~.parts` turns into member
+    probabilities."""
 
     @property
     def inconclusive(self) -> bool:
@@ -171,22 +176,26 @@ def decide(d: Dictionary, m: FloatArray, q: float) -> Decision:
                        "supply_v": round(c.supply_v, 2),
                        "temperature_c": round(c.temperature_c, 1)},
     }
+    kinds: dict[str, float] = {}
+    for f in named if matched_only and named else fits:
+        k = d.templates[f.template].kind
+        kinds[k] = min(kinds.get(k, math.inf), f.residual)
     if not anomaly:
         return Decision(False, None, None, None, None, None, 1.0 - p_anom, score, d.threshold,
-                        evidence)
+                        evidence, kinds)
     if (score <= 0.0 and broad) or (matched_only and not named):
         # nothing healthy explains it, and no fault explains it better (or the dictionary
         # lacks the fault the matched test is made for)
         evidence["unexplained"] = "no dictionary fault explains this record better than health"
         return Decision(True, None, None, None, None, None, p_anom, score, d.threshold,
-                        evidence)
+                        evidence, kinds)
     conf = p_anom * math.tanh(max(margin, 0.0) / (2.0 * d.score_spread))
     if t.switch:
         return Decision(True, t.kind, t.switch, None, None, None, conf, score, d.threshold,
-                        evidence)
+                        evidence, kinds)
     value = float(np.interp(best.severity, [0.0, *t.severities], [_nominal(t), *t.values]))
     return Decision(True, t.kind, None, best.severity, value, t.unit, conf, score, d.threshold,
-                    evidence)
+                    evidence, kinds)
 
 
 def _nominal(t: Template) -> float:

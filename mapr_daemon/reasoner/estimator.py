@@ -35,7 +35,7 @@ from filterpy.kalman import ExtendedKalmanFilter
 
 from drivers.jit import kernel
 from mapr_daemon.ema.params import ActuatorParams
-from mapr_daemon.errors import ConfigError
+from mapr_daemon.errors import ConfigError, RecordError
 from mapr_daemon.reasoner import estimator_model as em
 from mapr_daemon.reasoner.features import FloatArray
 
@@ -106,10 +106,14 @@ class ParameterEstimator:
             x, f = em.propagate(self.plant, x, b, k)
             kf.x = x.reshape(-1, 1)
             kf.F = f
-            kf.predict()
-            z, hx, hj = em.measure(x, b, k)
-            kf.update(z.reshape(-1, 1), lambda _x, h=hj: h, lambda _x, v=hx: v.reshape(-1, 1),
-                      R=b.r[k])
+            try:
+                kf.predict()
+                z, hx, hj = em.measure(x, b, k)
+                kf.update(z.reshape(-1, 1), lambda _x, h=hj: h,
+                          lambda _x, v=hx: v.reshape(-1, 1), R=b.r[k])
+            except (ValueError, ArithmeticError) as error:  # the linear algebra gave up
+                raise RecordError(f"numerical failure at block {k} of {b.n}: {error}",
+                                  field="estimator") from error
             self._health()
             x = kf.x.reshape(-1).copy()
             self.steps += 1
@@ -119,7 +123,7 @@ class ParameterEstimator:
         """Symmetrise P and cap each variance at its prior (a congruence keeps P > 0)."""
         p = np.array(self.kf.P, dtype=np.float64)
         if not _symmetrise_and_cap(p, self.p_cap):
-            raise ConfigError("covariance lost positive definiteness", field="estimator")
+            raise RecordError("covariance lost positive definiteness", field="estimator")
         self.kf.P = p
 
     @property

@@ -45,7 +45,7 @@ import numpy as np
 from drivers.jit import kernel
 from mapr_daemon.ema.inverter import trapezoid
 from mapr_daemon.ema.params import ActuatorParams
-from mapr_daemon.errors import ConfigError
+from mapr_daemon.errors import ConfigError, RecordError
 from mapr_daemon.reasoner.features import FloatArray
 
 STATE: tuple[str, ...] = ("theta", "omega", "viscous", "coulomb", "r_other", "r_a_high",
@@ -125,7 +125,7 @@ def blocks(plant: Plant, channels: Mapping[str, FloatArray], dynamic_pressure_pa
     arr = {k: np.asarray(channels[k], dtype=np.float64).reshape(-1) for k in NEEDED}
     n = (arr["position_deg"].size - 1) // block * block
     if n < block:
-        raise ConfigError(f"the estimator needs more than {block} samples", field="signals")
+        raise RecordError(f"the estimator needs more than {block} samples", field="signals")
     s = slice(1, n + 1)  # sample 0 only seeds the state
     delta = np.radians(arr["position_deg"])
     theta = delta * plant.ratio

@@ -6,19 +6,26 @@
 ``channels`` maps the ICD's signal names (``phase_a_current_a``, ``position_deg``,
 ``dc_bus_voltage_v``, ...) to arrays of one BIT record at the dictionary's sample rate;
 the event has the keys of ``mapr diagnose``: anomaly, fault, severity (physical unit), unit,
-confidence, parameters, soh, rul, evidence.
+confidence, parameters, soh, component, part (the replaceable part), ambiguity (its members'
+probabilities, :mod:`~.parts`), rul, evidence.
+
+A record that cannot be diagnosed (non-finite samples, too short, a numerical failure on its
+data: :data:`RECORD_ERRORS`) raises from :meth:`Reasoner.diagnose`;
+:meth:`Reasoner.diagnose_or_flag` turns that into :func:`error_event` (anomaly undecided,
+confidence 0, ``evidence.error`` naming the error) so a batch goes on with its other records.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
 
 from mapr_daemon.ema.params import ActuatorParams
-from mapr_daemon.errors import ConfigError
-from mapr_daemon.reasoner import classifier, prognosis
+from mapr_daemon.errors import RecordError
+from mapr_daemon.reasoner import classifier, parts, prognosis
 from mapr_daemon.reasoner.dictionary import Dictionary
 from mapr_daemon.reasoner.estimator import (
     UNITS,
@@ -34,6 +41,37 @@ from mapr_daemon.reasoner.features import (
     derived_signals,
     feature_matrix,
 )
+
+RECORD_ERRORS: tuple[type[Exception], ...] = (RecordError, ValueError, ArithmeticError)
+"""Errors that concern one record's data, not the dictionary or the configuration: our own
+checks (:class:`~mapr_daemon.errors.RecordError`) and the numerical libraries' refusals
+(numpy's ``LinAlgError`` and scipy's non-finite checks are ``ValueError``; ``ArithmeticError``
+covers division and overflow). A configuration error stays fatal: it would fail every record."""
+
+
+def check_record(channels: Mapping[str, FloatArray]) -> None:
+    """RecordError naming the channels with NaN or infinite samples (and how many).
+
+    Why here: a NaN does not always raise downstream — in the supply voltage it made every
+    statistic NaN, every comparison false, and the record "healthy" with confidence 1.
+    """
+    bad = {k: int(np.count_nonzero(~np.isfinite(np.asarray(v, dtype=np.float64))))
+           for k, v in channels.items()}
+    bad = {k: n for k, n in bad.items() if n}
+    if bad:
+        raise RecordError("non-finite samples in " + ", ".join(
+            f"{k} ({n})" for k, n in sorted(bad.items())), field="channels")
+
+
+def error_event(error: BaseException) -> dict[str, Any]:
+    """The event of a record that could not be diagnosed: the keys of any event, anomaly
+    undecided (``None``), confidence 0, and ``evidence.error`` = {type, message}."""
+    return {
+        "anomaly": None, "fault": None, "severity": None, "unit": None, "confidence": 0.0,
+        "parameters": {}, "soh": None, "component": None, "part": None, "ambiguity": None,
+        "rul": None,
+        "evidence": {"error": {"type": type(error).__name__, "message": str(error)}},
+    }
 
 
 class Reasoner:
@@ -60,7 +98,7 @@ class Reasoner:
         need = int(d.window_starts.max()) + d.window_samples
         n = int(np.asarray(channels["position_deg"]).shape[-1])
         if n < need:
-            raise ConfigError(f"a BIT record needs {need} samples, got {n}", field="signals")
+            raise RecordError(f"a BIT record needs {need} samples, got {n}", field="signals")
         sig = derived_signals({k: np.atleast_2d(np.asarray(v, dtype=np.float64))
                                for k, v in channels.items()},
                               np.asarray(command_deg, dtype=np.float64))
@@ -76,17 +114,33 @@ class Reasoner:
 
     def diagnose(self, channels: Mapping[str, FloatArray], command_deg: FloatArray,
                  dynamic_pressure_pa: float, paper: bool = False) -> dict[str, Any]:
-        """The event for one BIT record."""
+        """The event for one BIT record; one of :data:`RECORD_ERRORS` if it cannot be
+        diagnosed, in which case the adaptation state is left as it was."""
+        check_record(channels)
+        if not math.isfinite(dynamic_pressure_pa):
+            raise RecordError("not finite", field="dynamic_pressure_pa")
         m = self.matrix(channels, command_deg)
         est = None  # the EKF needs its channels at the actuator file's sample rate
         if all(k in channels for k in NEEDED) and \
                 self.dictionary.sample_rate_hz == self.params.sensors.sample_rate_hz:
             est = ParameterEstimator(self.params, self.reference).run(channels,
                                                                       dynamic_pressure_pa)
-        event = self.event(self.decide(m, dynamic_pressure_pa, paper), est)
+        dec = self.decide(m, dynamic_pressure_pa, paper)
+        if not (math.isfinite(dec.score) and math.isfinite(dec.confidence)):
+            raise RecordError(f"the classifier's statistic is not finite (score {dec.score}, "
+                              f"confidence {dec.confidence})", field="classifier")
+        event = self.event(dec, est)
         if est is not None:
             self._adapt(est, event["evidence"])
         return event
+
+    def diagnose_or_flag(self, channels: Mapping[str, FloatArray], command_deg: FloatArray,
+                         dynamic_pressure_pa: float, paper: bool = False) -> dict[str, Any]:
+        """:meth:`diagnose`, or :func:`error_event` when the record cannot be diagnosed."""
+        try:
+            return self.diagnose(channels, command_deg, dynamic_pressure_pa, paper)
+        except RECORD_ERRORS as error:
+            return error_event(error)
 
     def _adapt(self, est: Estimate, evidence: dict[str, Any]) -> None:
         """Record the changes from the reference; adapt it to what is now confirmed."""
@@ -110,13 +164,21 @@ class Reasoner:
 
         ``parameters`` holds the EKF's estimates (value, sd, unit, reference value), and
         ``evidence.severity_check`` compares the classifier's severity with the EKF where the
-        fault moves an estimated parameter (friction).
+        fault moves an estimated parameter (friction). ``component`` is the monitored item the
+        fault degrades, ``part`` the replaceable part it belongs to, ``ambiguity`` that part's
+        members with their probabilities and the group the data cannot separate
+        (:func:`~.parts.ambiguity`); all three null without a decided fault.
         """
         soh = 1.0
-        component = None
+        component: str | None = None
+        part: str | None = None
+        ambiguity: dict[str, Any] | None = None
         if dec.anomaly and dec.fault is not None:
             soh = prognosis.soh(self.params, dec.fault, dec.value)
-            component = prognosis.COMPONENTS[dec.fault]
+            component = parts.COMPONENTS[dec.fault]
+            part = parts.PART_OF[dec.fault]
+            ambiguity = parts.ambiguity(dec.fault, dec.kind_residuals,
+                                        self.dictionary.calibration.get("chi2_scale", 1.0))
         evidence = dict(dec.evidence)
         evidence.update(score=round(dec.score, 3), threshold=round(dec.threshold, 3))
         if dec.switch:
@@ -133,5 +195,6 @@ class Reasoner:
             "unit": dec.unit, "confidence": round(dec.confidence, 4),
             "parameters": {} if estimate is None else estimate.as_event(self.reference),
             "soh": round(soh, 4),
-            "component": component, "rul": None, "evidence": evidence,
+            "component": component, "part": part, "ambiguity": ambiguity, "rul": None,
+            "evidence": evidence,
         }

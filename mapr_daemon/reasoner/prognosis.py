@@ -32,14 +32,6 @@ from mapr_daemon.ema.params import ActuatorParams
 from mapr_daemon.errors import ConfigError
 from mapr_daemon.reasoner.features import FloatArray
 
-COMPONENTS: dict[str, str] = {
-    "capacitance": "smps_output_capacitor", "esr": "smps_output_capacitor",
-    "smps_ron_high": "smps_high_side_mosfet", "smps_ron_low": "smps_low_side_mosfet",
-    "inverter_ron_a_high": "inverter_phase_a_high_mosfet", "friction": "motor_and_gear",
-    "short": "inverter_bridge", "open": "inverter_bridge",
-}
-"""The monitored component each fault mode belongs to."""
-
 
 def failure_value(params: ActuatorParams, kind: str) -> float:
     """The parameter value at which the component counts as failed."""
