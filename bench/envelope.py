@@ -41,7 +41,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from mapr_daemon.ema.faults import SWITCHES, Fault, FaultSet, at_severity
 from mapr_daemon.ema.params import ActuatorParams, default_actuator_path, load_actuator
-from mapr_daemon.reasoner import classifier
+from mapr_daemon.reasoner import classifier, parts
 from mapr_daemon.reasoner.build import build, run_matrices
 from mapr_daemon.reasoner.corpus import simulate_bit
 from mapr_daemon.reasoner.dictionary import Dictionary, DictionarySpec
@@ -50,10 +50,6 @@ MODES = ("capacitance", "esr", "smps_ron_high", "smps_ron_low", "inverter_ron_a_
          "friction", "short", "open")
 GROUND_SHARE = 0.25
 """Share of the BITs flown on the ground (0 Pa): the most common BIT is the pre-flight one."""
-PART = {"capacitance": "SMPS output capacitor", "esr": "SMPS output capacitor",
-        "smps_ron_high": "SMPS switches", "smps_ron_low": "SMPS switches",
-        "inverter_ron_a_high": "inverter bridge", "short": "inverter bridge",
-        "open": "inverter bridge", "friction": "motor and gear"}
 BANDS = (0.05, 0.10, 0.15, 0.25, 0.50, 0.75, 1.0001)
 
 
@@ -177,8 +173,8 @@ def report_faults(truth: list[tuple[str, float]], decisions: list[classifier.Dec
         big = [i for i in rows if truth[i][1] >= 0.25]
         det = sum(decisions[i].anomaly for i in big)
         iso = sum(decisions[i].anomaly and decisions[i].fault == mode for i in big)
-        part = sum(decisions[i].anomaly and decisions[i].fault is not None
-                   and PART.get(decisions[i].fault) == PART[mode] for i in big)
+        part = sum(decisions[i].anomaly and parts.same_part(mode, decisions[i].fault)
+                   for i in big)
         err = [100 * abs((decisions[i].severity or 0.0) - truth[i][1]) for i in big
                if decisions[i].fault == mode and decisions[i].severity is not None]
         floor = floor_90(mag, hit) if mode not in ("short", "open") else math.nan
