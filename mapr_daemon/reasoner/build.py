@@ -36,7 +36,7 @@ from mapr_daemon.ema.faults import (
 )
 from mapr_daemon.ema.params import ActuatorParams
 from mapr_daemon.errors import ConfigError
-from mapr_daemon.reasoner import classifier, curves, fault_models, healthy, matched
+from mapr_daemon.reasoner import adapt, classifier, curves, fault_models, healthy, matched
 from mapr_daemon.reasoner.corpus import Runs, simulate_bit
 from mapr_daemon.reasoner.dictionary import (
     Dictionary,
@@ -336,14 +336,17 @@ def fit_ours(d: Dictionary, params: ActuatorParams, spec: DictionarySpec, m: Flo
                      "expected_above_max": cal.expected_above_max,
                      "shrinkage": model.shrinkage, "subspace_dims":
                      float(model.projection.shape[1]), "healthy_fit_runs": float(fit_rows.size),
-                     "inconclusive_runs": float((~valid).sum())}
+                     "inconclusive_runs": float((~valid).sum()),
+                     **adapt.quantile_entries("score", scores),
+                     **adapt.quantile_entries("null", both[:, 1])}
     if model.matched is not None:
         raw = np.array(filtered, dtype=np.float64)  # raw output (mean 0, sd 1 not yet set)
         mean, sd = float(raw.mean()), float(max(raw.std(ddof=1), 1e-12))
         cal_m = calibrate_gaussian((raw - mean) / sd, share)
         d.calibration.update({"matched_threshold": cal_m.threshold, "matched_mean": mean,
                               "matched_sd": sd, "matched_max": cal_m.score_max,
-                              "matched_tail_governs": float(cal_m.tail_governs)})
+                              "matched_tail_governs": float(cal_m.tail_governs),
+                              **adapt.quantile_entries("matched", (raw - mean) / sd)})
 
 
 def paper_curves(d: Dictionary, reference_pressure: int = 0) -> dict[str, PaperCurve]:

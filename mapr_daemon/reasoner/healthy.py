@@ -167,6 +167,13 @@ def spread_basis(c: Conditions, supply_nominal_v: float, dropout_v: float) -> Fl
     return np.array([1.0, q, q * q, g, d, t, e])
 
 
+def offset_basis(c: Conditions) -> FloatArray:
+    """Regressors of a commissioned unit's offset from the model: a mean, a slope in air load
+    and a step for BITs on the ground (what a few BITs of one unit can pin down)."""
+    return np.array([1.0, c.pressure_pa / PRESSURE_SCALE_PA,
+                     1.0 if c.pressure_pa < GROUND_PA else 0.0])
+
+
 def ledoit_wolf(z: FloatArray, floor: float = 0.0) -> tuple[FloatArray, float]:
     """Shrunk covariance of the rows of ``z`` (zero-mean residuals) and the shrinkage intensity.
 
@@ -209,6 +216,11 @@ class HealthyModel:
     """``(S, D)``: a cell's log spread relative to :attr:`sd` on :func:`spread_basis`."""
     sd_floor: FloatArray | None = None
     """``(D,)`` least spread of a cell, whatever the conditions."""
+    unit_coef: FloatArray | None = None
+    """``(U, D)``: a commissioned unit's own offset from the prediction, in healthy spreads, on
+    :func:`offset_basis` (:mod:`~mapr_daemon.reasoner.adapt`); None before commissioning."""
+    unit_factor: FloatArray | None = None
+    """``(D,)``: the unit's spread over the model's (>= 1)."""
 
     def spread(self, c: Conditions) -> FloatArray:
         """Every cell's healthy spread at the run's conditions ``(D,)``."""
@@ -224,9 +236,14 @@ class HealthyModel:
         return out
 
     def standardized(self, m: FloatArray, c: Conditions) -> FloatArray:
-        """The cells' deviation from the healthy prediction, in healthy spreads ``(D,)``."""
+        """The cells' deviation from the healthy prediction, in healthy spreads ``(D,)`` (of the
+        commissioned unit, when there is one)."""
         x = m.ravel()[self.cells].mean(axis=1)
         out: FloatArray = (x - self.predicted(c)) / self.spread(c)
+        if self.unit_coef is not None:
+            out = out - offset_basis(c) @ self.unit_coef
+        if self.unit_factor is not None:
+            out = out / self.unit_factor
         return out
 
     def coordinates(self, m: FloatArray, c: Conditions) -> FloatArray:
@@ -241,7 +258,9 @@ class HealthyModel:
                "healthy_scalars": np.array([self.supply_nominal_v, self.supply_floor_v,
                                             self.shrinkage, self.dropout_v])}
         for key, value in (("healthy_matched", self.matched), ("healthy_sd_coef", self.sd_coef),
-                           ("healthy_sd_floor", self.sd_floor)):
+                           ("healthy_sd_floor", self.sd_floor),
+                           ("healthy_unit_coef", self.unit_coef),
+                           ("healthy_unit_factor", self.unit_factor)):
             if value is not None:
                 out[key] = value
         return out
@@ -252,7 +271,8 @@ class HealthyModel:
         return cls(a["healthy_cells"].astype(np.int64), a["healthy_coef"], a["healthy_sd"],
                    a["healthy_projection"], float(sc[0]), float(sc[1]), float(sc[2]),
                    a.get("healthy_matched"), float(sc[3]), a.get("healthy_sd_coef"),
-                   a.get("healthy_sd_floor"))
+                   a.get("healthy_sd_floor"), a.get("healthy_unit_coef"),
+                   a.get("healthy_unit_factor"))
 
 
 def fit(m: FloatArray, conds: Sequence[Conditions], cells: npt.NDArray[np.int64],
