@@ -178,16 +178,11 @@ def _run(pr: FloatArray, x: FloatArray, cmd_rad: FloatArray, q: FloatArray, amb:
     limit = pr[TRAVEL_RAD] * ratio
     d_gain = h / (tf_v + h)
     inv_h = 1.0 / h
-    # model form: loop rates (steps per update; 1 = every step, h * 1.0 == h exactly),
-    # voltage-mode law, stiction, housekeeping load, Hall offset
+    # model form: loop rates (steps per update; 1 = every step, h * 1.0 == h exactly); the
+    # other options are read from the row where used (hoisted, their extra live values cost
+    # the default path ~5 %, read in place ~1-4 %)
     n_cur, n_pos = pr[N_CUR], pr[N_POS]
     ki_v_h, ki_pos_h, ki_i_h = ki_v * h, ki_pos * (h * n_pos), ki_i * (h * n_cur)
-    voltage_mode = pr[VOLTAGE_MODE] != 0.0
-    r_loop = pr[R_LOOP]
-    breakaway, w_stribeck = pr[BREAKAWAY], pr[W_STRIBECK]
-    hk_on = pr[HK_W] != 0.0
-    hall_off = pr[HALL_OFFSET]
-    skewed = hall_off != 0.0
     p_hk = 0.0
     d_ron = ron_hi - ron_lo
     lim_term = l_smps / h
@@ -203,7 +198,7 @@ def _run(pr: FloatArray, x: FloatArray, cmd_rad: FloatArray, q: FloatArray, amb:
         if (pr[OPEN_HIGH_A + k] != 0.0 or pr[OPEN_LOW_A + k] != 0.0
                 or pr[SHORT_HIGH_A + k] != 0.0 or pr[SHORT_LOW_A + k] != 0.0):
             faulted = True
-    if skewed:
+    if pr[HALL_OFFSET] != 0.0:
         # the drive commutates off the true angle: every phase's back-EMF from its trapezoid,
         # through the general legs and windings
         faulted = True
@@ -222,7 +217,7 @@ def _run(pr: FloatArray, x: FloatArray, cmd_rad: FloatArray, q: FloatArray, amb:
         w_dio = 1.0 / (1.0 + h_l * (r_diode + r_w))
         hinge_k = q[s] * area_chord
         inv_ratio_cmd = cmd_rad[s] * ratio
-        if hk_on:
+        if pr[HK_W] != 0.0:
             p_hk = pr[HK_W] * (1.0 + pr[HK_VAR] * math.sin(_TWO_PI * t / pr[HK_PERIOD]))
         a_dc = a_a = a_b = a_c = a_v = a_d = a_vin = a_iin = a_v2 = a_r2 = 0.0
         a_pm = a_ps = a_tq = a_om = a_hg = a_ic = a_iq = a_du = a_il = a_u = 0.0
@@ -230,7 +225,7 @@ def _run(pr: FloatArray, x: FloatArray, cmd_rad: FloatArray, q: FloatArray, amb:
         for _ in range(spb):
             # Hall sector and the idle phase's back-EMF (the "+"/"-" phases on their flat tops)
             theta_e = pp * theta
-            sec = math.floor((theta_e + hall_off - _SECTOR_OFFSET) / _SECTOR_WIDTH) % 6
+            sec = math.floor((theta_e + pr[HALL_OFFSET] - _SECTOR_OFFSET) / _SECTOR_WIDTH) % 6
             kp_ph, km_ph, id_ph = PLUS[sec], MINUS[sec], IDLE[sec]
             phi = (theta_e - _SHIFTS[id_ph]) % _TWO_PI
             d = _TWO_PI - phi if phi > math.pi else phi
@@ -263,7 +258,7 @@ def _run(pr: FloatArray, x: FloatArray, cmd_rad: FloatArray, q: FloatArray, amb:
             # the loop resistance plus back-EMF is the voltage (the current only limited)
             pos_count -= 1.0
             if pos_count <= 0.0:
-                pos_count = n_pos
+                pos_count = pr[N_POS]
                 perr = inv_ratio_cmd - theta
                 trial = pos_integ + ki_pos_h * perr
                 trial = i_lim if trial > i_lim else (-i_lim if trial < -i_lim else trial)
@@ -276,9 +271,9 @@ def _run(pr: FloatArray, x: FloatArray, cmd_rad: FloatArray, q: FloatArray, amb:
             i_q = 0.5 * (c_p - c_m)
             cur_count -= 1.0
             if cur_count <= 0.0:
-                cur_count = n_cur
-                if voltage_mode:
-                    u_raw = (r_loop * i_cmd + ke2 * omega) / (vdc if vdc > 1.0 else 1.0)
+                cur_count = pr[N_CUR]
+                if pr[VOLTAGE_MODE] != 0.0:
+                    u_raw = (pr[R_LOOP] * i_cmd + ke2 * omega) / (vdc if vdc > 1.0 else 1.0)
                     u = U_MAX if u_raw > U_MAX else (-U_MAX if u_raw < -U_MAX else u_raw)
                 else:
                     e_i = i_cmd - i_q
@@ -296,7 +291,7 @@ def _run(pr: FloatArray, x: FloatArray, cmd_rad: FloatArray, q: FloatArray, amb:
             r_hi = au * rh + (1.0 - au) * rl
             v_hi = au * vdc
             if faulted:
-                if skewed:
+                if pr[HALL_OFFSET] != 0.0:
                     sh0, sh1, sh2 = _trap(theta_e, 0), _trap(theta_e, 1), _trap(theta_e, 2)
                 else:
                     sh0 = 1.0 if kp_ph == 0 else (-1.0 if km_ph == 0 else s_id)
@@ -316,7 +311,7 @@ def _run(pr: FloatArray, x: FloatArray, cmd_rad: FloatArray, q: FloatArray, amb:
             di_l = dv * duty * ripple_l if dv > 0.0 else 0.0
             i_ac = i_dc * i_dc * au * (1.0 - au)
             ripple2 = di_l * di_l * zsw2 + (i_ac * zpwm2 if i_ac > 0.0 else 0.0)
-            if hk_on:
+            if pr[HK_W] != 0.0:
                 # housekeeping: constant power off the DC link, upstream of its current sensor
                 i_hk = p_hk / (vdc if vdc > 1.0 else 1.0)
                 i_ext += i_hk
@@ -381,10 +376,10 @@ def _run(pr: FloatArray, x: FloatArray, cmd_rad: FloatArray, q: FloatArray, amb:
             # mechanics, referred to the motor shaft
             delta = theta / ratio
             hinge = hinge_k * (ch0 + ch_delta * delta)
-            if breakaway != 0.0:
+            if pr[BREAKAWAY] != 0.0:
                 load = torque + hinge * (refl_pos if hinge * omega > 0.0 else refl_neg)
-                omega = _stick_slip(omega, load, t_coul, breakaway * t_coul, w_stribeck, h_j,
-                                    visc)
+                omega = _stick_slip(omega, load, t_coul, pr[BREAKAWAY] * t_coul,
+                                    pr[W_STRIBECK], h_j, visc)
             else:
                 drive = (torque - t_coul * math.tanh(omega / w_coul)
                          + hinge * (refl_pos if hinge * omega > 0.0 else refl_neg))
