@@ -135,8 +135,25 @@ class ModelForm:
                                                                        "position_loop_hz")
 
     def describe(self) -> dict[str, Any]:
-        """A JSON-ready dict of the form (for run metadata)."""
+        """A JSON-ready dict of the form (for run metadata); :meth:`from_description` reads it."""
         out = dataclasses.asdict(self)
         out["sensor_gain"] = dict(self.sensor_gain)
         out["sensor_offset"] = dict(self.sensor_offset)
         return out
+
+    @classmethod
+    def from_description(cls, d: dict[str, Any]) -> ModelForm:
+        """The form :meth:`describe` wrote (e.g. a ``mapr simulate --unit`` file's
+        ``meta_json["unit"]["form"]``); an unknown or bad field is a :class:`ConfigError`."""
+        known = {f.name for f in dataclasses.fields(cls)}
+        unknown = sorted(set(d) - known)
+        if unknown:
+            raise ConfigError(f"unknown field(s) {', '.join(unknown)}", field="form")
+        values = dict(d)
+        for name in ("sensor_gain", "sensor_offset"):
+            if name in values:
+                values[name] = tuple((str(c), float(v)) for c, v in dict(values[name]).items())
+        try:
+            return cls(**values)
+        except TypeError as error:
+            raise ConfigError(str(error), field="form") from None

@@ -127,10 +127,9 @@ def test_mapr_simulate_unit_records_the_units_truth(tmp_path: Path) -> None:
     unit = draw_unit(ELEVATOR, 17)
     assert meta["unit"]["seed"] == 17 and meta["unit"]["datasheet"] == "elevator-uav"
     assert meta["unit"]["params"]["motor.resistance_ohm"] == unit.params.motor.resistance_ohm
-    assert ModelForm(**{**meta["unit"]["form"],
-                        "sensor_gain": tuple(meta["unit"]["form"]["sensor_gain"].items()),
-                        "sensor_offset": tuple(meta["unit"]["form"]["sensor_offset"].items()),
-                        }) == unit.form
+    assert ModelForm.from_description(meta["unit"]["form"]) == unit.form
+    with pytest.raises(ConfigError):
+        ModelForm.from_description({**meta["unit"]["form"], "gremlins": 1.0})
     plain = tmp_path / "p.npz"
     assert main(args[:3] + args[5:-1] + [str(plain)]) == 0
     with np.load(plain, allow_pickle=False) as d:
