@@ -10,6 +10,12 @@ mean over the flight, V) replace the condition's air load and the plant's own dr
 
     mapr simulate --pressure 0 --ambient -35 --bus-voltage 22.5 -o cold-ground-bit.npz
 
+A mismatched unit — drawn off the actuator file by part-to-part tolerances plus a model form
+the file does not describe (stiction, control law and rates, housekeeping load, Hall offset,
+sensor gain/offset; ``mapr_daemon.testbed.mismatch``) — its truth in the file's metadata::
+
+    mapr simulate --actuator configs/actuators/elevator-uav.yaml --unit 17 --pressure 0 -o u17.npz
+
 A whole dictionary from a spec file, with a progress bar on stderr::
 
     mapr simulate --batch configs/profiles/dictionary-416.yaml -o dictionary.npz
@@ -39,6 +45,7 @@ from mapr_daemon.ema.params import (
 )
 from mapr_daemon.ema.run import RunResult, run_batch
 from mapr_daemon.errors import ConfigError
+from mapr_daemon.testbed.mismatch import draw_unit
 from mapr_daemon.testbed.profiles import Profile, bit_profile
 
 
@@ -62,6 +69,8 @@ def add_subparser(subparsers: Any) -> None:
                         "clips it to the file's bus.min_v..max_v)")
     p.add_argument("--duration", type=float, default=30.0, help="JSBSim flight length (s)")
     p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--unit", type=_seed, metavar="SEED",
+                   help="fly a mismatched unit drawn off the actuator file by this seed")
     p.add_argument("--sample-rate", type=float, help="sensor output rate, Hz (default: file)")
     p.add_argument("--cold", action="store_true", help="start with the SMPS off (soft start)")
     p.set_defaults(func=run)
@@ -78,6 +87,17 @@ def _finite(lo: float, hi: float) -> Any:
             raise argparse.ArgumentTypeError(f"{text} is outside {lo:g}..{hi:g}")
         return value
     return parse
+
+
+def _seed(text: str) -> int:
+    """An argparse type: a seed, a whole number >= 0 (a bad value exits 2, naming it)."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a whole number: {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"{text} is negative")
+    return value
 
 
 def _at_pressure(prof: Profile, pressure_pa: float | None) -> Profile:
@@ -172,9 +192,16 @@ def run(args: argparse.Namespace) -> int:
         prof = _at_pressure(_profile(args.profile, args.condition,
                                      params.sensors.sample_rate_hz, args.duration, args.seed),
                             args.pressure)
-        groups = [(prof, [RunSpec(params, faults, seed=args.seed, ambient_c=args.ambient,
-                                  bus_v=args.bus_voltage)])]
         meta = {"actuator": params.name}
+        if args.unit is None:
+            spec = RunSpec(params, faults, seed=args.seed, ambient_c=args.ambient,
+                           bus_v=args.bus_voltage)
+        else:
+            unit = draw_unit(params, args.unit)
+            spec = unit.spec(faults, seed=args.seed, ambient_c=args.ambient,
+                             bus_v=args.bus_voltage)
+            meta["unit"] = unit.describe()
+        groups = [(prof, [spec])]
     total = sum(len(runs) for _, runs in groups)
     bar = _Progress(total, enabled=sys.stderr.isatty() or total > 1)
     results: list[RunResult] = []

@@ -17,6 +17,7 @@ import numpy as np
 import numpy.typing as npt
 
 from mapr_daemon.ema import faults as fl
+from mapr_daemon.ema.form import ModelForm
 from mapr_daemon.ema.params import CHANNELS, ActuatorParams
 from mapr_daemon.errors import ConfigError
 
@@ -35,6 +36,10 @@ class RunSpec:
     ``flight_mean_sd_v``). The run's random draws are the same either way (a fixed value
     replaces the draw, it does not skip it), so the sensor noise of a seed does not depend on
     whether its condition was given. The bus still drifts and ripples within the flight.
+
+    ``form`` is the run's model form (:class:`~mapr_daemon.ema.form.ModelForm`: friction law,
+    control law and rates, housekeeping load, Hall offset, sensor gain and offset errors);
+    the default is the plant as the actuator file describes it.
     """
 
     params: ActuatorParams
@@ -42,6 +47,7 @@ class RunSpec:
     seed: int = 0
     ambient_c: float | None = None
     bus_v: float | None = None
+    form: ModelForm = dataclasses.field(default_factory=ModelForm)
 
 
 def _arr(values: Sequence[float]) -> FloatArray:
@@ -109,6 +115,19 @@ class BatchArrays:
     i_lim: FloatArray
     kp_i: FloatArray
     ki_i: FloatArray
+    r_loop: FloatArray
+    """The drive's loop resistance ``2 (R + Ron)`` from the file (the voltage-mode law's)."""
+    # model form (ema/form.py), one value per run
+    breakaway: FloatArray
+    w_stribeck: FloatArray
+    voltage_mode: FloatArray
+    n_cur: FloatArray
+    n_pos: FloatArray
+    hk_w: FloatArray
+    hk_var: FloatArray
+    hk_period: FloatArray
+    hall_offset: FloatArray
+    """Hall sensor mounting error, electrical radians."""
     # thermal
     t_amb: FloatArray
     t_amb_sd: FloatArray
@@ -130,6 +149,8 @@ class BatchArrays:
     full_scale: FloatArray
     lsb: FloatArray
     noise: FloatArray
+    sensor_gain: FloatArray
+    sensor_offset: FloatArray
 
 
 def _switch_masks(specs: Sequence[RunSpec], kind: str) -> tuple[FloatArray, FloatArray]:
@@ -195,6 +216,12 @@ def build(specs: Sequence[RunSpec]) -> BatchArrays:
     fs = np.array([[c.full_scale for c in row] for row in chans]).T
     bits = np.array([[c.bits for c in row] for row in chans]).T
     per_block = round(1.0 / (rate * step))
+    forms = [s.form for s in specs]
+    loops = np.array([f.loop_steps(step) for f in forms], dtype=np.float64).reshape(-1, 2)
+
+    def form(name: str) -> FloatArray:
+        return _arr([float(getattr(f, name)) for f in forms])
+
     return BatchArrays(
         n=len(specs), step_s=step, samples_per_block=per_block,
         v_ref=_arr([s.output_voltage_v for s in sm]),
@@ -229,7 +256,12 @@ def build(specs: Sequence[RunSpec]) -> BatchArrays:
         kp_pos=kp_pos, kd_pos=2.0 * zeta * wn * j_eq / kt,
         ki_pos=kp_pos * 2 * math.pi * col(lambda p: p.control.position_integral_hz),
         i_lim=col(lambda p: p.control.current_limit_a),
-        kp_i=l_loop * wc, ki_i=r_loop * wc,
+        kp_i=l_loop * wc, ki_i=r_loop * wc, r_loop=r_loop,
+        breakaway=form("breakaway_ratio"), w_stribeck=form("stribeck_speed_rad_s"),
+        voltage_mode=form("voltage_mode"), n_cur=loops[:, 0], n_pos=loops[:, 1],
+        hk_w=form("housekeeping_w"), hk_var=form("housekeeping_variation"),
+        hk_period=form("housekeeping_period_s"),
+        hall_offset=np.radians(form("hall_offset_deg")),
         t_amb=_given(specs, "ambient_c", col(lambda p: p.thermal.ambient_c)),
         t_amb_sd=_spread(specs, "ambient_c", col(lambda p: p.thermal.ambient_flight_sd_k)),
         friction_sd=col(lambda p: p.motor.friction_flight_sd),
@@ -246,4 +278,6 @@ def build(specs: Sequence[RunSpec]) -> BatchArrays:
         r_source=col(lambda p: p.bus.source_resistance_ohm),
         full_scale=fs, lsb=2.0 * fs / 2.0**bits,
         noise=np.array([[c.noise_rms for c in row] for row in chans]).T,
+        sensor_gain=np.array([f.gains() for f in forms]).T,
+        sensor_offset=np.array([f.offsets() for f in forms]).T,
     )

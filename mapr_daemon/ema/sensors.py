@@ -53,9 +53,13 @@ def draw(rngs: list[np.random.Generator], n_samples: int, n_channels: int) -> Fl
 
 
 def adc(p: BatchArrays, values: FloatArray, z: FloatArray) -> FloatArray:
-    """Noise and quantisation; ``values`` and ``z`` are ``(n_channels, n_runs, n_samples)``."""
+    """Gain and offset errors, noise and quantisation; ``values`` and ``z`` are
+    ``(n_channels, n_runs, n_samples)``. The gain and offset errors are the runs' model form
+    (:class:`~mapr_daemon.ema.form.ModelForm`); ideal channels skip them."""
     fs = p.full_scale[:, :, None]
     lsb = p.lsb[:, :, None]
+    if (p.sensor_gain != 1.0).any() or (p.sensor_offset != 0.0).any():
+        values = values * p.sensor_gain[:, :, None] + p.sensor_offset[:, :, None]
     noisy = values + p.noise[:, :, None] * z
     out: FloatArray = np.clip(np.round(noisy / lsb) * lsb, -fs, fs - lsb)
     return out

@@ -38,6 +38,11 @@ The equations (docs/ema-model.md has the model and its sources):
 * Drive: position PID with an integral clamp -> current command limited to ``i_lim`` ->
   current PI on the sector's torque current with back-EMF feed-forward -> duty over the
   measured DC-link voltage, limited to :data:`U_MAX`.
+* Model form (:mod:`mapr_daemon.ema.form`, all off by default, the arithmetic then unchanged):
+  stiction (Karnopp stick-slip with Stribeck decay, :func:`_stick_slip`), a voltage-mode
+  position loop, discrete loop rates with zero-order hold (step counters in the state), a
+  housekeeping load on the DC link, a Hall offset (commutation from the offset angle, every
+  phase's back-EMF from the true one through the general legs).
 * Once per sample: temperatures (exact first order), the aircraft bus (Ornstein-Uhlenbeck
   drift, ripple, clipped to the normal band), the winding resistance from the motor temperature.
 """
@@ -63,8 +68,10 @@ SCALARS = (
     "r_w0", "l_w", "k_e", "pole_pairs", "j_eq", "b_visc", "t_coul", "w_coul", "ratio", "eta",
     "area_chord", "ch0", "ch_delta", "travel_rad", "kp_pos", "ki_pos", "kd_pos", "i_lim", "kp_i",
     "ki_i", "rth_m", "tau_m", "rth_s", "tau_s", "bus_nominal", "bus_drift_sd", "bus_tau",
-    "bus_ripple", "bus_min", "bus_max", "r_source")
-"""BatchArrays fields of shape ``(n,)`` the step reads, in parameter-row order."""
+    "bus_ripple", "bus_min", "bus_max", "r_source", "r_loop", "breakaway", "w_stribeck",
+    "voltage_mode", "n_cur", "n_pos", "hk_w", "hk_var", "hk_period", "hall_offset")
+"""BatchArrays fields of shape ``(n,)`` the step reads, in parameter-row order (the last ten:
+the drive's loop resistance and the run's model form, :mod:`mapr_daemon.ema.form`)."""
 PHASED = ("r_high", "r_low", "short_high", "short_low", "open_high", "open_low")
 """BatchArrays fields of shape ``(3, n)``: three columns each (phases A, B, C)."""
 EXTRA = ("z_sw", "z_pwm", "bus_offset")
@@ -75,7 +82,8 @@ PAR = SCALARS + tuple(f"{name}_{ph}" for name in PHASED for ph in "abc") + EXTRA
  KP_V, KI_V, KD_V, TF_V, P_SW, V_DIODE, R_DIODE, R_W0, L_W, K_E, POLE_PAIRS, J_EQ, B_VISC,
  T_COUL, W_COUL, RATIO, ETA, AREA_CHORD, CH0, CH_DELTA, TRAVEL_RAD, KP_POS, KI_POS, KD_POS,
  I_LIM, KP_I, KI_I, RTH_M, TAU_M, RTH_S, TAU_S, BUS_NOMINAL, BUS_DRIFT_SD, BUS_TAU, BUS_RIPPLE,
- BUS_MIN, BUS_MAX, R_SOURCE) = range(len(SCALARS))
+ BUS_MIN, BUS_MAX, R_SOURCE, R_LOOP, BREAKAWAY, W_STRIBECK, VOLTAGE_MODE, N_CUR, N_POS, HK_W,
+ HK_VAR, HK_PERIOD, HALL_OFFSET) = range(len(SCALARS))
 (R_HIGH_A, R_LOW_A, SHORT_HIGH_A, SHORT_LOW_A, OPEN_HIGH_A,
  OPEN_LOW_A) = range(len(SCALARS), len(SCALARS) + 3 * len(PHASED), 3)
 """First column (phase A) of each per-phase parameter; B and C follow."""
@@ -83,8 +91,10 @@ Z_SW, Z_PWM, BUS_OFFSET = range(len(PAR) - len(EXTRA), len(PAR))
 
 STATE = ("i_l", "v_c", "v_out", "integ", "deriv", "prev_err", "duty",
          "pos_integ", "cur_integ", "i_cmd", "i_q", "i_a", "i_b", "i_c", "vn",
-         "omega", "theta", "i_in", "motor_c", "stage_c", "bus_drift", "bus_v")
-"""Columns of the state matrix: SMPS, loops, windings, mechanics, supply, temperatures, bus."""
+         "omega", "theta", "i_in", "motor_c", "stage_c", "bus_drift", "bus_v", "u",
+         "cur_count", "pos_count")
+"""Columns of the state matrix: SMPS, loops, windings, mechanics, supply, temperatures, bus,
+the drive's held duty and its steps left until the next current- and position-loop update."""
 ACC = ("i_dc", "i_a", "i_b", "i_c", "v_out", "delta", "v_in", "i_in", "v_out2", "ripple2",
        "p_motor", "p_stage", "torque", "omega", "hinge", "i_cmd", "i_q", "duty", "i_l", "u",
        "sector")
@@ -149,9 +159,10 @@ def _run(pr: FloatArray, x: FloatArray, cmd_rad: FloatArray, q: FloatArray, amb:
          scratch: FloatArray) -> float:
     """:func:`integrate` for one run (``pr``, ``x``: its parameter and state rows)."""
     (i_l, v_c, v_out, integ, deriv, prev_err, duty, pos_integ, cur_integ, i_cmd, i_q,
-     i0, i1, i2, vn, omega, theta, i_in, motor_c, stage_c, drift, bus_v) = (
+     i0, i1, i2, vn, omega, theta, i_in, motor_c, stage_c, drift, bus_v, u, cur_count,
+     pos_count) = (
         x[0], x[1], x[2], x[3], x[4], x[5], x[6], x[7], x[8], x[9], x[10], x[11], x[12],
-        x[13], x[14], x[15], x[16], x[17], x[18], x[19], x[20], x[21])
+        x[13], x[14], x[15], x[16], x[17], x[18], x[19], x[20], x[21], x[22], x[23], x[24])
     pp, k_e, r_source = pr[POLE_PAIRS], pr[K_E], pr[R_SOURCE]
     soft_start, v_ref, tf_v = max(pr[SOFT_START], 1e-12), pr[V_REF], pr[TF_V]
     kp_v, ki_v, kd_v = pr[KP_V], pr[KI_V], pr[KD_V]
@@ -167,7 +178,12 @@ def _run(pr: FloatArray, x: FloatArray, cmd_rad: FloatArray, q: FloatArray, amb:
     limit = pr[TRAVEL_RAD] * ratio
     d_gain = h / (tf_v + h)
     inv_h = 1.0 / h
-    ki_v_h, ki_pos_h, ki_i_h = ki_v * h, ki_pos * h, ki_i * h
+    # model form: loop rates (steps per update; 1 = every step, h * 1.0 == h exactly); the
+    # other options are read from the row where used: hoisted into locals, their extra live
+    # values measurably slowed the default path
+    n_cur, n_pos = pr[N_CUR], pr[N_POS]
+    ki_v_h, ki_pos_h, ki_i_h = ki_v * h, ki_pos * (h * n_pos), ki_i * (h * n_cur)
+    p_hk = 0.0
     d_ron = ron_hi - ron_lo
     lim_term = l_smps / h
     ripple_l = 1.0 / (l_smps * f_sw)
@@ -182,6 +198,10 @@ def _run(pr: FloatArray, x: FloatArray, cmd_rad: FloatArray, q: FloatArray, amb:
         if (pr[OPEN_HIGH_A + k] != 0.0 or pr[OPEN_LOW_A + k] != 0.0
                 or pr[SHORT_HIGH_A + k] != 0.0 or pr[SHORT_LOW_A + k] != 0.0):
             faulted = True
+    if pr[HALL_OFFSET] != 0.0:
+        # the drive commutates off the true angle: every phase's back-EMF from its trapezoid,
+        # through the general legs and windings
+        faulted = True
     key_r = key_g = -1.0
     m11 = m12 = m21 = m22 = p1 = p2 = q1 = q2 = kk = 0.0
     # once-per-sample constants (sensors): thermal and bus decays
@@ -197,13 +217,15 @@ def _run(pr: FloatArray, x: FloatArray, cmd_rad: FloatArray, q: FloatArray, amb:
         w_dio = 1.0 / (1.0 + h_l * (r_diode + r_w))
         hinge_k = q[s] * area_chord
         inv_ratio_cmd = cmd_rad[s] * ratio
+        if pr[HK_W] != 0.0:
+            p_hk = pr[HK_W] * (1.0 + pr[HK_VAR] * math.sin(_TWO_PI * t / pr[HK_PERIOD]))
         a_dc = a_a = a_b = a_c = a_v = a_d = a_vin = a_iin = a_v2 = a_r2 = 0.0
         a_pm = a_ps = a_tq = a_om = a_hg = a_ic = a_iq = a_du = a_il = a_u = 0.0
         sec = 0
         for _ in range(spb):
             # Hall sector and the idle phase's back-EMF (the "+"/"-" phases on their flat tops)
             theta_e = pp * theta
-            sec = math.floor((theta_e - _SECTOR_OFFSET) / _SECTOR_WIDTH) % 6
+            sec = math.floor((theta_e + pr[HALL_OFFSET] - _SECTOR_OFFSET) / _SECTOR_WIDTH) % 6
             kp_ph, km_ph, id_ph = PLUS[sec], MINUS[sec], IDLE[sec]
             phi = (theta_e - _SHIFTS[id_ph]) % _TWO_PI
             d = _TWO_PI - phi if phi > math.pi else phi
@@ -231,23 +253,35 @@ def _run(pr: FloatArray, x: FloatArray, cmd_rad: FloatArray, q: FloatArray, amb:
                 duty = 0.0
             if not ((duty < raw and err > 0.0) or (duty > raw and err < 0.0)):
                 integ = trial
-            # drive: position loop -> current command -> current loop -> signed duty u
-            perr = inv_ratio_cmd - theta
-            trial = pos_integ + ki_pos_h * perr
-            trial = i_lim if trial > i_lim else (-i_lim if trial < -i_lim else trial)
-            raw = kp_pos * perr + trial - kd_pos * omega
-            i_cmd = i_lim if raw > i_lim else (-i_lim if raw < -i_lim else raw)
-            if raw == i_cmd:
-                pos_integ = trial
+            # drive: position loop -> current command -> current loop -> signed duty u, each
+            # loop at its own rate (held in between); voltage mode: the current command times
+            # the loop resistance plus back-EMF is the voltage (the current only limited)
+            pos_count -= 1.0
+            if pos_count <= 0.0:
+                pos_count = pr[N_POS]
+                perr = inv_ratio_cmd - theta
+                trial = pos_integ + ki_pos_h * perr
+                trial = i_lim if trial > i_lim else (-i_lim if trial < -i_lim else trial)
+                raw = kp_pos * perr + trial - kd_pos * omega
+                i_cmd = i_lim if raw > i_lim else (-i_lim if raw < -i_lim else raw)
+                if raw == i_cmd:
+                    pos_integ = trial
             c_p = i0 if kp_ph == 0 else (i1 if kp_ph == 1 else i2)
             c_m = i0 if km_ph == 0 else (i1 if km_ph == 1 else i2)
             i_q = 0.5 * (c_p - c_m)
-            e_i = i_cmd - i_q
-            trial = cur_integ + ki_i_h * e_i
-            u_raw = (kp_i * e_i + trial + ke2 * omega) / (vdc if vdc > 1.0 else 1.0)
-            u = U_MAX if u_raw > U_MAX else (-U_MAX if u_raw < -U_MAX else u_raw)
-            if u == u_raw:
-                cur_integ = trial
+            cur_count -= 1.0
+            if cur_count <= 0.0:
+                cur_count = pr[N_CUR]
+                if pr[VOLTAGE_MODE] != 0.0:
+                    u_raw = (pr[R_LOOP] * i_cmd + ke2 * omega) / (vdc if vdc > 1.0 else 1.0)
+                    u = U_MAX if u_raw > U_MAX else (-U_MAX if u_raw < -U_MAX else u_raw)
+                else:
+                    e_i = i_cmd - i_q
+                    trial = cur_integ + ki_i_h * e_i
+                    u_raw = (kp_i * e_i + trial + ke2 * omega) / (vdc if vdc > 1.0 else 1.0)
+                    u = U_MAX if u_raw > U_MAX else (-U_MAX if u_raw < -U_MAX else u_raw)
+                    if u == u_raw:
+                        cur_integ = trial
             au = u if u >= 0.0 else -u
             hi_ph, lo_ph = (kp_ph, km_ph) if u >= 0.0 else (km_ph, kp_ph)
             i_hi = i0 if hi_ph == 0 else (i1 if hi_ph == 1 else i2)
@@ -257,9 +291,12 @@ def _run(pr: FloatArray, x: FloatArray, cmd_rad: FloatArray, q: FloatArray, amb:
             r_hi = au * rh + (1.0 - au) * rl
             v_hi = au * vdc
             if faulted:
-                sh0 = 1.0 if kp_ph == 0 else (-1.0 if km_ph == 0 else s_id)
-                sh1 = 1.0 if kp_ph == 1 else (-1.0 if km_ph == 1 else s_id)
-                sh2 = 1.0 if kp_ph == 2 else (-1.0 if km_ph == 2 else s_id)
+                if pr[HALL_OFFSET] != 0.0:
+                    sh0, sh1, sh2 = _trap(theta_e, 0), _trap(theta_e, 1), _trap(theta_e, 2)
+                else:
+                    sh0 = 1.0 if kp_ph == 0 else (-1.0 if km_ph == 0 else s_id)
+                    sh1 = 1.0 if kp_ph == 1 else (-1.0 if km_ph == 1 else s_id)
+                    sh2 = 1.0 if kp_ph == 2 else (-1.0 if km_ph == 2 else s_id)
                 g_shoot, i_ext, p_inv = _legs(pr, hi_ph, lo_ph, au, vdc, i0, i1, i2, scratch)
             else:
                 # intact bridge: the PWM'd leg (high side on for au of the period, low side
@@ -274,6 +311,11 @@ def _run(pr: FloatArray, x: FloatArray, cmd_rad: FloatArray, q: FloatArray, amb:
             di_l = dv * duty * ripple_l if dv > 0.0 else 0.0
             i_ac = i_dc * i_dc * au * (1.0 - au)
             ripple2 = di_l * di_l * zsw2 + (i_ac * zpwm2 if i_ac > 0.0 else 0.0)
+            if pr[HK_W] != 0.0:
+                # housekeeping: constant power off the DC link, upstream of its current sensor
+                i_hk = p_hk / (vdc if vdc > 1.0 else 1.0)
+                i_ext += i_hk
+                i_dc += i_hk
             i_l_prev = i_l
             r_sw = ron_lo + duty * d_ron
             p_smps = i_l * i_l * r_sw
@@ -334,9 +376,14 @@ def _run(pr: FloatArray, x: FloatArray, cmd_rad: FloatArray, q: FloatArray, amb:
             # mechanics, referred to the motor shaft
             delta = theta / ratio
             hinge = hinge_k * (ch0 + ch_delta * delta)
-            drive = (torque - t_coul * math.tanh(omega / w_coul)
-                     + hinge * (refl_pos if hinge * omega > 0.0 else refl_neg))
-            omega = (omega + h_j * drive) / visc
+            if pr[BREAKAWAY] != 0.0:
+                load = torque + hinge * (refl_pos if hinge * omega > 0.0 else refl_neg)
+                omega = _stick_slip(omega, load, t_coul, pr[BREAKAWAY] * t_coul,
+                                    pr[W_STRIBECK], h_j, visc)
+            else:
+                drive = (torque - t_coul * math.tanh(omega / w_coul)
+                         + hinge * (refl_pos if hinge * omega > 0.0 else refl_neg))
+                omega = (omega + h_j * drive) / visc
             theta_new = theta + h * omega
             if theta_new > limit or theta_new < -limit:
                 theta_new = limit if theta_new > limit else -limit
@@ -380,10 +427,41 @@ def _run(pr: FloatArray, x: FloatArray, cmd_rad: FloatArray, q: FloatArray, amb:
         out[11, s] = stage_c
         out[20, s] = sec + 1.0
     state = (i_l, v_c, v_out, integ, deriv, prev_err, duty, pos_integ, cur_integ, i_cmd, i_q,
-             i0, i1, i2, vn, omega, theta, i_in, motor_c, stage_c, drift, bus_v)
-    for k in range(22):
+             i0, i1, i2, vn, omega, theta, i_in, motor_c, stage_c, drift, bus_v, u, cur_count,
+             pos_count)
+    for k in range(25):
         x[k] = state[k]
     return t
+
+
+@kernel
+def _trap(theta_e: float, phase: int) -> float:
+    """Phase ``phase``'s flat-top back-EMF shape at electrical angle ``theta_e``, in [-1, 1]
+    (inverter.trapezoid for one phase and one angle)."""
+    phi = (theta_e - _SHIFTS[phase]) % _TWO_PI
+    d = _TWO_PI - phi if phi > math.pi else phi
+    f = 3.0 - d * _SLOPE
+    return 1.0 if f > 1.0 else (-1.0 if f < -1.0 else f)
+
+
+@kernel
+def _stick_slip(omega: float, load: float, t_coul: float, t_break: float, w_s: float,
+                h_j: float, visc: float) -> float:
+    """The shaft speed after one step under stiction (Karnopp stick-slip, Stribeck decay).
+
+    At rest the friction holds any applied ``load`` up to the breakaway torque ``t_break``;
+    above it the shaft breaks away against ``t_break``. Sliding, the friction is
+    ``Tc + (Ts - Tc) exp(-(w/w_s)^2)`` against the motion (viscous in ``visc``), and a speed
+    that would cross zero within the step sticks at zero.
+    """
+    if omega == 0.0:
+        if load <= t_break and load >= -t_break:
+            return 0.0
+        return h_j * (load - (t_break if load > 0.0 else -t_break)) / visc
+    w = omega / w_s
+    f = t_coul + (t_break - t_coul) * math.exp(-w * w)
+    new = (omega + h_j * (load - (f if omega > 0.0 else -f))) / visc
+    return 0.0 if new * omega < 0.0 else new
 
 
 @kernel

@@ -47,12 +47,26 @@ def simulate_bit(params: ActuatorParams, fault_sets: Sequence[FaultSet],
                  dynamic_pressure_pa: Sequence[float], seeds: Sequence[int],
                  chunk: int = 250, progress: Callable[[float], None] | None = None,
                  ambient_c: Sequence[float | None] | None = None,
-                 bus_v: Sequence[float | None] | None = None) -> Runs:
+                 bus_v: Sequence[float | None] | None = None,
+                 specs: Sequence[RunSpec] | None = None) -> Runs:
     """Fly the BIT profile once per (faults, q, seed), all in one batch.
 
     ``ambient_c`` and ``bus_v`` give each run's flight condition (ambient temperature, the
     aircraft bus's mean); ``None`` (for all runs or one) leaves it to the plant's own draw.
+
+    ``specs`` flies the caller's own runs instead, one per pressure, each with its own
+    parameters, model form, faults, seed and condition (a mismatched unit's, say); the
+    per-run ``fault_sets``, ``seeds``, ``ambient_c`` and ``bus_v`` must then be empty, and the
+    specs must share ``params``'s sample rate.
     """
+    if specs is not None:
+        if fault_sets or seeds or ambient_c or bus_v:
+            raise ConfigError("give the runs either as specs or as faults, seeds and "
+                              "conditions, not both", field="runs")
+        fault_sets = [s.faults for s in specs]
+        seeds = [s.seed for s in specs]
+        ambient_c = [s.ambient_c for s in specs]
+        bus_v = [s.bus_v for s in specs]
     n = len(fault_sets)
     amb = [None] * n if ambient_c is None else list(ambient_c)
     bus = [None] * n if bus_v is None else list(bus_v)
@@ -61,8 +75,11 @@ def simulate_bit(params: ActuatorParams, fault_sets: Sequence[FaultSet],
                           field="runs")
     rate = params.sensors.sample_rate_hz
     prof = bit_profile(rate, "ground")
-    specs = [RunSpec(params, fs, seed=int(s), ambient_c=a, bus_v=b)
-             for fs, s, a, b in zip(fault_sets, seeds, amb, bus, strict=True)]
+    if specs is None:
+        specs = [RunSpec(params, fs, seed=int(s), ambient_c=a, bus_v=b)
+                 for fs, s, a, b in zip(fault_sets, seeds, amb, bus, strict=True)]
+    elif any(s.params.sensors.sample_rate_hz != rate for s in specs):
+        raise ConfigError("the specs' sample rate differs from params'", field="specs")
     plant = EmaBatch(specs)
     q = np.asarray(dynamic_pressure_pa, dtype=np.float64)
     parts: list[dict[str, FloatArray]] = []
