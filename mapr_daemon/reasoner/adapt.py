@@ -15,11 +15,15 @@ the healthy model, from the unit's own healthy BITs:
   holds differently from BIT to BIT, e.g. which side of the bridge holds the surface where
   friction decides it, gets its spread widened instead of alarming), pooled with a prior of
   :data:`PRIOR_DOF` BITs at the model's own spread, never narrower than the model's;
+* **metric**: in the fault subspace, the directions in which the unit's healthy BITs still vary
+  more than the model's (a housekeeping load that wanders from flight to flight moves every
+  DC-link cell together) are scaled down to the model's variance, for the run and the
+  templates alike;
 * **thresholds**: each BIT is scored by a calibration fitted without it (leave one out); where
-  the unit's healthy scores run higher than the fleet's calibration runs at the same quantile,
-  the threshold is raised by the same ratio (the tail keeps the calibration's shape, scaled to
-  the unit): ``threshold' = max(threshold, threshold * q_unit / q_cal)``, ``q_unit`` the unit's
-  largest leave-one-out score, ``q_cal`` the calibration runs' score at the same rank.
+  the unit's healthy scores run higher than the fleet's calibration runs at the same quantile
+  (its median, upper quartile and 90th percentile: not its largest, which one odd BIT would
+  set), the threshold is raised by the largest of those ratios (the tail keeps the
+  calibration's shape, scaled to the unit).
 
 The faults' signatures stay the model's: a fault moves the cells of this unit as it moves the
 model's (the dictionary built on the identified model is what makes that hold).
@@ -70,26 +74,61 @@ class UnitCalibration:
         return dataclasses.asdict(self)
 
 
-def _fit(z: FloatArray, conds: Sequence[healthy.Conditions]) -> tuple[FloatArray, FloatArray]:
-    """Offset coefficients ``(U, D)`` in healthy spreads and the spread factor ``(D,)``."""
-    a = np.stack([healthy.offset_basis(c) for c in conds])
+@dataclasses.dataclass(frozen=True)
+class _UnitFit:
+    coef: FloatArray
+    gain: FloatArray
+    factor: FloatArray
+    reference: FloatArray
+    metric: FloatArray
+
+
+def _fit(hm: healthy.HealthyModel, z: FloatArray,
+         conds: Sequence[healthy.Conditions]) -> _UnitFit:
+    """Per cell, ridge regression of the unit's standardized residuals ``z (n, D)`` on the
+    shared offset regressors and the cell's own predicted departure; then its spread factor."""
+    a = np.stack([healthy.offset_basis(c, hm.supply_nominal_v) for c in conds])
+    reference = np.mean([hm.predicted(c) for c in conds], axis=0)
+    r = np.stack([(hm.predicted(c) - reference) / hm.spread(c) for c in conds])  # (n, D)
     n, u = a.shape
-    pen = OFFSET_RIDGE * np.eye(u)
+    x = np.concatenate([np.broadcast_to(a[None], (r.shape[1], n, u)), r.T[:, :, None]],
+                       axis=2)  # (D, n, U + 1)
+    pen = OFFSET_RIDGE * np.eye(u + 1)
     pen[0, 0] = 0.0
-    coef = np.asarray(np.linalg.solve(a.T @ a + pen, a.T @ z), dtype=np.float64)
-    resid = z - a @ coef
-    dof = max(n - u, 1)
-    var = ((resid**2).sum(axis=0) + PRIOR_DOF) / (dof + PRIOR_DOF)
-    return coef, np.sqrt(np.maximum(var, 1.0))
+    gram = np.einsum("dnk,dnl->dkl", x, x) + pen
+    rhs = np.einsum("dnk,nd->dk", x, z)
+    sol = np.linalg.solve(gram, rhs[:, :, None])[:, :, 0]  # (D, U + 1)
+    # leave-one-out residuals (exact for a linear smoother: e_i / (1 - h_ii)): what the unit's
+    # next BIT will show, not what the fit leaves on the BITs it was fitted to
+    lever = np.einsum("dnk,dkl,dnl->dn", x, np.linalg.inv(gram), x).T  # (n, D)
+    resid = (z - np.einsum("dnk,dk->nd", x, sol)) / np.maximum(1.0 - lever, 0.05)
+    var = ((resid**2).sum(axis=0) + PRIOR_DOF) / (n + PRIOR_DOF)
+    factor = np.sqrt(np.maximum(var, 1.0))
+    return _UnitFit(np.ascontiguousarray(sol[:, :u].T), np.ascontiguousarray(sol[:, u]),
+                    factor, reference, _metric((resid / factor) @ hm.projection, n))
 
 
-def _with_unit(d: Dictionary, coef: FloatArray, factor: FloatArray) -> Dictionary:
-    """A copy of ``d`` whose healthy model carries the unit's offset and spread."""
+def _metric(y: FloatArray, dof: int) -> FloatArray:
+    """``(K, K)``: the unit's residual coordinates ``y (n, K)`` have covariance ``C`` (pooled
+    with :data:`PRIOR_DOF` BITs of the identity); its directions with variance above 1 are
+    scaled down to 1, the others left as they are (a unit is never made more sensitive than
+    the model)."""
+    k = y.shape[1]
+    cov = (y.T @ y + PRIOR_DOF * np.eye(k)) / (dof + PRIOR_DOF)
+    ev, vec = np.linalg.eigh(cov)
+    out: FloatArray = (vec / np.sqrt(np.maximum(ev, 1.0))) @ vec.T
+    return out
+
+
+def _with_unit(d: Dictionary, fit: _UnitFit) -> Dictionary:
+    """A copy of ``d`` whose healthy model carries the unit's offset, gain and spread."""
     hm = d.healthy
     assert hm is not None
     out = copy.copy(d)
     out.calibration = dict(d.calibration)
-    out.healthy = dataclasses.replace(hm, unit_coef=coef, unit_factor=factor)
+    out.healthy = dataclasses.replace(hm, unit_coef=fit.coef, unit_factor=fit.factor,
+                                      unit_gain=fit.gain, unit_reference=fit.reference,
+                                      unit_metric=fit.metric)
     return out
 
 
@@ -120,13 +159,12 @@ def calibrate_unit(d: Dictionary, m: FloatArray, q: FloatArray) -> tuple[Diction
     loo: dict[str, list[float]] = {}
     for i in range(n):
         keep = np.arange(n) != i
-        coef, factor = _fit(z[keep], [conds[k] for k in np.flatnonzero(keep)])
-        for name, value in _scores(_with_unit(d, coef, factor), m[i], float(q[i])).items():
+        part = _fit(hm, z[keep], [conds[k] for k in np.flatnonzero(keep)])
+        for name, value in _scores(_with_unit(d, part), m[i], float(q[i])).items():
             loo.setdefault(name, []).append(value)
-    coef, factor = _fit(z, conds)
-    out = _with_unit(d, coef, factor)
+    fit = _fit(hm, z, conds)
+    out = _with_unit(d, fit)
     thresholds: dict[str, tuple[float, float]] = {}
-    rank = 1.0 - 1.0 / (n + 1)  # the expected quantile of the largest of n scores
     for key, name in STATISTICS:
         old = d.threshold if key == "threshold" else d.calibration.get(key)
         q_cal = stored_quantiles(d.calibration, name)
@@ -134,23 +172,21 @@ def calibrate_unit(d: Dictionary, m: FloatArray, q: FloatArray) -> tuple[Diction
             continue
         new = old
         if q_cal is not None:
-            ref = float(np.interp(rank, CALIBRATION_QUANTILES, q_cal))
-            worst = max(loo[name])
-            if ref > 0 and worst > ref:
-                new = old * worst / ref
+            ratio = max(_ratio(np.asarray(loo[name]), q_cal, r) for r in MATCHED_RANKS)
+            new = old * max(ratio, 1.0)
         thresholds[name] = (float(old), float(new))
         if key == "threshold":
             out.threshold = float(new)
         else:
             out.calibration[key] = float(new)
-    offsets = coef[0]
+    offsets = fit.coef[0]
     ncol = len(d.columns)
     top = np.argsort(-np.abs(offsets))[:5]
     report = UnitCalibration(
         bits=n, offset_rms=float(np.sqrt(np.mean(offsets**2))),
         largest_offsets=[(d.columns[int(hm.cells[k, 0] % ncol)], round(float(offsets[k]), 2))
                          for k in top],
-        widened_cells=int((factor > 2.0).sum()), thresholds=thresholds,
+        widened_cells=int((fit.factor > 2.0).sum()), thresholds=thresholds,
         loo_scores={k: [round(float(v), 3) for v in vals] for k, vals in loo.items()})
     out.calibration["unit_bits"] = float(n)
     return out, report
@@ -158,6 +194,20 @@ def calibrate_unit(d: Dictionary, m: FloatArray, q: FloatArray) -> tuple[Diction
 
 CALIBRATION_QUANTILES = (0.5, 0.75, 0.9, 0.95, 0.975, 0.99)
 """Quantiles of the calibration runs' scores a dictionary keeps for unit calibrations."""
+
+
+MATCHED_RANKS = (0.5, 0.75, 0.9)
+"""Quantiles at which a unit's leave-one-out scores are held against the calibration runs'
+(not its largest: one odd BIT of twenty would set the unit's threshold)."""
+
+
+def _ratio(unit: FloatArray, calibration: FloatArray, rank: float) -> float:
+    """The unit's score over the calibration runs' at quantile ``rank`` (matched shifts are
+    taken relative to the calibration's median, so a statistic centred on 0 scales too)."""
+    ref = float(np.interp(rank, CALIBRATION_QUANTILES, calibration))
+    own = float(np.quantile(unit, rank))
+    base = min(float(calibration[0]), 0.0)
+    return (own - base) / (ref - base) if ref - base > 1e-9 else 1.0
 
 
 def quantile_entries(name: str, scores: FloatArray) -> dict[str, float]:

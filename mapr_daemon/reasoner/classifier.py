@@ -96,13 +96,18 @@ def _models(d: Dictionary) -> tuple[healthy.HealthyModel, fault_models.FaultMode
 def _fits(d: Dictionary, m: FloatArray, q: float) -> tuple[healthy.Conditions, FloatArray,
                                                             list[Fit]]:
     """Conditions, coordinates and every template's fit; a parametric fit's severity is its
-    inverse model's reading (the signature fit's point where there is none)."""
+    inverse model's reading (the signature fit's point where there is none). The coordinates
+    returned are in a commissioned unit's metric, when it has one (its own nuisance
+    directions weighed down, :mod:`~mapr_daemon.reasoner.adapt`)."""
     hm, fm = _models(d)
     c = healthy.conditions(m, d.columns, q)
     y = hm.coordinates(m, c)
+    metric = hm.unit_metric
+    y_eff = y if metric is None else y @ metric
     fits = [f if (s := fault_models.severity(fm, f.template, y, c)) is None
-            else dataclasses.replace(f, severity=s) for f in fault_models.fit_all(fm, y, c)]
-    return c, y, fits
+            else dataclasses.replace(f, severity=s)
+            for f in fault_models.fit_all(fm, y_eff, c, metric)]
+    return c, y_eff, fits
 
 
 def score_of(d: Dictionary, m: FloatArray, q: float) -> tuple[float, float]:

@@ -179,14 +179,18 @@ def severity(models: FaultModels, i: int, y: FloatArray, c: Conditions) -> float
     return float(np.clip(_severity_regressors(y, c) @ coef, models.band(i), 1.0))
 
 
-def fit_all(models: FaultModels, y: FloatArray, c: Conditions) -> list[Fit]:
+def fit_all(models: FaultModels, y: FloatArray, c: Conditions,
+            metric: FloatArray | None = None) -> list[Fit]:
     """Every template's best severity beyond its band (1.0 for a switch fault) and residual,
-    both compared after :func:`compress`."""
+    both compared after :func:`compress`. ``y`` is already in ``metric``'s coordinates when a
+    commissioned unit's metric is given (:attr:`HealthyModel.unit_metric`); the templates are
+    taken into them here."""
     fits = []
     yc = compress(y)
     energy = float(yc @ yc)
     for i in range(len(models.coef)):
-        curve = compress(models.curve(i, c))
+        raw = models.curve(i, c)
+        curve = compress(raw if metric is None else raw @ metric)
         res = ((yc[None, :] - curve) ** 2).sum(axis=1)
         if models.coef[i] is None:
             fits.append(Fit(i, 1.0, float(res[0]), energy))

@@ -167,11 +167,13 @@ def spread_basis(c: Conditions, supply_nominal_v: float, dropout_v: float) -> Fl
     return np.array([1.0, q, q * q, g, d, t, e])
 
 
-def offset_basis(c: Conditions) -> FloatArray:
-    """Regressors of a commissioned unit's offset from the model: a mean, a slope in air load
-    and a step for BITs on the ground (what a few BITs of one unit can pin down)."""
-    return np.array([1.0, c.pressure_pa / PRESSURE_SCALE_PA,
-                     1.0 if c.pressure_pa < GROUND_PA else 0.0])
+def offset_basis(c: Conditions, supply_nominal_v: float) -> FloatArray:
+    """Regressors of a commissioned unit's offset from the model shared by every cell: a mean,
+    slopes in air load, temperature and supply, and a step for BITs on the ground (what a few
+    BITs of one unit can pin down; each cell also scales the model's own prediction,
+    :attr:`HealthyModel.unit_gain`)."""
+    q, v, t = scaled(c, supply_nominal_v)
+    return np.array([1.0, q, 1.0 if c.pressure_pa < GROUND_PA else 0.0, t, v])
 
 
 def ledoit_wolf(z: FloatArray, floor: float = 0.0) -> tuple[FloatArray, float]:
@@ -221,6 +223,22 @@ class HealthyModel:
     :func:`offset_basis` (:mod:`~mapr_daemon.reasoner.adapt`); None before commissioning."""
     unit_factor: FloatArray | None = None
     """``(D,)``: the unit's spread over the model's (>= 1)."""
+    unit_gain: FloatArray | None = None
+    """``(D,)``: the unit's departure, per cell, as a share of the model's predicted departure
+    from :attr:`unit_reference` (a unit whose motor constant is 8 % off moves its load currents
+    8 % more or less than the model's, whatever the condition)."""
+    unit_reference: FloatArray | None = None
+    """``(D,)``: the model's prediction at the mean of the unit's commissioning conditions."""
+    unit_metric: FloatArray | None = None
+    """``(K, K)``: applied to the fault-subspace coordinates (and the templates) of a
+    commissioned unit: the directions in which its healthy BITs vary more than the model's,
+    scaled down to unit variance."""
+
+    def unit_regressor(self, c: Conditions) -> FloatArray:
+        """Per cell, the model's predicted departure from :attr:`unit_reference`, in spreads."""
+        ref = self.unit_reference if self.unit_reference is not None else 0.0
+        out: FloatArray = (self.predicted(c) - ref) / self.spread(c)
+        return out
 
     def spread(self, c: Conditions) -> FloatArray:
         """Every cell's healthy spread at the run's conditions ``(D,)``."""
@@ -241,7 +259,9 @@ class HealthyModel:
         x = m.ravel()[self.cells].mean(axis=1)
         out: FloatArray = (x - self.predicted(c)) / self.spread(c)
         if self.unit_coef is not None:
-            out = out - offset_basis(c) @ self.unit_coef
+            out = out - offset_basis(c, self.supply_nominal_v) @ self.unit_coef
+        if self.unit_gain is not None:
+            out = out - self.unit_gain * self.unit_regressor(c)
         if self.unit_factor is not None:
             out = out / self.unit_factor
         return out
@@ -260,7 +280,10 @@ class HealthyModel:
         for key, value in (("healthy_matched", self.matched), ("healthy_sd_coef", self.sd_coef),
                            ("healthy_sd_floor", self.sd_floor),
                            ("healthy_unit_coef", self.unit_coef),
-                           ("healthy_unit_factor", self.unit_factor)):
+                           ("healthy_unit_factor", self.unit_factor),
+                           ("healthy_unit_gain", self.unit_gain),
+                           ("healthy_unit_reference", self.unit_reference),
+                           ("healthy_unit_metric", self.unit_metric)):
             if value is not None:
                 out[key] = value
         return out
@@ -272,7 +295,8 @@ class HealthyModel:
                    a["healthy_projection"], float(sc[0]), float(sc[1]), float(sc[2]),
                    a.get("healthy_matched"), float(sc[3]), a.get("healthy_sd_coef"),
                    a.get("healthy_sd_floor"), a.get("healthy_unit_coef"),
-                   a.get("healthy_unit_factor"))
+                   a.get("healthy_unit_factor"), a.get("healthy_unit_gain"),
+                   a.get("healthy_unit_reference"), a.get("healthy_unit_metric"))
 
 
 def fit(m: FloatArray, conds: Sequence[Conditions], cells: npt.NDArray[np.int64],

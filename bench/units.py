@@ -1,0 +1,166 @@
+"""The reasoner on actuators that are not its model's twin, commissioned from their own BITs.
+
+A fleet of units is drawn off the actuator file (``mapr_daemon.testbed.mismatch``: parameters
+by part-to-part tolerance, and a model form the data sheet does not carry — stiction, discrete
+or voltage-mode control, a housekeeping load, a Hall offset, sensor gain and offset errors).
+Each unit flies ``--commission-bits`` healthy BITs at conditions drawn over the envelope; the
+data sheet's dictionary is calibrated to the unit on them
+(:func:`mapr_daemon.reasoner.adapt.calibrate_unit`); then the unit's other BITs are
+diagnosed: ``--healthy`` healthy ones and two faulted ones per mode (magnitudes 25-100 % of
+range for the parametric modes, short/open on a random switch), all at conditions drawn over
+the whole envelope (a quarter on the ground). The same BITs are also decided with the
+uncalibrated dictionary, for comparison.
+
+Seeds: a master seed, drawn afresh unless ``--seed`` is given, is printed first; the fleet,
+conditions, magnitudes and per-run noise seeds (10^9..2^62) come from it.
+
+Run:  python3 bench/units.py --actuator FILE --dictionary DICT [--units 30]
+      [--commission-bits 20] [--healthy 20] [--seed N]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+from collections import Counter
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from mapr_daemon.ema.batch import RunSpec
+from mapr_daemon.ema.faults import SWITCHES, Fault, FaultSet, at_severity
+from mapr_daemon.ema.params import default_actuator_path, load_actuator
+from mapr_daemon.reasoner import adapt, classifier, parts
+from mapr_daemon.reasoner.build import run_matrices
+from mapr_daemon.reasoner.corpus import simulate_bit
+from mapr_daemon.reasoner.dictionary import Dictionary
+from mapr_daemon.testbed.mismatch import fleet
+
+MODES = ("capacitance", "esr", "smps_ron_high", "smps_ron_low", "inverter_ron_a_high",
+         "friction", "short", "open")
+GROUND_SHARE = 0.25
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--actuator", type=Path, default=default_actuator_path())
+    ap.add_argument("--dictionary", type=Path, required=True,
+                    help="the data sheet's dictionary (mapr dictionary build --actuator ...)")
+    ap.add_argument("--units", type=int, default=30)
+    ap.add_argument("--commission-bits", type=int, default=20)
+    ap.add_argument("--healthy", type=int, default=20, help="healthy BITs per unit diagnosed")
+    ap.add_argument("--faulted", type=int, default=2, help="faulted BITs per mode and unit")
+    ap.add_argument("--seed", type=int, help="master seed (default: drawn afresh, printed)")
+    args = ap.parse_args()
+    seed = int(args.seed if args.seed is not None
+               else np.random.SeedSequence().entropy % 2**63)  # type: ignore[operator]
+    print(f"master seed {seed}  (rerun: python3 bench/units.py --actuator {args.actuator} "
+          f"--dictionary {args.dictionary} --seed {seed})")
+    print(f"load average {' '.join(f'{x:.2f}' for x in os.getloadavg())} (2 cores, shared)")
+    start, cpu0 = time.monotonic(), time.process_time()
+    sheet = load_actuator(args.actuator)
+    d = Dictionary.load(args.dictionary)
+    rng = np.random.default_rng(seed)
+    units = fleet(sheet, args.units, int(rng.integers(2**31)))
+    env = sheet.envelope
+    specs: list[RunSpec] = []
+    q: list[float] = []
+    who: list[tuple[int, str, str, float]] = []  # unit, role, mode, magnitude
+
+    def add(u: int, role: str, faults: FaultSet, mode: str, mag: float) -> None:
+        p = 0.0 if rng.random() < GROUND_SHARE else float(
+            rng.uniform(0.0, env.max_dynamic_pressure_pa))
+        specs.append(units[u].spec(
+            faults, seed=int(rng.integers(10**9, 2**62)),
+            ambient_c=float(rng.uniform(env.ambient_min_c, env.ambient_max_c)),
+            bus_v=float(rng.uniform(sheet.bus.min_v, sheet.bus.max_v))))
+        q.append(p)
+        who.append((u, role, mode, mag))
+
+    for u in range(len(units)):
+        for _ in range(args.commission_bits):
+            add(u, "commission", FaultSet(), "", 0.0)
+        for _ in range(args.healthy):
+            add(u, "healthy", FaultSet(), "", 0.0)
+        for mode in MODES:
+            for _ in range(args.faulted):
+                if mode in ("short", "open"):
+                    sw = SWITCHES[int(rng.integers(len(SWITCHES)))]
+                    add(u, "faulted", FaultSet.of([Fault(mode, switch=sw)]), mode, 1.0)
+                else:
+                    s = float(rng.uniform(0.25, 1.0))
+                    add(u, "faulted", FaultSet.of([at_severity(sheet, mode, s)]), mode, s)
+    t0 = time.monotonic()
+    runs = simulate_bit(sheet, [], q, [], specs=specs)
+    m = run_matrices(runs, d.window_starts, d.window_samples, d.signals)
+    t_sim = time.monotonic() - t0
+    print(f"{len(units)} units of {sheet.name}, {len(specs)} BITs simulated in {t_sim:.1f} s "
+          f"({args.commission_bits} commissioning BITs per unit)")
+    before: list[classifier.Decision] = []
+    after: list[classifier.Decision | None] = []
+    widened: list[int] = []
+    raised: dict[str, list[float]] = {}
+    t0 = time.monotonic()
+    for u in range(len(units)):
+        own = [i for i, w in enumerate(who) if w[0] == u]
+        comm = [i for i in own if who[i][1] == "commission"]
+        unit_d, report = adapt.calibrate_unit(d, m[comm], np.asarray(q)[comm])
+        widened.append(report.widened_cells)
+        for stat, (old, new) in report.thresholds.items():
+            raised.setdefault(stat, []).append(new / old)
+        for i in own:
+            if who[i][1] == "commission":
+                continue
+            before.append(classifier.decide(d, m[i], q[i]))
+            after.append(classifier.decide(unit_d, m[i], q[i]))
+    print(f"calibrated and decided in {time.monotonic() - t0:.1f} s; cells widened > 2x per "
+          f"unit: median {int(np.median(widened))}, max {max(widened)}; thresholds raised by "
+          + ", ".join(f"{k} x{np.median(v):.2f} median, x{max(v):.2f} max"
+                      for k, v in raised.items()))
+    scored = [w for w in who if w[1] != "commission"]
+    for name, decs in (("the data sheet's dictionary", before),
+                       ("calibrated to each unit", after)):
+        report_block(name, scored, decs)
+    print(f"\ntotal wall {time.monotonic() - start:.1f} s, CPU {time.process_time() - cpu0:.1f}"
+          f" s; load average {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
+    return 0
+
+
+def report_block(name: str, who: list[tuple[int, str, str, float]],
+                 decs: list[classifier.Decision | None]) -> None:
+    """Healthy alarms (overall, worst unit), and per mode detection and isolation."""
+    print(f"\n== {name}")
+    healthy = [(w[0], dec) for w, dec in zip(who, decs, strict=True) if w[1] == "healthy"]
+    alarms = Counter(u for u, dec in healthy if dec is not None and dec.anomaly)
+    n_units = len({u for u, _ in healthy})
+    print(f"healthy BITs: {sum(alarms.values())} alarms in {len(healthy)} "
+          f"({sum(1 for c in alarms.values() if c)} of {n_units} units alarmed at least once; "
+          f"worst unit {max(alarms.values()) if alarms else 0} of "
+          f"{len(healthy) // max(n_units, 1)})")
+    named = Counter(dec.fault or "unexplained" for _, dec in healthy
+                    if dec is not None and dec.anomaly)
+    if named:
+        print("  named: " + ", ".join(f"{k} {v}" for k, v in named.most_common()))
+    print(f"{'mode':>20} {'BITs':>5} {'detected':>14} {'isolated':>14} {'to part':>14}")
+    tot = Counter[str]()
+    for mode in MODES:
+        rows = [dec for w, dec in zip(who, decs, strict=True) if w[2] == mode and dec]
+        det = sum(d.anomaly for d in rows)
+        iso = sum(d.anomaly and d.fault == mode for d in rows)
+        part = sum(d.anomaly and parts.same_part(mode, d.fault) for d in rows)
+        n = max(len(rows), 1)
+        print(f"{mode:>20} {len(rows):5d} {det:5d} ({100 * det / n:5.1f}%) {iso:5d} "
+              f"({100 * iso / n:5.1f}%) {part:5d} ({100 * part / n:5.1f}%)")
+        tot.update(n=len(rows), det=det, iso=iso, part=part)
+    n = max(tot["n"], 1)
+    print(f"{'all modes':>20} {tot['n']:5d} {tot['det']:5d} ({100 * tot['det'] / n:5.1f}%) "
+          f"{tot['iso']:5d} ({100 * tot['iso'] / n:5.1f}%) {tot['part']:5d} "
+          f"({100 * tot['part'] / n:5.1f}%)")
+
+
+if __name__ == "__main__":
+    sys.exit(main())
