@@ -37,7 +37,7 @@ from mapr_daemon.ema.faults import (
 from mapr_daemon.ema.params import ActuatorParams
 from mapr_daemon.errors import ConfigError
 from mapr_daemon.reasoner import classifier, curves, fault_models, healthy, matched
-from mapr_daemon.reasoner.corpus import Runs, simulate_bit
+from mapr_daemon.reasoner.corpus import RUNS_PER_BATCH, BitRuns, Runs, bit_layout, stream_bit
 from mapr_daemon.reasoner.dictionary import (
     Dictionary,
     DictionarySpec,
@@ -141,14 +141,38 @@ def windows(spec: DictionarySpec, corners: tuple[int, ...], n_samples: int) -> n
 
 
 def build(params: ActuatorParams, spec: DictionarySpec,
-          progress: Callable[[float], None] | None = None) -> Dictionary:
-    """Simulate, extract M, keep the nominal statistics and templates, fit, calibrate."""
+          progress: Callable[[float], None] | None = None, *,
+          workers: int | None = None, runs_per_batch: int = RUNS_PER_BATCH) -> Dictionary:
+    """Simulate, extract M, keep the nominal statistics and templates, fit, calibrate.
+
+    The runs are flown in batches of ``runs_per_batch`` on ``workers`` threads (default: the
+    usable cores) and each batch is reduced to its M in its worker, so only M (runs x rows x
+    columns) is kept of every run; the dictionary is the same, bit for bit, whatever the two.
+    """
     fs, qs, seeds, roles = _plan(params, spec)
-    runs = simulate_bit(params, fs, qs, seeds, progress=progress)
-    starts = windows(spec, runs.corners, runs.command_deg.size)
-    m = run_matrices(runs, starts, spec.window_samples)
-    return assemble(params, spec, m, runs.dynamic_pressure_pa, roles, starts,
-                    runs.sample_rate_hz)
+    m, q, starts = build_matrices(params, spec, BitRuns.of(fs, qs, seeds), progress,
+                                  workers=workers, runs_per_batch=runs_per_batch)
+    return assemble(params, spec, m, q, roles, starts, params.sensors.sample_rate_hz)
+
+
+def build_matrices(params: ActuatorParams, spec: DictionarySpec, runs: BitRuns,
+                   progress: Callable[[float], None] | None = None, *,
+                   workers: int | None = None, runs_per_batch: int = RUNS_PER_BATCH,
+                   ) -> tuple[FloatArray, FloatArray, np.ndarray]:
+    """M ``(n, W, C)`` of every run of ``runs``, their pressures, and M's window starts: the
+    streaming path (each batch's raw channels are dropped once its M is computed)."""
+    corners, n_samples = bit_layout(params)
+    starts = windows(spec, corners, n_samples)
+    m: FloatArray | None = None
+    for lo, part in stream_bit(params, runs,
+                               lambda r: run_matrices(r, starts, spec.window_samples),
+                               runs_per_batch=runs_per_batch, workers=workers,
+                               progress=progress):
+        if m is None:
+            m = np.empty((runs.n, *part.shape[1:]))
+        m[lo:lo + part.shape[0]] = part
+    assert m is not None   # BitRuns.of refuses zero runs
+    return m, runs.dynamic_pressure_pa.copy(), starts
 
 
 BAND_SIGMAS = 4.0
