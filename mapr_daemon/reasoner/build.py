@@ -159,20 +159,32 @@ def build_matrices(params: ActuatorParams, spec: DictionarySpec, runs: BitRuns,
                    progress: Callable[[float], None] | None = None, *,
                    workers: int | None = None, runs_per_batch: int = RUNS_PER_BATCH,
                    ) -> tuple[FloatArray, FloatArray, np.ndarray]:
-    """M ``(n, W, C)`` of every run of ``runs``, their pressures, and M's window starts: the
-    streaming path (each batch's raw channels are dropped once its M is computed)."""
+    """M ``(n, W, C)`` of every run of ``runs`` at ``spec``'s windows, their pressures, and
+    M's window starts (see :func:`stream_matrices`)."""
     corners, n_samples = bit_layout(params)
     starts = windows(spec, corners, n_samples)
+    m = stream_matrices(params, runs, starts, spec.window_samples, progress=progress,
+                        workers=workers, runs_per_batch=runs_per_batch)
+    return m, runs.dynamic_pressure_pa.copy(), starts
+
+
+def stream_matrices(params: ActuatorParams, runs: BitRuns, starts: np.ndarray, length: int,
+                    signals: tuple[str, ...] | None = None,
+                    progress: Callable[[float], None] | None = None, *,
+                    workers: int | None = None,
+                    runs_per_batch: int = RUNS_PER_BATCH) -> FloatArray:
+    """M ``(n, W, C)`` of every run, as :func:`run_matrices` of :func:`simulate_bit` gives it,
+    bit for bit, but flown and reduced batch by batch on ``workers`` threads: each batch's raw
+    channels are dropped once its M is computed, so memory holds M and ``workers`` batches."""
     m: FloatArray | None = None
-    for lo, part in stream_bit(params, runs,
-                               lambda r: run_matrices(r, starts, spec.window_samples),
+    for lo, part in stream_bit(params, runs, lambda r: run_matrices(r, starts, length, signals),
                                runs_per_batch=runs_per_batch, workers=workers,
                                progress=progress):
         if m is None:
             m = np.empty((runs.n, *part.shape[1:]))
         m[lo:lo + part.shape[0]] = part
     assert m is not None   # BitRuns.of refuses zero runs
-    return m, runs.dynamic_pressure_pa.copy(), starts
+    return m
 
 
 BAND_SIGMAS = 4.0

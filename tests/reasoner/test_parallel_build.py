@@ -20,7 +20,7 @@ from mapr_daemon.ema.faults import Fault, FaultSet, at_severity
 from mapr_daemon.ema.params import default_actuator_path, load_actuator
 from mapr_daemon.errors import ConfigError
 from mapr_daemon.reasoner import build
-from mapr_daemon.reasoner.corpus import simulate_bit
+from mapr_daemon.reasoner.corpus import BitRuns, simulate_bit
 from mapr_daemon.reasoner.dictionary import DictionarySpec
 from mapr_daemon.reasoner.workers import resolve, usable_cores
 
@@ -56,6 +56,11 @@ def test_simulate_bit_in_threaded_batches_equals_one_batch() -> None:
     assert all(not np.array_equal(pos[i], pos[i + 1]) for i in range(len(faults) - 1))
     assert len(seen) > 3 and seen[-1] == 1.0
     assert all(b >= a for a, b in itertools.pairwise(seen))
+    # the streaming path (each batch reduced to M in its worker) gives the same M
+    starts = build.windows(SMALL, one.corners, one.command_deg.size)
+    streamed = build.stream_matrices(params, BitRuns.of(faults, qs, seeds, ambient, bus), starts,
+                                     SMALL.window_samples, workers=2, runs_per_batch=2)
+    np.testing.assert_array_equal(streamed, build.run_matrices(one, starts, SMALL.window_samples))
 
 
 def test_threaded_build_saves_the_same_dictionary(tmp_path: Path) -> None:
