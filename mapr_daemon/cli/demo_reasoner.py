@@ -61,7 +61,7 @@ def cached_dictionary(params: ActuatorParams, actuator_path: Path,
     if path.exists():
         return path
     spec = DictionarySpec.load(spec_path)
-    print(f"Building the fault dictionary once ({spec_path.name}; 10-20 s on two cores); "
+    print(f"Building the fault dictionary once ({spec_path.name}; under a minute); "
           f"it is cached in {path.parent}", file=sys.stderr)
     started = time.monotonic()
 
