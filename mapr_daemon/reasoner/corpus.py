@@ -56,7 +56,7 @@ their derived signals stay near 25 MB, large enough that Python's share of a bat
 draws, ADC, one call per chunk of samples) stays small beside the compiled step."""
 
 
-@dataclasses.dataclass(frozen=True)
+@dataclasses.dataclass(frozen=True, eq=False)
 class BitRuns:
     """What :func:`stream_bit` flies: every run's faults, pressure, seed and condition."""
 
