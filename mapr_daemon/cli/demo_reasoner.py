@@ -20,7 +20,7 @@ from pathlib import Path
 from typing import Any
 
 from drivers.mil1553.record import MonitorRecord
-from mapr_daemon.cli.dictionary import default_spec_path
+from mapr_daemon.cli.dictionary import default_spec_path, peak_rss_mb
 from mapr_daemon.daemon.bitwatch import BitWatch
 from mapr_daemon.ema.params import ActuatorParams
 from mapr_daemon.icd import Icd, SignalStream
@@ -61,8 +61,8 @@ def cached_dictionary(params: ActuatorParams, actuator_path: Path,
     if path.exists():
         return path
     spec = DictionarySpec.load(spec_path)
-    print(f"Building the fault dictionary once ({spec_path.name}; a minute or two on two "
-          f"cores); it is cached in {path.parent}", file=sys.stderr)
+    print(f"Building the fault dictionary once ({spec_path.name}; under a minute); "
+          f"it is cached in {path.parent}", file=sys.stderr)
     started = time.monotonic()
 
     def progress(fraction: float) -> None:
@@ -70,7 +70,8 @@ def cached_dictionary(params: ActuatorParams, actuator_path: Path,
               file=sys.stderr, flush=True)
 
     dictionary = build(params, spec, progress=progress)
-    print(f"\r  built in {time.monotonic() - started:.0f} s{' ' * 30}", file=sys.stderr)
+    print(f"\r  built in {time.monotonic() - started:.0f} s (peak memory {peak_rss_mb():.0f} MB)"
+          f"{' ' * 10}", file=sys.stderr)
     path.parent.mkdir(parents=True, exist_ok=True)
     partial = path.with_suffix(".partial.npz")
     dictionary.save(partial)

@@ -37,7 +37,7 @@ from mapr_daemon.ema.faults import (
 from mapr_daemon.ema.params import ActuatorParams
 from mapr_daemon.errors import ConfigError
 from mapr_daemon.reasoner import adapt, classifier, curves, fault_models, healthy, matched
-from mapr_daemon.reasoner.corpus import Runs, simulate_bit
+from mapr_daemon.reasoner.corpus import RUNS_PER_BATCH, BitRuns, Runs, bit_layout, stream_bit
 from mapr_daemon.reasoner.dictionary import (
     Dictionary,
     DictionarySpec,
@@ -164,15 +164,51 @@ def windows(spec: DictionarySpec, corners: tuple[int, ...], n_samples: int) -> n
 
 
 def build(params: ActuatorParams, spec: DictionarySpec,
-          progress: Callable[[float], None] | None = None) -> Dictionary:
-    """Simulate, extract M, keep the nominal statistics and templates, fit, calibrate."""
+          progress: Callable[[float], None] | None = None, *,
+          workers: int | None = None, runs_per_batch: int = RUNS_PER_BATCH) -> Dictionary:
+    """Simulate, extract M, keep the nominal statistics and templates, fit, calibrate.
+
+    The runs are flown in batches of ``runs_per_batch`` on ``workers`` threads (default: the
+    usable cores) and each batch is reduced to its M in its worker, so only M (runs x rows x
+    columns) is kept of every run; the dictionary is the same, bit for bit, whatever the two.
+    """
     plan = _plan(params, spec)
-    runs = simulate_bit(params, plan.faults, plan.pressures_pa, plan.seeds, progress=progress,
-                        ambient_c=plan.ambient_c, bus_v=plan.bus_v)
-    starts = windows(spec, runs.corners, runs.command_deg.size)
-    m = run_matrices(runs, starts, spec.window_samples)
-    return assemble(params, spec, m, runs.dynamic_pressure_pa, plan.roles, starts,
-                    runs.sample_rate_hz)
+    todo = BitRuns.of(plan.faults, plan.pressures_pa, plan.seeds, plan.ambient_c, plan.bus_v)
+    m, q, starts = build_matrices(params, spec, todo, progress, workers=workers,
+                                  runs_per_batch=runs_per_batch)
+    return assemble(params, spec, m, q, plan.roles, starts, params.sensors.sample_rate_hz)
+
+
+def build_matrices(params: ActuatorParams, spec: DictionarySpec, runs: BitRuns,
+                   progress: Callable[[float], None] | None = None, *,
+                   workers: int | None = None, runs_per_batch: int = RUNS_PER_BATCH,
+                   ) -> tuple[FloatArray, FloatArray, np.ndarray]:
+    """M ``(n, W, C)`` of every run of ``runs`` at ``spec``'s windows, their pressures, and
+    M's window starts (see :func:`stream_matrices`)."""
+    corners, n_samples = bit_layout(params)
+    starts = windows(spec, corners, n_samples)
+    m = stream_matrices(params, runs, starts, spec.window_samples, progress=progress,
+                        workers=workers, runs_per_batch=runs_per_batch)
+    return m, runs.dynamic_pressure_pa.copy(), starts
+
+
+def stream_matrices(params: ActuatorParams, runs: BitRuns, starts: np.ndarray, length: int,
+                    signals: tuple[str, ...] | None = None,
+                    progress: Callable[[float], None] | None = None, *,
+                    workers: int | None = None,
+                    runs_per_batch: int = RUNS_PER_BATCH) -> FloatArray:
+    """M ``(n, W, C)`` of every run, as :func:`run_matrices` of :func:`simulate_bit` gives it,
+    bit for bit, but flown and reduced batch by batch on ``workers`` threads: each batch's raw
+    channels are dropped once its M is computed, so memory holds M and ``workers`` batches."""
+    m: FloatArray | None = None
+    for lo, part in stream_bit(params, runs, lambda r: run_matrices(r, starts, length, signals),
+                               runs_per_batch=runs_per_batch, workers=workers,
+                               progress=progress):
+        if m is None:
+            m = np.empty((runs.n, *part.shape[1:]))
+        m[lo:lo + part.shape[0]] = part
+    assert m is not None   # BitRuns.of refuses zero runs
+    return m
 
 
 BAND_SIGMAS = 4.0

@@ -310,8 +310,9 @@ def fit(m: FloatArray, conds: Sequence[Conditions], cells: npt.NDArray[np.int64]
     """
     x = m.reshape(m.shape[0], -1)[:, cells].mean(axis=2)
     b = np.stack([basis(c, supply_nominal_v, dropout_v) for c in conds])
-    if x.shape[0] < 2 * b.shape[1]:
-        raise ConfigError(f"need >= {2 * b.shape[1]} healthy runs for the healthy model",
+    n_live = int(_live(b)[1].sum())
+    if x.shape[0] < 2 * n_live:
+        raise ConfigError(f"need >= {2 * n_live} healthy runs for the healthy model",
                           field="healthy_runs")
     coef = _least_squares(b, x)
     resid = x - b @ coef
@@ -353,15 +354,21 @@ MIN_SUPPORT = 20
 """Least number of healthy runs in which a regressor must differ from its median to be fitted."""
 
 
+def _live(b: FloatArray) -> tuple[FloatArray, npt.NDArray[np.bool_]]:
+    """Each regressor's spread over the runs, and whether it is fitted: it must vary, and a
+    regressor that is zero but in a few runs (the ground indicator, the dropout knees) needs
+    :data:`MIN_SUPPORT` of them (fitted on a handful it would memorise their noise)."""
+    scale = b.std(axis=0)
+    scale[0] = 1.0  # the intercept
+    support = (np.abs(b - np.median(b, axis=0)) > 1e-12).sum(axis=0)
+    live = (scale > 1e-12) & ((support >= MIN_SUPPORT) | (np.arange(b.shape[1]) == 0))
+    return scale, live
+
+
 def _least_squares(b: FloatArray, x: FloatArray) -> FloatArray:
     """Coefficients of ``x ~ b @ coef``, the regressors standardized and weak directions cut
     (:data:`BASIS_RCOND`); a regressor that never varies in these runs gets 0."""
-    scale = b.std(axis=0)
-    scale[0] = 1.0  # the intercept
-    # a regressor that is zero but in a few runs (the ground indicator, the dropout knees)
-    # needs enough of them: fitted on a handful it would memorise their noise
-    support = (np.abs(b - np.median(b, axis=0)) > 1e-12).sum(axis=0)
-    live = (scale > 1e-12) & ((support >= MIN_SUPPORT) | (np.arange(b.shape[1]) == 0))
+    scale, live = _live(b)
     coef = np.zeros((b.shape[1], x.shape[1]))
     sol = np.linalg.lstsq(b[:, live] / scale[live], x, rcond=BASIS_RCOND)[0]
     coef[live] = sol / scale[live][:, None]

@@ -35,8 +35,8 @@ from mapr_daemon.ema.faults import Fault, FaultSet, nominal_value
 from mapr_daemon.ema.params import ActuatorParams
 from mapr_daemon.errors import ConfigError
 from mapr_daemon.reasoner import prognosis, trend, wear
-from mapr_daemon.reasoner.build import run_matrices
-from mapr_daemon.reasoner.corpus import simulate_bit
+from mapr_daemon.reasoner.build import stream_matrices
+from mapr_daemon.reasoner.corpus import BitRuns
 from mapr_daemon.reasoner.dictionary import Dictionary
 from mapr_daemon.reasoner.features import FloatArray
 
@@ -151,8 +151,8 @@ def observe_units(d: Dictionary, params: ActuatorParams, units: Sequence[tuple[s
     fs += [at(k, h) for k, h in train]
     qs += [float(q) for q in trng.uniform(100.0, 2400.0, len(train))]
     seeds += [TRAINING_BIT_SEED + i for i in range(len(train))]
-    runs = simulate_bit(params, fs, qs, seeds)
-    y, c = wear.observations(d, run_matrices(runs, d.window_starts, d.window_samples), qs)
+    m = stream_matrices(params, BitRuns.of(fs, qs, seeds), d.window_starts, d.window_samples)
+    y, c = wear.observations(d, m, qs)
     n_cal = n_units + len(cal)
     models = wear.fit_kinds(kinds, y[n_cal:], c[n_cal:], np.array([h for _, h in train]),
                             [k for k, _ in train])

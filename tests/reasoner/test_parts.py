@@ -18,7 +18,7 @@ from mapr_daemon.reasoner.events import Reasoner
 SPEC = DictionarySpec(
     pressures_pa=(0.0, 800.0, 1600.0), nominal_per_pressure=4, severities=(0.25, 0.5, 0.75, 1.0),
     kinds=("capacitance", "esr", "smps_ron_high", "smps_ron_low"), shorts=(), opens=(),
-    seeds_per_point=2, healthy_runs=24, calibration_runs=12, record_pool=3,
+    seeds_per_point=2, healthy_runs=60, calibration_runs=12, record_pool=3,
     calibration_pressure_pa=(200.0, 1400.0), subspace_dims=8, knots=(0.0, 0.5, 1.0))
 """A small dictionary with both SMPS switch modes and both capacitor modes."""
 
@@ -36,7 +36,8 @@ class Smps:
 @pytest.fixture(scope="module")
 def smps() -> Smps:
     params = load_actuator(default_actuator_path())
-    fs, qs, seeds, roles = build._plan(params, SPEC)
+    plan = build._plan(params, SPEC)
+    fs, qs, seeds, roles = plan.faults, plan.pressures_pa, plan.seeds, plan.roles
     n_own = len(fs)
     fs += [FaultSet.of([at_severity(params, k, s)]) for k, s, _ in HELD_OUT]
     qs += [q for _, _, q in HELD_OUT]
