@@ -303,7 +303,8 @@ def fit_ours(d: Dictionary, params: ActuatorParams, spec: DictionarySpec, m: Flo
     cells = healthy.record_cells(d.columns, m.shape[1], spec.record_pool)
     nominal_v = params.bus.nominal_v
     model, whiten = healthy.fit(m[fit_rows], [conds[i] for i in fit_rows], cells, nominal_v,
-                                floor, supply_floor_v(params), spec.shrinkage_floor)
+                                floor, supply_floor_v(params), params.smps.output_voltage_v,
+                                spec.shrinkage_floor)
     fault_rows = np.flatnonzero(valid & ~np.isin(role, ["healthy", "calibration"])
                                 & ~np.char.startswith(role, "nominal@"))
     sig = np.stack([model.standardized(m[i], conds[i]) for i in fault_rows]) @ whiten

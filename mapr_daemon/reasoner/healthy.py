@@ -51,6 +51,10 @@ TEMPERATURE = "mean:stage_temperature_c"
 PRESSURE_SCALE_PA = 2500.0
 TEMPERATURE_REF_C = 25.0
 TEMPERATURE_SCALE_K = 10.0
+OFF_TIME_FLOOR = 0.05
+"""Least off-time share of the SMPS (its duty limit, 0.95, leaves 5 %)."""
+OFF_TIME_NOMINAL = 0.13
+"""The off-time share at the nominal bus (1 - 24/27.5): the regressor's unit."""
 GROUND_PA = 1.0
 """Below this dynamic pressure a BIT is flown on the ground: no air load at all, so the position
 loop holds the surface against friction alone and the sector cells take another regime (which
@@ -131,7 +135,8 @@ def scaled(c: Conditions, supply_nominal_v: float) -> tuple[float, float, float]
             (c.temperature_c - TEMPERATURE_REF_C) / TEMPERATURE_SCALE_K)
 
 
-def basis(c: Conditions, supply_nominal_v: float, dropout_v: float) -> FloatArray:
+def basis(c: Conditions, supply_nominal_v: float, dropout_v: float,
+          output_v: float) -> FloatArray:
     """The regressors of the healthy prediction, shaped by the physics of each condition.
 
     * air load: a cubic in dynamic pressure, and an indicator of a BIT on the ground;
@@ -145,15 +150,21 @@ def basis(c: Conditions, supply_nominal_v: float, dropout_v: float) -> FloatArra
       :mod:`mapr_daemon.ema.temperature`) and quadratic, plus the electrolytic's ESR law
       ``esr_factor(T) - 1``, which is not (it grows ~3.7x from 25 to -40 C);
     * the products that carry one condition's effect through another (air load times supply,
-      temperature and ESR; supply times temperature; the ground indicator times temperature).
+      temperature and ESR; supply times temperature; the ground indicator times temperature);
+    * the SMPS's off-time share ``w = 1 - Vout/Vin`` (floored at 5 %, in units of its nominal
+      13 %), alone, times the ESR law, temperature and air load: the inductor's ripple current
+      is proportional to it and the bank's ESR turns it into the output ripple, so the ripple
+      cells follow ``ESR(T) * w``.
     """
     q, v, t = scaled(c, supply_nominal_v)
     g = 1.0 if c.pressure_pa < GROUND_PA else 0.0
     d = max(0.0, dropout_v - c.supply_min_v)
     d_steady = max(0.0, dropout_v - PEAK_HEADROOM_V - c.supply_v)
     e = float(temperature.esr_factor(c.temperature_c)) - 1.0
+    w = max(1.0 - output_v / max(c.supply_v, 1.0), OFF_TIME_FLOOR) / OFF_TIME_NOMINAL
     return np.array([1.0, q, q * q, q**3, g, v, v * v, d, d * d, q * d, d_steady, q * d_steady,
-                     t, t * t, e, q * v, q * t, q * e, v * t, g * t])
+                     t, t * t, e, q * v, q * t, q * e, v * t, g * t,
+                     w, e * w, t * w, q * w, e * w * q])
 
 
 def spread_basis(c: Conditions, supply_nominal_v: float, dropout_v: float) -> FloatArray:
@@ -214,6 +225,8 @@ class HealthyModel:
     (:mod:`~mapr_daemon.reasoner.matched`); None when the dictionary has none."""
     dropout_v: float = 0.0
     """The SMPS's dropout knee (:func:`basis`)."""
+    output_v: float = 0.0
+    """The SMPS's regulated output (:func:`basis`)."""
     sd_coef: FloatArray | None = None
     """``(S, D)``: a cell's log spread relative to :attr:`sd` on :func:`spread_basis`."""
     sd_floor: FloatArray | None = None
@@ -250,7 +263,7 @@ class HealthyModel:
 
     def predicted(self, c: Conditions) -> FloatArray:
         """The healthy actuator's cells at the run's conditions ``(D,)``."""
-        out: FloatArray = basis(c, self.supply_nominal_v, self.dropout_v) @ self.coef
+        out: FloatArray = basis(c, self.supply_nominal_v, self.dropout_v, self.output_v) @ self.coef
         return out
 
     def standardized(self, m: FloatArray, c: Conditions) -> FloatArray:
@@ -276,7 +289,7 @@ class HealthyModel:
         out = {"healthy_cells": self.cells, "healthy_coef": self.coef, "healthy_sd": self.sd,
                "healthy_projection": self.projection,
                "healthy_scalars": np.array([self.supply_nominal_v, self.supply_floor_v,
-                                            self.shrinkage, self.dropout_v])}
+                                            self.shrinkage, self.dropout_v, self.output_v])}
         for key, value in (("healthy_matched", self.matched), ("healthy_sd_coef", self.sd_coef),
                            ("healthy_sd_floor", self.sd_floor),
                            ("healthy_unit_coef", self.unit_coef),
@@ -293,14 +306,14 @@ class HealthyModel:
         sc = a["healthy_scalars"]
         return cls(a["healthy_cells"].astype(np.int64), a["healthy_coef"], a["healthy_sd"],
                    a["healthy_projection"], float(sc[0]), float(sc[1]), float(sc[2]),
-                   a.get("healthy_matched"), float(sc[3]), a.get("healthy_sd_coef"),
+                   a.get("healthy_matched"), float(sc[3]), float(sc[4]), a.get("healthy_sd_coef"),
                    a.get("healthy_sd_floor"), a.get("healthy_unit_coef"),
                    a.get("healthy_unit_factor"), a.get("healthy_unit_gain"),
                    a.get("healthy_unit_reference"), a.get("healthy_unit_metric"))
 
 
 def fit(m: FloatArray, conds: Sequence[Conditions], cells: npt.NDArray[np.int64],
-        supply_nominal_v: float, supply_floor_v: float, dropout_v: float,
+        supply_nominal_v: float, supply_floor_v: float, dropout_v: float, output_v: float,
         shrinkage_floor: float = 0.0) -> tuple[HealthyModel, FloatArray]:
     """Fit the prediction, the condition-dependent spread and the shrunk whitening on healthy
     runs ``m (n, W, C)``.
@@ -309,7 +322,7 @@ def fit(m: FloatArray, conds: Sequence[Conditions], cells: npt.NDArray[np.int64]
     the whitening matrix; :func:`with_subspace` then keeps the fault directions.
     """
     x = m.reshape(m.shape[0], -1)[:, cells].mean(axis=2)
-    b = np.stack([basis(c, supply_nominal_v, dropout_v) for c in conds])
+    b = np.stack([basis(c, supply_nominal_v, dropout_v, output_v) for c in conds])
     n_live = int(_live(b)[1].sum())
     if x.shape[0] < 2 * n_live:
         raise ConfigError(f"need >= {2 * n_live} healthy runs for the healthy model",
@@ -334,7 +347,7 @@ def fit(m: FloatArray, conds: Sequence[Conditions], cells: npt.NDArray[np.int64]
     sd_coef = None if x.shape[0] < SPREAD_MIN_RUNS else _spread_fit(
         resid / sd, [spread_basis(c, supply_nominal_v, dropout_v) for c in conds])
     model = HealthyModel(cells, coef, sd, np.eye(cells.shape[0]), supply_nominal_v,
-                         supply_floor_v, 0.0, None, dropout_v, sd_coef, floor)
+                         supply_floor_v, 0.0, None, dropout_v, output_v, sd_coef, floor)
     z = resid / np.stack([model.spread(c) for c in conds])
     cov, a = ledoit_wolf(z, shrinkage_floor)
     ev, vec = np.linalg.eigh(cov)

@@ -60,7 +60,7 @@ def test_healthy_model_removes_conditions_and_whitens() -> None:
     assert healthy.record_cells(COLUMNS, rows, 4).shape == (5 * 2, 4)
     conds = _conditions(rng, 400)
     model, whiten = healthy.fit(_synthetic_m(rng, conds, COLUMNS, rows), conds, cells, 27.5, 25.8,
-                                25.8)
+                                25.8, 24.0)
     test_conds = _conditions(rng, 300)
     test_m = _synthetic_m(rng, test_conds, COLUMNS, rows)
     z = np.stack([model.standardized(test_m[i], c) for i, c in enumerate(test_conds)])
