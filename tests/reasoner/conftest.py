@@ -22,7 +22,7 @@ from mapr_daemon.reasoner.features import FloatArray
 SPEC = DictionarySpec(
     pressures_pa=(0.0, 800.0, 1600.0), nominal_per_pressure=4, severities=(0.25, 0.5, 0.75, 1.0),
     kinds=("esr", "friction"), shorts=("A_high",), opens=("A_high",), seeds_per_point=2,
-    healthy_runs=60, calibration_runs=12, record_pool=3, calibration_pressure_pa=(200.0, 1400.0),
+    healthy_runs=100, calibration_runs=12, record_pool=3, calibration_pressure_pa=(200.0, 1400.0),
     threshold_margin=1.5, subspace_dims=8, knots=(0.0, 0.5, 1.0))
 
 HELD_OUT: list[tuple[str, float, float]] = [
