@@ -27,7 +27,7 @@ from mapr_daemon.reasoner.workers import resolve, usable_cores
 SMALL = DictionarySpec(
     pressures_pa=(0.0, 1500.0), nominal_per_pressure=3, severities=(0.5, 1.0),
     kinds=("esr", "friction"), shorts=("A_high",), opens=("B_low",), seeds_per_point=1,
-    healthy_runs=24, calibration_runs=10, record_pool=6, calibration_pressure_pa=(0.0, 2000.0),
+    healthy_runs=40, calibration_runs=10, record_pool=6, calibration_pressure_pa=(0.0, 2000.0),
     threshold_margin=1.5, subspace_dims=4, knots=(0.0, 0.5, 1.0), seed_base=900)
 
 
