@@ -340,7 +340,8 @@ def fit_ours(d: Dictionary, params: ActuatorParams, spec: DictionarySpec, m: Flo
         ys = np.stack([y[i] for i in rows])
         coef.append(fault_models.fit_parametric(ys, sev, [conds[i] for i in rows], knots,
                                                 nominal_v))
-        sev_coef.append(fault_models.fit_severity(ys, sev, [conds[i] for i in rows]))
+        sev_coef.append(fault_models.fit_severity(ys, sev, [conds[i] for i in rows], nominal_v,
+                                                  params.smps.output_voltage_v))
         grids.append(np.stack([np.stack([
             np.mean([y[int(i)] for i in np.flatnonzero(role == f"{t.kind}@{p:g}@{sv:g}")
                      if int(i) in y] or [np.zeros(k_dims)], axis=0)
@@ -350,7 +351,7 @@ def fit_ours(d: Dictionary, params: ActuatorParams, spec: DictionarySpec, m: Flo
     d.models = fault_models.FaultModels(knots, coef, points, d.pressures_pa, nominal_v,
                                         [healthy_band(params, t.kind) for t in d.templates],
                                         grids, np.asarray(spec.severities, dtype=np.float64),
-                                        sev_coef)
+                                        sev_coef, params.smps.output_voltage_v)
     calib = np.flatnonzero(valid & (role == "calibration"))
     both = np.array([classifier.score_of(d, m[i], float(q[i])) for i in calib])
     scores = both[:, 0]

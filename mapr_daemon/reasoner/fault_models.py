@@ -26,7 +26,12 @@ from collections.abc import Sequence
 import numpy as np
 
 from mapr_daemon.reasoner.features import FloatArray
-from mapr_daemon.reasoner.healthy import PRESSURE_SCALE_PA, Conditions, pressure_weights
+from mapr_daemon.reasoner.healthy import (
+    PRESSURE_SCALE_PA,
+    Conditions,
+    condition_terms,
+    pressure_weights,
+)
 
 SEVERITY_GRID = np.linspace(0.0, 1.0, 257)
 """Severities tried per parametric kind (1/256 of the range apart)."""
@@ -81,6 +86,8 @@ class FaultModels:
     grid_severities: FloatArray = dataclasses.field(
         default_factory=lambda: np.zeros(0, dtype=np.float64))
     severity_coef: list[FloatArray | None] = dataclasses.field(default_factory=list)
+    output_v: float = 0.0
+    """The SMPS's regulated output (the severity model's off-time share)."""
     """Per parametric template, ridge coefficients of its severity on ``[1, q, compress(y)]``
     (the inverse model: the severity read straight off the run, see :func:`severity`)."""
     """Per template, the severity up to which a healthy actuator may scatter with nothing
@@ -111,7 +118,8 @@ class FaultModels:
 
     def arrays(self) -> dict[str, np.ndarray]:
         out: dict[str, np.ndarray] = {"fm_knots": self.knots,
-                                      "fm_scalars": np.array([self.supply_nominal_v]),
+                                      "fm_scalars": np.array([self.supply_nominal_v,
+                                                              self.output_v]),
                                       "fm_bands": np.array(self.bands, dtype=np.float64)}
         for i, (c, p) in enumerate(zip(self.coef, self.points, strict=True)):
             if c is not None:
@@ -134,7 +142,8 @@ class FaultModels:
                    [a.get(f"fm_points_{i}") for i in range(n_templates)], pressures_pa,
                    float(a["fm_scalars"][0]), [float(b) for b in a["fm_bands"]],
                    [a.get(f"fm_grid_{i}") for i in range(n_templates)],
-                   a["fm_grid_severities"], [a.get(f"fm_sev_{i}") for i in range(n_templates)])
+                   a["fm_grid_severities"], [a.get(f"fm_sev_{i}") for i in range(n_templates)],
+                   float(a["fm_scalars"][1]))
 
 
 def fit_parametric(y: FloatArray, severities: FloatArray, conds: Sequence[Conditions],
@@ -151,19 +160,25 @@ SEVERITY_RIDGE = 1.0
 """Ridge penalty of the inverse severity model (on coordinates of order 1-100)."""
 
 
-def _severity_regressors(y: FloatArray, c: Conditions) -> FloatArray:
-    return np.concatenate([[1.0, c.pressure_pa / PRESSURE_SCALE_PA], compress(y)])
+def _severity_regressors(y: FloatArray, c: Conditions, supply_nominal_v: float,
+                         output_v: float) -> FloatArray:
+    """The run's coordinates and its condition (air load, temperature, supply, the ESR law and
+    the SMPS's off-time share: a fault's signature grows or shrinks with them, e.g. a low-side
+    Ron's with the off-time it conducts in)."""
+    return np.concatenate([[1.0, *condition_terms(c, supply_nominal_v, output_v)],
+                           compress(y)])
 
 
-def fit_severity(y: FloatArray, severities: FloatArray,
-                 conds: Sequence[Conditions]) -> FloatArray:
+def fit_severity(y: FloatArray, severities: FloatArray, conds: Sequence[Conditions],
+                 supply_nominal_v: float, output_v: float) -> FloatArray:
     """Ridge regression of one kind's severity on its runs' coordinates ``y (n, K)``.
 
     Why beside the signature model: the forward model is fitted for the likelihood ratio
     (which kind explains the run), and a few badly modelled coordinates move its best point;
     the inverse model weighs the coordinates by how well they predict the severity.
     """
-    x = np.stack([_severity_regressors(yi, c) for yi, c in zip(y, conds, strict=True)])
+    x = np.stack([_severity_regressors(yi, c, supply_nominal_v, output_v)
+                  for yi, c in zip(y, conds, strict=True)])
     pen = SEVERITY_RIDGE * np.eye(x.shape[1])
     pen[0, 0] = 0.0
     out: FloatArray = np.asarray(np.linalg.solve(x.T @ x + pen, x.T @ severities),
@@ -176,7 +191,8 @@ def severity(models: FaultModels, i: int, y: FloatArray, c: Conditions) -> float
     coef = models.severity_coef[i] if i < len(models.severity_coef) else None
     if coef is None:
         return None
-    return float(np.clip(_severity_regressors(y, c) @ coef, models.band(i), 1.0))
+    x = _severity_regressors(y, c, models.supply_nominal_v, models.output_v)
+    return float(np.clip(x @ coef, models.band(i), 1.0))
 
 
 def fit_all(models: FaultModels, y: FloatArray, c: Conditions,

@@ -135,6 +135,17 @@ def scaled(c: Conditions, supply_nominal_v: float) -> tuple[float, float, float]
             (c.temperature_c - TEMPERATURE_REF_C) / TEMPERATURE_SCALE_K)
 
 
+def condition_terms(c: Conditions, supply_nominal_v: float,
+                    output_v: float) -> tuple[float, float, float, float, float]:
+    """The flight condition as the physics takes it: air load ``q`` and temperature ``t`` and
+    supply ``v`` (:func:`scaled`), the ESR law ``e = esr_factor(T) - 1``, and the SMPS's
+    off-time share ``w = 1 - Vout/Vin`` (floored at its duty limit, in units of its nominal)."""
+    q, v, t = scaled(c, supply_nominal_v)
+    e = float(temperature.esr_factor(c.temperature_c)) - 1.0
+    w = max(1.0 - output_v / max(c.supply_v, 1.0), OFF_TIME_FLOOR) / OFF_TIME_NOMINAL
+    return q, t, v, e, w
+
+
 def basis(c: Conditions, supply_nominal_v: float, dropout_v: float,
           output_v: float) -> FloatArray:
     """The regressors of the healthy prediction, shaped by the physics of each condition.
@@ -156,12 +167,10 @@ def basis(c: Conditions, supply_nominal_v: float, dropout_v: float,
       is proportional to it and the bank's ESR turns it into the output ripple, so the ripple
       cells follow ``ESR(T) * w``.
     """
-    q, v, t = scaled(c, supply_nominal_v)
+    q, t, v, e, w = condition_terms(c, supply_nominal_v, output_v)
     g = 1.0 if c.pressure_pa < GROUND_PA else 0.0
     d = max(0.0, dropout_v - c.supply_min_v)
     d_steady = max(0.0, dropout_v - PEAK_HEADROOM_V - c.supply_v)
-    e = float(temperature.esr_factor(c.temperature_c)) - 1.0
-    w = max(1.0 - output_v / max(c.supply_v, 1.0), OFF_TIME_FLOOR) / OFF_TIME_NOMINAL
     return np.array([1.0, q, q * q, q**3, g, v, v * v, d, d * d, q * d, d_steady, q * d_steady,
                      t, t * t, e, q * v, q * t, q * e, v * t, g * t,
                      w, e * w, t * w, q * w, e * w * q])
