@@ -48,6 +48,8 @@ UNIT_BANDS: dict[str, tuple[float, float]] = {
     "smps.capacitance_f": (-10, 20), "smps.esr_ohm": (-30, 30),
 }
 COUNTS = (1, 2, 5, 10, 20)
+FRICTION = ("motor.viscous_friction_nm_s", "motor.coulomb_friction_nm")
+BOTH = "friction (both terms)"
 MAX_BITS = 20
 
 
@@ -83,6 +85,14 @@ def _errors(ident: Identification, truth: dict[str, float]) -> dict[str, tuple[f
         if e.path in truth:
             err = math.log(e.fitted / truth[e.path])
             out[e.path] = (err, err / max(e.sd_rel, 1e-12), e.identifiable)
+    paths = [e.path for e in ident.estimates]
+    if all(f in out for f in FRICTION):
+        # the friction fault scales both terms: their geometric mean is what it moves
+        j, k = (paths.index(f) for f in FRICTION)
+        sv, sc = ident.estimates[j].sd_rel, ident.estimates[k].sd_rel
+        sd = 0.5 * math.sqrt(sv**2 + sc**2 + 2 * ident.correlation[j][k] * sv * sc)
+        err = 0.5 * (out[FRICTION[0]][0] + out[FRICTION[1]][0])
+        out[BOTH] = (err, err / sd, out[FRICTION[0]][2] and out[FRICTION[1]][2])
     return out
 
 
@@ -115,10 +125,12 @@ def main() -> None:
     print("identification error, % (log ratio identified/true): RMS over units / worst; "
           "[units identifiable]; median and worst |error|/sd")
     print(f"{'parameter':<28}" + "".join(f"{'n=' + str(n):>26}" for n in counts))
-    for path in UNIT_BANDS:
+    for path in (*UNIT_BANDS, BOTH):
         cells = []
         for n in counts:
-            rows = [t[path] for t in table[n]]
+            rows = [t[path] for t in table[n] if path in t]
+            if not rows:
+                continue
             err = np.array([r[0] for r in rows]) * 100.0
             z = np.abs([r[1] for r in rows])
             ok = sum(r[2] for r in rows)

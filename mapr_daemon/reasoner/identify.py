@@ -50,6 +50,7 @@ from mapr_daemon.reasoner.features import FloatArray
 from mapr_daemon.reasoner.identify_bits import (
     FIT_CHANNELS,
     FIT_SIGNALS,
+    PHASE_SUM,
     BitRecord,
     condition,
     fit_signals,
@@ -64,6 +65,9 @@ fitted on: the converter sits at its duty limit and its output follows the bus's
 ripple within the BIT, which the model (flying each BIT at the bus's mean) does not have."""
 UPPER = {"gear.efficiency": 1.0, "smps.max_duty": 0.999}
 """Physical upper limits of parameters a fit may reach."""
+REWEIGHT_ROUNDS = 3
+SEGMENT_S = 0.1
+"""Stretch of a BIT's residual taken as independent of the next by the sandwich covariance."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -168,6 +172,7 @@ class _Problem:
         self.data = np.stack([[self._dec(v) for v in fit_signals(b.channels).values()]
                               for b in self.bits])
         noise = signal_noise(params)
+        self.phase_noise = noise[PHASE_SUM] / math.sqrt(3.0)
         self.scale = np.array([noise[k] for k in FIT_SIGNALS]) / math.sqrt(opt.decimate)
         self.floor = self.scale.copy()
         """A channel is never trusted beyond its sensor noise."""
@@ -228,7 +233,8 @@ class _Problem:
                 parts[k].append(block.channels[k])
         self.runs += len(specs)
         d = self.opt.decimate
-        sig = fit_signals({k: np.concatenate(v, axis=1) for k, v in parts.items()})
+        sig = fit_signals({k: np.concatenate(v, axis=1) for k, v in parts.items()},
+                          self.phase_noise)
         y = np.stack([sig[k][:, : self.t * d].reshape(nb * per, self.t, d).mean(axis=2)
                       for k in FIT_SIGNALS], axis=1)
         y = y.reshape(nb, per, len(FIT_SIGNALS), self.t)
@@ -265,6 +271,28 @@ class _Problem:
         a[p:, p:] += np.eye(nb) / nu_var
         g[p:] += x[p:] / nu_var
         return a, g
+
+    def covariance(self, e: _Eval) -> FloatArray:
+        """Posterior covariance of theta: the Gauss-Newton one, widened per parameter where a
+        sandwich estimate says the data tell less (the residual's stretches of
+        :data:`SEGMENT_S` taken as independent: model error is smooth over milliseconds, so
+        the white-noise covariance alone is too sure). Correlations are the Gauss-Newton's."""
+        a, _ = self.normal(e)
+        ainv = np.linalg.inv(a)
+        p, nb = self.p, len(self.bits)
+        seg = max(1, round(SEGMENT_S * self.bits[0].sample_rate_hz / self.opt.decimate))
+        b = np.zeros_like(a)
+        for i in range(nb):
+            idx = np.r_[np.arange(p), p + i]
+            for s0 in range(0, self.t, seg):
+                g = np.einsum("jkt,kt->j", e.jac[i][:, :, s0:s0 + seg], e.r[i][:, s0:s0 + seg])
+                b[np.ix_(idx, idx)] += np.outer(g, g)
+        nu_var = self.s_nu**2 if self.s_nu > 0.0 else 1e-12
+        b += np.diag(np.r_[1.0 / self.s**2, np.full(nb, 1.0 / nu_var)])
+        gn = ainv[:p, :p]
+        widen = np.sqrt(np.maximum(np.diag((ainv @ b @ ainv)[:p, :p]) / np.diag(gn), 1.0))
+        out: FloatArray = gn * np.outer(widen, widen)
+        return out
 
     def reweight(self, e: _Eval) -> None:
         """Rescale each channel's noise by its residual variance and lag-one correlation."""
@@ -306,7 +334,6 @@ def _solve(pr: _Problem, e: _Eval, progress: Callable[[str], None] | None
     return e, pr.opt.max_iterations, False
 
 
-REWEIGHT_ROUNDS = 3
 
 
 def _fit(pr: _Problem, x0: FloatArray, progress: Callable[[str], None] | None
@@ -392,8 +419,7 @@ def identify(params: ActuatorParams, bits: Sequence[BitRecord],
 
 def _result(pr: _Problem, first: _Eval, e: _Eval, skipped: list[tuple[str, str]],
             iterations: int, converged: bool, runs: int, wall: float) -> Identification:
-    a, _ = pr.normal(e)
-    cov = np.linalg.inv(a)[: pr.p, : pr.p]
+    cov = pr.covariance(e)
     sd = np.sqrt(np.diag(cov))
     corr = cov / np.outer(sd, sd)
     estimates = []

@@ -20,6 +20,7 @@ import math
 from collections.abc import Sequence
 
 import numpy as np
+from scipy import special
 
 from mapr_daemon.ema.params import ActuatorParams
 from mapr_daemon.reasoner.corpus import Runs
@@ -73,10 +74,24 @@ class BitRecord:
         return f"{self.source}#{self.index}"
 
 
-def fit_signals(channels: dict[str, FloatArray]) -> dict[str, FloatArray]:
-    """:data:`FIT_SIGNALS` from channels of any shape ``(..., samples)``."""
-    phase_sum = (np.abs(channels["phase_a_current_a"]) + np.abs(
-        channels["phase_b_current_a"]) + np.abs(channels["phase_c_current_a"]))
+def fit_signals(channels: dict[str, FloatArray], phase_noise: float | None = None
+                ) -> dict[str, FloatArray]:
+    """:data:`FIT_SIGNALS` from channels of any shape ``(..., samples)``.
+
+    ``phase_noise``: for the noise-free model, the phase channels' noise sd. A recorded
+    ``|i + noise|`` is larger than ``|i|`` where ``i`` is small (the noise is rectified), so
+    the model's phase sum is the mean of that folded normal,
+    ``i erf(i / (s sqrt 2)) + s sqrt(2/pi) exp(-i^2 / 2 s^2)``, not ``|i|``.
+    """
+    phases = [channels[k] for k in ("phase_a_current_a", "phase_b_current_a",
+                                    "phase_c_current_a")]
+    if phase_noise is None or phase_noise <= 0.0:
+        phase_sum = np.abs(phases[0]) + np.abs(phases[1]) + np.abs(phases[2])
+    else:
+        s = phase_noise
+        phase_sum = sum(i * special.erf(i / (s * math.sqrt(2.0)))
+                        + s * math.sqrt(2.0 / math.pi) * np.exp(-0.5 * (i / s) ** 2)
+                        for i in phases)
     return {k: phase_sum if k == PHASE_SUM else channels[k] for k in FIT_SIGNALS}
 
 
