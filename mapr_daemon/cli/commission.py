@@ -19,11 +19,15 @@ import argparse
 import sys
 import zipfile
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from mapr_daemon.cli import exitcodes
 from mapr_daemon.ema.params import ActuatorParams, load_actuator
 from mapr_daemon.errors import ConfigError
+
+if TYPE_CHECKING:
+    from mapr_daemon.reasoner.identify import Identification
+    from mapr_daemon.reasoner.identify_bits import BitRecord
 
 ACTUATOR_FILE = "actuator.yaml"
 RECORD_FILE = "commissioning.json"
@@ -52,13 +56,13 @@ def _say(message: str) -> None:
     print(f"mapr commission: {message}", file=sys.stderr)
 
 
-def _read_bits(paths: list[Path]) -> tuple[list[Any], list[tuple[str, str]]]:
+def _read_bits(paths: list[Path]) -> tuple[list[BitRecord], list[tuple[str, str]]]:
     """Every run of every file as a BIT record; a file of no BITs is skipped with its reason.
     An unreadable file is an unreadable input: OSError (exit 2)."""
     from mapr_daemon.reasoner.corpus import from_npz
     from mapr_daemon.reasoner.identify_bits import from_runs
 
-    records: list[Any] = []
+    records: list[BitRecord] = []
     skipped: list[tuple[str, str]] = []
     for path in paths:
         try:
@@ -72,7 +76,7 @@ def _read_bits(paths: list[Path]) -> tuple[list[Any], list[tuple[str, str]]]:
     return records, skipped
 
 
-def _notes(ident: Any) -> dict[str, str]:
+def _notes(ident: Identification) -> dict[str, str]:
     out = {}
     for e in ident.estimates:
         if e.identifiable:
@@ -85,7 +89,7 @@ def _notes(ident: Any) -> dict[str, str]:
 
 
 def _dictionary(params: ActuatorParams, spec_path: Path | None, out: Path,
-                bits: list[Any]) -> str:
+                bits: list[BitRecord]) -> str:
     """Build the dictionary on the identified actuator and save it; returns its file name.
 
     The built dictionary ``d`` is handed on in exactly one place, the line before
