@@ -29,6 +29,7 @@ SUBCOMMANDS: tuple[str, ...] = (
     "icd",
     "simulate",
     "dictionary",
+    "commission",
     "diagnose",
     "prognose",
     "catalog",
