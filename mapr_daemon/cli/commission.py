@@ -89,21 +89,36 @@ def _notes(ident: Identification) -> dict[str, str]:
 
 
 def _dictionary(params: ActuatorParams, spec_path: Path | None, out: Path,
-                bits: list[BitRecord]) -> str:
-    """Build the dictionary on the identified actuator and save it; returns its file name.
+                bits: list[BitRecord]) -> tuple[str, dict[str, Any]]:
+    """Build the dictionary on the identified actuator, calibrate it to the unit's own BITs
+    (``bits``, the records the identification used: :func:`~mapr_daemon.reasoner.adapt.
+    calibrate_unit`) and save it; returns its file name and what the calibration did."""
+    import numpy as np
 
-    The built dictionary ``d`` is handed on in exactly one place, the line before
-    ``d.save``: calibrating the healthy model and thresholds on the unit's own BITs
-    (``bits``, the records the identification used) belongs there.
-    """
     from mapr_daemon.cli.dictionary import default_spec_path
+    from mapr_daemon.reasoner.adapt import MIN_BITS, calibrate_unit
     from mapr_daemon.reasoner.build import build
     from mapr_daemon.reasoner.dictionary import DictionarySpec
+    from mapr_daemon.reasoner.events import Reasoner
 
     spec = DictionarySpec.load(spec_path or default_spec_path())
     d = build(params, spec)
+    if len(bits) < MIN_BITS:
+        reason = (f"{len(bits)} BITs: calibrating the dictionary to the unit needs at least "
+                  f"{MIN_BITS}; the dictionary is the identified model's alone")
+        _say(reason)
+        d.save(out / DICTIONARY_FILE)
+        return DICTIONARY_FILE, {"skipped": reason}
+    reasoner = Reasoner(d, params)
+    m = np.stack([reasoner.matrix(b.channels, b.command_deg) for b in bits])
+    q = np.array([b.dynamic_pressure_pa for b in bits])
+    d, report = calibrate_unit(d, m, q)
     d.save(out / DICTIONARY_FILE)
-    return DICTIONARY_FILE
+    _say(f"dictionary calibrated to the unit on {report.bits} BITs: its cells sit "
+         f"{report.offset_rms:.1f} healthy spreads (rms) from the model's, "
+         f"{report.widened_cells} cells scatter more than twice the model's; thresholds "
+         + ", ".join(f"{k} {a:.3g} -> {b:.3g}" for k, (a, b) in report.thresholds.items()))
+    return DICTIONARY_FILE, report.as_dict()
 
 
 def run(args: argparse.Namespace) -> int:
@@ -140,11 +155,12 @@ def run(args: argparse.Namespace) -> int:
               f"BITs\n(data sheet {args.actuator}; record {RECORD_FILE})")
     write_actuator(out / ACTUATOR_FILE, ident.params, header, _notes(ident))
     dictionary = None
+    calibration = None
     if not args.no_dictionary:
-        dictionary = _dictionary(ident.params, args.spec, out,
-                                 [r for r in records if (r.source, r.index) in used])
+        dictionary, calibration = _dictionary(ident.params, args.spec, out,
+                                              [r for r in records if (r.source, r.index) in used])
     record = CommissioningRecord.of(ident, tolerances, str(args.actuator), ACTUATOR_FILE,
-                                    dictionary)
+                                    dictionary, calibration)
     write_record(out / RECORD_FILE, record)
     print(f"{'parameter':<30} {'data sheet':>11} {'identified':>11} {'sd %':>6}  identifiable")
     for e in ident.estimates:

@@ -57,10 +57,14 @@ class CommissioningRecord:
     converged: bool
     model_runs: int
     wall_s: float
+    unit_calibration: dict[str, Any] | None = None
+    """What calibrating the dictionary to the unit's own BITs did
+    (:class:`~mapr_daemon.reasoner.adapt.UnitCalibration`); None without a dictionary."""
 
     @classmethod
     def of(cls, ident: Identification, tolerances: tuple[Tolerance, ...], datasheet: str,
-           identified_actuator: str, dictionary: str | None) -> CommissioningRecord:
+           identified_actuator: str, dictionary: str | None,
+           unit_calibration: dict[str, Any] | None = None) -> CommissioningRecord:
         """The record of ``ident``, stamped now (UTC)."""
         return cls(
             created=datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
@@ -70,7 +74,8 @@ class CommissioningRecord:
             residual_before=dict(ident.residual_before),
             residual_after=dict(ident.residual_after), bits=ident.bits, skipped=ident.skipped,
             correlation=ident.correlation, iterations=ident.iterations,
-            converged=ident.converged, model_runs=ident.model_runs, wall_s=ident.wall_s)
+            converged=ident.converged, model_runs=ident.model_runs, wall_s=ident.wall_s,
+            unit_calibration=unit_calibration)
 
     def to_json(self) -> dict[str, Any]:
         return {
@@ -85,6 +90,7 @@ class CommissioningRecord:
             "correlation": [list(row) for row in self.correlation],
             "fit": {"iterations": self.iterations, "converged": self.converged,
                     "model_runs": self.model_runs, "wall_s": self.wall_s},
+            "unit_calibration": self.unit_calibration,
         }
 
     @classmethod
@@ -111,7 +117,8 @@ class CommissioningRecord:
                 skipped=tuple((str(s["bit"]), str(s["reason"])) for s in doc["skipped"]),
                 correlation=tuple(tuple(float(v) for v in row) for row in doc["correlation"]),
                 iterations=int(fit["iterations"]), converged=bool(fit["converged"]),
-                model_runs=int(fit["model_runs"]), wall_s=float(fit["wall_s"]))
+                model_runs=int(fit["model_runs"]), wall_s=float(fit["wall_s"]),
+                unit_calibration=doc.get("unit_calibration"))
         except (KeyError, TypeError, ValueError, AttributeError) as error:
             raise ConfigError(f"malformed commissioning record ({error})", path=path) from None
 

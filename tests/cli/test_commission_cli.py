@@ -22,7 +22,7 @@ severities: [0.5, 1.0]
 kinds: [esr]
 shorts: [A_high]
 opens: [A_high]
-healthy_runs: 24
+healthy_runs: 40
 calibration_runs: 10
 calibration_pressure_pa: [0, 1500]
 subspace_dims: 4

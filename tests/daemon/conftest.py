@@ -124,8 +124,9 @@ def dictionary(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
     spec = DictionarySpec(pressures_pa=(0.0, 1600.0), nominal_per_pressure=4,
                           severities=(0.25, 0.5, 0.75, 1.0), kinds=("esr", "friction"),
-                          shorts=("A_high",), opens=("A_high",), calibration_runs=10,
-                          calibration_pressure_pa=(200.0, 1400.0), threshold_margin=1.5)
+                          shorts=("A_high",), opens=("A_high",), healthy_runs=120,
+                          calibration_runs=20, envelope=True, ground_share=0.2,
+                          threshold_margin=1.5)
     path = tmp_path_factory.mktemp("dictionary") / "dictionary.npz"
     build.build(load_actuator(default_actuator_path()), spec).save(path)
     return path
