@@ -11,6 +11,11 @@ range for the parametric modes, short/open on a random switch), all at condition
 the whole envelope (a quarter on the ground). The same BITs are also decided with the
 uncalibrated dictionary, for comparison.
 
+With ``--identify`` each unit is commissioned as ``mapr commission`` does it: its parameters
+identified from the same BITs (:func:`mapr_daemon.reasoner.identify.identify`), a dictionary
+built on the identified actuator (``--spec``, default the shipped one), then calibrated to
+the unit; slower (a dictionary per unit).
+
 Seeds: a master seed, drawn afresh unless ``--seed`` is given, is printed first; the fleet,
 conditions, magnitudes and per-run noise seeds (10^9..2^62) come from it.
 
@@ -33,11 +38,13 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from mapr_daemon.ema.batch import RunSpec
 from mapr_daemon.ema.faults import SWITCHES, Fault, FaultSet, at_severity
-from mapr_daemon.ema.params import default_actuator_path, load_actuator
+from mapr_daemon.ema.params import ActuatorParams, default_actuator_path, load_actuator
 from mapr_daemon.reasoner import adapt, classifier, parts
-from mapr_daemon.reasoner.build import run_matrices
-from mapr_daemon.reasoner.corpus import simulate_bit
-from mapr_daemon.reasoner.dictionary import Dictionary
+from mapr_daemon.reasoner.build import build, run_matrices
+from mapr_daemon.reasoner.corpus import Runs, simulate_bit
+from mapr_daemon.reasoner.dictionary import Dictionary, DictionarySpec
+from mapr_daemon.reasoner.identify import identify
+from mapr_daemon.reasoner.identify_bits import from_runs
 from mapr_daemon.testbed.mismatch import fleet
 
 MODES = ("capacitance", "esr", "smps_ron_high", "smps_ron_low", "inverter_ron_a_high",
@@ -55,6 +62,9 @@ def main() -> int:
     ap.add_argument("--healthy", type=int, default=20, help="healthy BITs per unit diagnosed")
     ap.add_argument("--faulted", type=int, default=2, help="faulted BITs per mode and unit")
     ap.add_argument("--seed", type=int, help="master seed (default: drawn afresh, printed)")
+    ap.add_argument("--identify", action="store_true",
+                    help="identify each unit and build its dictionary before calibrating")
+    ap.add_argument("--spec", type=Path, help="dictionary spec for --identify")
     args = ap.parse_args()
     seed = int(args.seed if args.seed is not None
                else np.random.SeedSequence().entropy % 2**63)  # type: ignore[operator]
@@ -100,7 +110,7 @@ def main() -> int:
     t_sim = time.monotonic() - t0
     print(f"{len(units)} units of {sheet.name}, {len(specs)} BITs simulated in {t_sim:.1f} s "
           f"({args.commission_bits} commissioning BITs per unit)")
-    before: list[classifier.Decision] = []
+    before: list[classifier.Decision | None] = []
     after: list[classifier.Decision | None] = []
     widened: list[int] = []
     raised: dict[str, list[float]] = {}
@@ -108,7 +118,10 @@ def main() -> int:
     for u in range(len(units)):
         own = [i for i, w in enumerate(who) if w[0] == u]
         comm = [i for i in own if who[i][1] == "commission"]
-        unit_d, report = adapt.calibrate_unit(d, m[comm], np.asarray(q)[comm])
+        base = d
+        if args.identify:
+            base = _identified(sheet, runs, comm, args.spec)
+        unit_d, report = adapt.calibrate_unit(base, m[comm], np.asarray(q)[comm])
         widened.append(report.widened_cells)
         for stat, (old, new) in report.thresholds.items():
             raised.setdefault(stat, []).append(new / old)
@@ -128,6 +141,15 @@ def main() -> int:
     print(f"\ntotal wall {time.monotonic() - start:.1f} s, CPU {time.process_time() - cpu0:.1f}"
           f" s; load average {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
     return 0
+
+
+def _identified(sheet: ActuatorParams, runs: Runs, comm: list[int],
+                spec_path: Path | None) -> Dictionary:
+    """The dictionary ``mapr commission`` builds: on the actuator identified from ``comm``."""
+    root = Path(__file__).resolve().parents[1]
+    spec = DictionarySpec.load(spec_path or root / "configs/reasoner/dictionary.yaml")
+    ident = identify(sheet, from_runs(runs, "bench", comm))
+    return build(ident.params, spec)
 
 
 def report_block(name: str, who: list[tuple[int, str, str, float]],
