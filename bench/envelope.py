@@ -16,8 +16,9 @@ Printed: false alarms among healthy BITs, overall and per stratum (ground, below
 50 C, low bus), with the inconclusive ones (aircraft bus below the SMPS's headroom: no
 decision, not an alarm) counted apart; per mode, detection and isolation (to the mode and to
 the replaceable part) at >= 25 % of range, the severity error, and the 90 %-detection floor:
-the magnitude at which a logistic fit of detected-or-not on magnitude reaches 90 % (with the
-observed detection rate per magnitude band beside it).
+the magnitude at which a logistic fit of detected-or-not on magnitude reaches 90 % ("> 100%"
+where it does not within the range), with the observed detection rate per magnitude band
+beside it.
 
 Run:  python3 bench/envelope.py [--dictionary FILE] [--seed N] [--healthy 1000]
       [--per-mode 100] [--actuator FILE]
@@ -184,7 +185,8 @@ def report_faults(truth: list[tuple[str, float]], decisions: list[classifier.Dec
             bands.append(f"{hit[sel].mean():5.2f}" if sel.any() else "    -")
         n = max(len(big), 1)
         e = f"{np.mean(err):9.1f}" if err else f"{'-':>9}"
-        f = f"{100 * floor:8.1f}%" if math.isfinite(floor) else f"{'-':>9}"
+        f = (f"{'> 100%':>9}" if math.isfinite(floor) and floor > 1.0
+             else f"{100 * floor:8.1f}%" if math.isfinite(floor) else f"{'-':>9}")
         print(f"{mode:>20} {len(big):6d} {det:5d} ({100 * det / n:5.1f}%) {iso:5d} "
               f"({100 * iso / n:5.1f}%) {part:5d} ({100 * part / n:5.1f}%) {e} {f}  "
               + " ".join(bands))

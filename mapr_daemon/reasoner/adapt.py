@@ -22,8 +22,10 @@ the healthy model, from the unit's own healthy BITs:
 * **thresholds**: each BIT is scored by a calibration fitted without it (leave one out); where
   the unit's healthy scores run higher than the fleet's calibration runs at the same quantile
   (its median, upper quartile and 90th percentile: not its largest, which one odd BIT would
-  set), the threshold is raised by the largest of those ratios (the tail keeps the
-  calibration's shape, scaled to the unit).
+  set), the likelihood-ratio and healthy-residual thresholds are raised by the largest of
+  those ratios (the tail keeps the calibration's shape, scaled to the unit); the matched
+  filter's output is close to normal, so its threshold is re-centred on the unit's
+  leave-one-out mean and scaled by their spread (never lowered).
 
 The faults' signatures stay the model's: a fault moves the cells of this unit as it moves the
 model's (the dictionary built on the identified model is what makes that hold).
@@ -171,7 +173,9 @@ def calibrate_unit(d: Dictionary, m: FloatArray, q: FloatArray) -> tuple[Diction
         if old is None or not math.isfinite(old) or name not in loo:
             continue
         new = old
-        if q_cal is not None:
+        if name == "matched":
+            new = max(old, _normal_threshold(np.asarray(loo[name]), old))
+        elif q_cal is not None:
             ratio = max(_ratio(np.asarray(loo[name]), q_cal, r) for r in MATCHED_RANKS)
             new = old * max(ratio, 1.0)
         thresholds[name] = (float(old), float(new))
@@ -208,6 +212,16 @@ def _ratio(unit: FloatArray, calibration: FloatArray, rank: float) -> float:
     own = float(np.quantile(unit, rank))
     base = min(float(calibration[0]), 0.0)
     return (own - base) / (ref - base) if ref - base > 1e-9 else 1.0
+
+
+def _normal_threshold(unit: FloatArray, threshold: float) -> float:
+    """The matched filter's threshold for the unit: its output is close to normal (mean 0, sd
+    1 on the calibration runs; the threshold is ``threshold`` sd), so the unit's is re-centred
+    on its leave-one-out mean and scaled by their sd (pooled with :data:`PRIOR_DOF` BITs of
+    the calibration's 1)."""
+    n = unit.size
+    var = (float(np.var(unit, ddof=1)) * (n - 1) + PRIOR_DOF) / (n - 1 + PRIOR_DOF)
+    return float(unit.mean()) + threshold * math.sqrt(var)
 
 
 def quantile_entries(name: str, scores: FloatArray) -> dict[str, float]:
