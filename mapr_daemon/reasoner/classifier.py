@@ -233,8 +233,9 @@ def paper_decide(d: Dictionary, m: FloatArray, q: float) -> Decision:
                                                "N": round(values[k], 6),
                                                "ratio": round(ratios[k], 3)} for k in ratios}}
     if score <= 1.0:
-        return Decision(False, None, None, None, None, None, 1.0 - _sigmoid(math.log(score)),
-                        score, 1.0, evidence)
+        # a cell can sit exactly on its nominal (a quantised value that never moved): N = 0
+        confidence = 1.0 - _sigmoid(math.log(max(score, 1e-12)))
+        return Decision(False, None, None, None, None, None, confidence, score, 1.0, evidence)
     c = d.paper[kind]
     t = next(t for t in d.templates if t.kind == kind and not t.switch)
     sev = np.array([0.0, *t.severities])
