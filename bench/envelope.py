@@ -127,7 +127,8 @@ def main() -> int:
     print(f"{len(faults)} BITs ({args.healthy} healthy, {args.per_mode} per mode) simulated and "
           f"decided in {time.monotonic() - t0:.1f} s (simulation {t_sim:.1f} s)")
     report_healthy(truth, decisions, q, amb, bus)
-    report_faults(truth, decisions)
+    report_faults(truth, decisions, bus,
+                  params.smps.output_voltage_v / params.smps.max_duty)
     print(f"\ntotal wall {time.monotonic() - start:.1f} s, CPU {time.process_time() - cpu0:.1f} s;"
           f" load average {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
     return 0
@@ -159,8 +160,11 @@ def report_healthy(truth: list[tuple[str, float]], decisions: list[classifier.De
           f"bus {bus[i]:.2f} V)")
 
 
-def report_faults(truth: list[tuple[str, float]], decisions: list[classifier.Decision]) -> None:
-    """Per mode: detection, isolation to mode and to part at >= 25 %, severity error, floor."""
+def report_faults(truth: list[tuple[str, float]], decisions: list[classifier.Decision],
+                  bus: np.ndarray, knee_v: float) -> None:
+    """Per mode: detection, isolation to mode and to part at >= 25 %, severity error, floor;
+    then detection at >= 25 % split at the SMPS's dropout knee (what the bus data can show of
+    the SMPS switches depends on the off-time the low side conducts in)."""
     print("\n== faulted BITs (conclusive ones; magnitudes 5-100 % of range)")
     print(f"{'mode':>20} {'>=25%':>6} {'detected':>15} {'isolated':>15} {'to part':>15} "
           f"{'sev err %':>9} {'90% floor':>9}  detection per band "
@@ -195,6 +199,16 @@ def report_faults(truth: list[tuple[str, float]], decisions: list[classifier.Dec
     print(f"{'all modes':>20} {tot['runs']:6d} {tot['det']:5d} ({100 * tot['det'] / n:5.1f}%) "
           f"{tot['iso']:5d} ({100 * tot['iso'] / n:5.1f}%) {tot['part']:5d} "
           f"({100 * tot['part'] / n:5.1f}%)")
+    print()
+    print("detection at >= 25 % of range, bus mean below / above the SMPS's duty limit "
+          f"(Vout/max_duty = {knee_v:.2f} V: below it the low side conducts 5 % of the period)")
+    for mode in MODES:
+        big = [i for i, (k, s) in enumerate(truth) if k == mode and s >= 0.25]
+        cols = []
+        for sel in ([i for i in big if bus[i] < knee_v], [i for i in big if bus[i] >= knee_v]):
+            hit = sum(decisions[i].anomaly for i in sel)
+            cols.append(f"{hit:4d}/{len(sel):<4d} ({100 * hit / max(len(sel), 1):5.1f}%)")
+        print(f"{mode:>20}  {cols[0]}   {cols[1]}")
 
 
 if __name__ == "__main__":
