@@ -8,13 +8,16 @@ some of the healthy model's cells by a fixed amount, BIT after BIT. Left alone, 
 BIT of that unit alarms. The paper's answer is model adaptation; this module is that step for
 the healthy model, from the unit's own healthy BITs:
 
-* **offset**: per cell, the unit's mean departure from the prediction, linear in the air load
-  and with a step for BITs on the ground (:func:`~mapr_daemon.reasoner.healthy.offset_basis`),
-  fitted by ridge regression on the unit's standardized residuals;
-* **spread**: per cell, the unit's scatter about its offset over the model's (a cell the unit
-  holds differently from BIT to BIT, e.g. which side of the bridge holds the surface where
-  friction decides it, gets its spread widened instead of alarming), pooled with a prior of
-  :data:`PRIOR_DOF` BITs at the model's own spread, never narrower than the model's;
+* **offset**: per cell, the unit's departure from the prediction: a mean, slopes in air load,
+  temperature and supply and a step for BITs on the ground
+  (:func:`~mapr_daemon.reasoner.healthy.offset_basis`), plus a gain on the model's own
+  predicted departure (a unit whose motor constant is 8 % off moves its load currents 8 % more
+  or less), fitted by ridge regression on the unit's standardized residuals;
+* **spread**: per cell, the unit's scatter about its offset over the model's, from the fit's
+  leave-one-out residuals (a cell the unit holds differently from BIT to BIT, e.g. which side
+  of the bridge holds the surface where friction decides it, gets its spread widened instead of
+  alarming), pooled with a prior of :data:`PRIOR_DOF` BITs at the model's own spread, never
+  narrower than the model's;
 * **metric**: in the fault subspace, the directions in which the unit's healthy BITs still vary
   more than the model's (a housekeeping load that wanders from flight to flight moves every
   DC-link cell together) are scaled down to the model's variance, for the run and the
@@ -50,7 +53,7 @@ MIN_BITS = 3
 PRIOR_DOF = 5.0
 """Weight, in BITs, of the model's own spread in a cell's unit spread."""
 OFFSET_RIDGE = 0.5
-"""Ridge penalty (in BITs) on the offset's slope and ground step (not on its mean)."""
+"""Ridge penalty (in BITs) on every offset regressor but the mean."""
 STATISTICS = (("threshold", "score"), ("null_threshold", "null"),
               ("matched_threshold", "matched"))
 """Each threshold of the dictionary and the calibration quantiles stored for it."""
