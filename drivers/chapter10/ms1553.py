@@ -13,7 +13,8 @@ turns them into the record the live monitor produces:
   the words are split by :func:`drivers.chapter10.layout.split_message`.
 * ``gaps_ns`` holds GAP1 (and GAP2 for RT-RT) for each status word present, in ns.
 * ``extra`` holds the raw ``block_status``, the ``channel`` ID and, once a time packet has
-  been read, the absolute ``time`` (:mod:`drivers.chapter10.timebase`).
+  been read, the absolute ``time`` (:mod:`drivers.chapter10.timebase`) and, when the time
+  packets give a full date, ``epoch_ns``: the record's ``t_ns`` as ns since 1970 UTC.
 """
 
 from __future__ import annotations
@@ -130,6 +131,9 @@ def _record(message: Any, channel: int, rtc: int, stamp_bit: int, timebase: Time
     absolute = timebase.absolute(rtc)
     if absolute is not None:
         extra["time"] = absolute
+    epoch = timebase.epoch_ns(rtc)
+    if epoch is not None:   # the record's start, as t_ns is
+        extra["epoch_ns"] = epoch + (start - stamp)
     return MonitorRecord(
         t_ns=start, bus="B" if block_status & BUS_B else "A", format=split.format,
         command=split.command, data=split.data, status=split.status, gaps_ns=gaps,

@@ -22,6 +22,7 @@ RTC_BITS = 48
 RTC_NS = 100
 """Nanoseconds per count of the 10 MHz relative time counter."""
 
+_EPOCH = datetime(1970, 1, 1)
 _RTC_MOD = 1 << RTC_BITS
 _RTC_HALF = 1 << (RTC_BITS - 1)
 
@@ -93,6 +94,18 @@ class Timebase:
             assert ref.day_of_year is not None  # 2000 is a leap year: day 366 exists
             self._base = datetime(2000, 1, 1) + timedelta(days=ref.day_of_year - 1,
                                                           seconds=ref.seconds_of_day)
+
+    def epoch_ns(self, rtc: int) -> int | None:
+        """The time of counter value ``rtc`` in ns since 1970-01-01 UTC, exact in integers
+        (a time packet's date is UTC by convention); None before any time packet, or while
+        the packets give no full date (day-of-year format without ``year``)."""
+        ref = self.reference
+        if ref is None or ref.date is None:
+            return None
+        delta = (rtc - ref.rtc) % _RTC_MOD
+        if delta >= _RTC_HALF:
+            delta -= _RTC_MOD
+        return (ref.date - _EPOCH) // timedelta(microseconds=1) * 1000 + delta * RTC_NS
 
     def absolute(self, rtc: int) -> str | None:
         """The time of counter value ``rtc`` as ISO 8601 text (None before any time packet)."""

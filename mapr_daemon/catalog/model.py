@@ -25,7 +25,8 @@ class Event:
     """One detected anomaly: what, where, how bad, how sure, and what is left of the part."""
 
     t_ns: int
-    """When the anomaly was detected (Unix epoch ns, UTC)."""
+    """When the anomaly was detected (Unix epoch ns, UTC): ``abs_ns`` where it is known,
+    else the wall clock when the event was made. The catalog sorts and filters on it."""
     asset: str
     """The monitored unit, e.g. ``EMA1`` (the name the daemon config gives the actuator)."""
     fault: str
@@ -50,6 +51,12 @@ class Event:
     """Parameter estimates (name -> value), stored as JSON."""
     evidence: Mapping[str, Any] = dataclasses.field(default_factory=dict)
     """Why the reasoner decided so (scores, thresholds, windows), stored as JSON."""
+    bus_ns: int | None = None
+    """Bus time of the record the event rests on (for a BIT, the request's time tag), to the
+    100 ns a Chapter 10 recording keeps; None in catalogs from before schema v3."""
+    abs_ns: int | None = None
+    """That instant as Unix epoch ns (UTC), where known: the session clock on a live bus, a
+    recording's time packets on replay (docs/service.md, "Event stamps")."""
     id: int | None = None
     session_id: int | None = None
 
@@ -68,7 +75,8 @@ class Event:
 
 def event_from_reasoner(decision: Mapping[str, Any], *, t_ns: int, asset: str,
                         rt: int | None = None, rul: Any = None,
-                        rul_unit: str | None = "flights") -> Event:
+                        rul_unit: str | None = "flights", bus_ns: int | None = None,
+                        abs_ns: int | None = None) -> Event:
     """The catalog event for one of the reasoner's JSON-ready events (``Reasoner.event``).
 
     Its keys: ``fault``, ``severity`` (physical value), ``unit``, ``confidence``,
@@ -106,7 +114,9 @@ def event_from_reasoner(decision: Mapping[str, Any], *, t_ns: int, asset: str,
         rul_low=None if low is None else float(low),
         rul_high=None if high is None else float(high),
         rul_unit=rul_unit if value is not None else None,
-        params=dict(decision.get("parameters") or {}), evidence=evidence)
+        params=dict(decision.get("parameters") or {}), evidence=evidence,
+        bus_ns=None if bus_ns is None else int(bus_ns),
+        abs_ns=None if abs_ns is None else int(abs_ns))
 
 
 @dataclasses.dataclass(frozen=True)

@@ -29,16 +29,23 @@ from mapr_daemon.errors import CatalogError
 _EVENT_COLUMNS = ("id, session_id, t_ns, asset, rt, fault, switch, severity, severity_value, "
                   "severity_unit, confidence, params, soh, rul, rul_low, rul_high, rul_unit, "
                   "evidence")
+STAMPS_SINCE = 3
+"""Schema version that added ``bus_ns`` and ``abs_ns`` (older files read them as None)."""
+
+
+def _columns(version: int) -> str:
+    stamps = "bus_ns, abs_ns" if version >= STAMPS_SINCE else "NULL, NULL"
+    return f"{_EVENT_COLUMNS}, {stamps}"
 
 
 def _event(row: tuple[Any, ...]) -> Event:
     (eid, sid, t_ns, asset, rt, fault, switch, sev, sev_value, sev_unit, conf, params, soh,
-     rul, rul_low, rul_high, rul_unit, evidence) = row
+     rul, rul_low, rul_high, rul_unit, evidence, bus_ns, abs_ns) = row
     return Event(t_ns=t_ns, asset=asset, fault=fault, confidence=conf, severity=sev,
                  severity_value=sev_value, severity_unit=sev_unit, rt=rt, switch=switch,
                  soh=soh, rul=rul, rul_low=rul_low, rul_high=rul_high, rul_unit=rul_unit,
-                 params=json.loads(params), evidence=json.loads(evidence), id=eid,
-                 session_id=sid)
+                 params=json.loads(params), evidence=json.loads(evidence), bus_ns=bus_ns,
+                 abs_ns=abs_ns, id=eid, session_id=sid)
 
 
 def _where(flt: EventFilter) -> tuple[str, list[Any]]:
@@ -83,7 +90,8 @@ class CatalogReader:
         """Events matching ``flt`` in time order (newest first by default), lazily."""
         where, values = _where(flt or EventFilter())
         order = "DESC" if newest_first else "ASC"
-        sql = f"SELECT {_EVENT_COLUMNS} FROM events{where} ORDER BY t_ns {order}, id {order}"
+        sql = (f"SELECT {_columns(self.schema_version)} FROM events{where} "
+               f"ORDER BY t_ns {order}, id {order}")
         if limit is not None:
             sql += " LIMIT ?"
             values.append(int(limit))
@@ -100,7 +108,7 @@ class CatalogReader:
 
     def event(self, event_id: int) -> Event | None:
         """One event by id, or None."""
-        rows = list(self._rows(f"SELECT {_EVENT_COLUMNS} FROM events WHERE id = ?",
+        rows = list(self._rows(f"SELECT {_columns(self.schema_version)} FROM events WHERE id = ?",
                                (int(event_id),)))
         return _event(rows[0]) if rows else None
 

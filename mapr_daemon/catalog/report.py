@@ -22,7 +22,7 @@ _UNIT_S = {"s": 1, "m": 60, "h": 3600, "d": 86400, "w": 604800}
 
 CSV_COLUMNS = ("id", "time_utc", "t_ns", "asset", "rt", "fault", "switch", "severity",
                "severity_value", "severity_unit", "confidence", "soh", "rul", "rul_low",
-               "rul_high", "rul_unit", "session_id", "params", "evidence")
+               "rul_high", "rul_unit", "session_id", "params", "evidence", "bus_ns", "abs_ns")
 
 
 def parse_time(text: str, now_ns: int) -> int:
@@ -122,6 +122,7 @@ def event_detail(e: Event, session: Session | None) -> str:
     where = e.asset + (f" (RT {e.rt})" if e.rt is not None else "")
     lines = [f"event {e.id}",
              f"  time        {fmt_time(e.t_ns)}",
+             *([f"  bus time    {e.bus_ns / 1e9:.7f} s"] if e.bus_ns is not None else []),
              f"  asset       {where}",
              f"  fault       {fault_name(e)}",
              *([f"  part        {part}"] if (part := fmt_part(e)) else []),

@@ -13,6 +13,10 @@ History:
 1. sessions, events, bus_stats, gaps.
 2. indexes for the CLI filters (time, asset, fault; stats and gaps by time) and
    ``sessions.stop_reason`` (why a run ended; ``unclean`` when it was killed).
+3. ``events.bus_ns`` and ``events.abs_ns``: an event's bus time and absolute time
+   (:class:`~mapr_daemon.catalog.model.Event`). Events written before stay NULL in both:
+   their ``t_ns`` was the daemon's wall clock at write, or a replay's rounded recording
+   time, and neither is a bus time.
 """
 
 from __future__ import annotations
@@ -79,6 +83,10 @@ MIGRATIONS: tuple[tuple[str, ...], ...] = (
         "CREATE INDEX bus_stats_t ON bus_stats(start_ns)",
         "CREATE INDEX gaps_t ON gaps(start_ns)",
         "ALTER TABLE sessions ADD COLUMN stop_reason TEXT",
+    ),
+    (  # 3: an event's bus time and absolute time
+        "ALTER TABLE events ADD COLUMN bus_ns INTEGER",
+        "ALTER TABLE events ADD COLUMN abs_ns INTEGER",
     ),
 )
 

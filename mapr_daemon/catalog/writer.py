@@ -76,6 +76,10 @@ def _opt(value: float | None) -> float | None:
     return None if value is None else float(value)
 
 
+def _int(value: int | None) -> int | None:
+    return None if value is None else int(value)
+
+
 def now_ns() -> int:
     return time.time_ns()
 
@@ -171,7 +175,8 @@ class CatalogWriter:
         rows = [(e.t_ns, e.asset, e.rt, e.fault, e.switch, _opt(e.severity),
                  _opt(e.severity_value), e.severity_unit, float(e.confidence),
                  to_json(e.params), _opt(e.soh), _opt(e.rul), _opt(e.rul_low),
-                 _opt(e.rul_high), e.rul_unit, to_json(e.evidence)) for e in events]
+                 _opt(e.rul_high), e.rul_unit, to_json(e.evidence), _int(e.bus_ns),
+                 _int(e.abs_ns)) for e in events]
         if not rows:
             return []
 
@@ -182,8 +187,8 @@ class CatalogWriter:
             conn.executemany(
                 "INSERT INTO events (id, session_id, t_ns, asset, rt, fault, switch, severity,"
                 " severity_value, severity_unit, confidence, params, soh, rul, rul_low,"
-                " rul_high, rul_unit, evidence)"
-                " VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                " rul_high, rul_unit, evidence, bus_ns, abs_ns)"
+                " VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
                 [(first + i, sid, *row) for i, row in enumerate(rows)])
             return first
 

@@ -31,11 +31,12 @@ import numpy as np
 
 from drivers.backends.loopback import Injection, LoopbackMonitor
 from drivers.mil1553.record import MonitorRecord
-from mapr_daemon.catalog import CatalogWriter, event_from_reasoner
+from mapr_daemon.catalog import CatalogWriter
 from mapr_daemon.cli import exitcodes
 from mapr_daemon.cli.demo_reasoner import cache_dir, cached_dictionary, describe, diagnose_bits
 from mapr_daemon.cli.render import record_line
 from mapr_daemon.daemon.config import DEFAULT_ICD
+from mapr_daemon.ema.bit import bit_profile
 from mapr_daemon.ema.faults import FaultSet, parse_fault
 from mapr_daemon.ema.params import (
     ActuatorParams,
@@ -43,18 +44,21 @@ from mapr_daemon.ema.params import (
     load_actuator,
     with_sample_rate,
 )
+from mapr_daemon.ema.profile import CONDITIONS
 from mapr_daemon.icd import Icd, Series, collect, format_values, load_icd
-from mapr_daemon.testbed.aircraft import Aircraft
-from mapr_daemon.testbed.profiles import CONDITIONS, bit_profile
-from mapr_daemon.testbed.profiles_jsbsim import jsbsim_flight
 
 DEFAULT_FAULT = "esr@0.6"
 INJECTED = (Injection("parity", rt=5, sa=4, skip=40),
             Injection("no_response", rt=6, sa=1, skip=20))
 """Two bus errors the demo injects: a parity error in an EMA feedback word, and the air-data
 computer failing to answer once (the bus controller retries on bus B)."""
-BIT_NEEDS_S = 0.012 + float(bit_profile(2000.0).time_s[-1]) + 0.005
-"""Flight time a whole BIT needs: the first request slot (12 ms), the motion, a few samples."""
+
+
+def bit_needs_s(params: ActuatorParams) -> float:
+    """Flight time a whole BIT needs: the first request slot (12 ms), the actuator's BIT
+    motion, a few samples."""
+    motion = bit_profile(params.sensors.sample_rate_hz, "ground", params.bit)
+    return 0.012 + float(motion.time_s[-1]) + 0.005
 
 
 def add_subparser(subparsers: Any) -> None:
@@ -91,6 +95,11 @@ def seeded_faults(texts: list[str] | None) -> FaultSet:
 
 
 def run(args: argparse.Namespace) -> int:
+    # The simulator, imported by its front end only: nothing else outside mapr_daemon/testbed
+    # imports it (docs/testbed.md).
+    from mapr_daemon.testbed.aircraft import Aircraft
+    from mapr_daemon.testbed.profiles_jsbsim import jsbsim_flight
+
     if args.dictionary and not args.no_diagnose and not Path(args.dictionary).is_file():
         print(f"mapr demo: {args.dictionary}: no such dictionary", file=sys.stderr)
         return exitcodes.USAGE
@@ -134,26 +143,25 @@ def diagnose(args: argparse.Namespace, icd: Icd, records: list[MonitorRecord],
              params: ActuatorParams) -> int:
     """The daemon's path on the demo's traffic: BIT -> reasoner -> catalog."""
     print()
-    if args.seconds < BIT_NEEDS_S:
+    needs = bit_needs_s(params)
+    if args.seconds < needs:
         print(f"No complete BIT in {args.seconds:g} s of flight (the BIT is requested at once "
-              f"and needs {BIT_NEEDS_S:.2f} s): nothing to diagnose; fly --seconds 2 or more.")
+              f"and needs {needs:.2f} s): nothing to diagnose; fly --seconds 2 or more.")
         return exitcodes.OK
     dictionary = Path(args.dictionary) if args.dictionary else \
         cached_dictionary(params, default_actuator_path())
-    events = diagnose_bits(icd, records, dictionary, params)
-    if not events:
+    batch = diagnose_bits(args.icd, records, dictionary)
+    if not batch.bits:
         print("The BIT was not found complete on the bus (see the log): nothing to diagnose.")
         return exitcodes.OK
-    for event in events:
-        for line in describe(event):
+    for bit in batch.bits:
+        for line in describe(bit.decision):
             print(line)
-    anomalies = [e for e in events if e.get("anomaly")]
     catalog = Path(args.catalog) if args.catalog else cache_dir() / "demo-catalog.sqlite"
     catalog.parent.mkdir(parents=True, exist_ok=True)
     with CatalogWriter(catalog) as writer:
         writer.open_session(backend="loopback (mapr demo)", config_hash="demo")
-        ids = writer.add_events(event_from_reasoner(
-            e, t_ns=time.time_ns(), asset="EMA1", rt=5) for e in anomalies)
+        ids = writer.add_events(batch.events)
     written = f"event {', '.join(map(str, ids))} written" if ids else "no event written"
     print(f"Fault catalog {catalog}: {written}; read it with "
           f"`mapr catalog list --catalog {catalog}`")

@@ -21,12 +21,12 @@ from typing import Any
 
 from drivers.mil1553.record import MonitorRecord
 from mapr_daemon.cli.dictionary import default_spec_path, peak_rss_mb
-from mapr_daemon.daemon.bitwatch import BitWatch
+from mapr_daemon.daemon.clock import BusClock
+from mapr_daemon.daemon.config import Config, ReasonerConfig
+from mapr_daemon.daemon.pipeline import Batch, build_pipeline
 from mapr_daemon.ema.params import ActuatorParams
-from mapr_daemon.icd import Icd, SignalStream
 from mapr_daemon.reasoner.build import build
-from mapr_daemon.reasoner.dictionary import Dictionary, DictionarySpec
-from mapr_daemon.reasoner.events import Reasoner
+from mapr_daemon.reasoner.dictionary import DictionarySpec
 
 PACKAGE = Path(__file__).resolve().parents[1]
 MODEL_SOURCES = ("ema", "reasoner", "testbed")
@@ -79,11 +79,13 @@ def cached_dictionary(params: ActuatorParams, actuator_path: Path,
     return path
 
 
-def diagnose_bits(icd: Icd, records: Sequence[MonitorRecord], dictionary_path: Path,
-                  params: ActuatorParams) -> list[dict[str, Any]]:
-    """Every BIT in the traffic, cut out and decided as the daemon does it."""
-    watch = BitWatch(Reasoner(Dictionary.load(dictionary_path), params))
-    return watch.feed(SignalStream(icd).feed(list(records)))
+def diagnose_bits(icd_path: str | Path, records: Sequence[MonitorRecord],
+                  dictionary_path: Path) -> Batch:
+    """Every BIT in the traffic, cut out, decided and stamped by the daemon's own path
+    (:mod:`mapr_daemon.daemon.pipeline`, the default asset: EMA1 on RT 5, the shipped
+    actuator file and wiring)."""
+    config = Config(icd=str(icd_path), reasoner=ReasonerConfig(dictionary=str(dictionary_path)))
+    return build_pipeline(config).process(list(records), BusClock())
 
 
 def describe(event: dict[str, Any]) -> Iterable[str]:

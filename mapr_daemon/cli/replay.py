@@ -11,8 +11,11 @@ reasoner -> fault catalog, as in ``mapr run``, in one catalog session (backend
 ``chapter10``). A progress bar (by file position) goes to stderr when it is a terminal, and a
 summary to stdout at the end. With ``--diagnose``, a recording holding none of the ICD's
 actuator signals says so instead of diagnosing nothing in silence. Damaged packets are
-skipped, named on stderr and recorded as catalog gaps. Events are stamped with the
-recording's absolute time when its time packets give a full date, else with the replay's.
+skipped, named on stderr and recorded as catalog gaps. Each batch goes through the daemon's
+own path (:meth:`mapr_daemon.daemon.pipeline.Pipeline.process`), so events carry the same
+fields and stamps as the daemon wrote for that traffic: bus time, and the recording's absolute
+time when its time packets give a full date (``t_ns`` falls back to the replay's wall clock
+when they do not). Each event's evidence also names the recording.
 
 Exit codes: 0 done; 2 the file cannot be read or is not Chapter 10; 66 the catalog cannot
 be opened; 78 a config, ICD or dictionary error (``--diagnose`` without a dictionary).
@@ -24,7 +27,6 @@ import argparse
 import dataclasses
 import sys
 import time
-from datetime import datetime
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TextIO
 
@@ -33,13 +35,14 @@ from drivers.chapter10.walker import looks_like_chapter10
 from drivers.errors import CaptureFormatError
 from drivers.monitor import BusStatistics, open_monitor
 from mapr_daemon.cli import exitcodes
+from mapr_daemon.daemon.clock import BusClock
 from mapr_daemon.errors import CatalogError, ConfigError
 
 if TYPE_CHECKING:
     from drivers.mil1553.record import MonitorRecord
     from mapr_daemon.catalog import CatalogWriter
     from mapr_daemon.daemon.config import Config
-    from mapr_daemon.daemon.service import Pipeline
+    from mapr_daemon.daemon.pipeline import Pipeline
 
 BATCH = 1024
 """Records handed to the ICD and reasoner at a time."""
@@ -98,19 +101,9 @@ def _size(n: int) -> str:
     return f"{n / 2**20:.1f} MiB" if n >= 2**20 else f"{n / 2**10:.0f} KiB"
 
 
-def _epoch_offset_ns(record: MonitorRecord) -> int | None:
-    """Absolute epoch ns minus bus ns for a record whose time has a full date."""
-    text = record.extra.get("time")
-    if not text or text.startswith("day "):
-        return None
-    moment = datetime.fromisoformat(text)
-    seconds = (moment - datetime(1970, 1, 1)).total_seconds()
-    return round(seconds * 1e9) - int(record.t_ns)
-
-
 def run(args: argparse.Namespace) -> int:
     from mapr_daemon.daemon.config import load_config
-    from mapr_daemon.daemon.service import build_pipeline
+    from mapr_daemon.daemon.pipeline import build_pipeline
 
     path = Path(args.recording)
     if args.threshold is not None and not args.threshold > 0:
@@ -158,7 +151,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 class Replay:
-    """The daemon's per-batch work (``Service._records``), run to the end of a file."""
+    """The daemon's per-batch path (:meth:`Pipeline.process`), run to the end of a file."""
 
     def __init__(self, pipe: Pipeline, catalog: CatalogWriter, config: Config, path: Path
                  ) -> None:
@@ -167,7 +160,7 @@ class Replay:
         self.events = 0
         self.error_messages = 0
         self.issues_seen = 0
-        self.offset_ns: int | None = None
+        self.clock = BusClock("recording")
         self.actuator_seen = False
         self.started_ns = time.time_ns()
         monitor = open_monitor("chapter10", **config.backend.options)
@@ -194,31 +187,20 @@ class Replay:
         for record in records:
             self.stats.add(record)
             self.error_messages += bool(record.errors)
-            if self.offset_ns is None:
-                self.offset_ns = _epoch_offset_ns(record)
+        result = self.pipe.process(records, self.clock)
         self._gaps(records[-1].t_ns if records else 0)
-        if not records:
-            return
-        series = self.pipe.stream.feed(records)
-        if self.pipe.watch is None:
-            return
-        from mapr_daemon.daemon.bitwatch import CHANNELS
-        self.actuator_seen |= any(name in series and series[name].t_ns.size
-                                  for name in CHANNELS)
-        from mapr_daemon.catalog import event_from_reasoner
-        asset = self.config.assets[0]
-        anomalies = [d for d in self.pipe.watch.feed(series) if d["anomaly"]]
-        events = []
-        for decision in anomalies:
-            onset_ns = int(decision["evidence"].get("bit_bus_time_s", 0) * 1e9)
-            decision["evidence"]["recording"] = str(self.path)
-            events.append(event_from_reasoner(decision, t_ns=self._when(onset_ns),
-                                              asset=asset.name, rt=asset.rt))
+        self.actuator_seen |= result.actuator_seen
+        for failure in result.failures:
+            at = self._when(failure.bus_ns)
+            self.catalog.record_gap(at, at, f"reasoner failed on a BIT: {failure.error}")
+        events = [dataclasses.replace(e, evidence={**e.evidence, "recording": str(self.path)})
+                  for e in result.events]
         if events:
             self.events += len(self.catalog.add_events(events))
 
     def _when(self, bus_ns: int) -> int:
-        return bus_ns + self.offset_ns if self.offset_ns is not None else time.time_ns()
+        absolute = self.clock.absolute(bus_ns)
+        return time.time_ns() if absolute is None else absolute
 
     def _gaps(self, bus_ns: int) -> None:
         issues = self.monitor.issues
@@ -234,8 +216,9 @@ class Replay:
         first = min(stats.first_ns.values(), default=0)
         last = max(stats.last_ns.values(), default=0)
         if stats.messages:
-            if self.offset_ns is not None:
-                self.catalog.add_stats(first + self.offset_ns, last + self.offset_ns, stats)
+            offset = self.clock.offset_ns
+            if offset is not None:
+                self.catalog.add_stats(first + offset, last + offset, stats)
             else:
                 self.catalog.add_stats(self.started_ns, time.time_ns(), stats)
         session = self.catalog.session_id

@@ -34,7 +34,8 @@ def add_subparser(subparsers: Any) -> None:
 def run(args: argparse.Namespace) -> int:
     from mapr_daemon.daemon import logs
     from mapr_daemon.daemon.config import load_config
-    from mapr_daemon.daemon.service import Service, build_pipeline
+    from mapr_daemon.daemon.pipeline import build_pipeline
+    from mapr_daemon.daemon.service import Service
 
     log = logs.setup("info")
     try:

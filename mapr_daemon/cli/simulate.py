@@ -36,17 +36,18 @@ import yaml
 
 from mapr_daemon.ema import dataset
 from mapr_daemon.ema.batch import RunSpec
+from mapr_daemon.ema.bit import bit_profile
 from mapr_daemon.ema.faults import FaultSet, at_severity, parse_fault
 from mapr_daemon.ema.params import (
     ActuatorParams,
+    BitParams,
     default_actuator_path,
     load_actuator,
     with_sample_rate,
 )
+from mapr_daemon.ema.profile import Profile
 from mapr_daemon.ema.run import RunResult, run_batch
 from mapr_daemon.errors import ConfigError
-from mapr_daemon.testbed.mismatch import draw_unit
-from mapr_daemon.testbed.profiles import Profile, bit_profile
 
 
 def add_subparser(subparsers: Any) -> None:
@@ -109,10 +110,12 @@ def _at_pressure(prof: Profile, pressure_pa: float | None) -> Profile:
                                name=f"{prof.name.split('@')[0]}@{pressure_pa:g}Pa")
 
 
-def _profile(kind: str, cond: str, rate: float, duration: float, seed: int) -> Profile:
+def _profile(kind: str, cond: str, rate: float, duration: float, seed: int,
+             bit: BitParams) -> Profile:
+    """The flight: the actuator's BIT motion at a condition, or a JSBSim flight."""
     if kind == "bit":
-        return bit_profile(rate, cond)
-    if kind == "jsbsim":
+        return bit_profile(rate, cond, bit)
+    if kind == "jsbsim":  # the simulator, imported by this front end only (docs/testbed.md)
         from mapr_daemon.testbed.profiles_jsbsim import jsbsim_flight
         return jsbsim_flight(rate, cond, duration, seed=seed)
     raise ConfigError(f"unknown profile {kind!r} (bit, jsbsim)", field="profile")
@@ -176,7 +179,7 @@ def _batch_groups(spec_path: Path) -> tuple[list[tuple[Profile, list[RunSpec]]],
     groups = []
     for k, cond in enumerate(spec.get("conditions", ["cruise"])):
         prof = _profile(spec.get("profile", "bit"), str(cond), params.sensors.sample_rate_hz,
-                        float(spec.get("duration_s", 30.0)), seed=k)
+                        float(spec.get("duration_s", 30.0)), seed=k, bit=params.bit)
         runs = [RunSpec(params, fs, seed=1000 * k + 17 * i + s)
                 for s in seeds for i, fs in enumerate(fault_sets)]
         groups.append((prof, runs))
@@ -190,13 +193,15 @@ def run(args: argparse.Namespace) -> int:
         params = _params(args.actuator, args.sample_rate)
         faults = FaultSet.of([parse_fault(f, params) for f in args.fault])
         prof = _at_pressure(_profile(args.profile, args.condition,
-                                     params.sensors.sample_rate_hz, args.duration, args.seed),
+                                     params.sensors.sample_rate_hz, args.duration, args.seed,
+                                     params.bit),
                             args.pressure)
         meta = {"actuator": params.name}
         if args.unit is None:
             spec = RunSpec(params, faults, seed=args.seed, ambient_c=args.ambient,
                            bus_v=args.bus_voltage)
         else:
+            from mapr_daemon.testbed.mismatch import draw_unit  # the simulator's units
             unit = draw_unit(params, args.unit)
             spec = unit.spec(faults, seed=args.seed, ambient_c=args.ambient,
                              bus_v=args.bus_voltage)

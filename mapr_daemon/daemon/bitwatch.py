@@ -1,65 +1,86 @@
 """From bus signals to the reasoner: find each built-in test in the traffic, diagnose it.
 
-The reasoner decides on one BIT record (the four-corner motion of
-:func:`~mapr_daemon.testbed.profiles.bit_profile`) sampled at the dictionary's rate and
-aligned on the profile's time axis. The EMA runs that motion itself when the flight control
-computer sends ``INITIATED_BIT`` with a new sequence number in the BIT request message; by
-the EMA's contract (docs/testbed.md) the profile's first sample is the drive's first sample
-after the request arrives. So the record starts at the first fast-block sample time-tagged
-after the request message: the EMA's sample blocks (2 kHz) are taken from there sample for
-sample (and the power block's, taken with them), the slow block (100 Hz temperatures, which
-the reasoner uses only as a condition) is interpolated onto the same grid, and the record
-goes to :meth:`Reasoner.diagnose` with the dynamic pressure the air-data computer reported
+The reasoner decides on one BIT record (the four-corner motion of the actuator's ``bit:``
+section, :func:`~mapr_daemon.ema.bit.bit_profile`) sampled at the dictionary's rate and
+aligned on the profile's time axis. Which ICD signal is which reasoner channel is the
+asset's wiring (:mod:`.wiring`, ``assets[].signals`` in the daemon config). The EMA runs
+that motion itself when the flight control computer sends ``INITIATED_BIT`` with a new
+sequence number in the BIT request message; by the EMA's contract (docs/testbed.md) the
+profile's first sample is the drive's first sample after the request arrives. So the record
+starts at the first fast-block sample time-tagged after the request message: the EMA's
+sample blocks (2 kHz) are taken from there sample for sample (and the power block's, taken
+with them), the slow block (100 Hz temperatures, which the reasoner uses only as a
+condition) is interpolated onto the same grid, and the record goes to
+:meth:`Reasoner.diagnose` with the dynamic pressure the air-data computer reported
 meanwhile. Other motion (a pilot's aileron inputs) is not a BIT and is ignored.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
 
+from mapr_daemon.daemon import wiring
+from mapr_daemon.ema.bit import bit_profile
+from mapr_daemon.ema.params import CHANNELS, BitParams
+from mapr_daemon.ema.profile import Profile
 from mapr_daemon.icd import Series
 from mapr_daemon.reasoner.events import Reasoner
 from mapr_daemon.reasoner.features import FloatArray
-from mapr_daemon.testbed.aircraft import FAST_CHANNELS, POWER_CHANNELS, SLOW_CHANNELS
-from mapr_daemon.testbed.profiles import Profile, bit_profile
 
 log = logging.getLogger("mapr.reasoner")
-REQUEST = "bit_request"
 INITIATED_BIT = 2
 """``bit_request`` code of an initiated BIT (configs/icd/ema-testbed.yaml)."""
-TIMEBASE = "phase_current_a"
-"""A fast-block channel whose sample times are the BIT record's grid."""
-PRESSURE = "dynamic_pressure"
-CHANNELS = {**FAST_CHANNELS, **POWER_CHANNELS, **SLOW_CHANNELS}
-"""ICD parameter -> reasoner channel name (the testbed aircraft's wiring)."""
-SECTOR, DUTY, DIRECTION = "commutation_sector", "pwm_duty", "drive_direction"
-"""The drive's own state in the fast block: Hall sector, and duty as sign-magnitude; they
-become the reasoner's ``commutation_sector`` and signed ``inverter_duty`` channels when the
-bus carries them for the whole BIT."""
 KEEP_S = 4.0
 
 
-class BitWatch:
-    """Buffers the signals a BIT needs and yields the reasoner's event for each BIT seen."""
+@dataclasses.dataclass(frozen=True)
+class BitFound:
+    """One BIT found on the bus and diagnosed."""
 
-    def __init__(self, reasoner: Reasoner, *, threshold: float | None = None,
+    request_ns: int
+    """Time tag of the record that carried the request (the event's bus time)."""
+    onset_ns: int
+    """Time tag of the BIT record's first sample."""
+    decision: dict[str, Any]
+    """The reasoner's JSON-ready event (``anomaly``, ``fault``, ``evidence``...)."""
+
+
+class BitWatch:
+    """Buffers the signals a BIT needs and yields the reasoner's event for each BIT seen.
+
+    ``signals`` is the asset's wiring (ICD signal -> reasoner channel or role; default the
+    shipped testbed ICD's), ``bit`` its BIT motion (default the reasoner's actuator's).
+    """
+
+    def __init__(self, reasoner: Reasoner, *, signals: Mapping[str, str] | None = None,
+                 bit: BitParams | None = None, threshold: float | None = None,
                  paper: bool = False) -> None:
         self.reasoner = reasoner
         self.paper = paper
         if threshold is not None:
             reasoner.dictionary.threshold = float(threshold)
+        role = wiring.by_role(wiring.DEFAULT_SIGNALS if signals is None else signals)
+        self.channels = {role[c]: c for c in CHANNELS}
+        """ICD signal -> reasoner sensor channel."""
+        self.request, self.pressure, self.timebase = \
+            role[wiring.REQUEST], role[wiring.PRESSURE], role[wiring.TIMEBASE]
+        self.drive = tuple(role.get(r) for r in (wiring.SECTOR, wiring.DUTY, wiring.DIRECTION))
         rate = reasoner.dictionary.sample_rate_hz
-        self.profile: Profile = bit_profile(rate, "ground")
+        self.profile: Profile = bit_profile(rate, "ground",
+                                            reasoner.params.bit if bit is None else bit)
         self.period_ns = 1e9 / rate
         self.span_ns = int(self.profile.n_samples * self.period_ns)
+        names = (*self.channels, self.request, self.pressure,
+                 *(d for d in self.drive if d is not None))
         self.buffers: dict[str, tuple[list[FloatArray], list[FloatArray]]] = {
-            name: ([], []) for name in (*CHANNELS, SECTOR, DUTY, DIRECTION, REQUEST, PRESSURE)}
-        self.pending: int | None = None
-        """Time tag of the BIT record's first sample, for the BIT being collected."""
+            name: ([], []) for name in names}
+        self.pending: tuple[int, int] | None = None
+        """Request and first-sample time tags of the BIT being collected."""
         self.ignore_until = -1.0
         """Requests up to this time tag are taken (or, during a BIT, ignored by the EMA)."""
         self.bits_seen = 0
@@ -70,8 +91,12 @@ class BitWatch:
         :meth:`feed` call."""
         self.failure_count = 0
 
-    def feed(self, series: Mapping[str, Series]) -> list[dict[str, Any]]:
-        """Take a batch of decoded series; returns the events of BITs completed by it."""
+    def seen(self, series: Mapping[str, Series]) -> bool:
+        """Whether a batch carries any of this actuator's sensor channels."""
+        return any(name in series and series[name].t_ns.size for name in self.channels)
+
+    def feed(self, series: Mapping[str, Series]) -> list[BitFound]:
+        """Take a batch of decoded series; returns the BITs completed by it, diagnosed."""
         self.failures = []
         now = None
         for name, (times, values) in self.buffers.items():
@@ -80,27 +105,27 @@ class BitWatch:
                 continue
             times.append(np.asarray(s.t_ns, dtype=np.float64))
             values.append(np.asarray(s.value, dtype=np.float64).reshape(s.t_ns.size, -1)[:, 0])
-            if name == "phase_current_a":
+            if name == self.timebase:
                 now = float(s.t_ns[-1])
         self._compact()
-        events: list[dict[str, Any]] = []
+        events: list[BitFound] = []
         while True:
             if self.pending is None:
                 self.pending = self._onset()
             if self.pending is None or now is None or \
-                    now < self.pending + self.span_ns + 4 * self.period_ns:
+                    now < self.pending[1] + self.span_ns + 4 * self.period_ns:
                 return events
-            onset, self.pending = self.pending, None
+            (request, onset), self.pending = self.pending, None
             try:
-                event = self._diagnose(onset)
+                decision = self._diagnose(onset)
             except Exception as error:  # a reasoner fault costs this BIT, not the daemon
                 log.exception("BIT at bus time %.3f s: the reasoner failed; BIT skipped",
                               onset / 1e9)
                 self.failures.append((onset, f"{type(error).__name__}: {error}"))
                 self.failure_count += 1
                 continue
-            if event is not None:
-                events.append(event)
+            if decision is not None:
+                events.append(BitFound(request, onset, decision))
 
     def _compact(self) -> None:
         for times, values in self.buffers.values():
@@ -117,22 +142,23 @@ class BitWatch:
             return np.zeros(0), np.zeros(0)
         return times[0], values[0]
 
-    def _onset(self) -> int | None:
-        """Time tag of the first sample of a requested BIT, or None while none is due.
+    def _onset(self) -> tuple[int, int] | None:
+        """Time tags of the request and of the first sample of a requested BIT, or None
+        while none is due.
 
         A request the EMA would ignore (one that arrives while a BIT runs) is ignored here too.
         """
-        t, v = self._series(REQUEST)
+        t, v = self._series(self.request)
         requests = t[(v == INITIATED_BIT) & (t > self.ignore_until)]
         if requests.size == 0:
             return None
-        fast, _ = self._series(TIMEBASE)
+        fast, _ = self._series(self.timebase)
         after = fast[fast > requests[0]]
         if after.size == 0:
             return None
         onset = float(after[0])
         self.ignore_until = onset + self.span_ns
-        return int(onset)
+        return int(requests[0]), int(onset)
 
     def record(self, onset: int) -> tuple[dict[str, FloatArray], float] | None:
         """The BIT record whose first sample is time-tagged ``onset`` (reasoner channel ->
@@ -141,7 +167,7 @@ class BitWatch:
         grid: FloatArray = onset + np.arange(self.profile.n_samples, dtype=np.float64) * \
             self.period_ns
         channels: dict[str, FloatArray] = {}
-        for icd_name, channel in CHANNELS.items():
+        for icd_name, channel in self.channels.items():
             t, v = self._series(icd_name)
             if t.size < 2 or t[0] > grid[0] + 0.05e9 or t[-1] < grid[-1] - 0.05e9:
                 log.warning("BIT at bus time %.3f s: %s not on the bus for the whole test; "
@@ -149,7 +175,7 @@ class BitWatch:
                 return None
             channels[channel] = np.interp(grid, t, v)
         channels.update(self._drive_state(grid))
-        tq, vq = self._series(PRESSURE)
+        tq, vq = self._series(self.pressure)
         inside = (tq >= grid[0]) & (tq <= grid[-1])
         q = float(np.median(vq[inside])) if inside.any() else \
             float(vq[-1]) if vq.size else 0.0
@@ -157,7 +183,9 @@ class BitWatch:
 
     def _drive_state(self, grid: FloatArray) -> dict[str, FloatArray]:
         """Sector and signed duty on the grid (nearest sample: both are discrete), if present."""
-        series = [self._series(name) for name in (SECTOR, DUTY, DIRECTION)]
+        if any(name is None for name in self.drive):
+            return {}
+        series = [self._series(name) for name in self.drive if name is not None]
         if any(t.size < 2 or t[0] > grid[0] or t[-1] < grid[-1] for t, _ in series):
             return {}
         (t, sector), (_, duty), (_, direction) = series

@@ -19,6 +19,8 @@ from typing import Any
 
 from drivers.monitor import available_backends
 from mapr_daemon.catalog import default_path as default_catalog_path
+from mapr_daemon.daemon import wiring
+from mapr_daemon.ema.params import default_actuator_path
 from mapr_daemon.errors import ConfigError
 from mapr_daemon.icd.yamlsrc import Node, load_file
 
@@ -61,10 +63,16 @@ class TestbedConfig:
 
 @dataclasses.dataclass(frozen=True)
 class AssetConfig:
-    """An actuator the reasoner watches: its catalog name and remote-terminal address."""
+    """An actuator the reasoner watches: its catalog name, remote-terminal address, data
+    sheet, and which ICD signal is which reasoner channel (:mod:`.wiring`)."""
 
     name: str = "EMA1"
     rt: int = 5
+    actuator: str = dataclasses.field(default_factory=lambda: str(default_actuator_path()))
+    """The actuator file (``configs/actuators/*.yaml``): its physics and its ``bit:`` motion."""
+    signals: dict[str, str] = dataclasses.field(
+        default_factory=lambda: dict(wiring.DEFAULT_SIGNALS))
+    """ICD signal -> reasoner channel or role (default: the shipped testbed ICD's wiring)."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -246,8 +254,30 @@ def _assets(r: _Reader, root: Node, value: Any) -> tuple[AssetConfig, ...]:
         rt = r.value(item, "rt", prefix, raw.get("rt", 5), "int", minimum=0)
         if rt > 30:
             raise r.error(item, "rt", prefix, f"a remote-terminal address is 0..30, got {rt}")
-        out.append(AssetConfig(name=name, rt=rt))
+        extra: dict[str, Any] = {}
+        if "actuator" in raw:
+            extra["actuator"] = r.value(item, "actuator", prefix, raw["actuator"], "path")
+        if "signals" in raw:
+            extra["signals"] = _signals(r, item, prefix, raw["signals"])
+        out.append(AssetConfig(name=name, rt=rt, **extra))
     return tuple(out)
+
+
+def _signals(r: _Reader, item: Node, prefix: str, value: Any) -> dict[str, str]:
+    """``assets[i].signals``: a whole ICD-signal -> reasoner-channel mapping (:mod:`.wiring`)."""
+    if not isinstance(value, Node):
+        raise r.error(item, "signals", prefix, "expected a mapping of ICD signal -> channel")
+    out: dict[str, str] = {}
+    for signal, channel in value.items():
+        if not isinstance(channel, str):
+            raise r.error(value, str(signal), f"{prefix}signals.",
+                          f"expected a channel name, got {channel!r}")
+        out[str(signal)] = channel
+    for signal, problem in wiring.problems(out):
+        if signal is None:
+            raise r.error(item, "signals", prefix, problem)
+        raise r.error(value, signal, f"{prefix}signals.", problem)
+    return out
 
 
 def load_config(path: str | os.PathLike[str] | None) -> Config:

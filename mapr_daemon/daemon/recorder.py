@@ -11,7 +11,8 @@ Time base. The writer wants time tags counted from the start of the recording. B
 stamp records with wall-clock time (serial: host arrival; usb: the sample counter anchored to
 host time) are rebased to the first record's second, and that second becomes the file's
 start time; bus-time backends (loopback, capture: ns from 0) start at the wall-clock time of
-the first record. When time runs backwards — the backend was reopened after a failure and its
+the first record: the session clock's anchor (:mod:`.clock`), the very instant the daemon's
+events are stamped from. When time runs backwards — the backend was reopened after a failure and its
 bus time restarted — the file is closed and a new part begins (``...-part2.ch10``).
 
 A write error (disk full, the directory removed) is logged once and ends the recording; the
@@ -29,19 +30,20 @@ from pathlib import Path
 
 from drivers.chapter10.writer import Chapter10Writer
 from drivers.mil1553.record import MonitorRecord
+from mapr_daemon.daemon.clock import BACKWARDS_NS, WALL_CLOCK_NS, BusClock
 
 log = logging.getLogger("mapr.record")
-WALL_CLOCK_NS = 10**17
-"""Time tags above this (1973) are wall-clock ns since the epoch, not bus time from 0."""
-BACKWARDS_NS = 1_000_000_000
-"""Time running back by more than this starts a new part."""
 
 
 class SessionRecorder:
     """Writes a session's records to Chapter 10 files in ``directory``."""
 
-    def __init__(self, directory: str, session_id: int, *, channel_id: int = 1) -> None:
+    def __init__(self, directory: str, session_id: int, *, channel_id: int = 1,
+                 clock: BusClock | None = None) -> None:
         self.directory = Path(directory)
+        self.clock = clock
+        """The session's clock: a bus-time file starts at its anchor, so the file's time
+        packets give the absolute time the daemon stamped its events with."""
         self.session_id = session_id
         self.channel_id = channel_id
         self.files: list[Path] = []
@@ -84,7 +86,8 @@ class SessionRecorder:
             start = datetime.fromtimestamp(self._offset / 1e9, UTC)
         else:
             self._offset = 0
-            start = datetime.now(UTC)
+            anchor = None if self.clock is None else self.clock.anchor()
+            start = anchor or datetime.now(UTC)
         self.directory.mkdir(parents=True, exist_ok=True)
         name = f"session-{self.session_id:06d}-{start:%Y%m%dT%H%M%SZ}"
         if self.files:

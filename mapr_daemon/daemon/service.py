@@ -17,7 +17,6 @@ an exit; a reasoner that falls behind becomes a log line, a STATUS and a catalog
 
 from __future__ import annotations
 
-import dataclasses
 import logging
 import queue
 import selectors
@@ -27,54 +26,20 @@ from typing import Any
 
 from drivers.monitor import BusStatistics
 from mapr_daemon import __version__
-from mapr_daemon.catalog import CatalogWriter, event_from_reasoner
+from mapr_daemon.catalog import CatalogWriter
 from mapr_daemon.daemon import source
-from mapr_daemon.daemon.bitwatch import BitWatch
+from mapr_daemon.daemon.clock import BusClock
 from mapr_daemon.daemon.config import Config, load_config
 from mapr_daemon.daemon.notify import Notifier
+from mapr_daemon.daemon.pipeline import Pipeline, build_pipeline
 from mapr_daemon.daemon.reader import BusReader, Item
 from mapr_daemon.daemon.recorder import SessionRecorder
 from mapr_daemon.daemon.wakeup import Doorbell, SignalPipe
 from mapr_daemon.errors import CatalogError, ConfigError
-from mapr_daemon.icd import Icd, SignalStream, load_icd
 
 log = logging.getLogger("mapr")
 TURN_S = 0.05
 """Longest the loop handles queued work before it looks at signals and timers again."""
-
-
-@dataclasses.dataclass
-class Pipeline:
-    """What a config builds and a reload swaps as one: the ICD, decoder and reasoner."""
-
-    config: Config
-    icd: Icd
-    stream: SignalStream
-    watch: BitWatch | None
-
-
-def build_pipeline(config: Config) -> Pipeline:
-    """Load the ICD and the dictionary; ConfigError (file:line: field) if either is wrong."""
-    try:
-        icd = load_icd(config.icd)
-    except OSError as error:
-        raise ConfigError(f"cannot read the ICD: {error.strerror}", path=config.source,
-                          field="icd") from None
-    source.check(config)
-    watch = None
-    if config.reasoner.dictionary is not None:
-        from mapr_daemon.ema.params import default_actuator_path, load_actuator
-        from mapr_daemon.reasoner.dictionary import Dictionary
-        from mapr_daemon.reasoner.events import Reasoner
-        try:
-            dictionary = Dictionary.load(config.reasoner.dictionary)
-        except OSError as error:
-            raise ConfigError(f"cannot read the dictionary: {error.strerror}",
-                              path=config.source, field="reasoner.dictionary") from None
-        reasoner = Reasoner(dictionary, load_actuator(default_actuator_path()))
-        watch = BitWatch(reasoner, threshold=config.reasoner.threshold,
-                         paper=config.reasoner.paper)
-    return Pipeline(config, icd, SignalStream(icd), watch)
 
 
 class Service:
@@ -83,7 +48,9 @@ class Service:
     def __init__(self, config: Config, config_path: str | None,
                  notifier: Notifier | None = None) -> None:
         self.config_path = config_path
-        self.pipe = build_pipeline(config)
+        self.pipe: Pipeline = build_pipeline(config)
+        self.clock = BusClock("recording" if config.backend.name == "chapter10" else "live")
+        """The session's bus -> absolute time (kept across reloads: one session)."""
         self.notifier = notifier or Notifier.from_environment()
         try:
             self.catalog = CatalogWriter(config.catalog.path,
@@ -151,7 +118,8 @@ class Service:
                      cfg.catalog.path, cfg.reasoner.dictionary or "off (no dictionary)")
             if cfg.record.path is not None:
                 self.recorder = SessionRecorder(cfg.record.path, self.catalog.session_id or 0,
-                                                channel_id=cfg.record.channel_id)
+                                                channel_id=cfg.record.channel_id,
+                                                clock=self.clock)
             self._start_reader()
             self._next_status = time.monotonic()
             self._next_stats = time.monotonic() + cfg.catalog.stats_interval_s
@@ -262,15 +230,15 @@ class Service:
 
     def _records(self, item: Item) -> None:
         records = item.records
-        if self.recorder is not None:
-            self.recorder.write(records)
         for record in records:
             self.interval.add(record)
             if record.errors:
                 self.errors += 1
         self.messages += len(records)
         self._rate_count += len(records)
-        series = self.pipe.stream.feed(records)
+        batch = self.pipe.process(records, self.clock)   # the clock sees them first
+        if self.recorder is not None:
+            self.recorder.write(records)
         if not self.ready:
             if self.pipe.stream.stats.decoded == 0:
                 return
@@ -278,21 +246,15 @@ class Service:
             self.state = "monitoring"
             self.notifier.ready(self._status_text())
             log.info("ready: backend open, first message decoded")
-        if self.pipe.watch is None:
-            return
-        decisions = self.pipe.watch.feed(series)
-        for _, error in self.pipe.watch.failures:  # logged by the watcher
-            now = time.time_ns()
-            self._catalog(self.catalog.record_gap, now, now, f"reasoner failed on a BIT: {error}")
-        anomalies = [d for d in decisions if d["anomaly"]]
-        if anomalies:
-            asset = self.pipe.config.assets[0]
-            events = [event_from_reasoner(d, t_ns=time.time_ns(), asset=asset.name,
-                                          rt=asset.rt) for d in anomalies]
-            ids = self._catalog(self.catalog.add_events, events)
+        for failure in batch.failures:  # logged by the watcher
+            at = time.time_ns() if failure.abs_ns is None else failure.abs_ns
+            self._catalog(self.catalog.record_gap, at, at,
+                          f"reasoner failed on a BIT: {failure.error}")
+        if batch.events:
+            ids = self._catalog(self.catalog.add_events, batch.events)
             if ids:
                 self.events += len(ids)
-                for event_id, event in zip(ids, events, strict=True):
+                for event_id, event in zip(ids, batch.events, strict=True):
                     log.warning("event %d written: %s %s, fault %s, confidence %.2f", event_id,
                                 event.asset, "anomaly", event.fault, event.confidence)
 

@@ -1,7 +1,8 @@
 """Actuator parameters: one frozen dataclass per physical block, loaded from one YAML per actuator.
 
 The YAML (``configs/actuators/*.yaml``) has one mapping per block — ``smps``, ``inverter``,
-``motor``, ``gear``, ``surface``, ``control``, ``thermal``, ``bus``, ``sensors`` — whose keys are
+``motor``, ``gear``, ``surface``, ``control``, ``thermal``, ``bus``, ``envelope``, ``sensors``,
+``bit`` (the drive's stored built-in-test motion) — whose keys are
 the field names below, SI units spelled in the name (``_ohm``, ``_h``, ``_f``, ``_hz``...).
 Every key is required and no unknown key is allowed, so a typo is a :class:`ConfigError`
 naming ``file:line: section.key``, never a silently ignored value.
@@ -148,6 +149,23 @@ class EnvelopeParams:
 
 
 @dataclasses.dataclass(frozen=True)
+class BitParams:
+    """The built-in-test motion the drive stores and runs on request (paper Fig. 16).
+
+    A property of the actuator, like its gear ratio: the drive's firmware holds it, the
+    reasoner's dictionary is flown over it and the daemon aligns a BIT found on the bus on
+    it (:mod:`mapr_daemon.ema.bit` builds the command). Timeline: ``lead_s`` at 0, ramp to
+    ``amplitude_deg`` in ``ramp_s``, hold ``hold_s``, ramp back to 0 in ``ramp_s``, hold
+    ``hold_s``: four corners at which the drive runs into its voltage and current limits.
+    """
+
+    amplitude_deg: float
+    ramp_s: float
+    hold_s: float
+    lead_s: float
+
+
+@dataclasses.dataclass(frozen=True)
 class ChannelSpec:
     """One ADC channel: signed full scale, resolution bits and white-noise RMS (in units)."""
 
@@ -180,6 +198,7 @@ class ActuatorParams:
     bus: BusParams
     envelope: EnvelopeParams
     sensors: SensorParams
+    bit: BitParams
 
 
 CHANNELS: tuple[str, ...] = (
@@ -205,7 +224,7 @@ _T = TypeVar("_T")
 _SECTIONS: dict[str, type[Any]] = {
     "smps": SmpsParams, "inverter": InverterParams, "motor": MotorParams, "gear": GearParams,
     "surface": SurfaceParams, "control": ControlParams, "thermal": ThermalParams,
-    "bus": BusParams, "envelope": EnvelopeParams,
+    "bus": BusParams, "envelope": EnvelopeParams, "bit": BitParams,
 }
 _MAY_BE_ZERO_OR_NEGATIVE = {
     "ch0", "ch_delta_per_rad", "ambient_c", "loop_kd", "soft_start_s", "noise_rms",
@@ -322,6 +341,9 @@ def _check_consistency(p: ActuatorParams, path: str) -> None:
                           path=path, field="sensors.step_s")
     if p.bus.min_v >= p.bus.max_v:
         raise ConfigError("min_v must be below max_v", path=path, field="bus.min_v")
+    if p.bit.amplitude_deg >= p.surface.travel_deg:
+        raise ConfigError(f"must be below surface.travel_deg ({p.surface.travel_deg:g})",
+                          path=path, field="bit.amplitude_deg")
     if p.envelope.ambient_min_c >= p.envelope.ambient_max_c:
         raise ConfigError("ambient_min_c must be below ambient_max_c", path=path,
                           field="envelope.ambient_min_c")

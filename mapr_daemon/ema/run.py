@@ -13,8 +13,8 @@ import numpy as np
 
 from mapr_daemon.ema.batch import FloatArray, RunSpec
 from mapr_daemon.ema.plant import EmaBatch
+from mapr_daemon.ema.profile import Profile
 from mapr_daemon.errors import ConfigError
-from mapr_daemon.testbed.profiles import Profile
 
 
 @dataclasses.dataclass(frozen=True)

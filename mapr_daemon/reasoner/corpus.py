@@ -23,13 +23,13 @@ import numpy as np
 
 from mapr_daemon.ema import dataset
 from mapr_daemon.ema.batch import RunSpec
+from mapr_daemon.ema.bit import bit_profile
 from mapr_daemon.ema.faults import FaultSet
 from mapr_daemon.ema.params import ActuatorParams
 from mapr_daemon.ema.plant import EmaBatch
 from mapr_daemon.errors import ConfigError
 from mapr_daemon.reasoner.features import FloatArray, corner_samples
 from mapr_daemon.reasoner.workers import Progress, resolve, unordered
-from mapr_daemon.testbed.profiles import bit_profile
 
 T = TypeVar("T")
 

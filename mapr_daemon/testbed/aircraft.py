@@ -2,7 +2,7 @@
 
 One source of truth: the message table (``configs/icd/ema-testbed.yaml``) gives the bus
 controller's schedule and every word the terminals put on the bus, encoded with the same ICD
-the monitor decodes with. The flight (a :class:`~mapr_daemon.testbed.profiles.Profile`, e.g.
+the monitor decodes with. The flight (a :class:`~mapr_daemon.ema.profile.Profile`, e.g.
 a JSBSim flight) gives the surface command the flight control computer sends and the air data
 the air-data computer reports; the EMA plant (:mod:`mapr_daemon.ema`) answers the command,
 with its faults seeded, and its sensors fill the EMA's sample blocks.
@@ -12,12 +12,13 @@ the EMA terminal first runs the plant up to t, then hands over the samples the I
 rule says it latched (the newest one period before t).
 
 Built-in test: as a real servo drive does, the EMA stores its BIT motion (the four-corner
-profile of :func:`~mapr_daemon.testbed.profiles.bit_profile`) and runs it itself, at its own
-sample rate, when the flight control computer sends ``INITIATED_BIT`` with a new request
-sequence number: the profile's first sample is the first plant sample after the request
-arrives, the FCC's position command is ignored until the profile ends, and the BIT result
-reports ``RUNNING`` then ``DONE``. So the motion a monitor sees on the bus is exactly the
-motion the reasoner's dictionary was simulated with, not the FCC's 100 Hz staircase.
+profile of :func:`~mapr_daemon.ema.bit.bit_profile`, from the actuator file's ``bit:``
+section) and runs it itself, at its own sample rate, when the flight control computer sends
+``INITIATED_BIT`` with a new request sequence number: the profile's first sample is the first
+plant sample after the request arrives, the FCC's position command is ignored until the
+profile ends, and the BIT result reports ``RUNNING`` then ``DONE``. So the motion a monitor
+sees on the bus is exactly the motion the reasoner's dictionary was simulated with, not the
+FCC's 100 Hz staircase.
 """
 
 from __future__ import annotations
@@ -31,11 +32,12 @@ import numpy as np
 from drivers.backends.loopback import RemoteTerminal, Schedule, ScheduledMessage
 from drivers.mil1553.record import MonitorRecord, TransferFormat
 from mapr_daemon.ema.batch import RunSpec
+from mapr_daemon.ema.bit import bit_profile
 from mapr_daemon.ema.faults import FaultSet
 from mapr_daemon.ema.params import ActuatorParams, default_actuator_path, load_actuator
 from mapr_daemon.ema.plant import EmaBatch
+from mapr_daemon.ema.profile import Profile
 from mapr_daemon.icd import Icd, Message
-from mapr_daemon.testbed.profiles import Profile, bit_profile
 
 G0 = 9.80665
 R_AIR = 287.053
@@ -74,8 +76,9 @@ class EmaTerminal:
         self.truth_position = 0.0
         self.counters: dict[str, int] = {}
         self.history_s = HISTORY_S
-        self.bit_command = bit_profile(self.rate_hz).command_deg
-        """The stored BIT motion, one command per plant sample."""
+        self.bit_command = bit_profile(self.rate_hz, "ground", params.bit).command_deg
+        """The stored BIT motion (the actuator's ``bit:`` section), one command per plant
+        sample."""
         self.bit_start: int | None = None
         """Plant sample index of the running (or last) BIT's first profile sample."""
         self.bit_state = "IDLE"

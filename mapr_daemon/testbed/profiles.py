@@ -1,17 +1,16 @@
-"""Motion and flight profiles that drive the EMA plant: position command plus air data.
+"""Flights that drive the simulated EMA: steady, sinusoidal and built-in-test profiles.
 
-A :class:`Profile` is sampled at the plant's output rate: surface position command (deg) and
-the air data the air-data computer would put on the bus (altitude, true airspeed, density,
-dynamic pressure). Two sources:
+The :class:`~mapr_daemon.ema.profile.Profile` type, the named flight conditions and the
+BIT profile itself are production code (:mod:`mapr_daemon.ema.profile`,
+:mod:`mapr_daemon.ema.bit`: the BIT motion is the actuator's ``bit:`` section); they are
+re-exported here for the simulator's users. What is the simulator's own:
 
-* :func:`bit_profile` — the built-in-test motion of the paper's Figure 16: a trapezoidal
-  position command with four corners (start and end of the ramp up, start and end of the
-  ramp down), fast enough that the drive runs into its voltage and current limits at the
-  corners, held long enough for the response to settle. Flown at a named flight condition
-  (dynamic pressure) or on the ground (no air load).
-* :func:`mapr_daemon.testbed.flight.jsbsim_flight` — a JSBSim flight (see that module).
-
-Flight conditions are named in :data:`CONDITIONS`; ``ground`` has no air load.
+* :func:`bit_profile` — the actuator's BIT motion with any timing overridden (tests and
+  benches fly shortened BITs).
+* :func:`steady_profile` — a steady flight with the surface held, on which the testbed's
+  flight control computer requests built-in tests.
+* :func:`sine_profile` — a sinusoidal command.
+* :func:`mapr_daemon.testbed.profiles_jsbsim.jsbsim_flight` — a JSBSim flight.
 """
 
 from __future__ import annotations
@@ -20,97 +19,26 @@ import dataclasses
 import math
 
 import numpy as np
-import numpy.typing as npt
 
+from mapr_daemon.ema import bit as ema_bit
+from mapr_daemon.ema.params import BitParams
+from mapr_daemon.ema.profile import CONDITIONS, Condition, Profile, condition, isa_density
 from mapr_daemon.errors import ConfigError
 
-FloatArray = npt.NDArray[np.float64]
+__all__ = ["CONDITIONS", "Condition", "Profile", "bit_profile", "condition", "isa_density",
+           "sine_profile", "steady_profile"]
 
 
-@dataclasses.dataclass(frozen=True)
-class Condition:
-    """A steady flight condition: altitude and true airspeed (ISA atmosphere)."""
-
-    name: str
-    altitude_m: float
-    airspeed_mps: float
-
-    @property
-    def density_kg_m3(self) -> float:
-        return isa_density(self.altitude_m)
-
-    @property
-    def dynamic_pressure_pa(self) -> float:
-        return 0.5 * self.density_kg_m3 * self.airspeed_mps**2
-
-
-CONDITIONS: dict[str, Condition] = {c.name: c for c in (
-    Condition("ground", 0.0, 0.0),
-    Condition("approach", 300.0, 33.0),
-    Condition("climb", 1000.0, 40.0),
-    Condition("cruise", 1500.0, 55.0),
-    Condition("dash", 600.0, 62.0),
-)}
-"""Named conditions, chosen inside a light aircraft's envelope (c172x: stall ~24 m/s)."""
-
-
-def isa_density(altitude_m: float) -> float:
-    """ISA troposphere density (kg/m^3)."""
-    t = 288.15 - 0.0065 * altitude_m
-    return float(1.225 * (t / 288.15) ** 4.2559)
-
-
-@dataclasses.dataclass(frozen=True)
-class Profile:
-    """Inputs over time, one value per output sample."""
-
-    name: str
-    time_s: FloatArray
-    command_deg: FloatArray
-    altitude_m: FloatArray
-    airspeed_mps: FloatArray
-    density_kg_m3: FloatArray
-    dynamic_pressure_pa: FloatArray
-    corners_s: tuple[float, ...] = ()
-
-    @property
-    def n_samples(self) -> int:
-        return int(self.time_s.size)
-
-
-def condition(name: str) -> Condition:
-    """A named flight condition; ConfigError lists the known ones."""
-    try:
-        return CONDITIONS[name]
-    except KeyError:
-        raise ConfigError(f"unknown flight condition (known: {', '.join(CONDITIONS)})",
-                          field="condition") from None
-
-
-def bit_profile(sample_rate_hz: float, cond: str = "ground", amplitude_deg: float = 20.0,
-                ramp_s: float = 0.03, hold_s: float = 0.6, lead_s: float = 0.2) -> Profile:
-    """The four-corner built-in-test position command (paper Fig. 16) at a steady condition.
-
-    Timeline: ``lead_s`` at 0, ramp to ``amplitude_deg`` in ``ramp_s``, hold ``hold_s``, ramp
-    back to 0 in ``ramp_s``, hold ``hold_s``. The default 20 deg in 30 ms asks for more speed
-    than the motor has at 24 V, so the corners exercise the voltage and current limits.
-    """
-    if min(ramp_s, hold_s, lead_s) <= 0 or sample_rate_hz <= 0:
-        raise ConfigError("timings and rate must be > 0", field="bit_profile")
-    c = condition(cond)
-    corners = (lead_s, lead_s + ramp_s, lead_s + ramp_s + hold_s,
-               lead_s + 2 * ramp_s + hold_s)
-    duration = corners[-1] + hold_s
-    n = round(duration * sample_rate_hz)
-    t = np.arange(1, n + 1) / sample_rate_hz
-    cmd = np.interp(t, [0.0, *corners, duration], [0.0, 0.0, amplitude_deg, amplitude_deg,
-                                                   0.0, 0.0])
-    ones = np.ones(n)
-    return Profile(
-        name=f"bit@{c.name}", time_s=t, command_deg=cmd, altitude_m=ones * c.altitude_m,
-        airspeed_mps=ones * c.airspeed_mps, density_kg_m3=ones * c.density_kg_m3,
-        dynamic_pressure_pa=ones * c.dynamic_pressure_pa, corners_s=corners)
-
+def bit_profile(sample_rate_hz: float, cond: str = "ground", amplitude_deg: float | None = None,
+                ramp_s: float | None = None, hold_s: float | None = None,
+                lead_s: float | None = None, *, bit: BitParams | None = None) -> Profile:
+    """The actuator's BIT profile (``bit``, default the shipped actuator's) at a steady
+    condition, with any of its timings overridden."""
+    spec = ema_bit.default_bit() if bit is None else bit
+    given = {"amplitude_deg": amplitude_deg, "ramp_s": ramp_s, "hold_s": hold_s,
+             "lead_s": lead_s}
+    spec = dataclasses.replace(spec, **{k: float(v) for k, v in given.items() if v is not None})
+    return ema_bit.bit_profile(sample_rate_hz, cond, spec)
 
 def steady_profile(sample_rate_hz: float, cond: str = "cruise", duration_s: float = 1.0,
                    command_deg: float = 0.0) -> Profile:

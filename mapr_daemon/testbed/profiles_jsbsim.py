@@ -24,8 +24,8 @@ from collections.abc import Iterator
 
 import numpy as np
 
+from mapr_daemon.ema.profile import Profile, condition
 from mapr_daemon.errors import ConfigError
-from mapr_daemon.testbed.profiles import Profile, condition
 
 FT = 0.3048
 SLUG_FT3 = 515.378818

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from mapr_daemon.catalog import CatalogReader, CatalogWriter, EventFilter
+from mapr_daemon.catalog import CatalogReader, CatalogWriter, Event, EventFilter
 from mapr_daemon.catalog.schema import LATEST, MIGRATIONS, migrate
 
 from .conftest import T0
@@ -27,8 +27,8 @@ def write_v1_file(path: Path) -> None:
     conn.close()
 
 
-def test_v1_file_is_read_then_migrated_by_the_v2_program(tmp_path: Path) -> None:
-    assert LATEST == 2
+def test_v1_file_is_read_then_migrated_by_the_current_program(tmp_path: Path) -> None:
+    assert LATEST == 3
     path = tmp_path / "old.sqlite"
     write_v1_file(path)
     with CatalogReader(path) as reader:  # the CLI reads an old file as it is
@@ -36,10 +36,10 @@ def test_v1_file_is_read_then_migrated_by_the_v2_program(tmp_path: Path) -> None
         assert [e.fault for e in reader.events()] == ["friction", "esr"]
         assert reader.sessions()[0].stop_reason is None
     with CatalogWriter(path) as writer:
-        assert writer.conn.execute("PRAGMA user_version").fetchone()[0] == 2
+        assert writer.conn.execute("PRAGMA user_version").fetchone()[0] == LATEST
         writer.open_session(backend="loopback", config_hash="new")
     with CatalogReader(path) as reader:
-        assert reader.schema_version == 2
+        assert reader.schema_version == LATEST
         assert [e.id for e in reader.events(EventFilter(asset="EMA1"))] == [2, 1]
         old, new = reader.sessions()
         assert (old.backend, old.stopped_ns, old.stop_reason) == ("serial", T0 + 10**12, None)
@@ -73,3 +73,36 @@ def test_a_failing_step_leaves_the_previous_version(tmp_path: Path) -> None:
     assert conn.execute("SELECT count(*) FROM sqlite_schema WHERE name = 'extra'"
                         ).fetchone()[0] == 0
     conn.close()
+
+
+def write_v2_file(path: Path) -> None:
+    """What MAPR with schema v2 left: an event without bus or absolute time."""
+    conn = sqlite3.connect(path, isolation_level=None)
+    conn.execute("PRAGMA journal_mode = WAL")
+    migrate(conn, str(path), steps=MIGRATIONS[:2])
+    conn.execute("INSERT INTO sessions VALUES (1, ?, ?, 'loopback', 'c0ffee', '0.1.0', "
+                 "'SIGTERM')", (T0, T0 + 10**12))
+    conn.execute("INSERT INTO events (id, session_id, t_ns, asset, rt, fault, severity, "
+                 "confidence) VALUES (1, 1, ?, 'EMA1', 5, 'esr', 0.6, 0.9)", (T0 + 10**9,))
+    conn.close()
+
+
+def test_v2_file_gains_the_event_stamps_and_keeps_its_events(tmp_path: Path) -> None:
+    path = tmp_path / "v2.sqlite"
+    write_v2_file(path)
+    with CatalogReader(path) as reader:   # read as it is, the stamps unknown
+        assert reader.schema_version == 2
+        (old,) = reader.events()
+        assert (old.fault, old.t_ns, old.bus_ns, old.abs_ns) == ("esr", T0 + 10**9, None, None)
+    with CatalogWriter(path) as writer:   # the writer migrates, then stores the new fields
+        writer.open_session(backend="chapter10", config_hash="new")
+        writer.add_events([Event(t_ns=T0 + 5 * 10**9, asset="EMA1", fault="friction",
+                                 confidence=0.7, rt=5, bus_ns=2_000_012_300,
+                                 abs_ns=T0 + 5 * 10**9)])
+    with CatalogReader(path) as reader:
+        assert reader.schema_version == 3
+        new, old = reader.events()
+        assert (old.fault, old.bus_ns, old.abs_ns) == ("esr", None, None)
+        assert (new.fault, new.bus_ns, new.abs_ns) == ("friction", 2_000_012_300,
+                                                       T0 + 5 * 10**9)
+        assert reader.event(new.id or 0) == new

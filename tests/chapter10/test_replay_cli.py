@@ -9,16 +9,17 @@ from __future__ import annotations
 
 from datetime import datetime
 from pathlib import Path
-from typing import Any
 
 import pytest
 
+from mapr_daemon.catalog import Event
 from mapr_daemon.catalog.reader import CatalogReader
 from mapr_daemon.cli import exitcodes
 from mapr_daemon.cli.main import main
 
 ICD = Path(__file__).resolve().parents[2] / "configs" / "icd" / "ema-testbed.yaml"
 START = datetime(2025, 6, 1, 10, 0, 0)
+START_NS = round((START - datetime(1970, 1, 1)).total_seconds()) * 10**9
 
 
 def replay(capsys: pytest.CaptureFixture[str], *argv: str) -> tuple[int, str, str]:
@@ -97,33 +98,32 @@ def dictionary(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 @pytest.fixture(scope="module")
 def bit_flight(dictionary: Path, tmp_path_factory: pytest.TempPathFactory
-               ) -> tuple[Path, list[dict[str, Any]]]:
-    """A recorded testbed BIT flight with a seeded friction fault, and the decisions the
-    daemon's BIT watcher makes on the live records (a threshold so low that every BIT is
-    reported)."""
+               ) -> tuple[Path, list[Event]]:
+    """A recorded testbed BIT flight with a seeded friction fault, and the events the
+    daemon's path (:class:`Pipeline`, a session clock anchored where the recording starts)
+    makes of the live records, with a threshold so low that every BIT is reported."""
     from drivers.chapter10.writer import Chapter10Writer
-    from mapr_daemon.daemon.bitwatch import BitWatch
+    from mapr_daemon.daemon.clock import BusClock
     from mapr_daemon.daemon.config import Config, ReasonerConfig, TestbedConfig
+    from mapr_daemon.daemon.pipeline import build_pipeline
     from mapr_daemon.daemon.source import monitor_factory
-    from mapr_daemon.ema.params import default_actuator_path, load_actuator
-    from mapr_daemon.icd import SignalStream, load_icd
-    from mapr_daemon.reasoner.dictionary import Dictionary
-    from mapr_daemon.reasoner.events import Reasoner
+    from mapr_daemon.icd import load_icd
 
-    icd = load_icd(ICD)
-    config = Config(testbed=TestbedConfig(seed=3, realtime=False, duration_s=1.7,
+    config = Config(icd=str(ICD),
+                    testbed=TestbedConfig(seed=3, realtime=False, duration_s=1.7,
                                           fault="friction@0.8"),
-                    reasoner=ReasonerConfig(dictionary=str(dictionary)))
-    with monitor_factory(config, icd)() as monitor:
+                    reasoner=ReasonerConfig(dictionary=str(dictionary), threshold=1e-9))
+    with monitor_factory(config, load_icd(ICD))() as monitor:
         records = list(monitor)
     path = tmp_path_factory.mktemp("flight") / "bit.c10"
     with Chapter10Writer(path, channel_id=1, start_time=START) as writer:
         writer.write(records)
-    watch = BitWatch(Reasoner(Dictionary.load(dictionary),
-                              load_actuator(default_actuator_path())), threshold=1e-9)
-    decisions = watch.feed(SignalStream(icd).feed(records))
-    assert len(decisions) == 1
-    return path, decisions
+    clock = BusClock(now_ns=lambda: START_NS + 3_456_789)   # truncated to START's 10 ms
+    pipe = build_pipeline(config)
+    events = [e for i in range(0, len(records), 1024)
+              for e in pipe.process(records[i:i + 1024], clock).events]
+    assert len(events) == 1
+    return path, events
 
 
 def test_diagnose_over_foreign_traffic_says_no_actuator_was_found(
@@ -140,9 +140,9 @@ def test_diagnose_over_foreign_traffic_says_no_actuator_was_found(
 
 
 def test_a_recorded_bit_flight_is_diagnosed_as_the_daemon_would(
-        bit_flight: tuple[Path, list[dict[str, Any]]], dictionary: Path, tmp_path: Path,
+        bit_flight: tuple[Path, list[Event]], dictionary: Path, tmp_path: Path,
         capsys: pytest.CaptureFixture[str]) -> None:
-    path, live = bit_flight
+    path, (live,) = bit_flight
     db = tmp_path / "c.db"
     code, out, _ = replay(capsys, str(path), "--diagnose", "--dictionary", str(dictionary),
                           "--threshold", "1e-9", "--catalog", str(db), "--icd", str(ICD))
@@ -154,11 +154,19 @@ def test_a_recorded_bit_flight_is_diagnosed_as_the_daemon_would(
         (event,) = catalog.events()
         (session,) = catalog.sessions()
     assert session.backend == "chapter10"
-    assert event.fault == live[0]["fault"]
-    assert event.confidence == pytest.approx(live[0]["confidence"])
-    assert event.evidence["score"] == pytest.approx(live[0]["evidence"]["score"])
     assert event.evidence["recording"] == str(path)
-    # stamped with the recording's time: its start plus the BIT's bus time
-    onset_ns = round(live[0]["evidence"]["bit_bus_time_s"] * 1e9)
-    start_ns = round((START - datetime(1970, 1, 1)).total_seconds() * 1e9)
-    assert abs(event.t_ns - (start_ns + onset_ns)) < 1_000
+    # the same stamps, to the nanosecond: bus time of the request record (to the 100 ns the
+    # recording keeps), and the recording's absolute time = the live session clock's
+    assert live.bus_ns is not None and live.abs_ns is not None
+    assert (event.bus_ns, event.abs_ns, event.t_ns) == (live.bus_ns, live.abs_ns, live.t_ns)
+    assert live.abs_ns == START_NS + live.bus_ns and live.bus_ns % 100 == 0
+    # the same fields; the reasoner's numbers to float noise (the counter timebase re-times
+    # the samples from time tags rounded to 100 ns)
+    same = ("asset", "rt", "fault", "switch", "severity_unit", "rul", "rul_unit")
+    assert [getattr(event, f) for f in same] == [getattr(live, f) for f in same]
+    for name in ("confidence", "severity", "severity_value", "soh"):
+        assert getattr(event, name) == pytest.approx(getattr(live, name), rel=1e-3), name
+    evidence = {k: v for k, v in event.evidence.items() if k != "recording"}
+    assert set(evidence) == set(live.evidence)
+    assert evidence["score"] == pytest.approx(live.evidence["score"], rel=1e-3)
+    assert set(event.params) == set(live.params)

@@ -65,8 +65,11 @@ def test_the_watcher_rebuilds_the_emas_own_samples(
     aircraft, records = healthy
     watch = BitWatch(Reasoner(Dictionary.load(dictionary),
                               load_actuator(default_actuator_path())))
-    events = watch.feed(SignalStream(ICD).feed(records))
-    assert len(events) == 1 and watch.last_onset is not None
+    (bit,) = watch.feed(SignalStream(ICD).feed(records))
+    assert watch.last_onset is not None and bit.onset_ns == watch.last_onset
+    # the request went out in the BIT request message before the BIT's first sample
+    requests = SignalStream(ICD).feed(records)["bit_request"]
+    assert bit.request_ns == int(requests.t_ns[requests.value == 2][0]) < bit.onset_ns
     record = watch.record(watch.last_onset)
     assert record is not None
     channels, q = record
@@ -93,13 +96,14 @@ def test_healthy_bus_flown_bits_score_below_the_dictionarys_own_threshold(
     for aircraft_records in (healthy, fly(None, seed=6)):
         watch = BitWatch(Reasoner(Dictionary.load(dictionary),
                                   load_actuator(default_actuator_path())))
-        events = watch.feed(SignalStream(ICD).feed(aircraft_records[1]))
+        events = [bit.decision for bit in watch.feed(SignalStream(ICD).feed(aircraft_records[1]))]
         assert len(events) == 1
         assert events[0]["anomaly"] is False, events[0]["evidence"]
         scores.append(events[0]["evidence"]["score"])
     opened = fly("open=A_high", seed=5)[1]
     watch = BitWatch(Reasoner(Dictionary.load(dictionary), load_actuator(default_actuator_path())))
-    (event,) = watch.feed(SignalStream(ICD).feed(opened))
+    (bit,) = watch.feed(SignalStream(ICD).feed(opened))
+    event = bit.decision
     assert event["anomaly"] is True and event["fault"] == "open"
     assert event["evidence"]["score"] > 10 * max(scores)
 

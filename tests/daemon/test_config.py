@@ -39,6 +39,13 @@ def test_check_accepts_the_shipped_config() -> None:
     ("catalog: 3\n", ":1: catalog: expected a mapping"),
     ("backend:\n  retry_initial_s: 5\n  retry_max_s: 1\n", ":3: backend.retry_max_s"),
     ("status_interval_s: true\n", ":1: status_interval_s: expected float"),
+    ("assets:\n  - name: EMA1\n    signals:\n      phase_current_a: phase_a_current_a\n"
+     "      phase_current_b: phase_a_current_a\n",
+     ":5: assets[0].signals.phase_current_b: 'phase_a_current_a' is already read from"),
+    ("assets:\n  - name: EMA1\n    signals:\n      phase_current_a: phase_current\n",
+     ":4: assets[0].signals.phase_current_a: 'phase_current' is not a reasoner channel"),
+    ("assets:\n  - name: EMA1\n    signals: {phase_current_a: phase_a_current_a}\n",
+     ":3: assets[0].signals: no signal for dc_link_current_a, phase_b_current_a"),
 ])
 def test_errors_name_file_line_and_field(text: str, where: str) -> None:
     with pytest.raises(ConfigError) as caught:
@@ -51,3 +58,32 @@ def test_relative_paths_follow_the_file(tmp_path: Path) -> None:
     config = load_config(tmp_path / "mapr.yaml")
     assert config.reasoner.dictionary == str(tmp_path.resolve() / "d.npz")
     assert config.digest() != Config().digest()
+
+
+def test_the_default_wiring_reads_what_the_testbed_aircraft_sends() -> None:
+    """The default ``assets[0].signals`` names the shipped ICD's signals, and maps each
+    sample-block signal to the plant channel the simulated EMA fills it from."""
+    from mapr_daemon.daemon.wiring import DEFAULT_SIGNALS, not_in_icd, problems
+    from mapr_daemon.icd import load_icd
+    from mapr_daemon.testbed.aircraft import FAST_CHANNELS, POWER_CHANNELS, SLOW_CHANNELS
+
+    assert problems(DEFAULT_SIGNALS) == []
+    assert not_in_icd(DEFAULT_SIGNALS, load_icd(ICD)) == []
+    sent = {**FAST_CHANNELS, **POWER_CHANNELS, **SLOW_CHANNELS}
+    assert {k: v for k, v in DEFAULT_SIGNALS.items() if k in sent} == sent
+
+
+def test_signals_missing_from_the_icd_stop_the_daemon_at_start(tmp_path: Path) -> None:
+    from mapr_daemon.daemon.pipeline import build_pipeline
+    from mapr_daemon.daemon.wiring import DEFAULT_SIGNALS
+
+    signals = {("phase_i_a" if k == "phase_current_a" else k): v
+               for k, v in DEFAULT_SIGNALS.items()}
+    config = dataclasses.replace(
+        Config(), source="x.yaml",
+        assets=(dataclasses.replace(Config().assets[0], signals=signals),),
+        reasoner=dataclasses.replace(Config().reasoner, dictionary=str(tmp_path / "d.npz")))
+    with pytest.raises(ConfigError) as caught:
+        build_pipeline(config)
+    assert str(caught.value) == ("x.yaml: assets[0].signals: not in the ICD ema-testbed: "
+                                 "phase_i_a")

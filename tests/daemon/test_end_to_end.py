@@ -13,6 +13,8 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+import pytest
+
 if TYPE_CHECKING:   # the fixture's class; pytest loads conftest itself
     from tests.daemon.conftest import Daemon
 
@@ -59,3 +61,37 @@ def test_nominal_flight_writes_no_event(
     daemon.wait_log("stream ended", timeout=60)
     assert daemon.terminate()[0] == 0
     assert events(tmp_path / "catalog.sqlite") == []
+
+
+def test_replaying_the_daemons_recording_gives_its_events_and_stamps(
+        tmp_path: Path, start_daemon: Callable[..., Daemon], dictionary: Path) -> None:
+    """The daemon records a 4 s flight (two BITs, a seeded open switch); ``mapr replay`` of
+    that file writes the same events: the same bus time and absolute time to the
+    nanosecond, the same fault, part and severity."""
+    from mapr_daemon.catalog import CatalogReader
+    from mapr_daemon.cli.main import main
+
+    recordings = tmp_path / "recordings"
+    daemon = start_daemon(flight(tmp_path, dictionary, "open=A_high", seed=3).replace(
+        "duration_s: 2.0", "duration_s: 4.0") + f"record: {{path: {recordings}}}\n")
+    daemon.wait_log("stream ended", timeout=120)
+    assert daemon.terminate()[0] == 0
+    (recording,) = recordings.iterdir()
+    replayed_db = tmp_path / "replayed.sqlite"
+    assert main(["replay", str(recording), "--diagnose", "--dictionary", str(dictionary),
+                 "--icd", str(ICD), "--catalog", str(replayed_db), "--no-progress"]) == 0
+    with CatalogReader(tmp_path / "catalog.sqlite") as catalog:
+        live = catalog.events(newest_first=False)
+    with CatalogReader(replayed_db) as catalog:
+        replayed = catalog.events(newest_first=False)
+    assert len(live) == 2 and all(e.bus_ns is not None and e.abs_ns is not None for e in live)
+    assert [(e.bus_ns, e.abs_ns, e.t_ns) for e in replayed] == \
+        [(e.bus_ns, e.abs_ns, e.t_ns) for e in live]
+    assert [(e.asset, e.rt, e.fault, e.switch, e.evidence.get("part")) for e in replayed] == \
+        [(e.asset, e.rt, e.fault, e.switch, e.evidence.get("part")) for e in live]
+    for a, b in zip(replayed, live, strict=True):
+        assert a.confidence == pytest.approx(b.confidence, rel=1e-3)
+        assert a.evidence["score"] == pytest.approx(b.evidence["score"], rel=1e-3)
+        assert a.evidence["recording"] == str(recording) and "recording" not in b.evidence
+    # two BITs, requested 2 s apart by the testbed's flight control computer
+    assert live[1].bus_ns - live[0].bus_ns == pytest.approx(2e9, abs=0.01e9)

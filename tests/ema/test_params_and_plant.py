@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -43,6 +44,27 @@ def test_unknown_and_missing_keys_rejected() -> None:
         parse_actuator(TEXT.replace("esr_ohm:", "esr_ohms:"))
     with pytest.raises(ConfigError, match=r"gear.ratio: missing key"):
         parse_actuator(TEXT.replace("  ratio: 40.0", ""))
+
+
+def test_the_bit_section_is_required_and_checked() -> None:
+    assert load_actuator(default_actuator_path()).bit.amplitude_deg == 20.0
+    with pytest.raises(ConfigError, match=r"bit.hold_s: missing key"):
+        parse_actuator(TEXT.replace("  hold_s: 0.6", ""))
+    with pytest.raises(ConfigError, match=r"bit.ramp_s: must be > 0"):
+        parse_actuator(TEXT.replace("  ramp_s: 0.03", "  ramp_s: 0"))
+    with pytest.raises(ConfigError, match=r"bit.amplitude_deg: must be below surface.travel"):
+        parse_actuator(TEXT.replace("  amplitude_deg: 20.0", "  amplitude_deg: 26.0"))
+
+
+def test_the_bit_profile_follows_the_actuator_file() -> None:
+    from mapr_daemon.ema.bit import bit_profile
+
+    bit = load_actuator(default_actuator_path()).bit
+    prof = bit_profile(2000.0, "ground", bit)
+    assert prof.corners_s == pytest.approx((0.2, 0.23, 0.83, 0.86))
+    assert prof.n_samples == 2920 and prof.command_deg.max() == 20.0
+    slower = bit_profile(2000.0, "ground", dataclasses.replace(bit, ramp_s=0.06))
+    assert slower.corners_s[1] == pytest.approx(0.26) and slower.n_samples == 3040
 
 
 def test_fault_text_forms() -> None:

@@ -1,0 +1,115 @@
+"""The simulator is a leaf: nothing in the product imports ``mapr_daemon.testbed``.
+
+The rule, checked on every module's syntax tree (``ast``, so an import that is never run
+counts too):
+
+* inside ``mapr_daemon/testbed/`` anything goes (the simulator may use production code);
+* elsewhere in ``mapr_daemon/`` and ``drivers/`` no module imports the testbed, at module
+  level, under ``TYPE_CHECKING`` or through ``importlib`` with a literal name;
+* except the simulator's front ends, which import it inside the named functions only, so
+  loading them (``mapr --help`` loads every subcommand) never loads the simulator:
+  ``mapr demo`` and ``mapr simulate`` (their ``run``), and the daemon's ``loopback``
+  backend, which is the simulated aircraft (:mod:`mapr_daemon.daemon.source`).
+
+``bench/`` and ``tests/`` are not the product: they fly the simulator on purpose.
+"""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+SIMULATOR = "mapr_daemon.testbed"
+ALLOWED: dict[str, set[str]] = {
+    "mapr_daemon/cli/demo.py": {"run"},
+    "mapr_daemon/cli/simulate.py": {"run", "_profile"},
+    "mapr_daemon/daemon/source.py": {"check", "monitor_factory"},
+}
+"""Module -> the functions in which it may import the simulator."""
+
+
+def _names(node: ast.AST) -> list[str]:
+    """The modules an import statement or a literal ``import_module`` call loads."""
+    if isinstance(node, ast.Import):
+        return [alias.name for alias in node.names]
+    if isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+        return [node.module] + [f"{node.module}.{alias.name}" for alias in node.names]
+    if isinstance(node, ast.Call) and node.args and isinstance(node.args[0], ast.Constant) \
+            and isinstance(node.args[0].value, str):
+        func = node.func
+        name = func.attr if isinstance(func, ast.Attribute) else \
+            func.id if isinstance(func, ast.Name) else ""
+        if name in ("import_module", "__import__"):
+            return [node.args[0].value]
+    return []
+
+
+def simulator_imports(source: str) -> list[tuple[int, str | None]]:
+    """(line, enclosing function or None at module level) of each import of the simulator;
+    a method is named ``Class.method``, a nested function by its outermost one."""
+    found: list[tuple[int, str | None]] = []
+
+    def visit(node: ast.AST, classes: str, function: str | None) -> None:
+        for child in ast.iter_child_nodes(node):
+            inner, where = function, classes
+            if function is None and isinstance(child, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                inner = classes + child.name
+            elif function is None and isinstance(child, ast.ClassDef):
+                where = f"{classes}{child.name}."
+            if any(n == SIMULATOR or n.startswith(SIMULATOR + ".") for n in _names(child)):
+                found.append((child.lineno, function))
+            visit(child, where, inner)
+
+    visit(ast.parse(source), "", None)
+    return found
+
+
+def violations(relative: str, source: str) -> list[str]:
+    allowed = ALLOWED.get(relative, set())
+    return [f"{relative}:{line}: imports {SIMULATOR}" + (f" in {fn}()" if fn else
+                                                          " at module level")
+            for line, fn in simulator_imports(source) if fn is None or fn not in allowed]
+
+
+def test_nothing_outside_the_testbed_imports_it() -> None:
+    product = [p for package in ("mapr_daemon", "drivers")
+               for p in sorted((ROOT / package).rglob("*.py"))]
+    assert len(product) > 100
+    bad = []
+    for path in product:
+        relative = path.relative_to(ROOT).as_posix()
+        if relative.startswith("mapr_daemon/testbed/"):
+            continue
+        bad += violations(relative, path.read_text(encoding="utf-8"))
+    assert bad == []
+
+
+def test_the_allowed_front_ends_do_import_it_lazily() -> None:
+    """The exceptions are real (a stale entry would widen the rule for nothing)."""
+    for relative, functions in ALLOWED.items():
+        seen = {fn for _, fn in simulator_imports((ROOT / relative).read_text(encoding="utf-8"))}
+        assert seen == functions, relative
+
+
+def test_the_check_sees_every_form_of_import() -> None:
+    source = '''
+import mapr_daemon.testbed.aircraft
+from mapr_daemon.testbed import profiles
+from mapr_daemon import testbed
+from mapr_daemon.ema import testbed_like
+if TYPE_CHECKING:
+    from mapr_daemon.testbed.aircraft import Aircraft
+
+def run():
+    from mapr_daemon.testbed.loopback import testbed_factory
+    importlib.import_module("mapr_daemon.testbed.mismatch")
+
+class Watch:
+    def feed(self):   # not the module's run(), though in an allowed module
+        import mapr_daemon.testbed
+'''
+    assert [line for line, _ in simulator_imports(source)] == [2, 3, 4, 7, 10, 11, 15]
+    assert violations("mapr_daemon/cli/demo.py", source) == [
+        f"mapr_daemon/cli/demo.py:{n}: imports {SIMULATOR} at module level" for n in (2, 3, 4, 7)
+    ] + [f"mapr_daemon/cli/demo.py:15: imports {SIMULATOR} in Watch.feed()"]
