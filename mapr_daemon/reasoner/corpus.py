@@ -102,7 +102,7 @@ def bit_layout(params: ActuatorParams) -> tuple[tuple[int, ...], int]:
     """The BIT profile's corner samples and its length in samples at the actuator's rate (what
     the window starts of M are computed from, before any run is flown)."""
     rate = params.sensors.sample_rate_hz
-    prof = bit_profile(rate, "ground")
+    prof = bit_profile(rate, "ground", params.bit)
     return corner_samples(prof.corners_s, rate), prof.n_samples
 
 
@@ -110,7 +110,7 @@ def _fly(params: ActuatorParams, runs: BitRuns, lo: int, hi: int, chunk: int,
          progress: Progress) -> Runs:
     """Runs ``lo:hi`` in one plant batch of their own (a run does not depend on its batch)."""
     rate = params.sensors.sample_rate_hz
-    prof = bit_profile(rate, "ground")
+    prof = bit_profile(rate, "ground", params.bit)
     specs = (list(runs.specs[lo:hi]) if runs.specs is not None else
              [RunSpec(params, runs.fault_sets[i], seed=runs.seeds[i],
                       ambient_c=runs.ambient_c[i], bus_v=runs.bus_v[i]) for i in range(lo, hi)])
