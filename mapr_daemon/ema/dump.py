@@ -11,10 +11,10 @@ import dataclasses
 import json
 from pathlib import Path
 
-from mapr_daemon.ema.params import CHANNELS, ActuatorParams
+from mapr_daemon.ema.params import CHANNELS, SECTION_NAMES, ActuatorParams
 
-SECTIONS = ("smps", "inverter", "motor", "gear", "surface", "control", "thermal", "bus",
-            "envelope")
+SECTIONS = SECTION_NAMES
+"""Every section the loader requires (one list: a section added there is written here)."""
 
 
 def _num(value: float) -> str:

@@ -226,6 +226,8 @@ _SECTIONS: dict[str, type[Any]] = {
     "surface": SurfaceParams, "control": ControlParams, "thermal": ThermalParams,
     "bus": BusParams, "envelope": EnvelopeParams, "bit": BitParams,
 }
+SECTION_NAMES: tuple[str, ...] = tuple(_SECTIONS)
+"""The actuator file's numeric sections besides ``sensors``, in the order files write them."""
 _MAY_BE_ZERO_OR_NEGATIVE = {
     "ch0", "ch_delta_per_rad", "ambient_c", "loop_kd", "soft_start_s", "noise_rms",
     "drift_sd_v", "flight_mean_sd_v", "ripple_rms_v", "source_resistance_ohm",
