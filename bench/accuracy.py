@@ -159,8 +159,11 @@ def score(name: str, truth: Plan, decisions: list[classifier.Decision],
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--dictionary", type=Path, help="use a built dictionary instead of building")
-    ap.add_argument("--seed", type=int, default=2024)
+    ap.add_argument("--seed", type=int, help="default: drawn afresh (printed)")
     args = ap.parse_args()
+    if args.seed is None:  # fresh at every run, in a range no design set uses
+        args.seed = int(np.random.SeedSequence().entropy % 90_000_000) + 10_000
+    print(f"seed {args.seed} (rerun with --seed {args.seed})")
     start = time.monotonic()
     params = load_actuator(default_actuator_path())
     root = Path(__file__).resolve().parents[1]

@@ -32,8 +32,11 @@ SHOWN = ("dc_link_current_a", "phase_a_current_a", "dc_bus_voltage_v", "position
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--units", type=int, default=20)
-    ap.add_argument("--seed", type=int, default=2024)
+    ap.add_argument("--seed", type=int, help="default: drawn afresh (printed)")
     args = ap.parse_args()
+    if args.seed is None:  # fresh at every run, in a range no design set uses
+        args.seed = int(np.random.SeedSequence().entropy % 90_000_000) + 10_000
+    print(f"seed {args.seed} (rerun with --seed {args.seed})")
     print(f"fleet seed {args.seed} (both actuators), {args.units} units each; distance = "
           "RMS(unit - twin) over the BIT / the channel's noise (its LSB if noiseless), "
           "mean/worst unit")

@@ -48,8 +48,11 @@ def main() -> None:
     ap.add_argument("--actuator", type=Path, default=default_actuator_path())
     ap.add_argument("--dictionary", type=Path, required=True)
     ap.add_argument("--units", type=int, default=40)
-    ap.add_argument("--seed", type=int, default=2024)
+    ap.add_argument("--seed", type=int, help="default: drawn afresh (printed)")
     args = ap.parse_args()
+    if args.seed is None:  # fresh at every run, in a range no design set uses
+        args.seed = int(np.random.SeedSequence().entropy % 90_000_000) + 10_000
+    print(f"seed {args.seed} (rerun with --seed {args.seed})")
     sheet = load_actuator(args.actuator)
     reasoner = Reasoner(Dictionary.load(args.dictionary), sheet)
     env = sheet.envelope
