@@ -65,8 +65,16 @@ def cached_dictionary(params: ActuatorParams, actuator_path: Path,
           f"it is cached in {path.parent}", file=sys.stderr)
     started = time.monotonic()
 
+    tty = sys.stderr.isatty()
+    shown = [-1]
+
     def progress(fraction: float) -> None:
-        print(f"\r  simulating fault-seeded BITs: {100 * fraction:5.1f} %", end="",
+        # a terminal gets a line redrawn at every whole percent, a log one line per tenth
+        step = int(100 * fraction) if tty else 10 * int(10 * fraction)
+        if step == shown[0]:
+            return
+        shown[0] = step
+        print(f"\r  simulating fault-seeded BITs: {step:3d} %", end="" if tty else "\n",
               file=sys.stderr, flush=True)
 
     dictionary = build(params, spec, progress=progress)
