@@ -55,8 +55,8 @@ def check(data: bytes, spans: list[PacketSpan], reference: Messages, damage: Dam
     work.write_bytes(damage.apply(data))
     try:
         got, _ = messages_by_packet(work)
-    except CaptureFormatError:
-        return "empty"
+    except CaptureFormatError:  # no valid header at all: right only when none was left
+        return "lost" if intact_packets(spans, damage) else "empty"
     except Exception:  # the campaign counts what a user would see as a traceback
         traceback.print_exc(limit=3, file=sys.stderr)
         return "raised"
