@@ -48,6 +48,9 @@ MAX_TIME_FILL_S = 3_600
 in is written, not one per silent second."""
 TIME_RESOLUTION_US = 10_000
 """Time Data Format 1 resolves 10 ms."""
+FILE_MODE = 0o640
+"""A new recording's mode: the process umask can only make it stricter (a daemon started
+outside systemd's ``UMask=0027`` would otherwise write fault data every local user can read)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -69,7 +72,8 @@ class Chapter10Writer:
 
     ``channel_id`` (1-65534) is the 1553 channel; time packets use ``channel_id + 1``.
     ``start_time`` is the absolute time of time tag 0 (default: the wall clock now, UTC; a
-    naive datetime is taken as UTC). The file is created (or truncated) at once. One thread
+    naive datetime is taken as UTC). The file is created (mode :data:`FILE_MODE`) or truncated
+    at once. One thread
     at a time may use a writer.
     """
 
@@ -81,7 +85,9 @@ class Chapter10Writer:
         self.channel_id = channel_id
         self.time_channel_id = channel_id + 1
         self.start_time = _time_packet_instant(start_time or datetime.now(UTC))
-        self._file = open(self.path, "wb")  # noqa: SIM115 - closed by close()
+        # created FILE_MODE whatever the umask (it can only make the file stricter)
+        fd = os.open(self.path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, FILE_MODE)
+        self._file = os.fdopen(fd, "wb")
         self._sequence: Counter[int] = Counter()
         self._pending: list[MonitorRecord] = []
         self._pending_bytes = 0

@@ -88,7 +88,7 @@ class SessionRecorder:
             self._offset = 0
             anchor = None if self.clock is None else self.clock.anchor()
             start = anchor or datetime.now(UTC)
-        self.directory.mkdir(parents=True, exist_ok=True)
+        self.directory.mkdir(mode=0o750, parents=True, exist_ok=True)
         name = f"session-{self.session_id:06d}-{start:%Y%m%dT%H%M%SZ}"
         if self.files:
             name += f"-part{len(self.files) + 1}"
