@@ -76,7 +76,11 @@ class SessionRecorder:
             records = [dataclasses.replace(r, t_ns=r.t_ns - offset,
                                            end_ns=r.end_ns - offset if r.end_ns else 0)
                        for r in records]
+        skipped = self._writer.stats.skipped
         self._writer.write(records)
+        if self._writer.stats.skipped > skipped:
+            log.warning("recording: %d records with a time tag a Chapter 10 file cannot hold "
+                        "skipped", self._writer.stats.skipped - skipped)
         self._last_ns = records[-1].t_ns + offset
         self.messages += len(records)
 
