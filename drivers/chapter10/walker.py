@@ -176,6 +176,15 @@ class PacketWalker:
             rest = f.read(header.packet_length - HEADER_BYTES)
             raw = raw_header + rest
             if len(raw) < header.packet_length:
+                # a cut last packet, or a damaged length: a valid header further on says which
+                following = self._next_header(pos + HEADER_BYTES)
+                if following < self.size:
+                    self._issue(pos, f"packet length {header.packet_length} runs past the end "
+                                     f"of the file, but a packet header follows at offset "
+                                     f"{following} (type 0x{header.data_type:02X}, channel "
+                                     f"{header.channel_id}); packet skipped")
+                    pos = following
+                    continue
                 self._issue(pos, f"truncated packet (type 0x{header.data_type:02X}, "
                                  f"{len(raw)} of {header.packet_length} bytes at the end of "
                                  "the file)")

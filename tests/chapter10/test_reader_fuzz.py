@@ -189,3 +189,33 @@ def test_replay_finishes_a_damaged_file(which: str) -> None:
         check_replay(rec, damage)
 
     prop()
+
+
+@pytest.mark.parametrize("which", ["written", "sample"])
+def test_a_packet_length_past_the_end_mid_file_loses_only_that_packet(which: str) -> None:
+    rec = recording(which)
+    # a 1553 packet with a packet after it, near enough to the end for a legal length to
+    # run past it (the standard caps a packet at 512 KiB)
+    first_1553 = next(s for s in rec.spans[:-1]
+                      if s.offset in rec.lines and len(rec.data) - s.offset < 500_000)
+    length = (len(rec.data) - first_1553.offset + 8) // 4 * 4
+    damage = Damage("field", first_1553.offset, length, "packet_length")
+    check_decode(rec, damage)
+    check_replay(rec, damage)
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "damaged.c10"
+        path.write_bytes(damage.apply(rec.data))
+        reader = Chapter10Reader(path)
+        read = {b.offset for b in reader}
+        reader.close()
+    following = rec.spans[rec.spans.index(first_1553) + 1].offset
+    assert str(reader.issues[0]) == (
+        f"offset {first_1553.offset}: packet length {length} runs past the end of the "
+        f"file, but a packet header follows at offset {following} (type 0x19, channel "
+        f"{_channel(rec, first_1553)}); packet skipped")
+    assert first_1553.offset not in read
+    assert set(rec.lines) - {first_1553.offset} <= read
+
+
+def _channel(rec: Recording, span: PacketSpan) -> int:
+    return int(struct.unpack_from("<H", rec.data, span.offset + 2)[0])
