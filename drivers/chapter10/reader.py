@@ -90,7 +90,11 @@ class Chapter10Reader:
             if self.walker.first_rtc is not None:
                 self.timebase.start(self.walker.first_rtc)
             if header.data_type == TIME_F1:
-                self.timebase.add_time_packet(item.packet, header.rtc)
+                try:
+                    self.timebase.add_time_packet(item.packet, header.rtc)
+                except (ValueError, OverflowError) as error:  # a date that does not exist
+                    self._message_issues.append(ReadIssue(
+                        header.offset, f"time packet gives no valid time ({error}); skipped"))
                 continue
             if header.data_type == MS1553_F1:
                 self.channels_seen.add(header.channel_id)

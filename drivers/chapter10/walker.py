@@ -10,6 +10,7 @@ the walk then looks for the next valid header and goes on, so one bad packet los
 
 from __future__ import annotations
 
+import os
 import struct
 from array import array
 from collections.abc import Iterator
@@ -19,7 +20,6 @@ from pathlib import Path
 from typing import Any, BinaryIO
 
 from chapter10.c10 import TYPES
-from chapter10.packet import InvalidPacket
 
 from drivers.errors import CaptureFormatError
 
@@ -34,8 +34,14 @@ TIME_F1 = 0x11
 MS1553_F1 = 0x19
 ARINC429_F0 = 0x38
 
+CSDW_BYTES = 4
+"""Every data packet's body starts with a 4-byte channel-specific data word."""
+
 _HEADER = struct.Struct("<HHIIBBBB6sH")
+
 _SCAN_BLOCK = 1 << 20
+RECOGNIZE_BYTES = 2 * MAX_PACKET_BYTES
+"""How far into a file whose first header is damaged :func:`looks_like_chapter10` looks."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -170,6 +176,15 @@ class PacketWalker:
             rest = f.read(header.packet_length - HEADER_BYTES)
             raw = raw_header + rest
             if len(raw) < header.packet_length:
+                # a cut last packet, or a damaged length: a valid header further on says which
+                following = self._next_header(pos + HEADER_BYTES)
+                if following < self.size:
+                    self._issue(pos, f"packet length {header.packet_length} runs past the end "
+                                     f"of the file, but a packet header follows at offset "
+                                     f"{following} (type 0x{header.data_type:02X}, channel "
+                                     f"{header.channel_id}); packet skipped")
+                    pos = following
+                    continue
                 self._issue(pos, f"truncated packet (type 0x{header.data_type:02X}, "
                                  f"{len(raw)} of {header.packet_length} bytes at the end of "
                                  "the file)")
@@ -188,13 +203,24 @@ class PacketWalker:
             handler = TYPES.get(header.data_type)
             if handler is None:
                 continue
+            if header.data_length < CSDW_BYTES:
+                self._issue(header.offset, f"data length {header.data_length} bytes leaves no "
+                                           "room for the channel-specific word (type "
+                                           f"0x{header.data_type:02X}, channel "
+                                           f"{header.channel_id}); packet skipped")
+                continue
             body_end = HEADER_BYTES + header.data_length + \
                 (SECONDARY_HEADER_BYTES if header.secondary_header else 0)
             try:  # parsed without filler and checksum: a message cannot run into them
                 packet = handler(BytesIO(raw[:body_end]))
-            except (InvalidPacket, EOFError, ValueError, struct.error) as error:
-                self._issue(header.offset, f"unreadable packet (type 0x{header.data_type:02X}): "
-                                           f"{error}")
+            except Exception as error:
+                # pychapter10 parses bytes nobody vouches for, and what it raises on damaged
+                # input is not part of its API (InvalidPacket, EOFError, struct.error, but also
+                # TypeError and ValueError from bitstruct and datetime on short or nonsensical
+                # fields). Whatever it raises for one packet is that packet's damage.
+                self._issue(header.offset, f"unreadable packet (type 0x{header.data_type:02X}, "
+                                           f"channel {header.channel_id}): "
+                                           f"{type(error).__name__}: {error}; packet skipped")
                 continue
             self.packets_read += 1
             yield RawPacket(header, raw, packet)
@@ -223,10 +249,29 @@ class PacketWalker:
 
 
 def looks_like_chapter10(path: str | Path) -> bool:
-    """True when the file starts with a valid Chapter 10 packet header."""
+    """True when the file starts with a valid Chapter 10 packet header, or, its first header
+    being damaged, when a valid header within the first :data:`RECOGNIZE_BYTES` is followed
+    by another valid header (or the end of the file) exactly where its length says. Two
+    headers that agree are what no other kind of file holds by chance (a lone sync pattern
+    with a matching checksum turns up in random bytes about once in 4 GB)."""
     try:
         with Path(path).open("rb") as f:
-            raw = f.read(HEADER_BYTES)
+            block = f.read(RECOGNIZE_BYTES + HEADER_BYTES)
+            size = os.fstat(f.fileno()).st_size
     except OSError:
         return False
-    return len(raw) == HEADER_BYTES and isinstance(parse_header(raw, 0), Header)
+    if len(block) >= HEADER_BYTES and isinstance(parse_header(block[:HEADER_BYTES], 0), Header):
+        return True
+    found = block.find(SYNC_BYTES)
+    while found != -1 and found + HEADER_BYTES <= len(block):
+        header = parse_header(block[found:found + HEADER_BYTES], found)
+        if isinstance(header, Header):
+            end = found + header.packet_length
+            if end == size:
+                return True
+            following = block[end:end + HEADER_BYTES]
+            if len(following) == HEADER_BYTES and isinstance(parse_header(following, end),
+                                                              Header):
+                return True
+        found = block.find(SYNC_BYTES, found + 1)
+    return False

@@ -48,6 +48,11 @@ MAX_TIME_FILL_S = 3_600
 in is written, not one per silent second."""
 TIME_RESOLUTION_US = 10_000
 """Time Data Format 1 resolves 10 ms."""
+LAST_TIME = datetime(3999, 12, 31, 23, 59, 59)
+"""The last second a time packet can give (its year's thousands digit has two bits)."""
+FILE_MODE = 0o640
+"""A new recording's mode: the process umask can only make it stricter (a daemon started
+outside systemd's ``UMask=0027`` would otherwise write fault data every local user can read)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -62,6 +67,9 @@ class RecordingStats:
     """Chapter 10 packets of every kind (TMATS, time, 1553)."""
     bytes: int
     """File size in bytes."""
+    skipped: int = 0
+    """Records left out because the file cannot say when they happened (a time tag past
+    the last date a time packet can hold, the year 3999); the others are written."""
 
 
 class Chapter10Writer:
@@ -69,7 +77,8 @@ class Chapter10Writer:
 
     ``channel_id`` (1-65534) is the 1553 channel; time packets use ``channel_id + 1``.
     ``start_time`` is the absolute time of time tag 0 (default: the wall clock now, UTC; a
-    naive datetime is taken as UTC). The file is created (or truncated) at once. One thread
+    naive datetime is taken as UTC). The file is created (mode :data:`FILE_MODE`) or truncated
+    at once. One thread
     at a time may use a writer.
     """
 
@@ -81,7 +90,9 @@ class Chapter10Writer:
         self.channel_id = channel_id
         self.time_channel_id = channel_id + 1
         self.start_time = _time_packet_instant(start_time or datetime.now(UTC))
-        self._file = open(self.path, "wb")  # noqa: SIM115 - closed by close()
+        # created FILE_MODE whatever the umask (it can only make the file stricter)
+        fd = os.open(self.path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, FILE_MODE)
+        self._file = os.fdopen(fd, "wb")
         self._sequence: Counter[int] = Counter()
         self._pending: list[MonitorRecord] = []
         self._pending_bytes = 0
@@ -92,6 +103,8 @@ class Chapter10Writer:
         self._packets = 0
         self._bytes = 0
         self._closed = False
+        self._skipped = 0
+        self._last_second = (LAST_TIME - self.start_time) // timedelta(seconds=1)
         setup = RecordingSetup(bus_channel_id=channel_id, time_channel_id=self.time_channel_id,
                                created=self.start_time, recorder_version=_recorder_version())
         self._put(tmats_packet(self._next_sequence(TMATS_CHANNEL), tmats_text(setup),
@@ -101,11 +114,16 @@ class Chapter10Writer:
 
     # --- the API ----------------------------------------------------------------------------
     def write(self, records: Iterable[MonitorRecord]) -> None:
-        """Add records (in time order; one out of order is written where it comes)."""
+        """Add records (in time order; one out of order is written where it comes). A record
+        whose time cannot be written is counted in :attr:`stats` ``.skipped``, not raised:
+        the records after it are still written."""
         if self._closed:
             raise ValueError(f"{self.path}: write to a closed Chapter 10 writer")
         for record in records:
             counts = (record.t_ns + RTC_NS // 2) // RTC_NS
+            if counts // RTC_HZ > self._last_second:
+                self._skipped += 1   # one wild time tag must not stop the recording
+                continue
             self._time_packets_through(counts)
             size = IPH_BYTES + 2 * _word_count(record)
             if self._pending and (counts - self._pending_first >= MAX_PACKET_NS // RTC_NS
@@ -144,7 +162,8 @@ class Chapter10Writer:
     def stats(self) -> RecordingStats:
         """Messages, messages with errors, packets and bytes written so far (messages held in
         the open packet count as messages, not yet as bytes)."""
-        return RecordingStats(self._messages, self._error_messages, self._packets, self._bytes)
+        return RecordingStats(self._messages, self._error_messages, self._packets, self._bytes,
+                              self._skipped)
 
     def __enter__(self) -> Chapter10Writer:
         return self

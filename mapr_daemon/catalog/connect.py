@@ -57,7 +57,10 @@ def open_writer(path: str | os.PathLike[str], durability: Durability = "power-lo
     if not Path(name).parent.is_dir():
         raise CatalogError(f"directory {Path(name).parent} does not exist", path=name)
     try:
+        _create_private(name)
         conn = sqlite3.connect(name, isolation_level=None, timeout=BUSY_TIMEOUT_MS / 1000)
+    except OSError as error:
+        raise CatalogError(f"cannot create: {error.strerror}", path=name) from error
     except sqlite3.Error as error:
         raise CatalogError(f"cannot open: {describe(error)}", path=name) from error
     try:
@@ -74,6 +77,23 @@ def open_writer(path: str | os.PathLike[str], durability: Durability = "power-lo
         conn.close()
         raise
     return conn
+
+
+FILE_MODE = 0o640
+"""A new catalog's mode (the process umask can only make it stricter): fault data is for the
+daemon's user and group, not every local user. SQLite gives ``-wal`` and ``-shm`` the
+database file's mode."""
+
+
+def _create_private(name: str) -> None:
+    """Create the catalog file with :data:`FILE_MODE` if it does not exist yet (SQLite would
+    create it 0644 less the umask: world-readable outside systemd's ``UMask=0027``). An
+    existing file keeps the mode its owner gave it."""
+    try:
+        fd = os.open(name, os.O_WRONLY | os.O_CREAT | os.O_EXCL, FILE_MODE)
+    except FileExistsError:
+        return
+    os.close(fd)
 
 
 def _uri(path: Path, query: str) -> str:

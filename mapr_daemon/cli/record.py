@@ -95,8 +95,10 @@ def _record(monitor: BusMonitor, writer: Chapter10Writer, stop: _StopSignals, *,
 
 def summary_line(stats: RecordingStats, path: str) -> str:
     """The line ``mapr record`` ends with."""
+    skipped = f"; {stats.skipped} with a time tag the file cannot hold, skipped" \
+        if stats.skipped else ""
     return (f"recorded {stats.messages} messages ({stats.error_messages} with errors) in "
-            f"{stats.packets} packets, {stats.bytes} bytes to {path}")
+            f"{stats.packets} packets, {stats.bytes} bytes to {path}{skipped}")
 
 
 class _StopSignals:

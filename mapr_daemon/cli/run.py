@@ -39,7 +39,7 @@ def run(args: argparse.Namespace) -> int:
 
     log = logs.setup("info")
     try:
-        config = load_config(args.config)
+        config = load_config(args.config, preflight=True)
         logs.setup(config.log_level)
         if args.check:
             build_pipeline(config)

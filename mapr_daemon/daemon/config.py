@@ -13,6 +13,7 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import json
+import math
 import os
 from pathlib import Path
 from typing import Any
@@ -20,6 +21,7 @@ from typing import Any
 from drivers.monitor import available_backends
 from mapr_daemon.catalog import default_path as default_catalog_path
 from mapr_daemon.daemon import wiring
+from mapr_daemon.daemon.preflight import check as preflight_check
 from mapr_daemon.ema.params import default_actuator_path
 from mapr_daemon.errors import ConfigError
 from mapr_daemon.icd.yamlsrc import Node, load_file
@@ -169,6 +171,8 @@ class _Reader:
               "bool": isinstance(value, bool), "dict": isinstance(value, dict)}[kind]
         if not ok:
             raise self.error(node, key, prefix, f"expected {kind}, got {value!r}")
+        if kind == "float" and not math.isfinite(value):
+            raise self.error(node, key, prefix, f"expected a finite number, got {value!r}")
         if minimum is not None and value < minimum:
             raise self.error(node, key, prefix, f"must be >= {minimum:g}, got {value!r}")
         if choices and value not in choices:
@@ -195,8 +199,9 @@ def _section(r: _Reader, root: Node, key: str, cls: type[Any],
     return cls(**kwargs)
 
 
-def parse(raw: Any, path: str) -> Config:
-    """A :class:`Config` from parsed YAML (``raw``) read from ``path``."""
+def parse(raw: Any, path: str, *, preflight: bool = False) -> Config:
+    """A :class:`Config` from parsed YAML (``raw``) read from ``path``; with ``preflight``,
+    also checked against this machine (:mod:`.preflight`: the files the daemon will open)."""
     r = _Reader(path, Path(path).resolve().parent)
     if raw is None:
         raw = Node()
@@ -239,6 +244,8 @@ def parse(raw: Any, path: str) -> Config:
         backend_node = raw.get("backend")
         where = backend_node if isinstance(backend_node, Node) else raw
         raise r.error(where, "retry_max_s", "backend.", "must be >= retry_initial_s")
+    if preflight:
+        preflight_check(config, raw, path)
     return config
 
 
@@ -280,8 +287,10 @@ def _signals(r: _Reader, item: Node, prefix: str, value: Any) -> dict[str, str]:
     return out
 
 
-def load_config(path: str | os.PathLike[str] | None) -> Config:
-    """The configuration in ``path`` (None: the built-in defaults). Raises ConfigError."""
+def load_config(path: str | os.PathLike[str] | None, *, preflight: bool = False) -> Config:
+    """The configuration in ``path`` (None: the built-in defaults). Raises ConfigError.
+    ``preflight``: also check what the daemon will meet here (``mapr run`` and its
+    ``--check``: input files readable, output paths usable)."""
     if path is None:
         return Config()
     text_path = os.fspath(path)
@@ -291,4 +300,4 @@ def load_config(path: str | os.PathLike[str] | None) -> Config:
         raise ConfigError(f"cannot read: {error.strerror}", path=text_path) from None
     except ConfigError as error:   # YAML syntax: already file:line
         raise ConfigError(error.detail, path=text_path, line=error.line) from None
-    return parse(raw, text_path)
+    return parse(raw, text_path, preflight=preflight)

@@ -76,7 +76,11 @@ class SessionRecorder:
             records = [dataclasses.replace(r, t_ns=r.t_ns - offset,
                                            end_ns=r.end_ns - offset if r.end_ns else 0)
                        for r in records]
+        skipped = self._writer.stats.skipped
         self._writer.write(records)
+        if self._writer.stats.skipped > skipped:
+            log.warning("recording: %d records with a time tag a Chapter 10 file cannot hold "
+                        "skipped", self._writer.stats.skipped - skipped)
         self._last_ns = records[-1].t_ns + offset
         self.messages += len(records)
 
@@ -88,7 +92,7 @@ class SessionRecorder:
             self._offset = 0
             anchor = None if self.clock is None else self.clock.anchor()
             start = anchor or datetime.now(UTC)
-        self.directory.mkdir(parents=True, exist_ok=True)
+        self.directory.mkdir(mode=0o750, parents=True, exist_ok=True)
         name = f"session-{self.session_id:06d}-{start:%Y%m%dT%H%M%SZ}"
         if self.files:
             name += f"-part{len(self.files) + 1}"

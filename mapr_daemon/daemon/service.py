@@ -318,7 +318,7 @@ class Service:
         """SIGHUP: new config and ICD, or the old ones kept (and the error logged)."""
         self.notifier.reloading()
         try:
-            config = load_config(self.config_path)
+            config = load_config(self.config_path, preflight=True)
             pipe = build_pipeline(config)
         except ConfigError as error:
             log.error("reload failed, keeping the running configuration: %s", error)

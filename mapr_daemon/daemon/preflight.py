@@ -1,0 +1,114 @@
+"""What the daemon will meet on this machine, checked before it starts (``mapr run``,
+``mapr run --check``, and a SIGHUP reload).
+
+A config can be well-formed and still not work: a file-reading backend (``capture``,
+``chapter10``) whose file is missing (the daemon would retry opening it for ever), a
+recording directory that is a file or cannot be written (recording would stop at the first
+record while monitoring goes on), a catalog path that is a directory. Under systemd each of
+those is a "running" service doing nothing useful, so each is a
+:class:`~mapr_daemon.errors.ConfigError` naming the config file and line (exit 78).
+
+These checks look at the filesystem, so they are not part of parsing: ``mapr replay`` and
+``mapr devices`` read the same config but never open its backend or its recording
+directory.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from mapr_daemon.errors import ConfigError
+from mapr_daemon.icd.yamlsrc import Node
+
+if TYPE_CHECKING:
+    from mapr_daemon.daemon.config import Config
+
+FILE_BACKENDS = ("capture", "chapter10")
+"""Backends that read a file named by their ``path`` option."""
+
+
+def check(config: Config, raw: Any, path: str) -> None:
+    """Raise ConfigError for the first thing in ``config`` (parsed from ``raw``, the YAML
+    of ``path``) the daemon could not use here."""
+    root = raw if isinstance(raw, Node) else None
+    _backend(config, _node(root, "backend"), path)
+    _record(config, _node(root, "record"), path)
+    _catalog(config, _node(root, "catalog"), path)
+
+
+def _node(parent: Node | None, key: str) -> Node | None:
+    child = parent.get(key) if parent is not None else None
+    return child if isinstance(child, Node) else parent
+
+
+def _error(node: Node | None, key: str, field: str, message: str, path: str) -> ConfigError:
+    line = node.line_of(key) if node is not None else None
+    return ConfigError(message, path=path, line=line, field=field)
+
+
+def _backend(config: Config, node: Node | None, path: str) -> None:
+    backend = config.backend
+    if backend.name not in FILE_BACKENDS:
+        return
+    options = node.get("options") if node is not None else None
+    where = options if isinstance(options, Node) else node
+    name = backend.options.get("path")
+    if not isinstance(name, str) or not name:
+        raise _error(where, "path", "backend.options.path",
+                     f"the {backend.name} backend needs the file to read", path)
+    problem = _unreadable(Path(name))
+    if problem:
+        raise _error(where, "path", "backend.options.path", f"{name}: {problem}", path)
+    speed = backend.options.get("speed")
+    if backend.name == "chapter10" and speed is not None and not (
+            isinstance(speed, (int, float)) and not isinstance(speed, bool)
+            and math.isfinite(speed) and speed >= 0):
+        raise _error(where, "speed", "backend.options.speed",
+                     f"expected a finite number >= 0, got {speed!r}", path)
+
+
+def _unreadable(file: Path) -> str | None:
+    if not file.exists():
+        return "no such file"
+    if not file.is_file():
+        return "not a regular file"
+    if not os.access(file, os.R_OK):
+        return "not readable by this user"
+    return None
+
+
+def _record(config: Config, node: Node | None, path: str) -> None:
+    directory = config.record.path
+    if directory is None:
+        return
+    problem = _unwritable_directory(Path(directory))
+    if problem:
+        raise _error(node, "path", "record.path", f"{directory}: {problem}", path)
+
+
+def _unwritable_directory(directory: Path) -> str | None:
+    """Why recordings could not be created in ``directory`` (None: they can)."""
+    if directory.exists():
+        if not directory.is_dir():
+            return "exists and is not a directory (recordings are files in a directory)"
+        if not os.access(directory, os.W_OK | os.X_OK):
+            return "directory not writable by this user"
+        return None
+    parent = directory.parent
+    while not parent.exists() and parent != parent.parent:
+        parent = parent.parent
+    if not parent.is_dir():
+        return f"cannot be created: {parent} is not a directory"
+    if not os.access(parent, os.W_OK | os.X_OK):
+        return f"cannot be created: {parent} is not writable by this user"
+    return None
+
+
+def _catalog(config: Config, node: Node | None, path: str) -> None:
+    catalog = Path(config.catalog.path)
+    if catalog.is_dir():
+        raise _error(node, "path", "catalog.path",
+                     f"{catalog}: is a directory (the catalog is a file)", path)
