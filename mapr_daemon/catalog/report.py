@@ -22,7 +22,8 @@ _UNIT_S = {"s": 1, "m": 60, "h": 3600, "d": 86400, "w": 604800}
 
 CSV_COLUMNS = ("id", "time_utc", "t_ns", "asset", "rt", "fault", "switch", "severity",
                "severity_value", "severity_unit", "confidence", "soh", "rul", "rul_low",
-               "rul_high", "rul_unit", "session_id", "params", "evidence", "bus_ns", "abs_ns")
+               "rul_high", "rul_unit", "session_id", "params", "evidence", "bus_ns", "abs_ns",
+               "episode_id")
 
 
 def parse_time(text: str, now_ns: int) -> int:
