@@ -21,16 +21,18 @@ sees one line per fault with its history instead of a dozen identical events. Th
   detection opens a new episode. A BIT the reasoner failed on counts neither way.
 
 The functions here are pure: they take an episode's stored state and one BIT and return the
-new state. The catalog writer (:mod:`.writer`) applies them at write time, in the transaction
-that stores the BIT's event, so the daemon and ``mapr replay`` build the same episodes.
+new state; :func:`observe` is the rule for one BIT. The catalog writer (:mod:`.writer`)
+applies it at write time to a whole batch (:func:`.episode_batch.fold`, the same rule in
+batch form), in the transaction that stores the BITs' events, so the daemon and
+``mapr replay`` build the same episodes.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Mapping, Sequence
-from typing import Any
+from collections.abc import Mapping
+from typing import Any, NamedTuple
 
 from mapr_daemon.catalog.model import Event
 
@@ -38,8 +40,7 @@ DEFAULT_CLEAR_BITS = 3
 """Consecutive clear BITs that close an episode, unless the daemon config says otherwise."""
 
 
-@dataclasses.dataclass(frozen=True)
-class Detection:
+class Detection(NamedTuple):
     """What one BIT found, as far as episodes care: where, which part and mode, how bad."""
 
     asset: str
@@ -52,12 +53,11 @@ class Detection:
 
 def detection_of(event: Event) -> Detection:
     """The :class:`Detection` an anomaly event stands for (part from its evidence)."""
-    part = event.evidence.get("part") if isinstance(event.evidence, Mapping) else None
     severity = event.severity
     if severity is not None and not math.isfinite(severity):
         severity = None
-    return Detection(asset=event.asset, part=str(part or event.fault), mode=event.fault,
-                     t_ns=int(event.t_ns), severity=severity)
+    return Detection(event.asset, str(event.evidence.get("part") or event.fault), event.fault,
+                     int(event.t_ns), severity)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -118,39 +118,55 @@ class Episode:
         return out
 
 
-def _with_severity(ep: Episode, severity: float | None, x: int, first: bool) -> Episode:
+def _evolve(ep: Episode, changes: dict[str, Any]) -> Episode:
+    """A copy of ``ep`` with ``changes`` (``ep`` is left as it was). What
+    ``dataclasses.replace`` does, without re-running ``__init__``: every field here is a
+    plain value, and the writer calls this for every BIT of a batch."""
+    new = object.__new__(Episode)
+    new.__dict__.update(ep.__dict__)
+    new.__dict__.update(changes)
+    return new
+
+
+def _severity(ep: Episode, severity: float | None, x: int, changes: dict[str, Any]
+              ) -> dict[str, Any]:
+    """``changes`` plus the severity trend's, for a detection at BIT ordinal ``x``."""
     if severity is None:
-        return ep
+        return changes
     n, sx, sy, sxx, sxy = ep.fit
-    return dataclasses.replace(
-        ep, sev_first=severity if first or ep.sev_first is None else ep.sev_first,
-        sev_last=severity,
+    changes.update(
+        sev_first=severity if ep.sev_first is None else ep.sev_first, sev_last=severity,
         sev_min=severity if ep.sev_min is None else min(ep.sev_min, severity),
         sev_max=severity if ep.sev_max is None else max(ep.sev_max, severity),
         fit=(n + 1, sx + x, sy + severity, sxx + x * x, sxy + x * severity))
+    return changes
+
+
+_BLANK = Episode(id=0, asset="", part="", mode="", modes=(), opened_ns=0, last_ns=0)
+"""Every field at its value for a new episode, bar those :func:`opened` sets."""
 
 
 def opened(episode_id: int, found: Detection) -> Episode:
     """A new episode at its first detection (BIT ordinal 0)."""
-    ep = Episode(id=episode_id, asset=found.asset, part=found.part, mode=found.mode,
-                 modes=(found.mode,), opened_ns=found.t_ns, last_ns=found.t_ns)
-    return _with_severity(ep, found.severity, 0, first=True)
+    return _evolve(_BLANK, _severity(_BLANK, found.severity, 0, {
+        "id": episode_id, "asset": found.asset, "part": found.part, "mode": found.mode,
+        "modes": (found.mode,), "opened_ns": found.t_ns, "last_ns": found.t_ns}))
 
 
 def detected(ep: Episode, found: Detection) -> Episode:
     """``ep`` after another BIT that detects its part."""
     modes = ep.modes if found.mode in ep.modes else (*ep.modes, found.mode)
-    new = dataclasses.replace(ep, mode=found.mode, modes=modes, last_ns=max(ep.last_ns,
-                              found.t_ns), bits=ep.bits + 1, span=ep.span + 1, clear=0)
-    return _with_severity(new, found.severity, ep.span, first=False)
+    return _evolve(ep, _severity(ep, found.severity, ep.span, {
+        "mode": found.mode, "modes": modes, "last_ns": max(ep.last_ns, found.t_ns),
+        "bits": ep.bits + 1, "span": ep.span + 1, "clear": 0}))
 
 
 def cleared(ep: Episode, t_ns: int, clear_after: int) -> Episode:
     """``ep`` after a diagnosed BIT of its actuator that does not detect its part: closed at
     ``t_ns`` once it has been clear for ``clear_after`` consecutive BITs."""
     clear = ep.clear + 1
-    return dataclasses.replace(ep, span=ep.span + 1, clear=clear,
-                               closed_ns=int(t_ns) if clear >= clear_after else None)
+    return _evolve(ep, {"span": ep.span + 1, "clear": clear,
+                        "closed_ns": int(t_ns) if clear >= clear_after else None})
 
 
 def observe(open_episodes: Mapping[str, Episode], asset: str, t_ns: int,
@@ -177,32 +193,3 @@ def observe(open_episodes: Mapping[str, Episode], asset: str, t_ns: int,
     else:
         changed[found.part] = opened(next_id, found)
     return changed, changed[found.part].id
-
-
-def fold(bits: Sequence[tuple[str, int, Detection | None]],
-         open_episodes: Mapping[tuple[str, str], Episode], clear_after: int, next_id: int
-         ) -> tuple[dict[int, Episode], list[int | None]]:
-    """A batch of diagnosed BITs ``(asset, t_ns, detection or None)``, in time order, against
-    the open episodes (keyed by ``(asset, part)``).
-
-    Returns every episode the batch changed or opened, by id (its final state), and each
-    BIT's episode id (None for a nominal BIT). New episodes take ids from ``next_id`` on.
-    """
-    by_asset: dict[str, dict[str, Episode]] = {}
-    for (asset, part), ep in open_episodes.items():
-        by_asset.setdefault(asset, {})[part] = ep
-    changed: dict[int, Episode] = {}
-    ids: list[int | None] = []
-    for asset, t_ns, found in bits:
-        current = by_asset.setdefault(asset, {})
-        updates, episode_id = observe(current, asset, t_ns, found, clear_after, next_id)
-        if episode_id == next_id:
-            next_id += 1
-        for part, ep in updates.items():
-            changed[ep.id] = ep
-            if ep.open:
-                current[part] = ep
-            else:
-                del current[part]
-        ids.append(episode_id)
-    return changed, ids

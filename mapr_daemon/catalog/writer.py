@@ -38,7 +38,8 @@ from typing import Any, Protocol
 from mapr_daemon import __version__
 from mapr_daemon.catalog import episode_store
 from mapr_daemon.catalog.connect import Durability, describe, open_writer
-from mapr_daemon.catalog.episodes import DEFAULT_CLEAR_BITS, detection_of, fold
+from mapr_daemon.catalog.episode_batch import fold
+from mapr_daemon.catalog.episodes import DEFAULT_CLEAR_BITS, Detection, detection_of
 from mapr_daemon.catalog.model import BitOutcome, Event
 from mapr_daemon.errors import CatalogError
 
@@ -186,20 +187,25 @@ class CatalogWriter:
 
         Each event counts as one BIT that detected it (for its fault episode); a caller that
         also knows the nominal BITs uses :meth:`add_bits`, so episodes can close."""
-        return self.add_bits(BitOutcome(e.asset, e.t_ns, e) for e in events)
+        batch = list(events)
+        return self._store(batch, [(e.asset, int(e.t_ns), detection_of(e)) for e in batch])
 
     def add_bits(self, outcomes: Iterable[BitOutcome]) -> list[int]:
         """Store a batch of diagnosed BITs (in time order) in one transaction: each anomaly
         event, with the fault episode it opens or updates, and each BIT's effect on the
         actuator's open episodes (:mod:`.episodes`). Returns the new event ids, in order,
         after COMMIT."""
-        sid = self._session()
         bits = list(outcomes)
-        events = [b.event for b in bits if b.event is not None]
-        if not bits:
+        return self._store([b.event for b in bits if b.event is not None],
+                           [(b.asset, int(b.t_ns),
+                             None if b.event is None else detection_of(b.event)) for b in bits])
+
+    def _store(self, events: list[Event], found: list[tuple[str, int, Detection | None]]
+               ) -> list[int]:
+        """``events`` are the detections of ``found`` (the batch's BITs), in order."""
+        sid = self._session()
+        if not found:
             return []
-        found = [(b.asset, int(b.t_ns), None if b.event is None else detection_of(b.event))
-                 for b in bits]
         rows = [(e.t_ns, e.asset, e.rt, e.fault, e.switch, _opt(e.severity),
                  _opt(e.severity_value), e.severity_unit, float(e.confidence),
                  to_json(e.params), _opt(e.soh), _opt(e.rul), _opt(e.rul_low),
@@ -215,8 +221,7 @@ class CatalogWriter:
             changed, episode_ids = fold(found, episode_store.load_open(conn), clear_after,
                                         first_episode)
             episode_store.save(conn, changed.values(), first_episode)
-            of_event = [i for b, i in zip(bits, episode_ids, strict=True)
-                        if b.event is not None]
+            of_event = [i for i in episode_ids if i is not None]
             conn.executemany(
                 "INSERT INTO events (id, session_id, t_ns, asset, rt, fault, switch, severity,"
                 " severity_value, severity_unit, confidence, params, soh, rul, rul_low,"

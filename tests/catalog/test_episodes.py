@@ -9,7 +9,8 @@ from pathlib import Path
 import pytest
 
 from mapr_daemon.catalog import BitOutcome, CatalogReader, CatalogWriter, Event
-from mapr_daemon.catalog.episodes import Detection, Episode, fold, observe
+from mapr_daemon.catalog.episode_batch import fold
+from mapr_daemon.catalog.episodes import Detection, Episode, observe
 
 from .conftest import T0
 
@@ -148,3 +149,51 @@ def test_fold_is_pure_and_matches_one_bit_at_a_time() -> None:
     assert state[ESR] == episode and episode.bits == 4 and episode.span == 6
     with pytest.raises(ValueError):
         observe({}, "EMA1", T0, None, 0, 1)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_fold_over_batches_agrees_with_the_one_bit_rule(seed: int) -> None:
+    """Random BIT sequences (2 actuators, 3 parts, nominal BITs, terminal faults), cut into
+    random batches: the batch fold gives what :func:`observe` gives BIT by BIT."""
+    import random
+    rng = random.Random(seed)
+    clear_after = rng.randint(1, 4)
+    parts = {"esr": ESR, "capacitance": ESR, "friction": "motor and gear",
+             "short": "inverter bridge"}
+    bits: list[tuple[str, int, Detection | None]] = []
+    for k in range(300):
+        asset, t = rng.choice(["EMA1", "EMA2"]), T0 + k * BIT_NS
+        mode = rng.choice([None, None, "esr", "esr", "capacitance", "friction", "short"])
+        bits.append((asset, t, None if mode is None else Detection(
+            asset, parts[mode], mode, t, None if mode == "short" else rng.random())))
+    # the rule, one BIT at a time
+    state: dict[tuple[str, str], Episode] = {}
+    every: dict[int, Episode] = {}
+    want: list[int | None] = []
+    next_id = 1
+    for asset, t, det in bits:
+        mine = {p: e for (a, p), e in state.items() if a == asset}
+        updates, eid = observe(mine, asset, t, det, clear_after, next_id)
+        next_id += eid == next_id
+        for part, ep in updates.items():
+            every[ep.id] = ep
+            if ep.open:
+                state[(asset, part)] = ep
+            else:
+                state.pop((asset, part), None)
+        want.append(eid)
+    # the fold, over random batches, its open episodes carried as the writer reloads them
+    stored: dict[int, Episode] = {}
+    got: list[int | None] = []
+    i, next_id = 0, 1
+    while i < len(bits):
+        n = rng.randint(1, 40)
+        open_now = {(e.asset, e.part): e for e in stored.values() if e.open}
+        changed, ids = fold(bits[i:i + n], open_now, clear_after, next_id)
+        stored.update(changed)
+        next_id = max([next_id - 1, *stored]) + 1
+        got += ids
+        i += n
+    assert got == want
+    assert stored == every
+    assert sum(e.open for e in every.values()) >= 1 and len(every) > 10
