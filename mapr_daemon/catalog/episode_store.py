@@ -129,11 +129,19 @@ def acknowledge(path: str | os.PathLike[str], episode_id: int, by: str, note: st
             raise
         return episode
     except sqlite3.Error as error:
-        raise CatalogError(f"cannot write the acknowledgment: {describe(error)} (it needs "
-                           "write access to the file and its directory: run as the service "
-                           "user or a member of its group)", path=name) from error
+        if getattr(error, "sqlite_errorcode", None) in _BUSY:
+            hint = (f"another writer held the file for over {BUSY_TIMEOUT_MS // 1000} s; "
+                    "try again")
+        else:
+            hint = ("it needs write access to the file and its directory: run as the "
+                    "service user or a member of its group")
+        raise CatalogError(f"cannot write the acknowledgment: {describe(error)} ({hint})",
+                           path=name) from error
     finally:
         conn.close()
+
+
+_BUSY = {getattr(sqlite3, "SQLITE_BUSY", 5), getattr(sqlite3, "SQLITE_LOCKED", 6)}
 
 
 def _acknowledge(conn: sqlite3.Connection, name: str, episode_id: int, who: str,

@@ -131,7 +131,9 @@ def event_detail(e: Event, session: Session | None) -> str:
              f"  severity    {fmt_severity(e, ' of range')}",
              f"  confidence  {100 * e.confidence:.0f}%",
              f"  SoH         {_num(e.soh)}",
-             f"  RUL         {fmt_rul(e)}"]
+             f"  RUL         {fmt_rul(e)}",
+             *([f"  episode     {e.episode_id} (mapr catalog episodes)"]
+               if e.episode_id is not None else [])]
     if session is not None:
         lines.append(f"  session     {session.id}: {session.backend}, config "
                      f"{session.config_hash[:12]}, MAPR {session.software_version}, "

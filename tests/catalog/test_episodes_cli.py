@@ -69,6 +69,8 @@ def test_ack_stores_who_when_note_and_a_second_ack_is_refused(catalog_path: Path
         assert reader.episode(1) == episode    # the first acknowledgment stands
     listed = mapr("catalog", "episodes", "--catalog", str(catalog_path))
     assert listed.stdout.splitlines()[2].endswith("closed  J. Smith")
+    shown = mapr("catalog", "show", "2", "--catalog", str(catalog_path))
+    assert "  episode     1 (mapr catalog episodes)" in shown.stdout.splitlines()
 
 
 def test_ack_while_the_daemon_writes_keeps_both(catalog_path: Path) -> None:
