@@ -6,6 +6,7 @@
     ├── ConfigError       a configuration or ICD file is wrong; names file, line and field
     │   └── IcdError      an interface-control-document (message table) error
     ├── CatalogError      the fault catalog file is missing, corrupt, newer than us, or unusable
+    ├── EpisodeError      a fault episode cannot be acknowledged (unknown id, already done)
     └── RecordError       one record (a run of a file, one BIT) cannot be diagnosed
 """
 
@@ -41,6 +42,11 @@ class CatalogError(MaprError):
         self.path = path
         self.detail = message
         super().__init__(f"catalog {path}: {message}" if path is not None else message)
+
+
+class EpisodeError(MaprError):
+    """A fault episode cannot be acknowledged: its id is unknown, or it already was (the
+    first acknowledgment stands). ``str()`` is one line."""
 
 
 class RecordError(MaprError):

@@ -1,7 +1,8 @@
 """The SQLite fault catalog: what the daemon found, kept for maintainers to query.
 
 One file (default :data:`DEFAULT_CATALOG`, the service's StateDirectory) holds monitoring
-sessions, anomaly events, per-interval bus statistics and monitoring gaps. The daemon writes
+sessions, anomaly events grouped into fault episodes (:mod:`.episodes`), per-interval bus
+statistics and monitoring gaps. The daemon writes
 through :class:`CatalogWriter` (WAL, batched transactions, durable on return); the CLI reads
 through :class:`CatalogReader` (read-only, also when the daemon is stopped). The schema is
 versioned with ``PRAGMA user_version`` and migrated forward (:mod:`.schema`).
@@ -11,7 +12,10 @@ from __future__ import annotations
 
 import os
 
+from mapr_daemon.catalog.episode_store import acknowledge
+from mapr_daemon.catalog.episodes import DEFAULT_CLEAR_BITS, Episode
 from mapr_daemon.catalog.model import (
+    BitOutcome,
     Event,
     EventFilter,
     Gap,
@@ -35,6 +39,7 @@ def default_path() -> str:
 
 
 __all__ = [
-    "DEFAULT_CATALOG", "ENV_CATALOG", "SCHEMA_VERSION", "CatalogReader", "CatalogWriter",
-    "Event", "EventFilter", "Gap", "Session", "StatsRow", "default_path", "event_from_reasoner",
+    "DEFAULT_CATALOG", "DEFAULT_CLEAR_BITS", "ENV_CATALOG", "SCHEMA_VERSION", "BitOutcome",
+    "CatalogReader", "CatalogWriter", "Episode", "Event", "EventFilter", "Gap", "Session",
+    "StatsRow", "acknowledge", "default_path", "event_from_reasoner",
 ]

@@ -57,6 +57,9 @@ class Event:
     abs_ns: int | None = None
     """That instant as Unix epoch ns (UTC), where known: the session clock on a live bus, a
     recording's time packets on replay (docs/service.md, "Event stamps")."""
+    episode_id: int | None = None
+    """The fault episode the event belongs to (:mod:`.episodes`), set by the writer; None in
+    catalogs from before schema v4."""
     id: int | None = None
     session_id: int | None = None
 
@@ -117,6 +120,18 @@ def event_from_reasoner(decision: Mapping[str, Any], *, t_ns: int, asset: str,
         params=dict(decision.get("parameters") or {}), evidence=evidence,
         bus_ns=None if bus_ns is None else int(bus_ns),
         abs_ns=None if abs_ns is None else int(abs_ns))
+
+
+@dataclasses.dataclass(frozen=True)
+class BitOutcome:
+    """One diagnosed BIT of one actuator, as the writer stores it: its anomaly event, or
+    None when the BIT found the actuator nominal (which still counts towards closing that
+    actuator's fault episodes, :mod:`.episodes`)."""
+
+    asset: str
+    t_ns: int
+    """When the BIT happened (epoch ns, the event's ``t_ns`` when there is one)."""
+    event: Event | None = None
 
 
 @dataclasses.dataclass(frozen=True)

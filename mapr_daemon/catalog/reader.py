@@ -22,7 +22,9 @@ from collections.abc import Iterator
 from types import TracebackType
 from typing import Any
 
+from mapr_daemon.catalog import episode_store
 from mapr_daemon.catalog.connect import describe, open_reader
+from mapr_daemon.catalog.episodes import Episode
 from mapr_daemon.catalog.model import Event, EventFilter, Gap, Session, StatsRow
 from mapr_daemon.errors import CatalogError
 
@@ -35,17 +37,18 @@ STAMPS_SINCE = 3
 
 def _columns(version: int) -> str:
     stamps = "bus_ns, abs_ns" if version >= STAMPS_SINCE else "NULL, NULL"
-    return f"{_EVENT_COLUMNS}, {stamps}"
+    episode = "episode_id" if version >= episode_store.EPISODES_SINCE else "NULL"
+    return f"{_EVENT_COLUMNS}, {stamps}, {episode}"
 
 
 def _event(row: tuple[Any, ...]) -> Event:
     (eid, sid, t_ns, asset, rt, fault, switch, sev, sev_value, sev_unit, conf, params, soh,
-     rul, rul_low, rul_high, rul_unit, evidence, bus_ns, abs_ns) = row
+     rul, rul_low, rul_high, rul_unit, evidence, bus_ns, abs_ns, episode_id) = row
     return Event(t_ns=t_ns, asset=asset, fault=fault, confidence=conf, severity=sev,
                  severity_value=sev_value, severity_unit=sev_unit, rt=rt, switch=switch,
                  soh=soh, rul=rul, rul_low=rul_low, rul_high=rul_high, rul_unit=rul_unit,
                  params=json.loads(params), evidence=json.loads(evidence), bus_ns=bus_ns,
-                 abs_ns=abs_ns, id=eid, session_id=sid)
+                 abs_ns=abs_ns, episode_id=episode_id, id=eid, session_id=sid)
 
 
 def _where(flt: EventFilter) -> tuple[str, list[Any]]:
@@ -118,6 +121,28 @@ class CatalogReader:
         flt = EventFilter(since_ns=since_ns, until_ns=until_ns, asset=asset)
         return [e for e in self.iter_events(flt, newest_first=False)
                 if e.soh is not None or e.rul is not None]
+
+    def episode_events(self, episode_id: int) -> list[Event]:
+        """The events of one fault episode, oldest first (empty before schema v4)."""
+        if self.schema_version < episode_store.EPISODES_SINCE:
+            return []
+        return [_event(r) for r in self._rows(
+            f"SELECT {_columns(self.schema_version)} FROM events WHERE episode_id = ? "
+            "ORDER BY t_ns, id", (int(episode_id),))]
+
+    # --- fault episodes ------------------------------------------------------------------
+    def episodes(self, *, open_only: bool = False, asset: str | None = None) -> list[Episode]:
+        """Fault episodes, most recently active first (none before schema v4)."""
+        if self.schema_version < episode_store.EPISODES_SINCE:
+            return []
+        try:
+            return episode_store.select(self._conn, open_only=open_only, asset=asset)
+        except sqlite3.DatabaseError as error:
+            raise CatalogError(f"read failed: {describe(error)}", path=self.path) from error
+
+    def episode(self, episode_id: int) -> Episode | None:
+        found = [e for e in self.episodes() if e.id == episode_id]
+        return found[0] if found else None
 
     def assets(self) -> list[str]:
         return [r[0] for r in self._rows("SELECT DISTINCT asset FROM events ORDER BY asset")]

@@ -15,6 +15,7 @@ import re
 from collections.abc import Iterable, Sequence
 from typing import IO, Any
 
+from mapr_daemon.catalog.episodes import Episode
 from mapr_daemon.catalog.model import Event, Gap, Session, StatsRow
 
 _AGE = re.compile(r"^\s*(\d+(?:\.\d+)?)\s*([smhdw])\s*$")
@@ -22,7 +23,8 @@ _UNIT_S = {"s": 1, "m": 60, "h": 3600, "d": 86400, "w": 604800}
 
 CSV_COLUMNS = ("id", "time_utc", "t_ns", "asset", "rt", "fault", "switch", "severity",
                "severity_value", "severity_unit", "confidence", "soh", "rul", "rul_low",
-               "rul_high", "rul_unit", "session_id", "params", "evidence", "bus_ns", "abs_ns")
+               "rul_high", "rul_unit", "session_id", "params", "evidence", "bus_ns", "abs_ns",
+               "episode_id")
 
 
 def parse_time(text: str, now_ns: int) -> int:
@@ -129,7 +131,9 @@ def event_detail(e: Event, session: Session | None) -> str:
              f"  severity    {fmt_severity(e, ' of range')}",
              f"  confidence  {100 * e.confidence:.0f}%",
              f"  SoH         {_num(e.soh)}",
-             f"  RUL         {fmt_rul(e)}"]
+             f"  RUL         {fmt_rul(e)}",
+             *([f"  episode     {e.episode_id} (mapr catalog episodes)"]
+               if e.episode_id is not None else [])]
     if session is not None:
         lines.append(f"  session     {session.id}: {session.backend}, config "
                      f"{session.config_hash[:12]}, MAPR {session.software_version}, "
@@ -168,6 +172,32 @@ def gaps_table(gaps: Sequence[Gap]) -> str:
              "ongoing" if g.end_ns is None else fmt_duration(g.end_ns - g.start_ns), g.reason)
             for g in gaps]
     return _table(("GAP FROM (UTC)", "TO", "LENGTH", "REASON"), body, right={2})
+
+
+def _share(value: float | None) -> str:
+    return "?" if value is None else f"{100 * value:.0f}%"
+
+
+def fmt_trend(ep: Episode) -> str:
+    """``52%->70%`` (first -> last share of range), or ``terminal`` when none was stated."""
+    if ep.sev_first is None:
+        return "terminal"
+    return f"{_share(ep.sev_first)}->{_share(ep.sev_last)}"
+
+
+def episodes_table(episodes: Sequence[Episode]) -> str:
+    """One line per fault episode (``mapr catalog episodes``)."""
+    rows = [(str(ep.id), ep.asset, ep.part, "+".join(ep.modes), fmt_time(ep.opened_ns),
+             fmt_time(ep.last_ns), str(ep.bits), fmt_trend(ep), ep.state, ep.acked_by or "-")
+            for ep in episodes]
+    return _table(("ID", "ACTUATOR", "PART", "MODE", "OPENED (UTC)", "LAST BIT (UTC)", "BITS",
+                   "SEVERITY", "STATE", "ACKNOWLEDGED BY"), rows, right={0, 6})
+
+
+def episode_json(ep: Episode) -> dict[str, Any]:
+    return {"opened_utc": fmt_time(ep.opened_ns), "last_bit_utc": fmt_time(ep.last_ns),
+            "closed_utc": None if ep.closed_ns is None else fmt_time(ep.closed_ns),
+            "acked_utc": None if ep.acked_ns is None else fmt_time(ep.acked_ns), **ep.as_dict()}
 
 
 def event_json(e: Event) -> dict[str, Any]:

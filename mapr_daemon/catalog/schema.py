@@ -17,6 +17,10 @@ History:
    (:class:`~mapr_daemon.catalog.model.Event`). Events written before stay NULL in both:
    their ``t_ns`` was the daemon's wall clock at write, or a replay's rounded recording
    time, and neither is a bus time.
+4. ``episodes`` (:mod:`~mapr_daemon.catalog.episodes`: one persistent fault of one
+   actuator's part across BITs, its severity trend and its acknowledgment) and
+   ``events.episode_id``. Events written before keep it NULL: the BITs that found the
+   actuator nominal were never stored, so their episodes cannot be rebuilt.
 """
 
 from __future__ import annotations
@@ -87,6 +91,35 @@ MIGRATIONS: tuple[tuple[str, ...], ...] = (
     (  # 3: an event's bus time and absolute time
         "ALTER TABLE events ADD COLUMN bus_ns INTEGER",
         "ALTER TABLE events ADD COLUMN abs_ns INTEGER",
+    ),
+    (  # 4: fault episodes and their acknowledgment
+        """CREATE TABLE episodes (
+            id INTEGER PRIMARY KEY,
+            asset TEXT NOT NULL,
+            part TEXT NOT NULL,
+            mode TEXT NOT NULL,
+            modes TEXT NOT NULL,
+            opened_ns INTEGER NOT NULL,
+            last_ns INTEGER NOT NULL,
+            closed_ns INTEGER,
+            bits INTEGER NOT NULL,
+            span_bits INTEGER NOT NULL,
+            clear_bits INTEGER NOT NULL,
+            sev_first REAL,
+            sev_last REAL,
+            sev_min REAL,
+            sev_max REAL,
+            fit_n REAL NOT NULL DEFAULT 0,
+            fit_sx REAL NOT NULL DEFAULT 0,
+            fit_sy REAL NOT NULL DEFAULT 0,
+            fit_sxx REAL NOT NULL DEFAULT 0,
+            fit_sxy REAL NOT NULL DEFAULT 0,
+            acked_by TEXT,
+            acked_ns INTEGER,
+            ack_note TEXT)""",
+        "CREATE INDEX episodes_open ON episodes(asset, part) WHERE closed_ns IS NULL",
+        "ALTER TABLE events ADD COLUMN episode_id INTEGER REFERENCES episodes(id)",
+        "CREATE INDEX events_episode ON events(episode_id)",
     ),
 )
 

@@ -5,6 +5,7 @@ One :class:`CatalogWriter` per daemon process::
     with CatalogWriter("/var/lib/mapr/catalog.sqlite") as catalog:
         catalog.open_session(backend="loopback", config_hash=digest)
         ids = catalog.add_events(batch)          # one transaction; durable when it returns
+        ids = catalog.add_bits(outcomes)         # the same, with the nominal BITs too
         catalog.add_stats(t0_ns, t1_ns, interval_stats)
         catalog.record_gap(t0_ns, t1_ns, "backend: USB card unplugged")
         catalog.close_session("SIGTERM")
@@ -14,6 +15,10 @@ Every write method is one transaction, and returns only after its COMMIT: with t
 power cut, so the daemon may report those ids as written. Batching is the caller's choice
 (the daemon collects the reasoner's events per loop turn); a batch of thousands costs about
 what one event costs, which is why ``add_events`` takes many.
+
+Every stored event belongs to a fault episode (:mod:`.episodes`), opened or updated in the
+same transaction; ``add_bits`` also takes the BITs that found the actuator nominal, which
+close episodes after ``clear_after`` consecutive clear BITs.
 
 A session left open by a run that was killed is closed at the next ``open_session`` with
 ``stop_reason="unclean"`` and a monitoring gap from its last sign of life to the new start.
@@ -31,8 +36,11 @@ from types import TracebackType
 from typing import Any, Protocol
 
 from mapr_daemon import __version__
+from mapr_daemon.catalog import episode_store
 from mapr_daemon.catalog.connect import Durability, describe, open_writer
-from mapr_daemon.catalog.model import Event
+from mapr_daemon.catalog.episode_batch import fold
+from mapr_daemon.catalog.episodes import DEFAULT_CLEAR_BITS, Detection, detection_of
+from mapr_daemon.catalog.model import BitOutcome, Event
 from mapr_daemon.errors import CatalogError
 
 UNCLEAN = "unclean"
@@ -88,9 +96,14 @@ class CatalogWriter:
     """The single read-write user of a catalog file (see the module docstring)."""
 
     def __init__(self, path: str | os.PathLike[str], *,
-                 durability: Durability = "power-loss") -> None:
+                 durability: Durability = "power-loss",
+                 clear_after: int = DEFAULT_CLEAR_BITS) -> None:
+        if clear_after < 1:
+            raise ValueError("clear_after must be at least 1 BIT")
         self.path = os.fspath(path)
         self.durability = durability
+        self.clear_after = int(clear_after)
+        """Consecutive clear BITs that close a fault episode (:mod:`.episodes`)."""
         self._conn: sqlite3.Connection | None = open_writer(self.path, durability)
         self.session_id: int | None = None
 
@@ -170,26 +183,52 @@ class CatalogWriter:
 
     # --- events, statistics, gaps ------------------------------------------------------
     def add_events(self, events: Iterable[Event]) -> list[int]:
-        """Insert a batch in one transaction; returns the new ids, in order, after COMMIT."""
+        """Insert a batch in one transaction; returns the new ids, in order, after COMMIT.
+
+        Each event counts as one BIT that detected it (for its fault episode); a caller that
+        also knows the nominal BITs uses :meth:`add_bits`, so episodes can close."""
+        batch = list(events)
+        return self._store(batch, [(e.asset, int(e.t_ns), detection_of(e)) for e in batch])
+
+    def add_bits(self, outcomes: Iterable[BitOutcome]) -> list[int]:
+        """Store a batch of diagnosed BITs (in time order) in one transaction: each anomaly
+        event, with the fault episode it opens or updates, and each BIT's effect on the
+        actuator's open episodes (:mod:`.episodes`). Returns the new event ids, in order,
+        after COMMIT."""
+        bits = list(outcomes)
+        return self._store([b.event for b in bits if b.event is not None],
+                           [(b.asset, int(b.t_ns),
+                             None if b.event is None else detection_of(b.event)) for b in bits])
+
+    def _store(self, events: list[Event], found: list[tuple[str, int, Detection | None]]
+               ) -> list[int]:
+        """``events`` are the detections of ``found`` (the batch's BITs), in order."""
         sid = self._session()
+        if not found:
+            return []
         rows = [(e.t_ns, e.asset, e.rt, e.fault, e.switch, _opt(e.severity),
                  _opt(e.severity_value), e.severity_unit, float(e.confidence),
                  to_json(e.params), _opt(e.soh), _opt(e.rul), _opt(e.rul_low),
                  _opt(e.rul_high), e.rul_unit, to_json(e.evidence), _int(e.bus_ns),
                  _int(e.abs_ns)) for e in events]
-        if not rows:
-            return []
+        clear_after = self.clear_after
 
         def work(conn: sqlite3.Connection) -> int:
             # Under BEGIN IMMEDIATE we hold the write lock: ids max+1.. are ours to give.
             first = int(conn.execute("SELECT coalesce(max(id), 0) + 1 FROM events"
                                      ).fetchone()[0])
+            first_episode = episode_store.next_id(conn)
+            changed, episode_ids = fold(found, episode_store.load_open(conn), clear_after,
+                                        first_episode)
+            episode_store.save(conn, changed.values(), first_episode)
+            of_event = [i for i in episode_ids if i is not None]
             conn.executemany(
                 "INSERT INTO events (id, session_id, t_ns, asset, rt, fault, switch, severity,"
                 " severity_value, severity_unit, confidence, params, soh, rul, rul_low,"
-                " rul_high, rul_unit, evidence, bus_ns, abs_ns)"
-                " VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
-                [(first + i, sid, *row) for i, row in enumerate(rows)])
+                " rul_high, rul_unit, evidence, bus_ns, abs_ns, episode_id)"
+                " VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                [(first + i, sid, *row, episode)
+                 for i, (row, episode) in enumerate(zip(rows, of_event, strict=True))])
             return first
 
         first = int(self._transaction(work))

@@ -5,12 +5,18 @@
     mapr catalog export --format csv -o faults.csv --since 2026-05-01
     mapr catalog trend EMA1 --plot ema1.png
     mapr catalog stats --since 2h
+    mapr catalog episodes --open --actuator EMA1
+    mapr catalog ack 3 --by "J. Smith" --note "capacitor replaced, WO 4711"
 
 The catalog is ``--catalog PATH``, else ``$MAPR_CATALOG``, else /var/lib/mapr/catalog.sqlite
 (the service's state directory). Times: ``2026-05-09``, ``2026-05-09T14:30Z`` (UTC unless an
 offset is given) or an age such as ``90m``, ``2h``, ``7d``. ``--min-severity`` is the share
 of the fault's range, 0..1 (a shorted or open switch counts as 1). ``--json`` prints JSON for
 scripts. A missing or unreadable catalog is one line naming the file, exit code 66.
+
+``ack`` is the one action that writes: it records who acknowledged a fault episode, when
+(UTC) and a note, in one short transaction that is safe while the daemon writes (WAL, busy
+timeout). An unknown episode, or one already acknowledged, is one line and exit code 2.
 """
 
 from __future__ import annotations
@@ -23,9 +29,9 @@ import time
 from contextlib import ExitStack
 from typing import IO, Any
 
-from mapr_daemon.catalog import CatalogReader, EventFilter, default_path, report
+from mapr_daemon.catalog import CatalogReader, EventFilter, acknowledge, default_path, report
 from mapr_daemon.cli import exitcodes
-from mapr_daemon.errors import CatalogError
+from mapr_daemon.errors import CatalogError, EpisodeError
 
 DEFAULT_LIMIT = 50
 
@@ -106,6 +112,20 @@ def add_subparser(subparsers: Any) -> None:
     p.add_argument("--limit", type=int, default=DEFAULT_LIMIT,
                    help=f"the last N intervals (default {DEFAULT_LIMIT}; 0: all)")
     p.set_defaults(func=run, action_func=run_stats)
+
+
+    p = actions.add_parser("episodes", parents=[common],
+                           help="fault episodes, most recently active first")
+    p.add_argument("--open", action="store_true", help="only the open ones")
+    p.add_argument("--actuator", metavar="NAME", help="only this actuator (e.g. EMA1)")
+    p.set_defaults(func=run, action_func=run_episodes)
+
+    p = actions.add_parser("ack", parents=[common],
+                           help="acknowledge a fault episode (who, when, note)")
+    p.add_argument("episode", type=int, metavar="EPISODE", help="episode id (catalog episodes)")
+    p.add_argument("--by", required=True, metavar="NAME", help="who acknowledges it")
+    p.add_argument("--note", metavar="TEXT", help="what was done or decided")
+    p.set_defaults(func=run_ack)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -216,4 +236,37 @@ def run_stats(reader: CatalogReader, args: argparse.Namespace) -> int:
     if gaps:
         print()
         print(report.gaps_table(gaps))
+    return exitcodes.OK
+
+
+def run_episodes(reader: CatalogReader, args: argparse.Namespace) -> int:
+    episodes = reader.episodes(open_only=args.open, asset=args.actuator)
+    if _wants_json(args):
+        _print_json([report.episode_json(ep) for ep in episodes])
+    elif not episodes:
+        which = "open " if args.open else ""
+        whose = f" for {args.actuator}" if args.actuator else ""
+        print(f"no {which}fault episodes{whose} in {reader.path}")
+    else:
+        print(report.episodes_table(episodes))
+    return exitcodes.OK
+
+
+def run_ack(args: argparse.Namespace) -> int:
+    """The CLI's one write: the acknowledgment, beside a running daemon if need be."""
+    path = getattr(args, "catalog", None) or default_path()
+    try:
+        episode = acknowledge(path, args.episode, args.by, args.note, time.time_ns())
+    except EpisodeError as error:
+        print(f"mapr catalog ack: {error}", file=sys.stderr)
+        return exitcodes.USAGE
+    except CatalogError as error:
+        where = f"{error.path}: " if error.path is not None else ""
+        print(f"mapr catalog ack: {where}{error.detail}", file=sys.stderr)
+        return exitcodes.NOINPUT
+    if _wants_json(args):
+        _print_json(report.episode_json(episode))
+    else:
+        print(f"episode {episode.id} ({episode.asset}, {episode.part}) acknowledged by "
+              f"{episode.acked_by} at {report.fmt_time(episode.acked_ns)}")
     return exitcodes.OK

@@ -136,7 +136,8 @@ def run(args: argparse.Namespace) -> int:
     try:
         from mapr_daemon.catalog import CatalogWriter
         catalog = CatalogWriter(config.catalog.path,
-                                durability=config.catalog.durability)  # type: ignore[arg-type]
+                                durability=config.catalog.durability,  # type: ignore[arg-type]
+                                clear_after=config.catalog.episode_clear_bits)
     except CatalogError as error:
         print(f"mapr replay: {error}", file=sys.stderr)
         return exitcodes.NOINPUT
@@ -193,10 +194,11 @@ class Replay:
         for failure in result.failures:
             at = self._when(failure.bus_ns)
             self.catalog.record_gap(at, at, f"reasoner failed on a BIT: {failure.error}")
-        events = [dataclasses.replace(e, evidence={**e.evidence, "recording": str(self.path)})
-                  for e in result.events]
-        if events:
-            self.events += len(self.catalog.add_events(events))
+        outcomes = [o if o.event is None else dataclasses.replace(o, event=dataclasses.replace(
+            o.event, evidence={**o.event.evidence, "recording": str(self.path)}))
+            for o in result.outcomes]
+        if outcomes:  # the events, and every BIT's effect on the fault episodes
+            self.events += len(self.catalog.add_bits(outcomes))
 
     def _when(self, bus_ns: int) -> int:
         absolute = self.clock.absolute(bus_ns)

@@ -92,6 +92,8 @@ class CatalogConfig:
     path: str = dataclasses.field(default_factory=default_catalog_path)
     durability: str = "power-loss"
     stats_interval_s: float = 10.0
+    episode_clear_bits: int = 3
+    """Consecutive BITs without the fault that close its episode (catalog/episodes.py)."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -223,7 +225,8 @@ def parse(raw: Any, path: str, *, preflight: bool = False) -> Config:
         "threshold": ("float", {"minimum": 1e-9, "optional": True}), "paper": ("bool", {})})
     catalog = _section(r, raw, "catalog", CatalogConfig, {
         "path": ("path", {}), "durability": ("str", {"choices": ("power-loss", "crash")}),
-        "stats_interval_s": ("float", {"minimum": 0.1})})
+        "stats_interval_s": ("float", {"minimum": 0.1}),
+        "episode_clear_bits": ("int", {"minimum": 1})})
     record = _section(r, raw, "record", RecordConfig, {
         "path": ("path", {"optional": True}),
         "channel_id": ("int", {"minimum": 1})})

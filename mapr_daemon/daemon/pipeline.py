@@ -21,7 +21,7 @@ import time
 from collections.abc import Sequence
 
 from drivers.mil1553.record import MonitorRecord
-from mapr_daemon.catalog import Event, event_from_reasoner
+from mapr_daemon.catalog import BitOutcome, Event, event_from_reasoner
 from mapr_daemon.daemon import source, wiring
 from mapr_daemon.daemon.bitwatch import BitFound, BitWatch
 from mapr_daemon.daemon.clock import BusClock, stamp
@@ -48,6 +48,9 @@ class Batch:
     """Every BIT completed by this batch and diagnosed (nominal ones too)."""
     events: list[Event]
     """The anomalies among them, as catalog events."""
+    outcomes: list[BitOutcome]
+    """Every BIT of :attr:`bits` as the catalog stores it (:meth:`CatalogWriter.add_bits`):
+    its event, or a nominal outcome that counts towards closing the asset's fault episodes."""
     failures: list[Failure]
     actuator_seen: bool
     """Whether the batch carried any of the asset's sensor channels."""
@@ -70,14 +73,24 @@ class Pipeline:
         series = self.stream.feed(records) if records else {}
         watch = self.watch
         if watch is None:
-            return Batch(series, [], [], [], False)
+            return Batch(series, [], [], [], [], False)
         found = watch.feed(series)
         failures = []
         for onset, error in watch.failures:
             bus = stamp(onset)
             failures.append(Failure(bus, clock.absolute(bus), error))
-        events = [self.event(bit, clock) for bit in found if bit.decision.get("anomaly")]
-        return Batch(series, found, events, failures, watch.seen(series))
+        outcomes = [self.outcome(bit, clock) for bit in found]
+        events = [o.event for o in outcomes if o.event is not None]
+        return Batch(series, found, events, outcomes, failures, watch.seen(series))
+
+    def outcome(self, bit: BitFound, clock: BusClock) -> BitOutcome:
+        """The catalog's record of one diagnosed BIT: its event if it found an anomaly,
+        else a nominal outcome stamped like an event would be."""
+        if bit.decision.get("anomaly"):
+            event = self.event(bit, clock)
+            return BitOutcome(event.asset, event.t_ns, event)
+        absolute = clock.absolute(stamp(bit.request_ns))
+        return BitOutcome(self.asset.name, time.time_ns() if absolute is None else absolute)
 
     def event(self, bit: BitFound, clock: BusClock) -> Event:
         """The catalog event of one diagnosed BIT: bus time is the request record's time tag

@@ -53,8 +53,9 @@ class Service:
         """The session's bus -> absolute time (kept across reloads: one session)."""
         self.notifier = notifier or Notifier.from_environment()
         try:
-            self.catalog = CatalogWriter(config.catalog.path,
-                                         durability=config.catalog.durability)  # type: ignore[arg-type]
+            self.catalog = CatalogWriter(
+                config.catalog.path, durability=config.catalog.durability,  # type: ignore[arg-type]
+                clear_after=config.catalog.episode_clear_bits)
         except CatalogError as error:
             raise ConfigError(str(error), path=config.source, field="catalog.path") from None
         self.queue: queue.Queue[Item] = queue.Queue(maxsize=config.queue_batches)
@@ -250,8 +251,8 @@ class Service:
             at = time.time_ns() if failure.abs_ns is None else failure.abs_ns
             self._catalog(self.catalog.record_gap, at, at,
                           f"reasoner failed on a BIT: {failure.error}")
-        if batch.events:
-            ids = self._catalog(self.catalog.add_events, batch.events)
+        if batch.outcomes:  # the events, and every BIT's effect on the fault episodes
+            ids = self._catalog(self.catalog.add_bits, batch.outcomes)
             if ids:
                 self.events += len(ids)
                 for event_id, event in zip(ids, batch.events, strict=True):

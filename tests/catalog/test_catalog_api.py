@@ -29,7 +29,7 @@ def test_round_trip_keeps_every_field(catalog_path: Path,
         assert reader.event(99) is None
     assert got is not None
     assert got.as_dict() == {**original.as_dict(), "id": 1, "session_id": sid,
-                             "evidence": {"nested": {"a": [1, 2.5]}, "nan": None}}
+                             "episode_id": 1, "evidence": {"nested": {"a": [1, 2.5]}, "nan": None}}
 
 
 def test_ids_continue_across_batches_and_sessions(catalog_path: Path,

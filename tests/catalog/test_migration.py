@@ -28,7 +28,7 @@ def write_v1_file(path: Path) -> None:
 
 
 def test_v1_file_is_read_then_migrated_by_the_current_program(tmp_path: Path) -> None:
-    assert LATEST == 3
+    assert LATEST == 4
     path = tmp_path / "old.sqlite"
     write_v1_file(path)
     with CatalogReader(path) as reader:  # the CLI reads an old file as it is
@@ -100,7 +100,7 @@ def test_v2_file_gains_the_event_stamps_and_keeps_its_events(tmp_path: Path) -> 
                                  confidence=0.7, rt=5, bus_ns=2_000_012_300,
                                  abs_ns=T0 + 5 * 10**9)])
     with CatalogReader(path) as reader:
-        assert reader.schema_version == 3
+        assert reader.schema_version == LATEST
         new, old = reader.events()
         assert (old.fault, old.bus_ns, old.abs_ns) == ("esr", None, None)
         assert (new.fault, new.bus_ns, new.abs_ns) == ("friction", 2_000_012_300,

@@ -95,3 +95,11 @@ def test_replaying_the_daemons_recording_gives_its_events_and_stamps(
         assert a.evidence["recording"] == str(recording) and "recording" not in b.evidence
     # two BITs, requested 2 s apart by the testbed's flight control computer
     assert live[1].bus_ns - live[0].bus_ns == pytest.approx(2e9, abs=0.01e9)
+    # the persistent open switch is one fault episode of two BITs, in both catalogs alike
+    for db, evs in ((tmp_path / "catalog.sqlite", live), (replayed_db, replayed)):
+        with CatalogReader(db) as catalog:
+            (episode,) = catalog.episodes(open_only=True)
+        assert (episode.asset, episode.part, episode.modes, episode.bits) == \
+            ("EMA1", live[0].evidence["part"], ("open",), 2)
+        assert (episode.opened_ns, episode.last_ns) == (evs[0].t_ns, evs[1].t_ns)
+        assert [e.episode_id for e in evs] == [episode.id, episode.id]
