@@ -71,10 +71,15 @@ def _plain(value: Any) -> Any:
     raise TypeError(f"{type(value).__name__} is not JSON serialisable")
 
 
+_ENCODER = json.JSONEncoder(separators=(",", ":"), allow_nan=False, default=_plain)
+"""One encoder for every event: ``json.dumps`` with options builds a new one per call, which was
+a fifth of a bulk insert's time."""
+
+
 def to_json(value: Mapping[str, Any]) -> str:
     """Compact JSON; NaN and infinity become null so every export is standard JSON."""
     try:
-        return json.dumps(value, separators=(",", ":"), allow_nan=False, default=_plain)
+        return _ENCODER.encode(value)
     except ValueError:
         return json.dumps(_finite(json.loads(json.dumps(value, default=_plain))),
                           separators=(",", ":"), allow_nan=False)
