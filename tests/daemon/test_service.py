@@ -124,7 +124,10 @@ def test_unknown_key_and_bad_fault_exit_78(tmp_path: Path) -> None:
 def test_watchdog_goes_on_while_a_backend_is_retried(
         tmp_path: Path, start_daemon: Callable[..., Daemon]) -> None:
     """A card unplugged for longer than the 5 s liveness window must not starve the
-    watchdog (systemd would kill a daemon that is doing its job: retrying)."""
+    watchdog (systemd would kill a daemon that is doing its job: retrying). The stand-in for
+    the unplugged card is a capture file that exists but holds no capture (a missing file is
+    a configuration error, refused at start)."""
+    (tmp_path / "no.sr").write_bytes(b"")
     daemon = start_daemon(
         f"icd: {ICD}\nbackend:\n  name: capture\n  options: {{path: {tmp_path / 'no.sr'}}}\n"
         "  retry_initial_s: 7\n  retry_max_s: 7\n"
@@ -142,6 +145,7 @@ def test_watchdog_goes_on_while_a_backend_is_retried(
 def test_backend_failure_is_retried_and_recorded_as_a_gap(
         tmp_path: Path, start_daemon: Callable[..., Daemon]) -> None:
     capture = tmp_path / "bus.sr"
+    capture.write_bytes(b"")   # there, but no capture yet: the card's stand-in, unplugged
     daemon = start_daemon(
         f"icd: {ICD}\nbackend:\n  name: capture\n  options: {{path: {capture}}}\n"
         "  retry_initial_s: 0.05\n  retry_max_s: 0.2\n"
