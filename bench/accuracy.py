@@ -35,6 +35,7 @@ from collections import Counter, defaultdict
 from pathlib import Path
 
 import numpy as np
+from seeds import fresh as fresh_seed
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
@@ -161,9 +162,7 @@ def main() -> int:
     ap.add_argument("--dictionary", type=Path, help="use a built dictionary instead of building")
     ap.add_argument("--seed", type=int, help="default: drawn afresh (printed)")
     args = ap.parse_args()
-    if args.seed is None:  # fresh at every run, in a range no design set uses
-        args.seed = int(np.random.SeedSequence().entropy % 90_000_000) + 10_000
-    print(f"seed {args.seed} (rerun with --seed {args.seed})")
+    args.seed = fresh_seed(args.seed)
     start = time.monotonic()
     params = load_actuator(default_actuator_path())
     root = Path(__file__).resolve().parents[1]

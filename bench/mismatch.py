@@ -17,6 +17,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from seeds import fresh as fresh_seed
 
 from mapr_daemon.ema.batch import RunSpec
 from mapr_daemon.ema.params import CHANNELS, load_actuator
@@ -34,9 +35,7 @@ def main() -> None:
     ap.add_argument("--units", type=int, default=20)
     ap.add_argument("--seed", type=int, help="default: drawn afresh (printed)")
     args = ap.parse_args()
-    if args.seed is None:  # fresh at every run, in a range no design set uses
-        args.seed = int(np.random.SeedSequence().entropy % 90_000_000) + 10_000
-    print(f"seed {args.seed} (rerun with --seed {args.seed})")
+    args.seed = fresh_seed(args.seed)
     print(f"fleet seed {args.seed} (both actuators), {args.units} units each; distance = "
           "RMS(unit - twin) over the BIT / the channel's noise (its LSB if noiseless), "
           "mean/worst unit")
