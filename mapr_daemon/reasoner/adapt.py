@@ -209,12 +209,12 @@ MATCHED_RANKS = (0.5, 0.75, 0.9)
 
 
 def _ratio(unit: FloatArray, calibration: FloatArray, rank: float) -> float:
-    """The unit's score over the calibration runs' at quantile ``rank`` (matched shifts are
-    taken relative to the calibration's median, so a statistic centred on 0 scales too)."""
+    """The unit's score over the calibration runs' at quantile ``rank`` (for the likelihood
+    ratio and the healthy residual, both never negative; the matched filter's near-normal
+    output is re-centred instead, :func:`_normal_threshold`)."""
     ref = float(np.interp(rank, CALIBRATION_QUANTILES, calibration))
     own = float(np.quantile(unit, rank))
-    base = min(float(calibration[0]), 0.0)
-    return (own - base) / (ref - base) if ref - base > 1e-9 else 1.0
+    return own / ref if ref > 1e-9 else 1.0
 
 
 def _normal_threshold(unit: FloatArray, threshold: float) -> float:
