@@ -123,15 +123,93 @@ def event_from_reasoner(decision: Mapping[str, Any], *, t_ns: int, asset: str,
 
 
 @dataclasses.dataclass(frozen=True)
+class Health:
+    """What an actuator's trend said after one BIT (plain values: the catalog never imports
+    the reasoner). RUL figures are ``inf`` where the trend does not reach the failure
+    threshold within its horizon (stored as NULL, ``note`` says so), None where unknown."""
+
+    soh: float | None
+    """1.0 as commissioned, 0.0 at the leading mode's failure threshold."""
+    mode: str | None = None
+    """The leading fault mode (the part the RUL is of); None when nothing wears."""
+    rul: float | None = None
+    rul_low: float | None = None
+    rul_high: float | None = None
+    """RUL in flights: median and the bounds of a :attr:`interval` interval."""
+    rul_hours: float | None = None
+    rul_hours_low: float | None = None
+    rul_hours_high: float | None = None
+    """The same in flight hours."""
+    note: str | None = None
+    """Why a figure is missing, in words."""
+    modes: Mapping[str, Any] = dataclasses.field(default_factory=dict)
+    """Per trended kind: its degradation, evidence and RUL."""
+    interval: float = 0.9
+
+
+@dataclasses.dataclass(frozen=True)
 class BitOutcome:
     """One diagnosed BIT of one actuator, as the writer stores it: its anomaly event, or
     None when the BIT found the actuator nominal (which still counts towards closing that
-    actuator's fault episodes, :mod:`.episodes`)."""
+    actuator's fault episodes, :mod:`.episodes`), with the flight it was flown on, the
+    per-kind degradation estimates and the health the trend gave after it."""
 
     asset: str
     t_ns: int
     """When the BIT happened (epoch ns, the event's ``t_ns`` when there is one)."""
     event: Event | None = None
+    tail: str = ""
+    flight: int | None = None
+    flight_hours: float | None = None
+    """The aircraft's flight hours at the BIT (flights not seen counted at the mean)."""
+    wear: Mapping[str, float] = dataclasses.field(default_factory=dict)
+    """Degradation estimate per aging kind (0 healthy, 1 at the failure threshold)."""
+    health: Health | None = None
+    bus_ns: int | None = None
+    abs_ns: int | None = None
+    fault: str | None = None
+    """The diagnosis (None: nominal; an anomaly's fault, as its event says)."""
+
+
+@dataclasses.dataclass(frozen=True)
+class BitRecord:
+    """One row of an actuator's BIT history, as the reader gives it back."""
+
+    id: int
+    session_id: int | None
+    tail: str
+    asset: str
+    t_ns: int
+    bus_ns: int | None
+    abs_ns: int | None
+    flight: int | None
+    flight_hours: float | None
+    fault: str | None
+    event_id: int | None
+    wear: Mapping[str, float]
+    health: Health
+
+    def as_dict(self) -> dict[str, Any]:
+        out = dataclasses.asdict(self)
+        out["wear"] = dict(self.wear)
+        return out
+
+
+@dataclasses.dataclass(frozen=True)
+class Flight:
+    """One flight of one aircraft: its number, span and hours."""
+
+    tail: str
+    flight: int
+    start_ns: int | None
+    end_ns: int | None
+    hours: float
+    source: str
+    """``bus`` (measured from the actuator traffic) or ``declared`` (a replay's or fleet
+    run's flight number and hours)."""
+
+    def as_dict(self) -> dict[str, Any]:
+        return dataclasses.asdict(self)
 
 
 @dataclasses.dataclass(frozen=True)

@@ -21,6 +21,11 @@ History:
    actuator's part across BITs, its severity trend and its acknowledgment) and
    ``events.episode_id``. Events written before keep it NULL: the BITs that found the
    actuator nominal were never stored, so their episodes cannot be rebuilt.
+5. ``bits``: every diagnosed BIT of every actuator (nominal ones too) with its flight, its
+   per-kind degradation estimates and the health the trend gave after it (SoH, leading mode,
+   RUL with its interval in flights and flight hours); ``flights``: each aircraft's flights
+   (tail, number, span, hours); ``events.flight``. Catalogs from before start their BIT
+   history empty.
 """
 
 from __future__ import annotations
@@ -120,6 +125,41 @@ MIGRATIONS: tuple[tuple[str, ...], ...] = (
         "CREATE INDEX episodes_open ON episodes(asset, part) WHERE closed_ns IS NULL",
         "ALTER TABLE events ADD COLUMN episode_id INTEGER REFERENCES episodes(id)",
         "CREATE INDEX events_episode ON events(episode_id)",
+    ),
+    (  # 5: BIT history with health, and flights
+        """CREATE TABLE bits (
+            id INTEGER PRIMARY KEY,
+            session_id INTEGER REFERENCES sessions(id),
+            tail TEXT NOT NULL DEFAULT '',
+            asset TEXT NOT NULL,
+            t_ns INTEGER NOT NULL,
+            bus_ns INTEGER,
+            abs_ns INTEGER,
+            flight INTEGER,
+            flight_hours REAL,
+            fault TEXT,
+            event_id INTEGER REFERENCES events(id),
+            wear TEXT NOT NULL DEFAULT '{}',
+            mode TEXT,
+            soh REAL,
+            rul REAL,
+            rul_low REAL,
+            rul_high REAL,
+            rul_hours REAL,
+            rul_hours_low REAL,
+            rul_hours_high REAL,
+            note TEXT,
+            modes TEXT NOT NULL DEFAULT '{}')""",
+        "CREATE INDEX bits_asset ON bits(tail, asset, flight, t_ns)",
+        """CREATE TABLE flights (
+            tail TEXT NOT NULL DEFAULT '',
+            flight INTEGER NOT NULL,
+            start_ns INTEGER,
+            end_ns INTEGER,
+            hours REAL NOT NULL,
+            source TEXT NOT NULL,
+            PRIMARY KEY (tail, flight))""",
+        "ALTER TABLE events ADD COLUMN flight INTEGER",
     ),
 )
 

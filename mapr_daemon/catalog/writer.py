@@ -36,11 +36,11 @@ from types import TracebackType
 from typing import Any, Protocol
 
 from mapr_daemon import __version__
-from mapr_daemon.catalog import episode_store
+from mapr_daemon.catalog import episode_store, history
 from mapr_daemon.catalog.connect import Durability, describe, open_writer
 from mapr_daemon.catalog.episode_batch import fold
 from mapr_daemon.catalog.episodes import DEFAULT_CLEAR_BITS, Detection, detection_of
-from mapr_daemon.catalog.model import BitOutcome, Event
+from mapr_daemon.catalog.model import BitOutcome, BitRecord, Event, Flight
 from mapr_daemon.errors import CatalogError
 
 UNCLEAN = "unclean"
@@ -195,19 +195,25 @@ class CatalogWriter:
         batch = list(events)
         return self._store(batch, [(e.asset, int(e.t_ns), detection_of(e)) for e in batch])
 
-    def add_bits(self, outcomes: Iterable[BitOutcome]) -> list[int]:
+    def add_bits(self, outcomes: Iterable[BitOutcome], flights: Iterable[Flight] = ()
+                 ) -> list[int]:
         """Store a batch of diagnosed BITs (in time order) in one transaction: each anomaly
         event, with the fault episode it opens or updates, and each BIT's effect on the
-        actuator's open episodes (:mod:`.episodes`). Returns the new event ids, in order,
-        after COMMIT."""
+        actuator's open episodes (:mod:`.episodes`), each BIT's history row (:mod:`.history`)
+        and the ``flights`` they were flown on. Returns the new event ids, in order, after
+        COMMIT."""
         bits = list(outcomes)
         return self._store([b.event for b in bits if b.event is not None],
                            [(b.asset, int(b.t_ns),
-                             None if b.event is None else detection_of(b.event)) for b in bits])
+                             None if b.event is None else detection_of(b.event)) for b in bits],
+                           bits, list(flights))
 
-    def _store(self, events: list[Event], found: list[tuple[str, int, Detection | None]]
+    def _store(self, events: list[Event], found: list[tuple[str, int, Detection | None]],
+               bits: list[BitOutcome] | None = None, flights: list[Flight] | None = None
                ) -> list[int]:
-        """``events`` are the detections of ``found`` (the batch's BITs), in order."""
+        """``events`` are the detections of ``found`` (the batch's BITs), in order; ``bits``
+        the same BITs as outcomes, for the BIT history (None: events alone), and the
+        flights they were flown on."""
         sid = self._session()
         if not found:
             return []
@@ -234,10 +240,24 @@ class CatalogWriter:
                 " VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
                 [(first + i, sid, *row, episode)
                  for i, (row, episode) in enumerate(zip(rows, of_event, strict=True))])
+            if bits is not None:
+                history.insert_bits(conn, sid, bits, first)
+                history.upsert_flights(conn, flights or [])
             return first
 
         first = int(self._transaction(work))
         return list(range(first, first + len(rows)))
+
+    def history(self, tail: str = "") -> tuple[list[BitRecord], list[Flight]]:
+        """One aircraft's BIT history and flights, for the trend to continue from."""
+        conn = self.conn
+        return history.load_bits(conn, tail=tail), history.load_flights(conn, tail)
+
+    def save_flights(self, flights: Iterable[Flight]) -> None:
+        """Insert or update flights (by tail and number) in one transaction."""
+        batch = list(flights)
+        if batch:
+            self._transaction(history.upsert_flights, batch)
 
     def add_stats(self, start_ns: int, end_ns: int,
                   stats: StatisticsLike | Mapping[str, Mapping[str, Any]]) -> None:

@@ -235,14 +235,13 @@ class Replay:
                  f"skipped: {self.issues_seen}",
                  f"ICD {self.pipe.icd.name}: {stream.decoded} messages decoded, "
                  f"{stream.unmatched} not in the table"]
-        watch = self.pipe.watch
-        if watch is not None:
+        if self.pipe.watches:
             if not self.actuator_seen:
                 rts = ", ".join(str(t.address) for t in self.pipe.icd.terminals)
                 lines.append(f"diagnosis: no actuator of the ICD {self.pipe.icd.name} (RT "
                              f"{rts}) found in the recording: nothing to diagnose")
             else:
-                lines.append(f"diagnosis: {watch.bits_seen} built-in tests diagnosed, "
+                lines.append(f"diagnosis: {self.pipe.bits_seen} built-in tests diagnosed, "
                              f"{self.events} anomaly events written")
         lines.append(f"catalog {self.catalog.path}: session {session}")
         return "\n".join(lines)

@@ -75,6 +75,21 @@ class AssetConfig:
     signals: dict[str, str] = dataclasses.field(
         default_factory=lambda: dict(wiring.DEFAULT_SIGNALS))
     """ICD signal -> reasoner channel or role (default: the shipped testbed ICD's wiring)."""
+    dictionary: str | None = None
+    """This actuator's fault dictionary (None: ``reasoner.dictionary``, the one for all)."""
+    prognosis: str | None = None
+    """Its prognostic model (``mapr dictionary build --prognosis``; None: no SoH trend or
+    RUL, the events say why)."""
+
+
+@dataclasses.dataclass(frozen=True)
+class AircraftConfig:
+    """The aircraft the bus belongs to, and how its flights are told apart."""
+
+    tail: str = ""
+    """Tail number (empty: one aircraft, unnamed); keys flights in the catalog."""
+    flight_gap_s: float = 900.0
+    """Actuator traffic that resumes after at least this long starts a new flight."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -113,6 +128,7 @@ class Config:
     icd: str = str(DEFAULT_ICD)
     testbed: TestbedConfig = dataclasses.field(default_factory=TestbedConfig)
     assets: tuple[AssetConfig, ...] = (AssetConfig(),)
+    aircraft: AircraftConfig = dataclasses.field(default_factory=AircraftConfig)
     reasoner: ReasonerConfig = dataclasses.field(default_factory=ReasonerConfig)
     catalog: CatalogConfig = dataclasses.field(default_factory=CatalogConfig)
     record: RecordConfig = dataclasses.field(default_factory=RecordConfig)
@@ -230,8 +246,11 @@ def parse(raw: Any, path: str, *, preflight: bool = False) -> Config:
     record = _section(r, raw, "record", RecordConfig, {
         "path": ("path", {"optional": True}),
         "channel_id": ("int", {"minimum": 1})})
+    aircraft = _section(r, raw, "aircraft", AircraftConfig, {
+        "tail": ("str", {}), "flight_gap_s": ("float", {"minimum": 1.0})})
     kwargs: dict[str, Any] = {"backend": backend, "testbed": testbed, "reasoner": reasoner,
-                              "catalog": catalog, "record": record, "source": path}
+                              "catalog": catalog, "record": record, "aircraft": aircraft,
+                              "source": path}
     scalars: dict[str, tuple[str, dict[str, Any]]] = {
         "icd": ("path", {}), "queue_batches": ("int", {"minimum": 1}),
         "queue_wait_s": ("float", {"minimum": 0.0}),
@@ -269,6 +288,9 @@ def _assets(r: _Reader, root: Node, value: Any) -> tuple[AssetConfig, ...]:
             extra["actuator"] = r.value(item, "actuator", prefix, raw["actuator"], "path")
         if "signals" in raw:
             extra["signals"] = _signals(r, item, prefix, raw["signals"])
+        for key in ("dictionary", "prognosis"):
+            if key in raw:
+                extra[key] = r.value(item, key, prefix, raw[key], "path", optional=True)
         out.append(AssetConfig(name=name, rt=rt, **extra))
     return tuple(out)
 

@@ -2,16 +2,25 @@
 
 ::
 
-    records -> signals (ICD) -> BIT found (:mod:`.bitwatch`) -> diagnosis (reasoner)
-            -> Event (typed, stamped with bus time and absolute time, :mod:`.clock`)
+    records -> signals (ICD) -> BIT found, per actuator (:mod:`.bitwatch`) -> diagnosis
+            (reasoner) -> flight and trend (:mod:`.trending`) -> BitOutcome / Event (typed,
+            stamped with bus time and absolute time, :mod:`.clock`)
 
-:func:`build_pipeline` turns a config into a :class:`Pipeline` (the ICD, its decoder and, with
-a dictionary, the reasoner wired to the asset); :meth:`Pipeline.process` takes one batch of
-records and returns a :class:`Batch`: the decoded series, the BITs diagnosed, the anomaly
-events ready for the catalog and the BITs the reasoner failed on. What the caller does with
-them — the daemon's catalog writes, recording and systemd status, the replay's progress bar
-and summary — is the caller's; what an event *is* and when it happened is decided here only,
-so the daemon and a replay of its recording write the same events with the same stamps.
+:func:`build_pipeline` turns a config into a :class:`Pipeline` (the ICD, its decoder and, for
+every asset with a dictionary, a reasoner wired to that actuator, with its prognostic model
+if configured); :meth:`Pipeline.process` takes one batch of records and returns a
+:class:`Batch`: the decoded series, the BITs diagnosed (every actuator's, in time order), the
+anomaly events ready for the catalog and the BITs the reasoner failed on. Each actuator on
+the bus is diagnosed and trended on its own: its wiring, data sheet, dictionary and
+prognostic model are its own (``assets[]``).
+
+A fleet run processes recordings on workers (pipelines built with ``trend=False``) and trends
+their outcomes on the client in flight order (:meth:`Pipeline.trend` of the client's own).
+
+What the caller does with them — the daemon's catalog writes, recording and systemd status,
+the replay's progress bar and summary — is the caller's; what an event *is* and when it
+happened is decided here only, so the daemon and a replay of its recording write the same
+events with the same stamps.
 """
 
 from __future__ import annotations
@@ -19,15 +28,21 @@ from __future__ import annotations
 import dataclasses
 import time
 from collections.abc import Sequence
+from typing import TYPE_CHECKING, Any
 
 from drivers.mil1553.record import MonitorRecord
 from mapr_daemon.catalog import BitOutcome, Event, event_from_reasoner
+from mapr_daemon.catalog.model import BitRecord, Flight
 from mapr_daemon.daemon import source, wiring
 from mapr_daemon.daemon.bitwatch import BitFound, BitWatch
 from mapr_daemon.daemon.clock import BusClock, stamp
 from mapr_daemon.daemon.config import AssetConfig, Config
 from mapr_daemon.errors import ConfigError
 from mapr_daemon.icd import Icd, Series, SignalStream, load_icd
+
+if TYPE_CHECKING:
+    from mapr_daemon.daemon.trending import Trending
+    from mapr_daemon.reasoner.wear_model import PrognosticModel
 
 
 @dataclasses.dataclass(frozen=True)
@@ -37,6 +52,7 @@ class Failure:
     bus_ns: int
     abs_ns: int | None
     error: str
+    asset: str = ""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -50,84 +66,172 @@ class Batch:
     """The anomalies among them, as catalog events."""
     outcomes: list[BitOutcome]
     """Every BIT of :attr:`bits` as the catalog stores it (:meth:`CatalogWriter.add_bits`):
-    its event, or a nominal outcome that counts towards closing the asset's fault episodes."""
+    its event, or a nominal outcome that counts towards closing the asset's fault episodes;
+    with its flight and the actuator's health after it when the pipeline trends."""
     failures: list[Failure]
     actuator_seen: bool
-    """Whether the batch carried any of the asset's sensor channels."""
+    """Whether the batch carried any of the assets' sensor channels."""
+    flights: list[Flight] = dataclasses.field(default_factory=list)
+    """Flights changed by this batch (to save with the outcomes)."""
+
+
+@dataclasses.dataclass
+class Watched:
+    """One actuator on the bus and its reasoner (None: monitored, not diagnosed)."""
+
+    asset: AssetConfig
+    watch: BitWatch | None
 
 
 @dataclasses.dataclass
 class Pipeline:
-    """What a config builds and a reload swaps as one: the ICD, decoder and reasoner."""
+    """What a config builds and a reload swaps as one: the ICD, decoder and reasoners."""
 
     config: Config
     icd: Icd
     stream: SignalStream
-    watch: BitWatch | None
-    asset: AssetConfig
+    watched: list[Watched]
+    trending: Trending | None = None
+
+    @property
+    def asset(self) -> AssetConfig:
+        """The first configured actuator."""
+        return self.watched[0].asset
+
+    @property
+    def watches(self) -> list[BitWatch]:
+        return [w.watch for w in self.watched if w.watch is not None]
+
+    @property
+    def bits_seen(self) -> int:
+        return sum(w.bits_seen for w in self.watches)
+
+    def resume(self, bits: Sequence[BitRecord], flights: Sequence[Flight]) -> None:
+        """Continue the trend from the catalog's history (this aircraft's rows)."""
+        if self.trending is None:
+            return
+        from mapr_daemon.daemon.trending import AssetHistory, Trending
+        history: dict[str, AssetHistory] = {}
+        for b in bits:
+            if b.flight is None or not b.wear:
+                continue
+            h = history.setdefault(b.asset, AssetHistory())
+            h.flights.append(float(b.flight))
+            h.wear.append(dict(b.wear))
+        self.trending = Trending(self.trending.tail, self.config.aircraft.flight_gap_s,
+                                 self.trending.models, history, flights)
 
     def process(self, records: Sequence[MonitorRecord], clock: BusClock) -> Batch:
         """Decode and diagnose one batch (records in time order). ``clock`` is the
         session's: it sees the records first, then stamps the events found in them."""
         clock.observe(records)
         series = self.stream.feed(records) if records else {}
-        watch = self.watch
-        if watch is None:
-            return Batch(series, [], [], [], [], False)
-        found = watch.feed(series)
-        failures = []
-        for onset, error in watch.failures:
-            bus = stamp(onset)
-            failures.append(Failure(bus, clock.absolute(bus), error))
-        outcomes = [self.outcome(bit, clock) for bit in found]
+        found: list[tuple[Watched, BitFound]] = []
+        failures: list[Failure] = []
+        seen = False
+        for w in self.watched:
+            if w.watch is None:
+                continue
+            found += [(w, bit) for bit in w.watch.feed(series)]
+            for onset, error in w.watch.failures:
+                bus = stamp(onset)
+                failures.append(Failure(bus, clock.absolute(bus), error, w.asset.name))
+            seen |= w.watch.seen(series)
+        found.sort(key=lambda wb: wb[1].request_ns)
+        outcomes = [self.outcome(w.asset, bit, clock) for w, bit in found]
+        flights: list[Flight] = []
+        if self.trending is not None:
+            if seen and records:
+                self.trending.observe(self._when(stamp(records[-1].t_ns), clock))
+            outcomes = self.trending.annotate(outcomes)
+            flights = self.trending.log.pop_changed() if outcomes else []
         events = [o.event for o in outcomes if o.event is not None]
-        return Batch(series, found, events, outcomes, failures, watch.seen(series))
+        return Batch(series, [bit for _, bit in found], events, outcomes, failures, seen,
+                     flights)
 
-    def outcome(self, bit: BitFound, clock: BusClock) -> BitOutcome:
+    def trend(self, outcomes: Sequence[BitOutcome]) -> list[BitOutcome]:
+        """Flights and health for outcomes processed elsewhere (a fleet run's workers)."""
+        return list(outcomes) if self.trending is None else self.trending.annotate(outcomes)
+
+    def pending_flights(self) -> list[Flight]:
+        """Flights changed since they were last handed out (save them at intervals)."""
+        return [] if self.trending is None else self.trending.log.pop_changed()
+
+    @staticmethod
+    def _when(bus: int, clock: BusClock) -> int:
+        absolute = clock.absolute(bus)
+        return time.time_ns() if absolute is None else absolute
+
+    def outcome(self, asset: AssetConfig, bit: BitFound, clock: BusClock) -> BitOutcome:
         """The catalog's record of one diagnosed BIT: its event if it found an anomaly,
-        else a nominal outcome stamped like an event would be."""
-        if bit.decision.get("anomaly"):
-            event = self.event(bit, clock)
-            return BitOutcome(event.asset, event.t_ns, event)
-        absolute = clock.absolute(stamp(bit.request_ns))
-        return BitOutcome(self.asset.name, time.time_ns() if absolute is None else absolute)
-
-    def event(self, bit: BitFound, clock: BusClock) -> Event:
-        """The catalog event of one diagnosed BIT: bus time is the request record's time tag
-        (to 100 ns), absolute time the clock's; ``t_ns`` the absolute time, or the wall clock
-        now when the absolute time is not known."""
+        else a nominal outcome stamped like an event would be; with its wear estimates."""
         bus = stamp(bit.request_ns)
         absolute = clock.absolute(bus)
-        return event_from_reasoner(bit.decision, asset=self.asset.name, rt=self.asset.rt,
-                                   t_ns=time.time_ns() if absolute is None else absolute,
-                                   bus_ns=bus, abs_ns=absolute)
+        wear = dict(bit.decision.get("wear") or {})
+        if bit.decision.get("anomaly"):
+            event = event_from_reasoner(bit.decision, asset=asset.name, rt=asset.rt,
+                                        t_ns=time.time_ns() if absolute is None else absolute,
+                                        bus_ns=bus, abs_ns=absolute)
+            return BitOutcome(event.asset, event.t_ns, event, wear=wear, bus_ns=bus,
+                              abs_ns=absolute, fault=event.fault)
+        return BitOutcome(asset.name, time.time_ns() if absolute is None else absolute,
+                          wear=wear, bus_ns=bus, abs_ns=absolute)
 
 
-def build_pipeline(config: Config) -> Pipeline:
-    """Load the ICD, the asset's actuator file and the dictionary; ConfigError (file:line:
-    field) if any is wrong or the asset's signals are not in the ICD."""
+def build_pipeline(config: Config, *, trend: bool = True) -> Pipeline:
+    """Load the ICD and, for every asset with a dictionary, its actuator file, dictionary and
+    prognostic model; ConfigError (file:line: field) if any is wrong or an asset's signals
+    are not in the ICD. ``trend=False``: no flights or trend (:meth:`Pipeline.trend`)."""
     try:
         icd = load_icd(config.icd)
     except OSError as error:
         raise ConfigError(f"cannot read the ICD: {error.strerror}", path=config.source,
                           field="icd") from None
-    asset = config.assets[0]
-    missing = wiring.not_in_icd(asset.signals, icd)
-    if missing and config.reasoner.dictionary is not None:
-        raise ConfigError(f"not in the ICD {icd.name}: {', '.join(missing)}",
-                          path=config.source, field="assets[0].signals")
     source.check(config)
-    watch = None
-    if config.reasoner.dictionary is not None:
-        from mapr_daemon.ema.params import load_actuator
-        from mapr_daemon.reasoner.dictionary import Dictionary
-        from mapr_daemon.reasoner.events import Reasoner
+    watched: list[Watched] = []
+    models: dict[str, PrognosticModel | None] = {}
+    loaded: dict[str, Any] = {}
+    for i, asset in enumerate(config.assets):
+        path = asset.dictionary or config.reasoner.dictionary
+        missing = wiring.not_in_icd(asset.signals, icd)
+        if missing and path is not None:
+            raise ConfigError(f"not in the ICD {icd.name}: {', '.join(missing)}",
+                              path=config.source, field=f"assets[{i}].signals")
+        if path is None:
+            watched.append(Watched(asset, None))
+            continue
+        watch, model = _reasoner(config, asset, i, path, loaded)
+        watched.append(Watched(asset, watch))
+        models[asset.name] = model
+    trending = None
+    if trend and models:
+        from mapr_daemon.daemon.trending import Trending
+        trending = Trending(config.aircraft.tail, config.aircraft.flight_gap_s, models)
+    return Pipeline(config, icd, SignalStream(icd), watched, trending)
+
+
+def _reasoner(config: Config, asset: AssetConfig, i: int, path: str, loaded: dict[str, Any]
+              ) -> tuple[BitWatch, PrognosticModel | None]:
+    """One asset's BIT watch (its own reasoner: adaptation state is per unit) and model;
+    files shared by several assets are read once (``loaded``)."""
+    from mapr_daemon.ema.params import load_actuator
+    from mapr_daemon.reasoner.dictionary import Dictionary
+    from mapr_daemon.reasoner.events import Reasoner
+    from mapr_daemon.reasoner.wear_model import PrognosticModel
+    field = f"assets[{i}].dictionary" if asset.dictionary else "reasoner.dictionary"
+    if path not in loaded:
         try:
-            dictionary = Dictionary.load(config.reasoner.dictionary)
+            loaded[path] = Dictionary.load(path)
         except OSError as error:
             raise ConfigError(f"cannot read the dictionary: {error.strerror}",
-                              path=config.source, field="reasoner.dictionary") from None
-        params = load_actuator(asset.actuator)
-        watch = BitWatch(Reasoner(dictionary, params), signals=asset.signals, bit=params.bit,
-                         threshold=config.reasoner.threshold, paper=config.reasoner.paper)
-    return Pipeline(config, icd, SignalStream(icd), watch, asset)
+                              path=config.source, field=field) from None
+    model = None
+    if asset.prognosis is not None:
+        if asset.prognosis not in loaded:
+            loaded[asset.prognosis] = PrognosticModel.load(asset.prognosis)
+        model = loaded[asset.prognosis]
+    params = load_actuator(asset.actuator)
+    reasoner = Reasoner(loaded[path], params, prognostic=model)
+    watch = BitWatch(reasoner, signals=asset.signals, bit=params.bit,
+                     threshold=config.reasoner.threshold, paper=config.reasoner.paper)
+    return watch, model

@@ -35,6 +35,7 @@ def check(config: Config, raw: Any, path: str) -> None:
     of ``path``) the daemon could not use here."""
     root = raw if isinstance(raw, Node) else None
     _backend(config, _node(root, "backend"), path)
+    _assets(config, root, path)
     _record(config, _node(root, "record"), path)
     _catalog(config, _node(root, "catalog"), path)
 
@@ -68,6 +69,19 @@ def _backend(config: Config, node: Node | None, path: str) -> None:
             and math.isfinite(speed) and speed >= 0):
         raise _error(where, "speed", "backend.options.speed",
                      f"expected a finite number >= 0, got {speed!r}", path)
+
+
+def _assets(config: Config, root: Node | None, path: str) -> None:
+    """Every asset's actuator file, dictionary and prognostic model exist and are readable."""
+    items = root.get("assets") if root is not None else None
+    for i, asset in enumerate(config.assets):
+        node = items[i] if isinstance(items, list) and i < len(items) else None
+        where = node if isinstance(node, Node) else root
+        for key in ("actuator", "dictionary", "prognosis"):
+            name = getattr(asset, key)
+            problem = None if name is None else _unreadable(Path(name))
+            if problem:
+                raise _error(where, key, f"assets[{i}].{key}", f"{name}: {problem}", path)
 
 
 def _unreadable(file: Path) -> str | None:

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -41,6 +41,9 @@ from mapr_daemon.reasoner.features import (
     derived_signals,
     feature_matrix,
 )
+
+if TYPE_CHECKING:
+    from mapr_daemon.reasoner.wear_model import PrognosticModel
 
 RECORD_ERRORS: tuple[type[Exception], ...] = (RecordError, ValueError, ArithmeticError)
 """Errors that concern one record's data, not the dictionary or the configuration: our own
@@ -86,9 +89,12 @@ class Reasoner:
     """
 
     def __init__(self, dictionary: Dictionary, params: ActuatorParams,
-                 confirm_after: int = 3) -> None:
+                 confirm_after: int = 3, prognostic: PrognosticModel | None = None) -> None:
         self.dictionary = dictionary
         self.params = params
+        self.prognostic = prognostic
+        """With it, each event carries ``wear``: the BIT's degradation estimate per aging
+        kind, what the actuator's trend is fitted on (:mod:`.health`)."""
         self.reference = Reference.nominal(params)
         self.confirmation = Confirmation(confirm_after)
 
@@ -132,6 +138,8 @@ class Reasoner:
         event = self.event(dec, est)
         if est is not None:
             self._adapt(est, event["evidence"])
+        if self.prognostic is not None:
+            event["wear"] = self.prognostic.estimates(self.dictionary, m, dynamic_pressure_pa)
         return event
 
     def diagnose_or_flag(self, channels: Mapping[str, FloatArray], command_deg: FloatArray,

@@ -27,7 +27,8 @@ def test_nominal_bits_reach_the_writer_and_close_the_episode(tmp_path: Path) -> 
     clock = BusClock("recording")
     clock.offset_ns = T0   # what the recording's time packets would give
     decisions = [ESR, ESR, NOMINAL, NOMINAL, ESR]
-    outcomes = [pipe.outcome(BitFound(k * 2_000_000_000, k * 2_000_000_000 + 10**6, d), clock)
+    outcomes = [pipe.outcome(pipe.asset, BitFound(k * 2_000_000_000, k * 2_000_000_000 + 10**6, d),
+                             clock)
                 for k, d in enumerate(decisions)]
     assert [o.event is None for o in outcomes] == [False, False, True, True, False]
     assert [o.t_ns for o in outcomes] == [T0 + k * 2_000_000_000 for k in range(5)]

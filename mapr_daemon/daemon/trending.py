@@ -1,0 +1,195 @@
+"""Flights and each actuator's trend, after the reasoner: the last step before the catalog.
+
+The reasoner reads each BIT on its own (:class:`~.pipeline.Pipeline`). What a BIT means for
+the actuator's life depends on the ones before it, so this step keeps, per actuator, its BIT
+history (flight number and per-kind degradation estimates; reloaded from the catalog at
+start, so a restart or the next replay continues the trend) and refits the trend after each
+BIT (:func:`~mapr_daemon.reasoner.health.assess`): SoH, the leading fault mode, RUL with a
+90 % interval in flights and in flight hours. The event of an anomalous BIT carries the
+same SoH and RUL.
+
+**Flights.** An aircraft's flights (:class:`FlightLog`) are told from the actuator traffic:
+traffic that resumes after ``aircraft.flight_gap_s`` starts the next flight, and a flight's
+hours are the span of its traffic. A replay or a fleet run that knows the flight (its file
+name, its TMATS) *declares* it instead (:meth:`FlightLog.declare`): the whole recording is
+that flight, of the declared hours (else its traffic's span). Flight hours at a BIT count
+flights never seen (a fleet archive may hold only the BIT flights) at the mean of those seen;
+RUL in hours is RUL in flights times that mean.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Mapping, Sequence
+
+from mapr_daemon.catalog import BitOutcome, Event
+from mapr_daemon.catalog.model import Flight, Health
+from mapr_daemon.reasoner.health import INTERVAL, assess
+from mapr_daemon.reasoner.wear_model import PrognosticModel
+
+NS_PER_HOUR = 3_600_000_000_000
+
+
+@dataclasses.dataclass
+class _Flight:
+    number: int
+    start_ns: int | None
+    end_ns: int | None
+    declared_hours: float | None = None
+    source: str = "bus"
+
+    @property
+    def hours(self) -> float:
+        if self.declared_hours is not None:
+            return self.declared_hours
+        if self.start_ns is None or self.end_ns is None:
+            return 0.0
+        return max(self.end_ns - self.start_ns, 0) / NS_PER_HOUR
+
+
+class FlightLog:
+    """One aircraft's flights: counted from its traffic, or declared."""
+
+    def __init__(self, tail: str, gap_s: float, known: Sequence[Flight] = ()) -> None:
+        self.tail = tail
+        self.gap_ns = int(gap_s * 1e9)
+        self.flights: dict[int, _Flight] = {
+            f.flight: _Flight(f.flight, f.start_ns, f.end_ns,
+                              f.hours if f.source == "declared" else None, f.source)
+            for f in known}
+        self.current: _Flight | None = None
+        self.declared = False
+        self.changed: set[int] = set()
+
+    def declare(self, number: int, hours: float | None = None) -> None:
+        """All traffic from now on is flight ``number`` (of ``hours``, else its span)."""
+        flight = self.flights.get(number) or _Flight(number, None, None)
+        flight.declared_hours, flight.source = hours, "declared"
+        self.flights[number] = self.current = flight
+        self.declared = True
+        self.changed.add(number)
+
+    def observe(self, t_ns: int) -> None:
+        """Actuator traffic at ``t_ns`` (epoch ns)."""
+        cur = self.current
+        if cur is None and not self.declared and self.flights:
+            last = self.flights[max(self.flights)]
+            if last.end_ns is not None and 0 <= t_ns - last.end_ns < self.gap_ns:
+                cur = self.current = last   # the daemon restarted within the flight
+        if cur is not None and not self.declared and cur.end_ns is not None \
+                and t_ns - cur.end_ns >= self.gap_ns:
+            cur = None
+        if cur is None:
+            number = max(self.flights, default=0) + 1
+            cur = self.current = self.flights[number] = _Flight(number, t_ns, t_ns)
+        cur.start_ns = t_ns if cur.start_ns is None else min(cur.start_ns, t_ns)
+        cur.end_ns = t_ns if cur.end_ns is None else max(cur.end_ns, t_ns)
+        self.changed.add(cur.number)
+
+    @property
+    def number(self) -> int | None:
+        return None if self.current is None else self.current.number
+
+    def mean_hours(self) -> float | None:
+        """Mean hours of the flights with a known length."""
+        known = [f.hours for f in self.flights.values() if f.hours > 0]
+        return sum(known) / len(known) if known else None
+
+    def hours_at(self, t_ns: int | None) -> float | None:
+        """Flight hours at ``t_ns`` in the current flight (flights not seen at the mean)."""
+        cur = self.current
+        mean = self.mean_hours()
+        if cur is None:
+            return None
+        before = 0.0
+        for n in range(1, cur.number):
+            f = self.flights.get(n)
+            if f is not None and f.hours > 0:
+                before += f.hours
+            elif mean is not None:
+                before += mean
+        into = 0.0
+        if cur.start_ns is not None and t_ns is not None:
+            into = max(t_ns - cur.start_ns, 0) / NS_PER_HOUR
+        if cur.declared_hours is not None:
+            into = min(into, cur.declared_hours)
+        return before + into
+
+    def pop_changed(self) -> list[Flight]:
+        """The flights changed since the last call, for the catalog."""
+        out = [Flight(self.tail, n, f.start_ns, f.end_ns, f.hours, f.source)
+               for n in sorted(self.changed) if (f := self.flights[n])]
+        self.changed = set()
+        return out
+
+
+@dataclasses.dataclass
+class AssetHistory:
+    """One actuator's BIT history, as the trend reads it."""
+
+    flights: list[float] = dataclasses.field(default_factory=list)
+    wear: list[Mapping[str, float]] = dataclasses.field(default_factory=list)
+
+
+class Trending:
+    """Flights of one aircraft and the trend of each of its actuators."""
+
+    def __init__(self, tail: str, flight_gap_s: float,
+                 models: Mapping[str, PrognosticModel | None],
+                 history: Mapping[str, AssetHistory] | None = None,
+                 flights: Sequence[Flight] = ()) -> None:
+        self.tail = tail
+        self.models = dict(models)
+        self.history = {a: AssetHistory() for a in self.models}
+        for asset, h in (history or {}).items():
+            if asset in self.history:
+                self.history[asset] = h
+        self.log = FlightLog(tail, flight_gap_s, flights)
+
+    def observe(self, t_ns: int) -> None:
+        """The actuators' traffic was on the bus at ``t_ns`` (epoch ns)."""
+        self.log.observe(t_ns)
+
+    def annotate(self, outcomes: Sequence[BitOutcome]) -> list[BitOutcome]:
+        """Each BIT with its flight and the actuator's health after it (its event too)."""
+        out = []
+        for o in outcomes:
+            if self.log.current is None:
+                self.log.observe(o.t_ns)
+            flight = self.log.number
+            hours = self.log.hours_at(o.t_ns)
+            health = self._health(o, flight)
+            event = o.event
+            if event is not None:
+                event = _with_health(event, health)
+            out.append(dataclasses.replace(o, tail=self.tail, flight=flight,
+                                           flight_hours=hours, health=health, event=event))
+        return out
+
+    def _health(self, o: BitOutcome, flight: int | None) -> Health | None:
+        model = self.models.get(o.asset)
+        if model is None:
+            return Health(None, note="no prognostic model configured for this actuator "
+                                     "(assets[].prognosis): no SoH trend or RUL")
+        if not o.wear or flight is None:
+            return Health(None, note="this BIT gave no degradation estimates")
+        hist = self.history.setdefault(o.asset, AssetHistory())
+        hist.flights.append(float(flight))
+        hist.wear.append(dict(o.wear))
+        fault = None if o.event is None else o.event.fault
+        h = assess(model, hist.flights, hist.wear, diagnosed=fault, seed=len(hist.flights))
+        mean = self.log.mean_hours()
+        rh, rhl, rhh = h.in_hours(mean)
+        return Health(h.soh, h.mode, h.rul, h.rul_low, h.rul_high, rh, rhl, rhh, h.note,
+                      dict(h.modes), INTERVAL)
+
+
+def _with_health(event: Event, health: Health | None) -> Event:
+    if health is None or health.soh is None:
+        return event
+    def fin(v: float | None) -> float | None:
+        return v if v is None or math.isfinite(v) else None
+    return dataclasses.replace(event, soh=health.soh, rul=fin(health.rul),
+                               rul_low=fin(health.rul_low), rul_high=fin(health.rul_high),
+                               rul_unit="flights" if health.rul is not None else None)

@@ -1,0 +1,125 @@
+"""An actuator's state of health and remaining useful life from its BIT history.
+
+After each BIT the actuator's history — per BIT its flight number and the degradation
+estimate of every aging kind (:meth:`~.wear_model.PrognosticModel.estimates`) — is read as:
+
+* **which part is wearing**: a kind is *evidenced* when the mean of its last
+  :data:`RECENT` calibrated estimates lies more than :data:`EVIDENCE_Z` standard errors above
+  healthy (its measured noise, :class:`~.trend.Noise`), or when the classifier names it at
+  this BIT. The **leading mode** is the evidenced kind with the shortest median RUL;
+* **SoH** ``= 1 - h`` of the leading mode, clipped to [0, 1]: 1.0 as commissioned, 0.0 at
+  that mode's failure threshold (:data:`~mapr_daemon.ema.degradation.FAILURE`, e.g. ESR at
+  twice nominal), ``h`` the mean of its last :data:`RECENT` calibrated estimates. With no
+  evidenced kind SoH is 1.0 and there is no RUL: nothing is wearing measurably;
+* **RUL** of the leading mode in flights, the median and a 90 % interval (5 % and 95 %
+  points of the trend's draws, :func:`~.trend.fit_rul`: the kind's aging shape with the
+  fleet prior); in flight hours by the actuator's mean flight length so far. ``inf`` where
+  the trend does not reach the threshold within :data:`HORIZON` flights.
+
+A shorted or open switch (a terminal fault) is SoH 0 and RUL 0 at once.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from mapr_daemon.reasoner import trend
+from mapr_daemon.reasoner.features import FloatArray
+from mapr_daemon.reasoner.prognosis import RulEstimate
+
+if TYPE_CHECKING:
+    from mapr_daemon.reasoner.wear_model import PrognosticModel
+
+RECENT = 3
+"""BITs whose mean is the current degradation and its evidence."""
+EVIDENCE_Z = 3.0
+"""Standard errors above healthy that make a kind's wear evidenced."""
+HORIZON = 2000.0
+"""Flights the trend is followed to; a RUL beyond it is ``inf``."""
+INTERVAL = 0.90
+"""Coverage of the stated RUL interval (its 5 % and 95 % points)."""
+TERMINAL = ("short", "open")
+
+
+@dataclasses.dataclass(frozen=True)
+class Health:
+    """One actuator's health after one BIT."""
+
+    soh: float
+    mode: str | None
+    """The leading fault mode (the kind the RUL is of); None when nothing wears measurably."""
+    rul: float | None = None
+    rul_low: float | None = None
+    rul_high: float | None = None
+    """RUL in flights: median and the :data:`INTERVAL` bounds (``inf`` beyond the horizon);
+    all None with no leading mode or too few BITs."""
+    note: str | None = None
+    """Why there is no RUL, in words."""
+    modes: Mapping[str, Mapping[str, Any]] = dataclasses.field(default_factory=dict)
+    """Per trended kind: current degradation ``h``, its z, evidenced, and its RUL."""
+
+    def in_hours(self, hours_per_flight: float | None) -> tuple[float | None, ...]:
+        """(rul, low, high) in flight hours, None where unknown."""
+        if hours_per_flight is None or not math.isfinite(hours_per_flight):
+            return None, None, None
+        return tuple(None if v is None else v * hours_per_flight
+                     for v in (self.rul, self.rul_low, self.rul_high))
+
+
+def _calibrated(noise: trend.Noise, est: FloatArray) -> FloatArray:
+    out: FloatArray = (est - noise.offset) / noise.gain
+    return out
+
+
+def assess(model: PrognosticModel, flights: Sequence[float],
+           estimates: Sequence[Mapping[str, float]], diagnosed: str | None = None,
+           seed: int = 0) -> Health:
+    """Health after the last BIT of ``flights``/``estimates`` (oldest first); ``diagnosed``
+    is the classifier's fault at that BIT (None when nominal)."""
+    if diagnosed in TERMINAL:
+        return Health(0.0, diagnosed, 0.0, 0.0, 0.0, note="terminal fault: the part has failed")
+    if not flights:
+        return Health(1.0, None, note="no BIT yet")
+    fl = np.asarray(flights, dtype=np.float64)
+    now = float(fl[-1])
+    modes: dict[str, dict[str, Any]] = {}
+    candidates: list[tuple[float, float, str, RulEstimate | None]] = []
+    for kind in model.kinds:
+        noise = model.noise[kind]
+        est = np.array([e.get(kind, math.nan) for e in estimates], dtype=np.float64)
+        keep = np.isfinite(est)
+        if not keep.any():
+            continue
+        recent = _calibrated(noise, est[keep][-RECENT:])
+        h = float(np.mean(recent))
+        se = float(noise.sd(np.array([max(h, 0.0)]))[0] / noise.gain) / math.sqrt(recent.size)
+        z = h / se if se > 0 else math.inf
+        evidenced = z > EVIDENCE_Z or kind == diagnosed
+        row: dict[str, Any] = {"h": round(h, 4), "z": round(z, 2), "evidenced": evidenced}
+        rul = None
+        if evidenced and keep.sum() >= 3:
+            rul = trend.fit_rul(fl[keep], est[keep], now, kind, noise, model.priors.get(kind),
+                                seed=seed, horizon=HORIZON)
+            row.update(rul=_finite(rul.rul), low=_finite(rul.lower), high=_finite(rul.upper))
+        modes[kind] = row
+        if evidenced:
+            candidates.append((math.inf if rul is None else rul.rul, -h, kind, rul))
+    if not candidates:
+        return Health(1.0, None, note="no part wears measurably: every trended part is within "
+                                      "its healthy scatter", modes=modes)
+    _, neg_h, kind, rul = min(candidates, key=lambda c: (c[0], c[1]))
+    soh = float(min(1.0, max(0.0, 1.0 + neg_h)))
+    if rul is None:
+        return Health(soh, kind, note="fewer than three BITs: no trend yet", modes=modes)
+    return Health(soh, kind, rul.rul, rul.lower, rul.upper, modes=modes,
+                  note=None if math.isfinite(rul.rul) else
+                  f"the trend does not reach the failure threshold within {HORIZON:g} flights")
+
+
+def _finite(v: float) -> float | None:
+    return round(v, 2) if math.isfinite(v) else None

@@ -1,0 +1,200 @@
+"""The prognostic model of an actuator type: what turns its BITs into a trend and a RUL.
+
+A fault dictionary tells faults apart; trending one part's aging needs three more things,
+all learned from the actuator's data sheet (no unit's own data) and kept in one file beside
+the dictionary (``mapr dictionary build --prognosis FILE``, format :data:`FORMAT`):
+
+* per aging kind a degradation estimator (:class:`~.wear.WearModel`), trained on BITs flown
+  at known degradations over the flight envelope (pressures, ambient temperatures and
+  aircraft-bus voltages drawn like the dictionary's, seeds of their own);
+* per kind the estimate's measured scale error and scatter (:class:`~.trend.Noise`), from
+  calibration BITs at known degradations with yet other seeds; a kind whose estimate does not
+  follow its degradation gets no noise model and the reason, and is never trended;
+* per kind the fleet prior on its aging shape (:class:`~.trend.ShapePrior`), learned from the
+  aging model's run-to-failure paths (:func:`~mapr_daemon.ema.degradation.trajectory`).
+
+:meth:`PrognosticModel.estimates` reads one BIT's feature matrix as a degradation fraction
+per kind; :mod:`.health` fits the trend.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from mapr_daemon.ema.degradation import trajectory
+from mapr_daemon.ema.faults import Fault, FaultSet, nominal_value
+from mapr_daemon.ema.params import ActuatorParams
+from mapr_daemon.errors import ConfigError
+from mapr_daemon.reasoner import prognosis, trend, wear
+from mapr_daemon.reasoner.build import stream_matrices
+from mapr_daemon.reasoner.corpus import BitRuns
+from mapr_daemon.reasoner.dictionary import Dictionary
+from mapr_daemon.reasoner.features import FloatArray
+
+FORMAT = "mapr-prognosis/1"
+AGING_KINDS: tuple[str, ...] = tuple(sorted(trend.SHAPES))
+"""The kinds the aging model ages and the trend can follow."""
+TRAINING_SEED = 7_000_000
+"""First simulation seed of the estimators' training BITs."""
+CALIBRATION_SEED = 8_000_000
+"""First simulation seed of the noise-calibration BITs (disjoint from training)."""
+FLEET_SEED = 10_000
+"""First unit seed of the fleet-prior training units (run-to-failure paths)."""
+CALIBRATION_LEVELS: tuple[float, ...] = (0.0, 0.05, 0.1, 0.15, 0.2, 0.3, 0.5, 0.75, 1.0, 1.25)
+"""Degradations (fractions of the failure threshold) of the noise-calibration BITs."""
+MEAN_LIFE = 200.0
+"""Mean life (flights to the failure threshold) of the aging model's units."""
+
+
+@dataclasses.dataclass(frozen=True)
+class BuildSpec:
+    """How many BITs and units the model is learned from."""
+
+    training_bits: int = 300
+    """Training BITs per kind for its estimator."""
+    calibration_reps: int = 6
+    """Calibration BITs per level and kind."""
+    fleet_units: int = 30
+    """Run-to-failure units per kind behind the fleet prior."""
+    envelope: bool = True
+    """Draw ambient temperature and aircraft-bus voltage over the actuator's envelope (else
+    nominal); pressures uniform up to the envelope's maximum, a fifth of the BITs on the
+    ground."""
+
+
+@dataclasses.dataclass(frozen=True)
+class PrognosticModel:
+    """Estimators, their measured noise and the fleet priors, per aging kind."""
+
+    actuator: str
+    estimators: dict[str, wear.WearModel]
+    noise: dict[str, trend.Noise]
+    """Only the kinds whose estimate follows the degradation."""
+    unobservable: dict[str, str]
+    """The kinds that cannot be trended, and why (measured on the calibration BITs)."""
+    priors: dict[str, trend.ShapePrior]
+
+    @property
+    def kinds(self) -> tuple[str, ...]:
+        """The kinds the trend follows."""
+        return tuple(k for k in AGING_KINDS if k in self.noise)
+
+    def estimates(self, dictionary: Dictionary, m: FloatArray,
+                  dynamic_pressure_pa: float) -> dict[str, float]:
+        """One BIT's degradation fraction per trended kind (0 healthy, 1 at the failure
+        threshold), from its feature matrix ``m (W, C)``."""
+        y, c = wear.observations(dictionary, m[None], [dynamic_pressure_pa])
+        return {k: round(self.estimators[k].estimate(y[0], c[0]), 5) for k in self.kinds}
+
+    # --- persistence -----------------------------------------------------------------------
+    def save(self, path: str | Path) -> None:
+        arrays: dict[str, np.ndarray] = {}
+        meta: dict[str, Any] = {"format": FORMAT, "actuator": self.actuator, "kinds": {}}
+        for k, est in self.estimators.items():
+            arrays[f"{k}_coef"], arrays[f"{k}_precision"] = est.coef, est.precision
+            meta["kinds"][k] = {
+                "shrinkage": est.shrinkage, "runs": est.runs,
+                "noise": dataclasses.asdict(self.noise[k]) if k in self.noise else None,
+                "unobservable": self.unobservable.get(k),
+                "prior": dataclasses.asdict(self.priors[k]) if k in self.priors else None}
+        arrays["meta_json"] = np.array(json.dumps(meta))
+        np.savez_compressed(Path(path), **arrays)  # type: ignore[arg-type]
+
+    @classmethod
+    def load(cls, path: str | Path) -> PrognosticModel:
+        """Read a model; ConfigError naming the file if it is missing, corrupt or another
+        format."""
+        p = Path(path)
+        try:
+            with np.load(p, allow_pickle=False) as data:
+                a = {k: data[k] for k in data.files}
+            meta = json.loads(str(a["meta_json"]))
+        except (OSError, ValueError, KeyError) as error:
+            raise ConfigError(f"cannot read the prognostic model: {error}", path=str(p)) from None
+        if meta.get("format") != FORMAT:
+            raise ConfigError(f"prognostic model format {meta.get('format')!r}, expected "
+                              f"{FORMAT!r} (rebuild it with `mapr dictionary build "
+                              "--prognosis`)", path=str(p))
+        estimators, noise, why, priors = {}, {}, {}, {}
+        for k, km in meta["kinds"].items():
+            estimators[k] = wear.WearModel(k, a[f"{k}_coef"], a[f"{k}_precision"],
+                                           float(km["shrinkage"]), int(km["runs"]))
+            if km["noise"] is not None:
+                noise[k] = trend.Noise(**km["noise"])
+            if km["unobservable"] is not None:
+                why[k] = str(km["unobservable"])
+            if km["prior"] is not None:
+                priors[k] = trend.ShapePrior(**km["prior"])
+        return cls(str(meta["actuator"]), estimators, noise, why, priors)
+
+
+def fault_at(params: ActuatorParams, kind: str, h: float) -> FaultSet:
+    """The fault set of ``kind`` at degradation ``h`` (healthy at ``h <= 0``)."""
+    lo = nominal_value(params, kind)
+    value = lo + h * (prognosis.failure_value(params, kind) - lo)
+    return FaultSet.of([Fault(kind, value)]) if h > 0 else FaultSet()
+
+
+def conditions(params: ActuatorParams, n: int, rng: np.random.Generator, envelope: bool
+               ) -> tuple[list[float], list[float | None], list[float | None]]:
+    """Flight conditions of ``n`` BITs: pressures (a fifth on the ground) and, over the
+    envelope, ambient temperature and aircraft-bus voltage."""
+    q = rng.uniform(0.0, params.envelope.max_dynamic_pressure_pa, n)
+    q[rng.random(n) < 0.2] = 0.0
+    if not envelope:
+        return [float(v) for v in q], [None] * n, [None] * n
+    amb = rng.uniform(params.envelope.ambient_min_c, params.envelope.ambient_max_c, n)
+    bus = rng.uniform(params.bus.min_v, params.bus.max_v, n)
+    return [float(v) for v in q], [float(v) for v in amb], [float(v) for v in bus]
+
+
+def learn_prior(params: ActuatorParams, kind: str, units: int,
+                mean_life: float = MEAN_LIFE) -> trend.ShapePrior:
+    """The fleet prior of a kind from ``units`` run-to-failure units' true paths."""
+    paths = []
+    for i in range(units):
+        t = trajectory(params, kind, int(mean_life * 2), FLEET_SEED + i, mean_life)
+        fl = np.arange(0, t.eol_flight + 1, dtype=np.float64)
+        h = np.array([prognosis.degradation(params, kind, float(t.values[int(f)]))
+                      for f in fl])
+        paths.append((fl, h))
+    return trend.ShapePrior.learn(kind, paths)
+
+
+def build_prognostic_model(d: Dictionary, params: ActuatorParams, spec: BuildSpec = BuildSpec(),
+                           *, kinds: tuple[str, ...] = AGING_KINDS,
+                           workers: int | None = None) -> PrognosticModel:
+    """Fly the training and calibration BITs (one batch), fit the estimators, measure their
+    noise, learn the priors."""
+    rng = np.random.default_rng(TRAINING_SEED)
+    train = [(k, float(h)) for k in kinds for h in rng.uniform(*wear.TRAINING_RANGE,
+                                                               spec.training_bits)]
+    cal = [(k, h) for k in kinds for h in CALIBRATION_LEVELS
+           for _ in range(spec.calibration_reps)]
+    todo = train + cal
+    q, amb, bus = conditions(params, len(todo), rng, spec.envelope)
+    seeds = [TRAINING_SEED + i for i in range(len(train))] + \
+        [CALIBRATION_SEED + i for i in range(len(cal))]
+    runs = BitRuns.of([fault_at(params, k, h) for k, h in todo], q, seeds, amb, bus)
+    m = stream_matrices(params, runs, d.window_starts, d.window_samples, workers=workers)
+    y, c = wear.observations(d, m, q)
+    n = len(train)
+    estimators = wear.fit_kinds(kinds, y[:n], c[:n], np.array([h for _, h in train]),
+                                [k for k, _ in train])
+    noise: dict[str, trend.Noise] = {}
+    why: dict[str, str] = {}
+    for k in kinds:
+        rows = [n + i for i, (kk, _) in enumerate(cal) if kk == k]
+        truth = np.array([todo[r][1] for r in rows])
+        est = np.array([estimators[k].estimate(y[r], c[r]) for r in rows])
+        try:
+            noise[k] = trend.Noise.measure(truth, est)
+        except ConfigError as error:
+            why[k] = error.detail
+    priors = {k: learn_prior(params, k, spec.fleet_units) for k in kinds}
+    return PrognosticModel(params.name, estimators, noise, why, priors)
