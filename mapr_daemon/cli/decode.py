@@ -52,6 +52,11 @@ def add_subparser(subparsers: Any) -> None:
     parser.add_argument("--words", action="store_true",
                         help="print one JSON object per word (the codec's output)")
     parser.add_argument("--icd", metavar="FILE", help="message table: add engineering values")
+    parser.add_argument("--stats", nargs="?", const="text", choices=["text", "json"],
+                        help="print per-RT/SA statistics and windowed bus load instead of the "
+                             "messages: a table (default) or JSON lines")
+    parser.add_argument("--stats-window", type=positive_seconds, default=1.0, metavar="S",
+                        help="bus-load window for --stats, in seconds (default 1)")
     chapter10_decode.add_arguments(parser)
     parser.set_defaults(func=run)
 
@@ -67,7 +72,22 @@ def _channels(text: str) -> list[str]:
     return [part.strip() for part in text.split(",")]
 
 
+def positive_seconds(text: str) -> float:
+    """A duration in seconds above 0 (an argparse type)."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number of seconds") from None
+    if not value > 0:
+        raise argparse.ArgumentTypeError(f"must be above 0 s, got {text}")
+    return value
+
+
 def run(args: argparse.Namespace) -> int:
+    if args.stats:
+        from mapr_daemon.cli.traffic_source import run_decode_stats
+
+        return run_decode_stats(args)
     view = IcdView(args.icd)
     if args.capture != "-" and looks_like_chapter10(args.capture):
         return chapter10_decode.decode_chapter10(args, view)
