@@ -107,11 +107,25 @@ class RtSaRow:
     """Messages per second over the whole time observed (first to last message of any key):
     a key's own first-to-last span would make two retries microseconds apart a kHz rate."""
     errors: dict[str, int]
-    response_min_us: float | None
-    response_mean_us: float | None
-    response_max_us: float | None
+    responses: int
+    """Messages with a response gap (the ones the terminal answered)."""
+    response_sum_ns: int
+    response_min_ns: int | None
+    response_max_ns: int | None
     first_ns: int
     last_ns: int
+
+    @property
+    def response_min_us(self) -> float | None:
+        return None if self.response_min_ns is None else self.response_min_ns / 1e3
+
+    @property
+    def response_mean_us(self) -> float | None:
+        return self.response_sum_ns / self.responses / 1e3 if self.responses else None
+
+    @property
+    def response_max_us(self) -> float | None:
+        return None if self.response_max_ns is None else self.response_max_ns / 1e3
 
     @property
     def label(self) -> str:
@@ -276,9 +290,9 @@ class TrafficStatistics:
                 messages=n, rate_hz=n * 1e9 / span if span > 0 else 0.0,
                 errors={} if errs is None else
                 {ERROR_CLASSES[i]: int(c) for i, c in enumerate(errs.tolist()) if c},
-                response_min_us=float(self.resp_min[key]) / 1e3 if resp_n else None,
-                response_mean_us=float(self.resp_sum[key]) / resp_n / 1e3 if resp_n else None,
-                response_max_us=float(self.resp_max[key]) / 1e3 if resp_n else None,
+                responses=resp_n, response_sum_ns=int(self.resp_sum[key]),
+                response_min_ns=int(self.resp_min[key]) if resp_n else None,
+                response_max_ns=int(self.resp_max[key]) if resp_n else None,
                 first_ns=int(self.first_ns[key]), last_ns=int(self.last_ns[key])))
         out.sort(key=lambda r: (r.rt, r.tr, r.mode_code is not None, r.sa, r.mode_code or 0))
         return out

@@ -21,6 +21,9 @@ History:
    actuator's part across BITs, its severity trend and its acknowledgment) and
    ``events.episode_id``. Events written before keep it NULL: the BITs that found the
    actuator nominal were never stored, so their episodes cannot be rebuilt.
+5. ``rt_stats`` (:mod:`~mapr_daemon.catalog.rt_stats`): per interval, one row per RT /
+   direction / subaddress or mode code: messages, errors by class, response-time sums and
+   extremes, last bus time seen. Sessions before have none.
 """
 
 from __future__ import annotations
@@ -120,6 +123,27 @@ MIGRATIONS: tuple[tuple[str, ...], ...] = (
         "CREATE INDEX episodes_open ON episodes(asset, part) WHERE closed_ns IS NULL",
         "ALTER TABLE events ADD COLUMN episode_id INTEGER REFERENCES episodes(id)",
         "CREATE INDEX events_episode ON events(episode_id)",
+    ),
+    (  # 5: per-RT/SA statistics per interval
+        """CREATE TABLE rt_stats (
+            id INTEGER PRIMARY KEY,
+            session_id INTEGER NOT NULL REFERENCES sessions(id),
+            start_ns INTEGER NOT NULL,
+            end_ns INTEGER NOT NULL,
+            rt INTEGER NOT NULL,
+            tr TEXT NOT NULL,
+            sa INTEGER NOT NULL,
+            mode_code INTEGER,
+            wc INTEGER,
+            messages INTEGER NOT NULL,
+            errors_total INTEGER NOT NULL,
+            errors TEXT NOT NULL DEFAULT '{}',
+            responses INTEGER NOT NULL,
+            response_sum_ns INTEGER NOT NULL,
+            response_min_ns INTEGER,
+            response_max_ns INTEGER,
+            last_bus_ns INTEGER NOT NULL)""",
+        "CREATE INDEX rt_stats_t ON rt_stats(start_ns)",
     ),
 )
 
