@@ -105,7 +105,8 @@ class RtSaRow:
     messages: int
     rate_hz: float
     """Messages per second over the whole time observed (first to last message of any key):
-    a key's own first-to-last span would make two retries microseconds apart a kHz rate."""
+    a key's own first-to-last span would make two retries microseconds apart a kHz rate.
+    0 for a key seen once (no rate can be told)."""
     errors: dict[str, int]
     responses: int
     """Messages with a response gap (the ones the terminal answered)."""
@@ -156,19 +157,22 @@ def _r(value: float | None) -> float | None:
 
 @dataclass(frozen=True, slots=True)
 class WindowLoad:
-    """Share of one window a bus carried words."""
+    """Share of one window a bus carried words, over the part of the window observed (the
+    first and last windows are cut at the first and last word seen on any bus)."""
 
     bus: str
     start_ns: int
     window_ns: int
+    observed_ns: int
     busy_ns: int
 
     @property
     def load_percent(self) -> float:
-        return 100.0 * self.busy_ns / self.window_ns
+        return 100.0 * self.busy_ns / self.observed_ns if self.observed_ns > 0 else 0.0
 
     def as_dict(self) -> dict[str, Any]:
         return {"bus": self.bus, "start_ns": self.start_ns, "window_s": self.window_ns / 1e9,
+                "observed_s": self.observed_ns / 1e9,
                 "load_percent": round(self.load_percent, 2)}
 
 
@@ -194,6 +198,10 @@ class TrafficStatistics:
     """(receive key, transmit key) -> RT-RT transfers seen."""
     unkeyed: int = 0
     """Records with no command word (stray words): in the bus load, under no key."""
+    seen_from_ns: int = np.iinfo(np.int64).max
+    """Start of the first record seen, on any bus."""
+    seen_to_ns: int = np.iinfo(np.int64).min
+    """End of the last word seen (start + words x 20 µs), on any bus."""
 
     def __post_init__(self) -> None:
         if self.window_ns <= 0:
@@ -260,6 +268,8 @@ class TrafficStatistics:
     def _add_load(self, a: RecordArrays) -> None:
         if a.t_ns.size == 0:
             return
+        self.seen_from_ns = min(self.seen_from_ns, int(a.t_ns.min()))
+        self.seen_to_ns = max(self.seen_to_ns, int((a.t_ns + a.words * WORD_TIME_NS).max()))
         buses, bus_index = np.unique(a.bus, return_inverse=True)
         window = a.t_ns // self.window_ns
         combo = window * buses.size + bus_index
@@ -287,7 +297,7 @@ class TrafficStatistics:
                 rt=rt, tr=tr, sa=sa, mode_code=key & 31 if mode else None,
                 wc=None if mode else int(self.wc_max[key]),
                 wc_min=None if mode else int(self.wc_min[key]),
-                messages=n, rate_hz=n * 1e9 / span if span > 0 else 0.0,
+                messages=n, rate_hz=n * 1e9 / span if n > 1 and span > 0 else 0.0,
                 errors={} if errs is None else
                 {ERROR_CLASSES[i]: int(c) for i, c in enumerate(errs.tolist()) if c},
                 responses=resp_n, response_sum_ns=int(self.resp_sum[key]),
@@ -298,10 +308,14 @@ class TrafficStatistics:
         return out
 
     def windows(self) -> list[WindowLoad]:
-        """Load per bus per window, in time order (the first and last may be partial)."""
-        return [WindowLoad(bus, w * self.window_ns, self.window_ns, busy)
-                for (bus, w), busy in sorted(self.busy.items(), key=lambda i: (i[0][1],
-                                                                                i[0][0]))]
+        """Load per bus per window, in time order."""
+        out = []
+        for (bus, w), busy in sorted(self.busy.items(), key=lambda i: (i[0][1], i[0][0])):
+            start = w * self.window_ns
+            observed = (min(start + self.window_ns, self.seen_to_ns)
+                        - max(start, self.seen_from_ns))
+            out.append(WindowLoad(bus, start, self.window_ns, observed, busy))
+        return out
 
     def table(self) -> str:
         """The per-RT/SA rows as a fixed-width table, then the load of each window."""
@@ -311,15 +325,16 @@ class TrafficStatistics:
         for r in self.rows():
             wc = "-" if r.wc is None else (str(r.wc) if r.wc == r.wc_min else f"{r.wc}*")
             errs = ", ".join(f"{k} {v}" for k, v in r.errors.items()) or "-"
-            lines.append(f"{r.label:<13}{wc:>3}{r.messages:>10}{r.rate_hz:>10.2f}"
+            rate = f"{r.rate_hz:.2f}" if r.messages > 1 else "-"
+            lines.append(f"{r.label:<13}{wc:>3}{r.messages:>10}{rate:>10}"
                          f"{_us(r.response_min_us):>9}{_us(r.response_mean_us):>7}"
                          f"{_us(r.response_max_us):>8}  {r.last_ns / 1e9:>11.3f}  {errs}")
         windows = self.windows()
         if windows:
             lines.append("")
-            lines.append(f"{'window from s':>13}  {'bus':<4}{'load %':>7}")
-            lines += [f"{w.start_ns / 1e9:>13.3f}  {w.bus:<4}{w.load_percent:>7.1f}"
-                      for w in windows]
+            lines.append(f"{'window from s':>13}  {'bus':<4}{'load %':>7}  {'observed s':>10}")
+            lines += [f"{w.start_ns / 1e9:>13.3f}  {w.bus:<4}{w.load_percent:>7.1f}  "
+                      f"{w.observed_ns / 1e9:>10.6f}" for w in windows]
         return "\n".join(lines)
 
     def json_lines(self) -> list[dict[str, Any]]:
