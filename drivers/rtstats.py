@@ -332,8 +332,8 @@ class TrafficStatistics:
         windows = self.windows()
         if windows:
             lines.append("")
-            lines.append(f"{'window from s':>13}  {'bus':<4}{'load %':>7}  {'observed s':>10}")
-            lines += [f"{w.start_ns / 1e9:>13.3f}  {w.bus:<4}{w.load_percent:>7.1f}  "
+            lines.append(f"{'window from s':>14}  {'bus':<4}{'load %':>7}  {'observed s':>10}")
+            lines += [f"{w.start_ns / 1e9:>14.6f}  {w.bus:<4}{w.load_percent:>7.1f}  "
                       f"{w.observed_ns / 1e9:>10.6f}" for w in windows]
         return "\n".join(lines)
 
