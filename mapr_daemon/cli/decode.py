@@ -34,6 +34,7 @@ from drivers.pipeline import SamplePipeline
 from mapr_daemon.cli import chapter10_decode, exitcodes
 from mapr_daemon.cli.icdview import IcdView
 from mapr_daemon.cli.render import record_json
+from mapr_daemon.cli.traffic_source import positive_seconds
 
 
 def add_subparser(subparsers: Any) -> None:
@@ -70,17 +71,6 @@ def _rate(text: str) -> float:
 
 def _channels(text: str) -> list[str]:
     return [part.strip() for part in text.split(",")]
-
-
-def positive_seconds(text: str) -> float:
-    """A duration in seconds above 0 (an argparse type)."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number of seconds") from None
-    if not value > 0:
-        raise argparse.ArgumentTypeError(f"must be above 0 s, got {text}")
-    return value
 
 
 def run(args: argparse.Namespace) -> int:

@@ -24,10 +24,9 @@ from typing import Any
 from drivers.monitor import MonitorFilter, available_backends, open_monitor
 from drivers.rtstats import TrafficStatistics
 from mapr_daemon.cli import exitcodes
-from mapr_daemon.cli.decode import positive_seconds
 from mapr_daemon.cli.icdview import IcdView
 from mapr_daemon.cli.render import record_json, record_line
-from mapr_daemon.cli.traffic_source import print_stats
+from mapr_daemon.cli.traffic_source import positive_seconds, print_stats
 
 
 def add_subparser(subparsers: Any) -> None:

@@ -8,17 +8,30 @@ message count and/or a duration.
 
 from __future__ import annotations
 
+import argparse
 import json
 import sys
 import time
 from collections.abc import Iterator, Sequence
-from typing import Any, TextIO
+from typing import TYPE_CHECKING, Any, TextIO
 
-from drivers.mil1553.record import MonitorRecord
-from drivers.rtstats import TrafficStatistics
+if TYPE_CHECKING:   # imported where used: registering the subcommands stays light
+    from drivers.mil1553.record import MonitorRecord
+    from drivers.rtstats import TrafficStatistics
 
 BATCH = 4096
 """Records per batch read from a live backend."""
+
+
+def positive_seconds(text: str) -> float:
+    """A duration in seconds above 0 (an argparse type)."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number of seconds") from None
+    if not value > 0:
+        raise argparse.ArgumentTypeError(f"must be above 0 s, got {text}")
+    return value
 
 
 def file_batches(path: str, *, samplerate: float | None = None,
@@ -92,6 +105,7 @@ def print_stats(stats: TrafficStatistics, *, as_json: bool, out: TextIO) -> None
 
 def run_decode_stats(args: Any) -> int:
     """``mapr decode FILE --stats [text|json]``: statistics instead of the messages."""
+    from drivers.rtstats import TrafficStatistics
     from mapr_daemon.cli import exitcodes
 
     stats = TrafficStatistics(window_ns=round(args.stats_window * 1e9))
