@@ -17,10 +17,10 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from bench.seeds import fresh  # noqa: E402
-from drivers.mil1553.record import MonitorRecord, TransferFormat  # noqa: E402
-from drivers.monitor import BusStatistics  # noqa: E402
-from drivers.rtstats import TrafficStatistics  # noqa: E402
+from bench.seeds import fresh
+from drivers.mil1553.record import MonitorRecord, TransferFormat
+from drivers.monitor import BusStatistics
+from drivers.rtstats import TrafficStatistics
 
 
 def traffic(rng: np.random.Generator, n: int) -> list[MonitorRecord]:
