@@ -110,8 +110,8 @@ def add_subparser(subparsers: Any) -> None:
     _time_range(p)
     p.add_argument("--bus", choices=["A", "B"])
     p.add_argument("--by-rt", action="store_true",
-                   help="per RT / direction / subaddress and mode code over the range, "
-                        "instead of per interval")
+                   help="per RT / direction / subaddress and mode code over the range "
+                        "(both buses), instead of per interval")
     p.add_argument("--limit", type=int, default=DEFAULT_LIMIT,
                    help=f"the last N intervals (default {DEFAULT_LIMIT}; 0: all)")
     p.set_defaults(func=run, action_func=run_stats)
