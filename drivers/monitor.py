@@ -32,6 +32,7 @@ from typing import Any
 from drivers.errors import BackendError, BackendUnavailable, MaprError, MonitorClosed
 from drivers.mil1553.record import MonitorRecord, TransferFormat
 from drivers.mil1553.wordbatch import WORD_TIME_NS
+from drivers.rtstats import TrafficStatistics
 
 __all__ = ["BACKENDS", "BusMonitor", "BusStatistics", "MonitorFilter", "MonitorRecord",
            "available_backends", "open_monitor"]
@@ -131,6 +132,8 @@ class BusMonitor(ABC):
             raise TypeError(f"unknown option(s) {', '.join(sorted(config))}")
         self.filters: list[MonitorFilter] = list(filters or [])
         self.stats = BusStatistics()
+        self.traffic: TrafficStatistics | None = None
+        """Per-RT/SA statistics of every batch the backend delivers, when set (None: off)."""
         self._queue: deque[MonitorRecord] = deque()
         self._closed = False
         self._ended = False
@@ -168,6 +171,8 @@ class BusMonitor(ABC):
             if batch is None:
                 self._ended = True
                 continue
+            if self.traffic is not None:
+                self.traffic.add_batch(batch)
             self._queue.extend(batch)
             if not batch and deadline is not None and time.monotonic() >= deadline:
                 return None

@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-PAGES = ["docs/codec.md", "docs/monitor.md", "docs/testbed.md"]
+PAGES = ["docs/codec.md", "docs/monitor.md", "docs/testbed.md", "docs/bus-engineer.md"]
 
 
 def sessions() -> list[tuple[str, str, str]]:

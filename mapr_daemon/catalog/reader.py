@@ -22,7 +22,7 @@ from collections.abc import Iterator
 from types import TracebackType
 from typing import Any
 
-from mapr_daemon.catalog import episode_store
+from mapr_daemon.catalog import episode_store, rt_stats
 from mapr_daemon.catalog.connect import describe, open_reader
 from mapr_daemon.catalog.episodes import Episode
 from mapr_daemon.catalog.model import Event, EventFilter, Gap, Session, StatsRow
@@ -182,6 +182,17 @@ class CatalogReader:
                          words=r[5], load_percent=r[6], errors=json.loads(r[7]))
                 for r in self._rows(sql, values)]
         return rows[::-1]
+
+    def rt_stats(self, since_ns: int | None = None,
+                 until_ns: int | None = None) -> list[rt_stats.RtStatsRow]:
+        """Per-RT/SA statistics over the intervals starting in the range, one row per key
+        (none from a catalog older than the ``rt_stats`` table)."""
+        if self.schema_version < rt_stats.RT_STATS_SINCE:
+            return []
+        try:
+            return rt_stats.summary(self._conn, since_ns, until_ns)
+        except sqlite3.DatabaseError as error:
+            raise CatalogError(f"read failed: {describe(error)}", path=self.path) from error
 
     def gaps(self, since_ns: int | None = None, until_ns: int | None = None) -> list[Gap]:
         """Monitoring gaps overlapping the range, oldest first."""

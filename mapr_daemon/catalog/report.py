@@ -17,6 +17,7 @@ from typing import IO, Any
 
 from mapr_daemon.catalog.episodes import Episode
 from mapr_daemon.catalog.model import Event, Gap, Session, StatsRow
+from mapr_daemon.catalog.rt_stats import RtStatsRow
 
 _AGE = re.compile(r"^\s*(\d+(?:\.\d+)?)\s*([smhdw])\s*$")
 _UNIT_S = {"s": 1, "m": 60, "h": 3600, "d": 86400, "w": 604800}
@@ -165,6 +166,20 @@ def stats_table(rows: Sequence[StatsRow]) -> str:
              errors(r)) for r in rows]
     return _table(("START (UTC)", "LENGTH", "BUS", "MESSAGES", "WORDS", "LOAD %", "ERRORS",
                    "BY CLASS"), body, right={1, 3, 4, 5, 6})
+
+
+def rt_stats_table(rows: Sequence[RtStatsRow]) -> str:
+    """One line per RT / direction / subaddress or mode code (``catalog stats --by-rt``)."""
+    def us(value: float | None) -> str:
+        return "-" if value is None else f"{value:.1f}"
+
+    def errors(r: RtStatsRow) -> str:
+        return ", ".join(f"{k} {v}" for k, v in r.errors.items()) or "-"
+    body = [(r.label, "-" if r.wc is None else str(r.wc), str(r.messages), f"{r.rate_hz:.2f}",
+             us(r.response_min_us), us(r.response_mean_us), us(r.response_max_us),
+             fmt_time(r.last_seen_ns), errors(r)) for r in rows]
+    return _table(("RT/SA", "WC", "MESSAGES", "RATE HZ", "RESP MIN US", "MEAN", "MAX",
+                   "LAST SEEN (UTC)", "ERRORS"), body, right={1, 2, 3, 4, 5, 6})
 
 
 def gaps_table(gaps: Sequence[Gap]) -> str:

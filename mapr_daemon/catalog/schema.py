@@ -26,6 +26,9 @@ History:
    RUL with its interval in flights and flight hours); ``flights``: each aircraft's flights
    (tail, number, span, hours); ``events.flight``. Catalogs from before start their BIT
    history empty.
+6. ``rt_stats`` (:mod:`~mapr_daemon.catalog.rt_stats`): per interval, one row per RT /
+   direction / subaddress or mode code: messages, errors by class, response-time sums and
+   extremes, last bus time seen. Sessions before have none.
 """
 
 from __future__ import annotations
@@ -160,6 +163,27 @@ MIGRATIONS: tuple[tuple[str, ...], ...] = (
             source TEXT NOT NULL,
             PRIMARY KEY (tail, flight))""",
         "ALTER TABLE events ADD COLUMN flight INTEGER",
+    ),
+    (  # 6: per-RT/SA statistics per interval
+        """CREATE TABLE rt_stats (
+            id INTEGER PRIMARY KEY,
+            session_id INTEGER NOT NULL REFERENCES sessions(id),
+            start_ns INTEGER NOT NULL,
+            end_ns INTEGER NOT NULL,
+            rt INTEGER NOT NULL,
+            tr TEXT NOT NULL,
+            sa INTEGER NOT NULL,
+            mode_code INTEGER,
+            wc INTEGER,
+            messages INTEGER NOT NULL,
+            errors_total INTEGER NOT NULL,
+            errors TEXT NOT NULL DEFAULT '{}',
+            responses INTEGER NOT NULL,
+            response_sum_ns INTEGER NOT NULL,
+            response_min_ns INTEGER,
+            response_max_ns INTEGER,
+            last_bus_ns INTEGER NOT NULL)""",
+        "CREATE INDEX rt_stats_t ON rt_stats(start_ns)",
     ),
 )
 

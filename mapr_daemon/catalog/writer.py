@@ -7,6 +7,7 @@ One :class:`CatalogWriter` per daemon process::
         ids = catalog.add_events(batch)          # one transaction; durable when it returns
         ids = catalog.add_bits(outcomes)         # the same, with the nominal BITs too
         catalog.add_stats(t0_ns, t1_ns, interval_stats)
+        catalog.add_rt_stats(t0_ns, t1_ns, per_rt_sa_rows)
         catalog.record_gap(t0_ns, t1_ns, "backend: USB card unplugged")
         catalog.close_session("SIGTERM")
 
@@ -36,7 +37,7 @@ from types import TracebackType
 from typing import Any, Protocol
 
 from mapr_daemon import __version__
-from mapr_daemon.catalog import episode_store, history
+from mapr_daemon.catalog import episode_store, history, rt_stats
 from mapr_daemon.catalog.connect import Durability, describe, open_writer
 from mapr_daemon.catalog.episode_batch import fold
 from mapr_daemon.catalog.episodes import DEFAULT_CLEAR_BITS, Detection, detection_of
@@ -278,6 +279,15 @@ class CatalogWriter:
             self._transaction(lambda conn: conn.executemany(
                 "INSERT INTO bus_stats (session_id, start_ns, end_ns, bus, messages, words, "
                 "load_percent, errors_total, errors) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)", rows))
+
+    def add_rt_stats(self, start_ns: int, end_ns: int,
+                     rows: Iterable[Mapping[str, Any]]) -> None:
+        """Store one interval's per-RT/SA statistics, one row per RT/direction/SA or mode
+        code: mappings with the fields of :class:`drivers.rtstats.RtSaRow`
+        (:mod:`.rt_stats`)."""
+        params = rt_stats.insert_rows(self._session(), start_ns, end_ns, rows)
+        if params:
+            self._transaction(lambda conn: conn.executemany(rt_stats.INSERT, params))
 
     def record_gap(self, start_ns: int, end_ns: int | None, reason: str) -> int:
         """A stretch with no monitoring (``end_ns`` None while it lasts); returns its id."""

@@ -109,6 +109,9 @@ def add_subparser(subparsers: Any) -> None:
     p = actions.add_parser("stats", parents=[common], help="bus health per interval, and gaps")
     _time_range(p)
     p.add_argument("--bus", choices=["A", "B"])
+    p.add_argument("--by-rt", action="store_true",
+                   help="per RT / direction / subaddress and mode code over the range "
+                        "(both buses), instead of per interval")
     p.add_argument("--limit", type=int, default=DEFAULT_LIMIT,
                    help=f"the last N intervals (default {DEFAULT_LIMIT}; 0: all)")
     p.set_defaults(func=run, action_func=run_stats)
@@ -225,6 +228,8 @@ def run_trend(reader: CatalogReader, args: argparse.Namespace) -> int:
 
 
 def run_stats(reader: CatalogReader, args: argparse.Namespace) -> int:
+    if args.by_rt:
+        return _run_rt_stats(reader, args)
     rows = reader.stats(args.since, args.until, args.bus,
                         limit=args.limit if args.limit > 0 else None)
     gaps = reader.gaps(args.since, args.until)
@@ -269,4 +274,13 @@ def run_ack(args: argparse.Namespace) -> int:
     else:
         print(f"episode {episode.id} ({episode.asset}, {episode.part}) acknowledged by "
               f"{episode.acked_by} at {report.fmt_time(episode.acked_ns)}")
+    return exitcodes.OK
+
+
+def _run_rt_stats(reader: CatalogReader, args: argparse.Namespace) -> int:
+    rows = reader.rt_stats(args.since, args.until)
+    if _wants_json(args):
+        _print_json({"rt_sa": [r.as_dict() for r in rows]})
+        return exitcodes.OK
+    print(report.rt_stats_table(rows) if rows else "no per-RT/SA statistics in range")
     return exitcodes.OK

@@ -34,6 +34,7 @@ from drivers.pipeline import SamplePipeline
 from mapr_daemon.cli import chapter10_decode, exitcodes
 from mapr_daemon.cli.icdview import IcdView
 from mapr_daemon.cli.render import record_json
+from mapr_daemon.cli.traffic_source import positive_seconds
 
 
 def add_subparser(subparsers: Any) -> None:
@@ -52,6 +53,11 @@ def add_subparser(subparsers: Any) -> None:
     parser.add_argument("--words", action="store_true",
                         help="print one JSON object per word (the codec's output)")
     parser.add_argument("--icd", metavar="FILE", help="message table: add engineering values")
+    parser.add_argument("--stats", nargs="?", const="text", choices=["text", "json"],
+                        help="print per-RT/SA statistics and windowed bus load instead of the "
+                             "messages: a table (default) or JSON lines")
+    parser.add_argument("--stats-window", type=positive_seconds, default=1.0, metavar="S",
+                        help="bus-load window for --stats, in seconds (default 1)")
     chapter10_decode.add_arguments(parser)
     parser.set_defaults(func=run)
 
@@ -68,6 +74,10 @@ def _channels(text: str) -> list[str]:
 
 
 def run(args: argparse.Namespace) -> int:
+    if args.stats:
+        from mapr_daemon.cli.traffic_source import run_decode_stats
+
+        return run_decode_stats(args)
     view = IcdView(args.icd)
     if args.capture != "-" and looks_like_chapter10(args.capture):
         return chapter10_decode.decode_chapter10(args, view)

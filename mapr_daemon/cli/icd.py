@@ -1,9 +1,13 @@
-"""``mapr icd check FILE`` and ``mapr icd dump FILE``: validate and draw a message table.
+"""``mapr icd check FILE``, ``mapr icd dump FILE``, ``mapr icd discover``: validate and draw
+a message table, or write a skeleton one from observed traffic.
 
 ``check`` loads the file with every validation and prints a one-line summary with the bus
 load of its schedule; an invalid file is reported as one ``file:line: field: problem`` line
 and exit code 78 (by :mod:`mapr_daemon.cli.main`, which maps :class:`ConfigError`).
 ``dump`` draws each message's bit layout in ASCII, as ``cantools dump`` does.
+``discover`` reads a Chapter 10 recording, a capture or a live backend (bounded by
+``--count``/``--duration``) and writes every RT/SA/direction it saw as a skeleton table
+(:mod:`mapr_daemon.icd.discover`) that ``check`` accepts as written.
 """
 
 from __future__ import annotations
@@ -30,6 +34,25 @@ def add_subparser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser
                                description="Draw each message's bit layout in ASCII.")
     dump.add_argument("file", metavar="FILE")
     dump.set_defaults(func=run_dump)
+    discover = commands.add_parser(
+        "discover", help="write a skeleton ICD from observed traffic",
+        description="Write a skeleton ICD (every RT/SA/direction seen, word counts, rates, "
+                    "mode codes, placeholder names) from a Chapter 10 recording, a capture or "
+                    "a live backend.")
+    discover.add_argument("source", metavar="FILE", nargs="?",
+                          help="Chapter 10 recording or bit-level capture (or use --backend)")
+    discover.add_argument("--backend", help="read a live backend instead of a file")
+    discover.add_argument("-o", "--option", action="append", default=[], metavar="KEY=VALUE",
+                          help="backend option, repeatable")
+    discover.add_argument("--count", type=int, metavar="N",
+                          help="stop after N messages (live backend)")
+    discover.add_argument("--duration", type=float, metavar="S",
+                          help="stop after S seconds (live backend)")
+    discover.add_argument("--samplerate", type=float, metavar="HZ",
+                          help="sample rate of a raw capture")
+    discover.add_argument("--name", default="discovered", help="the table's name")
+    discover.add_argument("--output", metavar="OUT", help="write here (default: stdout)")
+    discover.set_defaults(func=run_discover)
 
 
 def _load(path: str) -> Icd | None:
@@ -65,4 +88,43 @@ def run_dump(args: argparse.Namespace) -> int:
     if icd is None:
         return exitcodes.USAGE
     sys.stdout.write(dump_icd(icd))
+    return exitcodes.OK
+
+
+def run_discover(args: argparse.Namespace) -> int:
+    from drivers.rtstats import TrafficStatistics
+    from mapr_daemon.cli.monitor import parse_option
+    from mapr_daemon.cli.traffic_source import backend_batches, file_batches
+    from mapr_daemon.icd.discover import skeleton_yaml
+
+    prog = "mapr icd discover"
+    if (args.source is None) == (args.backend is None):
+        print(f"{prog}: error: give a FILE or --backend NAME (one of them)", file=sys.stderr)
+        return exitcodes.USAGE
+    if args.backend is not None and args.count is None and args.duration is None:
+        print(f"{prog}: error: a live backend needs --count N or --duration S",
+              file=sys.stderr)
+        return exitcodes.USAGE
+    for flag, value in (("--count", args.count), ("--duration", args.duration)):
+        if value is not None and not value > 0:
+            print(f"{prog}: error: {flag} must be above 0, got {value}", file=sys.stderr)
+            return exitcodes.USAGE
+    stats = TrafficStatistics()
+    if args.source is not None:
+        batches = file_batches(args.source, samplerate=args.samplerate)
+        where = args.source
+    else:
+        batches = backend_batches(args.backend, dict(parse_option(o) for o in args.option),
+                                  count=args.count, duration=args.duration)
+        where = f"the {args.backend} backend"
+    for batch in batches:
+        stats.add_batch(batch)
+    text = skeleton_yaml(stats, name=args.name, source=where)
+    if args.output is None:
+        sys.stdout.write(text)
+    else:
+        with open(args.output, "w", encoding="utf-8") as out:
+            out.write(text)
+        keys = len(stats.rows())
+        print(f"{args.output}: {keys} RT/SA/direction and mode-code keys", file=sys.stderr)
     return exitcodes.OK

@@ -9,7 +9,9 @@ Filters (all given must match): ``--rt``, ``--sa``, ``--tr``, ``--format``, ``--
 (only messages with errors) or ``--error NAME``. ``-o KEY=VALUE`` passes an option to the
 backend (numbers and true/false are converted). ``--icd FILE`` shows engineering values under
 each message the table describes. ``--stats`` prints the per-bus statistics table at the end
-(and every ``--stats-every`` seconds).
+(and every ``--stats-every`` seconds), then per RT/SA the messages, rate, errors by class,
+response time min/mean/max and last seen, and each bus's load per ``--stats-window`` (JSON
+lines with ``"kind": "rtsa"`` / ``"bus_load"`` on stdout with ``--json``).
 """
 
 from __future__ import annotations
@@ -20,9 +22,11 @@ import time
 from typing import Any
 
 from drivers.monitor import MonitorFilter, available_backends, open_monitor
+from drivers.rtstats import TrafficStatistics
 from mapr_daemon.cli import exitcodes
 from mapr_daemon.cli.icdview import IcdView
 from mapr_daemon.cli.render import record_json, record_line
+from mapr_daemon.cli.traffic_source import positive_seconds, print_stats
 
 
 def add_subparser(subparsers: Any) -> None:
@@ -42,7 +46,11 @@ def add_subparser(subparsers: Any) -> None:
     errors.add_argument("--error", metavar="NAME", help="only messages with this error")
     parser.add_argument("--json", action="store_true", help="JSON lines instead of text")
     parser.add_argument("--icd", metavar="FILE", help="message table: show engineering values")
-    parser.add_argument("--stats", action="store_true", help="print bus statistics at the end")
+    parser.add_argument("--stats", action="store_true",
+                        help="print bus statistics at the end: per bus, per RT/SA and "
+                             "windowed load (JSON lines on stdout with --json)")
+    parser.add_argument("--stats-window", type=positive_seconds, default=1.0, metavar="S",
+                        help="bus-load window for --stats, in seconds (default 1)")
     parser.add_argument("--stats-every", type=float, default=0.0, metavar="S")
     parser.add_argument("--count", type=int, help="stop after this many messages")
     parser.add_argument("--duration", type=float, help="stop after this many seconds")
@@ -78,6 +86,8 @@ def run(args: argparse.Namespace) -> int:
     except TypeError as error:
         print(f"mapr monitor: backend {args.backend!r}: {error}", file=sys.stderr)
         return exitcodes.USAGE
+    if args.stats or args.stats_every:
+        monitor.traffic = TrafficStatistics(window_ns=round(args.stats_window * 1e9))
     shown = 0
     start = last_stats = time.monotonic()
     out = sys.stdout
@@ -102,4 +112,9 @@ def run(args: argparse.Namespace) -> int:
         out.flush()
         if args.stats:
             print(monitor.stats.table(), file=sys.stderr if args.json else out)
+            if monitor.traffic is not None:
+                if not args.json:
+                    out.write("\n")
+                print_stats(monitor.traffic, as_json=args.json, out=out)
+                out.flush()
     return exitcodes.OK

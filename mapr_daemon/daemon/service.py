@@ -6,7 +6,8 @@ writer, the systemd notifier and the signals — so no state is shared but the q
 counters. Per turn the main loop drains the queue, decodes, diagnoses, writes events
 (durable when ``add_events`` returns), and every ``status_interval_s`` sends STATUS (and
 WATCHDOG=1 at half of WATCHDOG_USEC, only while the reader is alive and the loop turns: that
-is the proof of work). Bus statistics go to the catalog every ``catalog.stats_interval_s``.
+is the proof of work). Bus statistics (per bus, and per RT/SA in ``rt_stats``) go to the catalog
+every ``catalog.stats_interval_s``.
 
 The loop sleeps in ``select()`` until the reader rings its doorbell, a signal arrives through
 the self-pipe (:mod:`.wakeup`) or a timer is due — no polling. SIGTERM/SIGINT flush and close
@@ -17,6 +18,7 @@ an exit; a reasoner that falls behind becomes a log line, a STATUS and a catalog
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import queue
 import selectors
@@ -25,6 +27,7 @@ import time
 from typing import Any
 
 from drivers.monitor import BusStatistics
+from drivers.rtstats import TrafficStatistics
 from mapr_daemon import __version__
 from mapr_daemon.catalog import CatalogWriter
 from mapr_daemon.daemon import source
@@ -74,6 +77,8 @@ class Service:
         """Main-loop time spent handling queued work (decode, reason, write)."""
         self._reader_dropped = 0
         self.interval = BusStatistics()
+        self.traffic = TrafficStatistics()
+        """Per-RT/SA statistics of the current interval (to the catalog's ``rt_stats``)."""
         self.interval_start = time.time_ns()
         self.gap_id: int | None = None
         self.state = "starting"
@@ -231,6 +236,7 @@ class Service:
 
     def _records(self, item: Item) -> None:
         records = item.records
+        self.traffic.add_batch(records)
         for record in records:
             self.interval.add(record)
             if record.errors:
@@ -298,7 +304,10 @@ class Service:
         end = time.time_ns()
         if self.interval.messages:
             self._catalog(self.catalog.add_stats, self.interval_start, end, self.interval)
+            self._catalog(self.catalog.add_rt_stats, self.interval_start, end,
+                          [dataclasses.asdict(row) for row in self.traffic.rows()])
         self.interval = BusStatistics()
+        self.traffic = TrafficStatistics()
         self.interval_start = end
 
     def _status_text(self) -> str:

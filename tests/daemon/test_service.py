@@ -57,6 +57,10 @@ def test_ready_status_watchdog_then_sigterm_closes_the_session(
     assert digest and version
     stats = rows(catalog, "SELECT bus, messages, load_percent FROM bus_stats")
     assert stats and all(int(str(m)) > 0 for _, m, _ in stats)
+    per_key = rows(catalog, "SELECT rt, tr, sa, sum(messages), sum(responses) FROM rt_stats "
+                            "WHERE mode_code IS NULL GROUP BY rt, tr, sa")
+    fast = [(n, answered) for rt, tr, sa, n, answered in per_key if (rt, tr, sa) == (5, "T", 10)]
+    assert fast and 0 < int(str(fast[0][1])) <= int(str(fast[0][0]))   # the EMA's fast block
 
 
 def test_no_watchdog_without_watchdog_usec(tmp_path: Path,
