@@ -25,26 +25,16 @@ from abc import ABC, abstractmethod
 from collections import Counter, deque
 from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
-from importlib.metadata import entry_points
 from types import TracebackType
 from typing import Any
 
+from drivers.backends import BACKENDS, available_backends, entry_point_backends
 from drivers.errors import BackendError, BackendUnavailable, MaprError, MonitorClosed
 from drivers.mil1553.record import MonitorRecord, TransferFormat
 from drivers.mil1553.wordbatch import WORD_TIME_NS
 
 __all__ = ["BACKENDS", "BusMonitor", "BusStatistics", "MonitorFilter", "MonitorRecord",
            "available_backends", "open_monitor"]
-
-BACKENDS: dict[str, tuple[str, str]] = {
-    "loopback": ("drivers.backends.loopback", "LoopbackMonitor"),
-    "capture": ("drivers.backends.capture", "CaptureMonitor"),
-    "serial": ("drivers.backends.serial_card", "SerialMonitor"),
-    "usb": ("drivers.backends.usb_card", "UsbMonitor"),
-    "chapter10": ("drivers.backends.chapter10", "Chapter10Monitor"),
-}
-"""Built-in backends: name -> (module, class)."""
-
 
 @dataclass(frozen=True, slots=True)
 class MonitorFilter:
@@ -205,22 +195,13 @@ class BusMonitor(ABC):
         self.close()
 
 
-def _entry_point_backends() -> dict[str, str]:
-    return {ep.name: ep.value for ep in entry_points(group="mapr.backends")}
-
-
-def available_backends() -> list[str]:
-    """Names of every known backend (whether or not its dependencies are installed)."""
-    return sorted({*BACKENDS, *_entry_point_backends()})
-
-
 def backend_class(name: str) -> type[BusMonitor]:
     """Import and return a backend's class; unknown or unusable backends raise
     :class:`~drivers.errors.BackendUnavailable` with the reason."""
     if name in BACKENDS:
         module_name, class_name = BACKENDS[name]
     else:
-        target = _entry_point_backends().get(name)
+        target = entry_point_backends().get(name)
         if target is None:
             raise BackendUnavailable(
                 f"unknown backend {name!r}; known: {', '.join(available_backends())}")

@@ -15,11 +15,13 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-from typing import Any, TextIO
+from typing import TYPE_CHECKING, Any, TextIO
 
-from drivers.chapter10.reader import Chapter10Reader
 from mapr_daemon.cli import exitcodes
-from mapr_daemon.cli.icdview import IcdView
+
+if TYPE_CHECKING:
+    from drivers.chapter10.reader import Chapter10Reader
+    from mapr_daemon.cli.icdview import IcdView
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -41,6 +43,7 @@ def decode_chapter10(args: argparse.Namespace, view: IcdView, out: TextIO | None
         err.write("mapr decode: --words applies to bit-level captures, not to Chapter 10 "
                   f"recordings ({args.capture})\n")
         return exitcodes.USAGE
+    from drivers.chapter10.reader import Chapter10Reader
     reader = Chapter10Reader(args.capture, channels=args.c10_channels, year=args.year)
     reported = 0
     try:

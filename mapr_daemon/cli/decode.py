@@ -23,17 +23,13 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-from typing import Any, TextIO
+from typing import TYPE_CHECKING, Any, TextIO
 
-from drivers.capturefile import open_capture, parse_samplerate
-from drivers.chapter10.walker import looks_like_chapter10
-from drivers.errors import CaptureFormatError
-from drivers.mil1553.record import MonitorRecord
-from drivers.mil1553.wordbatch import WordBatch, word_to_json
-from drivers.pipeline import SamplePipeline
 from mapr_daemon.cli import chapter10_decode, exitcodes
-from mapr_daemon.cli.icdview import IcdView
-from mapr_daemon.cli.render import record_json
+
+if TYPE_CHECKING:
+    from drivers.mil1553.record import MonitorRecord
+    from drivers.mil1553.wordbatch import WordBatch
 
 
 def add_subparser(subparsers: Any) -> None:
@@ -57,6 +53,7 @@ def add_subparser(subparsers: Any) -> None:
 
 
 def _rate(text: str) -> float:
+    from drivers.capturefile import parse_samplerate
     try:
         return parse_samplerate(text)
     except ValueError as error:
@@ -68,6 +65,14 @@ def _channels(text: str) -> list[str]:
 
 
 def run(args: argparse.Namespace) -> int:
+    # imported here, not at the top, so that `mapr decode --help` starts at once
+    from drivers.capturefile import open_capture
+    from drivers.chapter10.walker import looks_like_chapter10
+    from drivers.errors import CaptureFormatError
+    from drivers.pipeline import SamplePipeline
+    from mapr_daemon.cli.icdview import IcdView
+    from mapr_daemon.cli.render import record_json
+
     view = IcdView(args.icd)
     if args.capture != "-" and looks_like_chapter10(args.capture):
         return chapter10_decode.decode_chapter10(args, view)
@@ -97,5 +102,6 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _print_words(words: WordBatch, out: TextIO) -> None:
+    from drivers.mil1553.wordbatch import word_to_json
     for row in words:
         out.write(json.dumps(word_to_json(row)) + "\n")
