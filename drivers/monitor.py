@@ -20,6 +20,7 @@ stays usable.
 from __future__ import annotations
 
 import importlib
+import inspect
 import time
 from abc import ABC, abstractmethod
 from collections import Counter, deque
@@ -29,7 +30,13 @@ from types import TracebackType
 from typing import Any
 
 from drivers.backends import BACKENDS, available_backends, entry_point_backends
-from drivers.errors import BackendError, BackendUnavailable, MaprError, MonitorClosed
+from drivers.errors import (
+    BackendError,
+    BackendOptionError,
+    BackendUnavailable,
+    MaprError,
+    MonitorClosed,
+)
 from drivers.mil1553.record import MonitorRecord, TransferFormat
 from drivers.mil1553.wordbatch import WORD_TIME_NS
 
@@ -220,8 +227,35 @@ def backend_class(name: str) -> type[BusMonitor]:
 
 def open_monitor(backend: str, **config: Any) -> BusMonitor:
     """Open a monitor on the named backend; ``config`` goes to the backend (``filters=`` to
-    the base class)."""
-    return backend_class(backend)(**config)
+    the base class). Options the backend does not take, or required ones missing, raise
+    :class:`~drivers.errors.BackendOptionError` before anything is opened."""
+    cls = backend_class(backend)
+    check_options(backend, cls, config)
+    try:
+        return cls(**config)
+    except MaprError:
+        raise
+    except (TypeError, ValueError) as error:  # an option value the backend refuses
+        raise BackendOptionError(f"backend {backend!r}: {error}") from error
+
+
+def check_options(name: str, cls: type[BusMonitor], config: dict[str, Any]) -> None:
+    """Raise :class:`~drivers.errors.BackendOptionError` naming the options ``cls`` does not
+    take (with those it does) or the required ones ``config`` lacks."""
+    params = [p for p in inspect.signature(cls.__init__).parameters.values()
+              if p.name != "self" and p.kind in (p.KEYWORD_ONLY, p.POSITIONAL_OR_KEYWORD)]
+    known = {p.name for p in params}
+    unknown = sorted(set(config) - known)
+    if unknown:
+        takes = ", ".join(sorted(known - {"filters"})) or "none"
+        raise BackendOptionError(f"backend {name!r}: unknown option {', '.join(unknown)} "
+                                 f"(its options: {takes})", option=unknown[0])
+    missing = [p.name for p in params if p.default is p.empty and p.name not in config]
+    if missing:
+        hint = " ".join(f"-o {m}=VALUE" for m in missing)
+        raise BackendOptionError(f"backend {name!r} needs option {', '.join(missing)} "
+                                 f"({hint} on the command line, backend.options in a config)",
+                                 option=missing[0])
 
 
 FORMAT_NAMES = tuple(str(f) for f in TransferFormat)

@@ -18,6 +18,7 @@ import sys
 from typing import TYPE_CHECKING, Any, TextIO
 
 from mapr_daemon.cli import exitcodes
+from mapr_daemon.cli.validate import bounded_int
 
 if TYPE_CHECKING:
     from drivers.chapter10.reader import Chapter10Reader
@@ -27,10 +28,11 @@ if TYPE_CHECKING:
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """The options that apply to Chapter 10 files only."""
     group = parser.add_argument_group("Chapter 10 recordings")
-    group.add_argument("--c10-channel", type=int, action="append", dest="c10_channels",
+    group.add_argument("--c10-channel", type=bounded_int(1, 0xFFFF, "channel ID"),
+                       action="append", dest="c10_channels",
                        metavar="ID", help="read only this channel ID (repeat for more; "
                                           "default: every 1553 and ARINC 429 channel)")
-    group.add_argument("--year", type=int, default=None,
+    group.add_argument("--year", type=bounded_int(1970, 2199, "year"), default=None,
                        help="year of day-of-year time packets (for the absolute 'time')")
 
 
@@ -65,7 +67,21 @@ def decode_chapter10(args: argparse.Namespace, view: IcdView, out: TextIO | None
         reader.close()
     _report(reader, reported, err)
     out.flush()
-    return exitcodes.OK
+    return _missing_channels(args.c10_channels, reader, err)
+
+
+def _missing_channels(wanted: list[int] | None, reader: Chapter10Reader, err: TextIO) -> int:
+    """Exit code 65 and one line when a ``--c10-channel`` is not in the recording (saying
+    which are), so a typo is not an empty decode; 0 otherwise."""
+    seen = reader.channels_seen | reader.arinc429_channels_seen
+    absent = sorted(set(wanted or ()) - seen)
+    if not absent:
+        return exitcodes.OK
+    held = "; ".join(f"{kind} {', '.join(map(str, sorted(ids)))}" for kind, ids in (
+        ("1553", reader.channels_seen), ("ARINC 429", reader.arinc429_channels_seen)) if ids)
+    err.write(f"mapr decode: {reader.path}: channel {', '.join(map(str, absent))} not in the "
+              f"recording (its channels: {held or 'none'})\n")
+    return exitcodes.DATAERR
 
 
 def _report(reader: Chapter10Reader, reported: int, err: TextIO) -> int:

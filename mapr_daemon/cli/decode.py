@@ -66,6 +66,7 @@ def _channels(text: str) -> list[str]:
 
 def run(args: argparse.Namespace) -> int:
     # imported here, not at the top, so that `mapr decode --help` starts at once
+    from drivers.backends.capture import check_capture_file
     from drivers.capturefile import open_capture
     from drivers.chapter10.walker import looks_like_chapter10
     from drivers.errors import CaptureFormatError
@@ -76,6 +77,7 @@ def run(args: argparse.Namespace) -> int:
     view = IcdView(args.icd)
     if args.capture != "-" and looks_like_chapter10(args.capture):
         return chapter10_decode.decode_chapter10(args, view)
+    check_capture_file(args.capture, args.samplerate, rate_hint="--samplerate HZ")
     source = open_capture(args.capture, args.samplerate, args.channels)
     pipeline = SamplePipeline(source.sample_rate)
     out = sys.stdout

@@ -29,7 +29,14 @@ import sys
 from collections.abc import Iterable, Sequence
 from typing import NoReturn
 
-from drivers.errors import BackendUnavailable, CaptureFormatError, EncodeError, MaprError
+from drivers.errors import (
+    BackendError,
+    BackendOptionError,
+    BackendUnavailable,
+    CaptureFormatError,
+    EncodeError,
+    MaprError,
+)
 from mapr_daemon import __version__
 from mapr_daemon.cli import exitcodes
 from mapr_daemon.errors import ConfigError, RecordError
@@ -99,10 +106,11 @@ def exit_code_for(error: MaprError) -> int:
         return exitcodes.CONFIG
     if isinstance(error, RecordError):
         return exitcodes.DATAERR
-    if isinstance(error, BackendUnavailable):
-        return exitcodes.UNAVAILABLE
-    if isinstance(error, (CaptureFormatError, EncodeError)):
+    if isinstance(error, (BackendOptionError, CaptureFormatError, EncodeError)):
         return exitcodes.USAGE
+    if isinstance(error, (BackendUnavailable, BackendError)):
+        # no library, no card, no port, or the card failed: the device is unavailable
+        return exitcodes.UNAVAILABLE
     return exitcodes.FAILURE
 
 

@@ -109,7 +109,7 @@ def build_pipeline(config: Config) -> Pipeline:
     try:
         icd = load_icd(config.icd)
     except OSError as error:
-        raise ConfigError(f"cannot read the ICD: {error.strerror}", path=config.source,
+        raise ConfigError(f"cannot read the ICD {config.icd}: {error.strerror}", path=config.source,
                           field="icd") from None
     asset = config.assets[0]
     missing = wiring.not_in_icd(asset.signals, icd)
@@ -125,7 +125,8 @@ def build_pipeline(config: Config) -> Pipeline:
         try:
             dictionary = Dictionary.load(config.reasoner.dictionary)
         except OSError as error:
-            raise ConfigError(f"cannot read the dictionary: {error.strerror}",
+            raise ConfigError(f"cannot read the dictionary {config.reasoner.dictionary}: "
+                              f"{error.strerror}",
                               path=config.source, field="reasoner.dictionary") from None
         params = load_actuator(asset.actuator)
         watch = BitWatch(Reasoner(dictionary, params), signals=asset.signals, bit=params.bit,
