@@ -58,6 +58,7 @@ SUBCOMMANDS: dict[str, str] = {
     "catalog": "query the fault catalog",
     "run": "run the daemon (monitor, reason, catalog)",
     "devices": "list attached interface cards",
+    "completion": "print a bash or zsh completion script",
 }
 """Modules of :mod:`mapr_daemon.cli` that add a subcommand -> their one-line help, in help
 order."""
