@@ -5,7 +5,7 @@ A 1553 message prints as for a capture (:meth:`MonitorRecord.to_json`, plus ``va
 given a time packet, ``time`` (absolute, ISO 8601). An ARINC 429 word prints as::
 
     {"t_ns": 362000, "kind": "arinc429", "channel": 9, "bus": 3, "speed": "high",
-     "label": "0o012", "sdi": 0, "data": 2000, "ssm": 3, "word": "0xE01F4050", "errors": []}
+     "label": "012", "sdi": 0, "data": 2000, "ssm": 3, "word": "0xE01F4050", "errors": []}
 
 Damaged packets are skipped and named on stderr with their file offset; decoding goes on.
 """
