@@ -7,6 +7,7 @@ the whole family in one clause and still tell the kinds apart::
     ├── EncodeError            a word list or impairment the encoder cannot produce
     └── MonitorError           bus-monitor failures
         ├── BackendUnavailable the backend is unknown or its optional dependency is missing
+        ├── BackendOptionError an option the backend does not take, or one it needs, missing
         ├── BackendError       a backend failed while running (card unplugged, read error)
         ├── CaptureFormatError a capture file that cannot be read at all (names file and cause)
         └── MonitorClosed      recv() on a monitor that has been closed
@@ -33,6 +34,17 @@ class MonitorError(MaprError):
 
 class BackendUnavailable(MonitorError):
     """The backend name is unknown, or an optional dependency it needs is missing."""
+
+
+class BackendOptionError(MonitorError, ValueError, TypeError):
+    """The options given to a backend do not fit it: one it does not take, one it needs and
+    did not get, or a value it refuses. Nothing was opened. Also a ValueError and TypeError,
+    what Python raises for a bad value or keyword, so callers catching those still do."""
+
+    def __init__(self, message: str, *, option: str | None = None) -> None:
+        self.option = option
+        """The option at fault, when it is one."""
+        super().__init__(message)
 
 
 class BackendError(MonitorError):

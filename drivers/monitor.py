@@ -20,32 +20,29 @@ stays usable.
 from __future__ import annotations
 
 import importlib
+import inspect
 import time
 from abc import ABC, abstractmethod
 from collections import Counter, deque
 from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
-from importlib.metadata import entry_points
 from types import TracebackType
 from typing import Any
 
-from drivers.errors import BackendError, BackendUnavailable, MaprError, MonitorClosed
+from drivers.backends import BACKENDS, available_backends, entry_point_backends
+from drivers.errors import (
+    BackendError,
+    BackendOptionError,
+    BackendUnavailable,
+    MaprError,
+    MonitorClosed,
+)
 from drivers.mil1553.record import MonitorRecord, TransferFormat
 from drivers.mil1553.wordbatch import WORD_TIME_NS
 from drivers.rtstats import TrafficStatistics
 
 __all__ = ["BACKENDS", "BusMonitor", "BusStatistics", "MonitorFilter", "MonitorRecord",
            "available_backends", "open_monitor"]
-
-BACKENDS: dict[str, tuple[str, str]] = {
-    "loopback": ("drivers.backends.loopback", "LoopbackMonitor"),
-    "capture": ("drivers.backends.capture", "CaptureMonitor"),
-    "serial": ("drivers.backends.serial_card", "SerialMonitor"),
-    "usb": ("drivers.backends.usb_card", "UsbMonitor"),
-    "chapter10": ("drivers.backends.chapter10", "Chapter10Monitor"),
-}
-"""Built-in backends: name -> (module, class)."""
-
 
 @dataclass(frozen=True, slots=True)
 class MonitorFilter:
@@ -210,22 +207,13 @@ class BusMonitor(ABC):
         self.close()
 
 
-def _entry_point_backends() -> dict[str, str]:
-    return {ep.name: ep.value for ep in entry_points(group="mapr.backends")}
-
-
-def available_backends() -> list[str]:
-    """Names of every known backend (whether or not its dependencies are installed)."""
-    return sorted({*BACKENDS, *_entry_point_backends()})
-
-
 def backend_class(name: str) -> type[BusMonitor]:
     """Import and return a backend's class; unknown or unusable backends raise
     :class:`~drivers.errors.BackendUnavailable` with the reason."""
     if name in BACKENDS:
         module_name, class_name = BACKENDS[name]
     else:
-        target = _entry_point_backends().get(name)
+        target = entry_point_backends().get(name)
         if target is None:
             raise BackendUnavailable(
                 f"unknown backend {name!r}; known: {', '.join(available_backends())}")
@@ -244,8 +232,35 @@ def backend_class(name: str) -> type[BusMonitor]:
 
 def open_monitor(backend: str, **config: Any) -> BusMonitor:
     """Open a monitor on the named backend; ``config`` goes to the backend (``filters=`` to
-    the base class)."""
-    return backend_class(backend)(**config)
+    the base class). Options the backend does not take, or required ones missing, raise
+    :class:`~drivers.errors.BackendOptionError` before anything is opened."""
+    cls = backend_class(backend)
+    check_options(backend, cls, config)
+    try:
+        return cls(**config)
+    except MaprError:
+        raise
+    except (TypeError, ValueError) as error:  # an option value the backend refuses
+        raise BackendOptionError(f"backend {backend!r}: {error}") from error
+
+
+def check_options(name: str, cls: type[BusMonitor], config: dict[str, Any]) -> None:
+    """Raise :class:`~drivers.errors.BackendOptionError` naming the options ``cls`` does not
+    take (with those it does) or the required ones ``config`` lacks."""
+    params = [p for p in inspect.signature(cls.__init__).parameters.values()
+              if p.name != "self" and p.kind in (p.KEYWORD_ONLY, p.POSITIONAL_OR_KEYWORD)]
+    known = {p.name for p in params}
+    unknown = sorted(set(config) - known)
+    if unknown:
+        takes = ", ".join(sorted(known - {"filters"})) or "none"
+        raise BackendOptionError(f"backend {name!r}: unknown option {', '.join(unknown)} "
+                                 f"(its options: {takes})", option=unknown[0])
+    missing = [p.name for p in params if p.default is p.empty and p.name not in config]
+    if missing:
+        hint = " ".join(f"-o {m}=VALUE" for m in missing)
+        raise BackendOptionError(f"backend {name!r} needs option {', '.join(missing)} "
+                                 f"({hint} on the command line, backend.options in a config)",
+                                 option=missing[0])
 
 
 FORMAT_NAMES = tuple(str(f) for f in TransferFormat)

@@ -24,7 +24,7 @@ import usb.core
 import usb.util
 
 from drivers.backends.attached import UDEV_HINT
-from drivers.errors import BackendError
+from drivers.errors import BackendError, BackendUnavailable
 
 FX2LAFW_IDS: tuple[tuple[int, int], ...] = ((0x1D50, 0x608C), (0x0925, 0x3881))
 BARE_IDS: tuple[tuple[int, int], ...] = ((0x04B4, 0x8613),)
@@ -70,11 +70,29 @@ def format_ids(ids: Iterable[tuple[int, int]]) -> str:
     return ",".join(f"{vendor:04x}:{product:04x}" for vendor, product in ids)
 
 
+NO_LIBUSB = ("the usb backend needs libusb-1.0, which is not installed "
+             "(e.g. apt install libusb-1.0-0)")
+
+
+def require_libusb(backend: Any = None) -> None:
+    """Raise :class:`~drivers.errors.BackendUnavailable` when pyusb finds no libusb: the
+    usb backend can then never open a card, whatever is plugged in."""
+    if backend is not None:
+        return
+    import usb.backend.libusb1
+    if usb.backend.libusb1.get_backend() is None:
+        raise BackendUnavailable(NO_LIBUSB)
+
+
 def find(ids: Iterable[tuple[int, int]], backend: Any = None) -> list[Device]:
-    """Every attached device with one of ``ids``."""
+    """Every attached device with one of ``ids``; no libusb raises
+    :class:`~drivers.errors.BackendUnavailable`."""
     wanted = set(ids)
-    found = usb.core.find(find_all=True, backend=backend,
-                          custom_match=lambda d: (d.idVendor, d.idProduct) in wanted)
+    try:
+        found = usb.core.find(find_all=True, backend=backend,
+                              custom_match=lambda d: (d.idVendor, d.idProduct) in wanted)
+    except usb.core.NoBackendError as error:
+        raise BackendUnavailable(NO_LIBUSB) from error
     return list(found or [])
 
 

@@ -160,6 +160,12 @@ class UsbMonitor(BusMonitor):
         self._reader = _Reader(self, self.open_device())
         self._reader.start()
 
+    @classmethod
+    def check_loadable(cls) -> None:
+        """Raise :class:`~drivers.errors.BackendUnavailable` when this backend can never open
+        a card here (no libusb), so a daemon says so once instead of retrying for ever."""
+        fx2.require_libusb()
+
     def open_device(self) -> Any:
         """Find (loading firmware if bare) and start the analyzer."""
         device = fx2.open_card(self.ids, self.bare_ids, self.firmware, self.usb_backend)
@@ -235,7 +241,7 @@ def usb_cards(backend: Any = None, *, ids: Iterable[tuple[int, int]] = fx2.FX2LA
               firmware: str | None = None) -> list[AttachedCard]:
     """Attached FX2 analyzers with ``ids`` (running fx2lafw, version read with request 0xB0)
     or ``bare_ids`` (no firmware yet), for ``mapr devices``. Raises
-    ``usb.core.NoBackendError`` when libusb is missing (the caller says so).
+    :class:`~drivers.errors.BackendUnavailable` when libusb is missing (the caller says so).
 
     Bare devices are not talked to: the firmware is loaded only when the backend opens them.
     The options name the IDs and firmware only where they differ from the defaults."""

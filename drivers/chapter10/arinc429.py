@@ -8,7 +8,8 @@ error; 23 format error; 24-31 bus number) and the 32-bit word as received.
 The word's fields (ARINC 429 bit numbers 1-32 are bits 0-31 of the stored word): the label,
 bits 1-8, is sent most significant bit first and so stored bit-reversed in the low byte;
 SDI bits 9-10; data bits 11-29; SSM bits 30-31; bit 32 makes the word's parity odd.
-Example: 0xE01F4050 is label 0o012, SDI 0, data 2000, SSM 3, parity good.
+Example: 0xE01F4050 is label 012, SDI 0, data 2000, SSM 3, parity good. Labels are
+written as engineers write them: three octal digits without a prefix (``271``, not ``0o271``).
 
 Every step is one numpy operation over all the words of a packet.
 """
@@ -64,18 +65,27 @@ class Arinc429Words:
             rows.append({
                 "t_ns": int(self.t_ns[i]), "kind": "arinc429", "channel": self.channel,
                 "bus": int(self.bus[i]), "speed": "high" if self.high_speed[i] else "low",
-                "label": f"0o{int(self.label[i]):03o}", "sdi": int(self.sdi[i]),
+                "label": label_text(int(self.label[i])), "sdi": int(self.sdi[i]),
                 "data": int(self.data[i]), "ssm": int(self.ssm[i]),
                 "word": f"0x{int(self.word[i]):08X}", "errors": errors})
         return rows
+
+
+def label_text(label: int) -> str:
+    """A label as ARINC 429 documents write it: three octal digits, no prefix (``"271"``).
+
+    >>> label_text(0o271), label_text(0o12)
+    ('271', '012')
+    """
+    return f"{int(label):03o}"
 
 
 def split_words(words: npt.NDArray[np.uint32]) -> dict[str, npt.NDArray[Any]]:
     """Label (octal digits as an integer), SDI, data, SSM and parity check of raw words.
 
     >>> f = split_words(np.array([0xE01F4050, 0xE00190A1], dtype=np.uint32))
-    >>> [oct(x) for x in f["label"]], f["data"].tolist(), f["ssm"].tolist()
-    (['0o12', '0o205'], [2000, 100], [3, 3])
+    >>> [label_text(x) for x in f["label"]], f["data"].tolist(), f["ssm"].tolist()
+    (['012', '205'], [2000, 100], [3, 3])
     """
     w = words.astype(np.uint32)
     ones = sum((_POPCOUNT[(w >> shift) & 0xFF] for shift in range(0, 32, 8)),

@@ -66,6 +66,8 @@ class Chapter10Reader:
         self._message_issues: list[ReadIssue] = []
         self.channels_seen: set[int] = set()
         """1553 channel IDs met so far (read or not)."""
+        self.arinc429_channels_seen: set[int] = set()
+        """ARINC 429 channel IDs met so far (read or not)."""
 
     @property
     def issues(self) -> list[ReadIssue]:
@@ -98,6 +100,8 @@ class Chapter10Reader:
                 continue
             if header.data_type == MS1553_F1:
                 self.channels_seen.add(header.channel_id)
+            elif header.data_type == ARINC429_F0:
+                self.arinc429_channels_seen.add(header.channel_id)
             if self.channels is not None and header.channel_id not in self.channels:
                 continue
             if header.data_type == MS1553_F1:

@@ -5,7 +5,7 @@ A 1553 message prints as for a capture (:meth:`MonitorRecord.to_json`, plus ``va
 given a time packet, ``time`` (absolute, ISO 8601). An ARINC 429 word prints as::
 
     {"t_ns": 362000, "kind": "arinc429", "channel": 9, "bus": 3, "speed": "high",
-     "label": "0o012", "sdi": 0, "data": 2000, "ssm": 3, "word": "0xE01F4050", "errors": []}
+     "label": "012", "sdi": 0, "data": 2000, "ssm": 3, "word": "0xE01F4050", "errors": []}
 
 Damaged packets are skipped and named on stderr with their file offset; decoding goes on.
 """
@@ -15,20 +15,24 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-from typing import Any, TextIO
+from typing import TYPE_CHECKING, Any, TextIO
 
-from drivers.chapter10.reader import Chapter10Reader
 from mapr_daemon.cli import exitcodes
-from mapr_daemon.cli.icdview import IcdView
+from mapr_daemon.cli.validate import bounded_int
+
+if TYPE_CHECKING:
+    from drivers.chapter10.reader import Chapter10Reader
+    from mapr_daemon.cli.icdview import IcdView
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """The options that apply to Chapter 10 files only."""
     group = parser.add_argument_group("Chapter 10 recordings")
-    group.add_argument("--c10-channel", type=int, action="append", dest="c10_channels",
+    group.add_argument("--c10-channel", type=bounded_int(1, 0xFFFF, "channel ID"),
+                       action="append", dest="c10_channels",
                        metavar="ID", help="read only this channel ID (repeat for more; "
                                           "default: every 1553 and ARINC 429 channel)")
-    group.add_argument("--year", type=int, default=None,
+    group.add_argument("--year", type=bounded_int(1970, 2199, "year"), default=None,
                        help="year of day-of-year time packets (for the absolute 'time')")
 
 
@@ -41,6 +45,7 @@ def decode_chapter10(args: argparse.Namespace, view: IcdView, out: TextIO | None
         err.write("mapr decode: --words applies to bit-level captures, not to Chapter 10 "
                   f"recordings ({args.capture})\n")
         return exitcodes.USAGE
+    from drivers.chapter10.reader import Chapter10Reader
     reader = Chapter10Reader(args.capture, channels=args.c10_channels, year=args.year)
     reported = 0
     try:
@@ -62,7 +67,21 @@ def decode_chapter10(args: argparse.Namespace, view: IcdView, out: TextIO | None
         reader.close()
     _report(reader, reported, err)
     out.flush()
-    return exitcodes.OK
+    return _missing_channels(args.c10_channels, reader, err)
+
+
+def _missing_channels(wanted: list[int] | None, reader: Chapter10Reader, err: TextIO) -> int:
+    """Exit code 65 and one line when a ``--c10-channel`` is not in the recording (saying
+    which are), so a typo is not an empty decode; 0 otherwise."""
+    seen = reader.channels_seen | reader.arinc429_channels_seen
+    absent = sorted(set(wanted or ()) - seen)
+    if not absent:
+        return exitcodes.OK
+    held = "; ".join(f"{kind} {', '.join(map(str, sorted(ids)))}" for kind, ids in (
+        ("1553", reader.channels_seen), ("ARINC 429", reader.arinc429_channels_seen)) if ids)
+    err.write(f"mapr decode: {reader.path}: channel {', '.join(map(str, absent))} not in the "
+              f"recording (its channels: {held or 'none'})\n")
+    return exitcodes.DATAERR
 
 
 def _report(reader: Chapter10Reader, reported: int, err: TextIO) -> int:

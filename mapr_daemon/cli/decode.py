@@ -23,18 +23,14 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-from typing import Any, TextIO
+from typing import TYPE_CHECKING, Any, TextIO
 
-from drivers.capturefile import open_capture, parse_samplerate
-from drivers.chapter10.walker import looks_like_chapter10
-from drivers.errors import CaptureFormatError
-from drivers.mil1553.record import MonitorRecord
-from drivers.mil1553.wordbatch import WordBatch, word_to_json
-from drivers.pipeline import SamplePipeline
 from mapr_daemon.cli import chapter10_decode, exitcodes
-from mapr_daemon.cli.icdview import IcdView
-from mapr_daemon.cli.render import record_json
 from mapr_daemon.cli.traffic_source import positive_seconds
+
+if TYPE_CHECKING:
+    from drivers.mil1553.record import MonitorRecord
+    from drivers.mil1553.wordbatch import WordBatch
 
 
 def add_subparser(subparsers: Any) -> None:
@@ -63,6 +59,7 @@ def add_subparser(subparsers: Any) -> None:
 
 
 def _rate(text: str) -> float:
+    from drivers.capturefile import parse_samplerate
     try:
         return parse_samplerate(text)
     except ValueError as error:
@@ -78,9 +75,20 @@ def run(args: argparse.Namespace) -> int:
         from mapr_daemon.cli.traffic_source import run_decode_stats
 
         return run_decode_stats(args)
+
+    # imported here, not at the top, so that `mapr decode --help` starts at once
+    from drivers.backends.capture import check_capture_file
+    from drivers.capturefile import open_capture
+    from drivers.chapter10.walker import looks_like_chapter10
+    from drivers.errors import CaptureFormatError
+    from drivers.pipeline import SamplePipeline
+    from mapr_daemon.cli.icdview import IcdView
+    from mapr_daemon.cli.render import record_json
+
     view = IcdView(args.icd)
     if args.capture != "-" and looks_like_chapter10(args.capture):
         return chapter10_decode.decode_chapter10(args, view)
+    check_capture_file(args.capture, args.samplerate, rate_hint="--samplerate HZ")
     source = open_capture(args.capture, args.samplerate, args.channels)
     pipeline = SamplePipeline(source.sample_rate)
     out = sys.stdout
@@ -107,5 +115,6 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _print_words(words: WordBatch, out: TextIO) -> None:
+    from drivers.mil1553.wordbatch import word_to_json
     for row in words:
         out.write(json.dumps(word_to_json(row)) + "\n")

@@ -25,15 +25,13 @@ import sys
 import time
 from collections import Counter
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from drivers.backends.loopback import Injection, LoopbackMonitor
 from drivers.mil1553.record import MonitorRecord
 from mapr_daemon.catalog import CatalogWriter
 from mapr_daemon.cli import exitcodes
-from mapr_daemon.cli.demo_reasoner import cache_dir, cached_dictionary, describe, diagnose_bits
 from mapr_daemon.cli.render import record_line
 from mapr_daemon.daemon.config import DEFAULT_ICD
 from mapr_daemon.ema.bit import bit_profile
@@ -47,11 +45,18 @@ from mapr_daemon.ema.params import (
 from mapr_daemon.ema.profile import CONDITIONS
 from mapr_daemon.icd import Icd, Series, collect, format_values, load_icd
 
+if TYPE_CHECKING:
+    from drivers.backends.loopback import Injection
+
 DEFAULT_FAULT = "esr@0.6"
-INJECTED = (Injection("parity", rt=5, sa=4, skip=40),
+
+
+def injected() -> tuple[Injection, ...]:
+    """Two bus errors the demo injects: a parity error in an EMA feedback word, and the
+    air-data computer failing to answer once (the bus controller retries on bus B)."""
+    from drivers.backends.loopback import Injection
+    return (Injection("parity", rt=5, sa=4, skip=40),
             Injection("no_response", rt=6, sa=1, skip=20))
-"""Two bus errors the demo injects: a parity error in an EMA feedback word, and the air-data
-computer failing to answer once (the bus controller retries on bus B)."""
 
 
 def bit_needs_s(params: ActuatorParams) -> float:
@@ -95,8 +100,10 @@ def seeded_faults(texts: list[str] | None) -> FaultSet:
 
 
 def run(args: argparse.Namespace) -> int:
-    # The simulator, imported by its front end only: nothing else outside mapr_daemon/testbed
-    # imports it (docs/testbed.md).
+    # The loopback bus loads numba kernels: imported when the demo runs, not for `mapr demo
+    # --help`. The simulator, imported by its front end only: nothing else outside
+    # mapr_daemon/testbed imports it (docs/testbed.md).
+    from drivers.backends.loopback import LoopbackMonitor
     from mapr_daemon.testbed.aircraft import Aircraft
     from mapr_daemon.testbed.profiles_jsbsim import jsbsim_flight
 
@@ -112,13 +119,13 @@ def run(args: argparse.Namespace) -> int:
     level = "word level" if args.word_level else "bit level, 16 MS/s"
     print(f"MAPR demo: JSBSim c172x, {args.condition}, {args.seconds:g} s; aileron EMA with "
           f"{faults.label()}; loopback 1553 bus at {level}; "
-          f"injected: {', '.join(i.kind for i in INJECTED)}")
+          f"injected: {', '.join(i.kind for i in injected())}")
     print()
     frames = round(args.seconds * 1e9 / aircraft.schedule().frame_ns)
     records: list[MonitorRecord] = []
     started = time.monotonic()
     with LoopbackMonitor(terminals=aircraft.terminals(), schedule=aircraft.schedule(),
-                         frames=frames, injections=INJECTED, bit_level=not args.word_level,
+                         frames=frames, injections=injected(), bit_level=not args.word_level,
                          seed=args.seed) as monitor:
         shown = 0
         for record in monitor:
@@ -142,6 +149,13 @@ def run(args: argparse.Namespace) -> int:
 def diagnose(args: argparse.Namespace, icd: Icd, records: list[MonitorRecord],
              params: ActuatorParams) -> int:
     """The daemon's path on the demo's traffic: BIT -> reasoner -> catalog."""
+    from mapr_daemon.cli.demo_reasoner import (
+        cache_dir,
+        cached_dictionary,
+        describe,
+        diagnose_bits,
+    )
+
     print()
     needs = bit_needs_s(params)
     if args.seconds < needs:

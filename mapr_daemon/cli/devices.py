@@ -23,6 +23,7 @@ from typing import Any
 
 from drivers.backends import fx2
 from drivers.backends.attached import UDEV_HINT, AttachedCard
+from drivers.errors import BackendUnavailable
 from mapr_daemon.cli import exitcodes
 
 NONE_FOUND = ("no cards found. Plug the card in; if it is plugged in, check `lsusb`, the "
@@ -88,9 +89,8 @@ def find_cards(settings: dict[str, Any]) -> tuple[list[AttachedCard], list[str]]
     else:
         try:
             cards += usb_cards(**settings)
-        except usb.core.NoBackendError:
-            notes.append("USB analyzers not listed: libusb-1.0 is not installed "
-                         "(apt install libusb-1.0-0)")
+        except BackendUnavailable as error:
+            notes.append(f"USB analyzers not listed: {error}")
         except usb.core.USBError as error:
             notes.append(f"USB analyzers not listed: {error}")
     return cards, notes

@@ -4,14 +4,19 @@ OK = 0
 FAILURE = 1
 """An unexpected internal error (a bug): the traceback is logged."""
 USAGE = 2
-"""A bad argument, or an input file that cannot be read (one line names it)."""
+"""A bad argument (checked before any backend opens: a value out of range, a filter no message
+can match, an unknown backend or backend option), or an input file that cannot be read or is
+not what it is named (one line names it)."""
 DATAERR = 65
-"""Some input records could not be diagnosed (sysexits EX_DATAERR): each has its own error event
-and every other record was diagnosed (``mapr diagnose``)."""
+"""Some of the input is not there or could not be diagnosed, the rest was done (sysexits
+EX_DATAERR): records ``mapr diagnose`` could not diagnose (each has its own error event), a
+``mapr decode --c10-channel`` the recording does not hold (the line lists those it does)."""
 CONFIG = 78
 """A configuration or ICD error (sysexits EX_CONFIG); listed in RestartPreventExitStatus=."""
 UNAVAILABLE = 69
-"""A backend or device that cannot be opened (sysexits EX_UNAVAILABLE)."""
+"""A backend or device that cannot be opened, or that failed (sysexits EX_UNAVAILABLE): no
+libusb, no card, no serial port. ``mapr run`` exits with it when the configured backend can
+never open on this machine; it is in RestartPreventExitStatus= with CONFIG."""
 NOINPUT = 66
 """The fault catalog is missing, unreadable, corrupt or written by a newer MAPR (sysexits
 EX_NOINPUT); ``mapr catalog`` prints one line naming the file."""

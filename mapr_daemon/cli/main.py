@@ -4,6 +4,21 @@ Subcommands live in sibling modules named in :data:`SUBCOMMANDS`; each exposes
 ``add_subparser(subparsers)`` and sets ``func(args) -> int`` on its parser. Errors from the
 :mod:`drivers.errors` tree become one line on stderr and a distinct exit code; nothing else
 is swallowed.
+
+Start-up is lazy, so ``mapr --help`` and a typo answer at once: only the subcommand named on
+the command line is imported (the others get a placeholder parser carrying their one-line
+help from :data:`SUBCOMMANDS`), and a subcommand module imports only the standard library and
+light MAPR modules at its top. Numerical and hardware work (numpy-heavy pipelines, numba
+kernels, scipy, filterpy, matplotlib, libusb, pyserial) is imported inside the function that
+runs it. To add a subcommand ``foo``:
+
+1. write ``mapr_daemon/cli/foo.py`` with ``add_subparser(subparsers)`` declaring every
+   argument (validated by ``type=``/``choices=`` so a bad one exits 2 before any work) and
+   ``parser.set_defaults(func=run)``;
+2. in ``run(args)``, import what the command needs, then do it; return an exit code from
+   :mod:`mapr_daemon.cli.exitcodes`, or raise a :class:`~drivers.errors.MaprError`;
+3. add ``"foo": "one-line help"`` to :data:`SUBCOMMANDS` (the same text as its ``help=``; a
+   test compares them, and another checks that building its parser stays light).
 """
 
 from __future__ import annotations
@@ -11,32 +26,42 @@ from __future__ import annotations
 import argparse
 import importlib
 import sys
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from typing import NoReturn
 
-from drivers.errors import BackendUnavailable, CaptureFormatError, EncodeError, MaprError
+from drivers.errors import (
+    BackendError,
+    BackendOptionError,
+    BackendUnavailable,
+    CaptureFormatError,
+    EncodeError,
+    MaprError,
+)
 from mapr_daemon import __version__
 from mapr_daemon.cli import exitcodes
 from mapr_daemon.errors import ConfigError, RecordError
 
-SUBCOMMANDS: tuple[str, ...] = (
-    "demo",
-    "decode",
-    "monitor",
-    "record",
-    "replay",
-    "encode",
-    "icd",
-    "simulate",
-    "dictionary",
-    "commission",
-    "diagnose",
-    "prognose",
-    "catalog",
-    "run",
-    "devices",
-)
-"""Modules of :mod:`mapr_daemon.cli` that add a subcommand, in help order."""
+SUBCOMMANDS: dict[str, str] = {
+    "demo": "fly the simulated aircraft and monitor its bus",
+    "decode": "decode a bit-level capture (raw or sigrok .sr) or a Chapter 10 recording to "
+              "JSON lines",
+    "monitor": "watch a bus live (one line per message)",
+    "record": "record the bus to a Chapter 10 file",
+    "replay": "run a Chapter 10 recording through the reasoner into the catalog",
+    "encode": "write a bit-level capture from a JSON-lines word list",
+    "icd": "check or draw an RT/SA message table (ICD YAML)",
+    "simulate": "simulate fault-seeded EMA runs into an .npz",
+    "dictionary": "build or plot the reasoner's fault dictionary",
+    "commission": "identify an actuator from its healthy BITs, build its dictionary",
+    "diagnose": "anomaly, fault, severity of BIT runs (JSON)",
+    "prognose": "score RUL along a run-to-failure trajectory",
+    "catalog": "query the fault catalog",
+    "run": "run the daemon (monitor, reason, catalog)",
+    "devices": "list attached interface cards",
+    "completion": "print a bash or zsh completion script",
+}
+"""Modules of :mod:`mapr_daemon.cli` that add a subcommand -> their one-line help, in help
+order."""
 
 
 class OneLineParser(argparse.ArgumentParser):
@@ -46,7 +71,10 @@ class OneLineParser(argparse.ArgumentParser):
         self.exit(exitcodes.USAGE, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(commands: Iterable[str] | None = None) -> argparse.ArgumentParser:
+    """The ``mapr`` parser with full parsers for ``commands`` (default: every subcommand) and
+    a placeholder (name and help only, nothing imported) for the others."""
+    wanted = set(SUBCOMMANDS if commands is None else commands)
     parser = OneLineParser(
         prog="mapr",
         description="Model-based Avionic Prognostic Reasoner: passive MIL-STD-1553B monitor "
@@ -55,10 +83,22 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"mapr {__version__}")
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND")
     subparsers.required = True
-    for name in SUBCOMMANDS:
-        module = importlib.import_module(f"mapr_daemon.cli.{name}")
-        module.add_subparser(subparsers)
+    for name, summary in SUBCOMMANDS.items():
+        if name in wanted:
+            module = importlib.import_module(f"mapr_daemon.cli.{name}")
+            module.add_subparser(subparsers)
+        else:
+            subparsers.add_parser(name, help=summary, add_help=False)
     return parser
+
+
+def named_command(argv: Sequence[str]) -> list[str]:
+    """The subcommand an argument list names (its first word not starting with ``-``), as a
+    list of zero or one names, so that only that subcommand's module is imported."""
+    for word in argv:
+        if not word.startswith("-"):
+            return [word] if word in SUBCOMMANDS else []
+    return []
 
 
 def exit_code_for(error: MaprError) -> int:
@@ -67,17 +107,25 @@ def exit_code_for(error: MaprError) -> int:
         return exitcodes.CONFIG
     if isinstance(error, RecordError):
         return exitcodes.DATAERR
-    if isinstance(error, BackendUnavailable):
-        return exitcodes.UNAVAILABLE
-    if isinstance(error, (CaptureFormatError, EncodeError)):
+    if isinstance(error, (BackendOptionError, CaptureFormatError, EncodeError)):
         return exitcodes.USAGE
+    if isinstance(error, (BackendUnavailable, BackendError)):
+        # no library, no card, no port, or the card failed: the device is unavailable
+        return exitcodes.UNAVAILABLE
     return exitcodes.FAILURE
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run ``mapr``; returns the exit code (also used by the console script)."""
-    parser = build_parser()
-    args = parser.parse_args(argv)
+    words = list(sys.argv[1:] if argv is None else argv)
+    parser = build_parser(named_command(words))
+    args = parser.parse_args(words)
+    validate = getattr(args, "validate", None)
+    problem = validate(args) if validate is not None else None
+    if problem:
+        print(f"mapr {args.command}: error: {problem} (see mapr {args.command} --help)",
+              file=sys.stderr)
+        return exitcodes.USAGE
     try:
         return int(args.func(args))
     except MaprError as error:

@@ -21,29 +21,41 @@ import sys
 import time
 from typing import Any
 
-from drivers.monitor import MonitorFilter, available_backends, open_monitor
-from drivers.rtstats import TrafficStatistics
+from drivers.backends import available_backends
+from drivers.mil1553.record import MESSAGE_ERROR_NAMES, TransferFormat
 from mapr_daemon.cli import exitcodes
-from mapr_daemon.cli.icdview import IcdView
-from mapr_daemon.cli.render import record_json, record_line
-from mapr_daemon.cli.traffic_source import positive_seconds, print_stats
+from mapr_daemon.cli.validate import (
+    bounded_int,
+    impossible_filter,
+    non_negative_seconds,
+    positive_int,
+    positive_seconds,
+)
+
+FORMATS = tuple(str(f) for f in TransferFormat)
+"""Values of ``--format``."""
 
 
 def add_subparser(subparsers: Any) -> None:
     parser = subparsers.add_parser("monitor", help="watch a bus live (one line per message)",
                                    description=__doc__,
                                    formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--backend", default="loopback",
-                        help=f"one of: {', '.join(available_backends())} (default loopback)")
+    parser.add_argument("--backend", default="loopback", choices=available_backends(),
+                        help="one of: %(choices)s (default loopback)")
     parser.add_argument("-o", "--option", action="append", default=[], metavar="KEY=VALUE",
-                        help="backend option, repeatable")
-    parser.add_argument("--rt", type=int)
-    parser.add_argument("--sa", type=int)
-    parser.add_argument("--tr", choices=["T", "R", "t", "r"])
-    parser.add_argument("--format", dest="fmt", metavar="FORMAT", help="e.g. BC_RT, RT_RT")
+                        type=parse_option, help="backend option, repeatable")
+    parser.add_argument("--rt", type=bounded_int(0, 31, "RT address"),
+                        help="only this remote terminal, 0-31 (31: broadcast)")
+    parser.add_argument("--sa", type=bounded_int(0, 31, "subaddress"),
+                        help="only this subaddress, 0-31 (0 and 31: mode codes)")
+    parser.add_argument("--tr", type=str.upper, choices=["T", "R"],
+                        help="only transmit (T) or receive (R) commands")
+    parser.add_argument("--format", dest="fmt", type=str.upper, choices=FORMATS,
+                        metavar="FORMAT", help="only this transfer format: %(choices)s")
     errors = parser.add_mutually_exclusive_group()
     errors.add_argument("--errors", action="store_true", help="only messages with errors")
-    errors.add_argument("--error", metavar="NAME", help="only messages with this error")
+    errors.add_argument("--error", metavar="NAME", choices=MESSAGE_ERROR_NAMES,
+                        help="only messages with this error: %(choices)s")
     parser.add_argument("--json", action="store_true", help="JSON lines instead of text")
     parser.add_argument("--icd", metavar="FILE", help="message table: show engineering values")
     parser.add_argument("--stats", action="store_true",
@@ -51,10 +63,18 @@ def add_subparser(subparsers: Any) -> None:
                              "windowed load (JSON lines on stdout with --json)")
     parser.add_argument("--stats-window", type=positive_seconds, default=1.0, metavar="S",
                         help="bus-load window for --stats, in seconds (default 1)")
-    parser.add_argument("--stats-every", type=float, default=0.0, metavar="S")
-    parser.add_argument("--count", type=int, help="stop after this many messages")
-    parser.add_argument("--duration", type=float, help="stop after this many seconds")
-    parser.set_defaults(func=run)
+    parser.add_argument("--stats-every", type=non_negative_seconds, default=0.0, metavar="S")
+    parser.add_argument("--count", type=positive_int("message count"),
+                        help="stop after this many messages")
+    parser.add_argument("--duration", type=positive_seconds,
+                        help="stop after this many seconds")
+    parser.set_defaults(func=run, validate=validate)
+
+
+def validate(args: argparse.Namespace) -> str | None:
+    """A filter no message can match, as one line (or None): checked before the backend
+    opens, so a typo is an error instead of a silent bus."""
+    return impossible_filter(args.rt, args.sa, args.tr, args.fmt)
 
 
 def parse_option(text: str) -> tuple[str, Any]:
@@ -76,16 +96,18 @@ def parse_option(text: str) -> tuple[str, Any]:
 
 
 def run(args: argparse.Namespace) -> int:
+    from drivers.monitor import MonitorFilter, open_monitor
+    from drivers.rtstats import TrafficStatistics
+    from mapr_daemon.cli.icdview import IcdView
+    from mapr_daemon.cli.render import record_json, record_line
+    from mapr_daemon.cli.traffic_source import print_stats
+
     view = IcdView(args.icd)
-    options = dict(parse_option(o) for o in args.option)
+    options = dict(args.option)
     wanted = MonitorFilter(rt=args.rt, sa=args.sa, tr=args.tr, format=args.fmt,
                            error=args.error or (True if args.errors else None))
     filters = [wanted] if wanted != MonitorFilter() else None
-    try:
-        monitor = open_monitor(args.backend, filters=filters, **options)
-    except TypeError as error:
-        print(f"mapr monitor: backend {args.backend!r}: {error}", file=sys.stderr)
-        return exitcodes.USAGE
+    monitor = open_monitor(args.backend, filters=filters, **options)
     if args.stats or args.stats_every:
         monitor.traffic = TrafficStatistics(window_ns=round(args.stats_window * 1e9))
     shown = 0

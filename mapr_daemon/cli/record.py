@@ -19,12 +19,16 @@ import signal
 import sys
 import time
 from types import FrameType
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from drivers.chapter10.writer import Chapter10Writer, RecordingStats
-from drivers.monitor import BusMonitor, available_backends, open_monitor
+from drivers.backends import available_backends
 from mapr_daemon.cli import exitcodes
 from mapr_daemon.cli.monitor import parse_option
+from mapr_daemon.cli.validate import positive_int, positive_seconds
+
+if TYPE_CHECKING:
+    from drivers.chapter10.writer import Chapter10Writer, RecordingStats
+    from drivers.monitor import BusMonitor
 
 FLUSH_EVERY_S = 1.0
 """Wall-clock seconds between flushes to disk (fsync) while recording."""
@@ -35,12 +39,14 @@ def add_subparser(subparsers: Any) -> None:
                                    description=__doc__,
                                    formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("output", metavar="OUT.c10", help="the Chapter 10 file to write")
-    parser.add_argument("--backend", default="loopback",
-                        help=f"one of: {', '.join(available_backends())} (default loopback)")
+    parser.add_argument("--backend", default="loopback", choices=available_backends(),
+                        help="one of: %(choices)s (default loopback)")
     parser.add_argument("-o", "--option", action="append", default=[], metavar="KEY=VALUE",
                         type=parse_option, help="backend option, repeatable")
-    parser.add_argument("--duration", type=float, metavar="S", help="stop after S seconds")
-    parser.add_argument("--count", type=int, metavar="N", help="stop after N messages")
+    parser.add_argument("--duration", type=positive_seconds, metavar="S",
+                        help="stop after S seconds")
+    parser.add_argument("--count", type=positive_int("message count"), metavar="N",
+                        help="stop after N messages")
     parser.add_argument("--channel", type=_channel_id, default=1, metavar="ID",
                         help="Chapter 10 channel id of the 1553 bus, 1-65534 (default 1; "
                              "time packets use ID+1)")
@@ -48,11 +54,10 @@ def add_subparser(subparsers: Any) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    try:
-        monitor = open_monitor(args.backend, **dict(args.option))
-    except TypeError as error:
-        print(f"mapr record: backend {args.backend!r}: {error}", file=sys.stderr)
-        return exitcodes.USAGE
+    from drivers.chapter10.writer import Chapter10Writer
+    from drivers.monitor import open_monitor
+
+    monitor = open_monitor(args.backend, **dict(args.option))
     with monitor:
         try:
             writer = Chapter10Writer(args.output, channel_id=args.channel)
@@ -123,7 +128,10 @@ class _StopSignals:
 
 
 def _channel_id(text: str) -> int:
-    value = int(text)
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"channel id must be 1-65534, not {text!r}") from None
     if not 1 <= value <= 0xFFFE:
         raise argparse.ArgumentTypeError(f"channel id must be 1-65534, not {value}")
     return value

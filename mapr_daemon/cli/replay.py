@@ -35,6 +35,7 @@ from drivers.chapter10.walker import looks_like_chapter10
 from drivers.errors import CaptureFormatError
 from drivers.monitor import BusStatistics, open_monitor
 from mapr_daemon.cli import exitcodes
+from mapr_daemon.cli.validate import bounded_int
 from mapr_daemon.daemon.clock import BusClock
 from mapr_daemon.errors import CatalogError, ConfigError
 
@@ -66,9 +67,11 @@ def add_subparser(subparsers: Any) -> None:
     p.add_argument("--speed", type=float, default=0.0, metavar="X",
                    help="0: as fast as possible (default); 1: in recorded time; 2: twice as "
                         "fast")
-    p.add_argument("--c10-channel", type=int, action="append", dest="c10_channels",
+    p.add_argument("--c10-channel", type=bounded_int(1, 0xFFFF, "channel ID"),
+                   action="append", dest="c10_channels",
                    metavar="ID", help="replay only this 1553 channel ID (repeat for more)")
-    p.add_argument("--year", type=int, help="year of day-of-year time packets")
+    p.add_argument("--year", type=bounded_int(1970, 2199, "year"),
+                   help="year of day-of-year time packets")
     bar = p.add_mutually_exclusive_group()
     bar.add_argument("--progress", action="store_true", default=None,
                      help="show the progress bar even when stderr is not a terminal")

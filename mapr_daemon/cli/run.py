@@ -7,7 +7,8 @@
     mapr run --check --config mapr.yaml       # validate the config and ICD, then exit
 
 Runs until SIGTERM or Ctrl-C (exit 0); SIGHUP reloads the config. A config or ICD error
-exits 78 with one line ``file:line: field: problem``. See docs/service.md.
+exits 78 with one line ``file:line: field: problem``; a backend that can never open here (its
+library is missing), 69. See docs/service.md.
 """
 
 from __future__ import annotations
@@ -16,6 +17,7 @@ import argparse
 import logging
 from typing import Any
 
+from drivers.errors import BackendUnavailable
 from mapr_daemon.cli import exitcodes
 from mapr_daemon.errors import ConfigError
 
@@ -49,6 +51,9 @@ def run(args: argparse.Namespace) -> int:
     except ConfigError as error:
         log.error("mapr run: %s", error)
         return exitcodes.CONFIG
+    except BackendUnavailable as error:  # can never open here: retrying would not help
+        log.error("mapr run: %s", error)
+        return exitcodes.UNAVAILABLE
     try:
         return service.run()
     except Exception:

@@ -34,7 +34,6 @@ from typing import Any
 import numpy as np
 import yaml
 
-from mapr_daemon.ema import dataset
 from mapr_daemon.ema.batch import RunSpec
 from mapr_daemon.ema.bit import bit_profile
 from mapr_daemon.ema.faults import FaultSet, at_severity, parse_fault
@@ -46,7 +45,6 @@ from mapr_daemon.ema.params import (
     with_sample_rate,
 )
 from mapr_daemon.ema.profile import Profile
-from mapr_daemon.ema.run import RunResult, run_batch
 from mapr_daemon.errors import ConfigError
 
 
@@ -187,6 +185,10 @@ def _batch_groups(spec_path: Path) -> tuple[list[tuple[Profile, list[RunSpec]]],
 
 
 def run(args: argparse.Namespace) -> int:
+    # the simulation kernels (numba) load here, not for `mapr simulate --help`
+    from mapr_daemon.ema import dataset
+    from mapr_daemon.ema.run import RunResult, run_batch
+
     if args.batch:
         groups, meta = _batch_groups(args.batch)
     else:

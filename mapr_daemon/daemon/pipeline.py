@@ -185,7 +185,7 @@ def build_pipeline(config: Config, *, trend: bool = True) -> Pipeline:
     try:
         icd = load_icd(config.icd)
     except OSError as error:
-        raise ConfigError(f"cannot read the ICD: {error.strerror}", path=config.source,
+        raise ConfigError(f"cannot read the ICD {config.icd}: {error.strerror}", path=config.source,
                           field="icd") from None
     source.check(config)
     watched: list[Watched] = []
@@ -223,7 +223,7 @@ def _reasoner(config: Config, asset: AssetConfig, i: int, path: str, loaded: dic
         try:
             loaded[path] = Dictionary.load(path)
         except OSError as error:
-            raise ConfigError(f"cannot read the dictionary: {error.strerror}",
+            raise ConfigError(f"cannot read the dictionary {path}: {error.strerror}",
                               path=config.source, field=field) from None
     model = None
     if asset.prognosis is not None:

@@ -6,7 +6,9 @@ A config can be well-formed and still not work: a file-reading backend (``captur
 recording directory that is a file or cannot be written (recording would stop at the first
 record while monitoring goes on), a catalog path that is a directory. Under systemd each of
 those is a "running" service doing nothing useful, so each is a
-:class:`~mapr_daemon.errors.ConfigError` naming the config file and line (exit 78).
+:class:`~mapr_daemon.errors.ConfigError` naming the config file and line (exit 78). A backend
+that can never open on this machine (its Python module or its system library, e.g. libusb,
+is missing) is a :class:`~drivers.errors.BackendUnavailable` naming the same (exit 69).
 
 These checks look at the filesystem, so they are not part of parsing: ``mapr replay`` and
 ``mapr devices`` read the same config but never open its backend or its recording
@@ -20,10 +22,12 @@ import os
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from drivers.errors import BackendOptionError, BackendUnavailable
 from mapr_daemon.errors import ConfigError
 from mapr_daemon.icd.yamlsrc import Node
 
 if TYPE_CHECKING:
+    from drivers.monitor import BusMonitor
     from mapr_daemon.daemon.config import Config
 
 FILE_BACKENDS = ("capture", "chapter10")
@@ -36,6 +40,7 @@ def check(config: Config, raw: Any, path: str) -> None:
     root = raw if isinstance(raw, Node) else None
     _backend(config, _node(root, "backend"), path)
     _assets(config, root, path)
+    _icd(config, root, path)
     _record(config, _node(root, "record"), path)
     _catalog(config, _node(root, "catalog"), path)
 
@@ -52,10 +57,17 @@ def _error(node: Node | None, key: str, field: str, message: str, path: str) -> 
 
 def _backend(config: Config, node: Node | None, path: str) -> None:
     backend = config.backend
-    if backend.name not in FILE_BACKENDS:
-        return
     options = node.get("options") if node is not None else None
     where = options if isinstance(options, Node) else node
+    cls = _loadable(config, node, path)
+    if backend.name in FILE_BACKENDS:
+        _file_backend(config, where, path)
+    if backend.name != "loopback":  # loopback's options are the testbed's, checked there
+        _options(config, cls, node, where, path)
+
+
+def _file_backend(config: Config, where: Node | None, path: str) -> None:
+    backend = config.backend
     name = backend.options.get("path")
     if not isinstance(name, str) or not name:
         raise _error(where, "path", "backend.options.path",
@@ -82,6 +94,44 @@ def _assets(config: Config, root: Node | None, path: str) -> None:
             problem = None if name is None else _unreadable(Path(name))
             if problem:
                 raise _error(where, key, f"assets[{i}].{key}", f"{name}: {problem}", path)
+def _loadable(config: Config, node: Node | None, path: str) -> type[BusMonitor]:
+    """The backend's class; BackendUnavailable (``mapr run`` exits 69, and systemd does not
+    restart it) when the backend can never open here: its module or library is missing.
+    Retrying would not help, so the daemon says so once instead of retrying for ever."""
+    from drivers.monitor import backend_class
+
+    name = config.backend.name
+    try:
+        cls = backend_class(name)
+        check = getattr(cls, "check_loadable", None)
+        if callable(check):
+            check()
+    except BackendUnavailable as error:
+        line = node.line_of("name") if node is not None else None
+        where = f"{path}:{line}" if line is not None else path
+        raise BackendUnavailable(f"{where}: backend.name: {error}") from error
+    return cls
+
+
+def _options(config: Config, cls: type[BusMonitor], node: Node | None,
+             options: Node | None, path: str) -> None:
+    """Options the backend does not take, or lacks: a ConfigError on the option's line."""
+    from drivers.monitor import check_options
+
+    try:
+        check_options(config.backend.name, cls, dict(config.backend.options))
+    except BackendOptionError as error:
+        if error.option in config.backend.options:
+            raise _error(options, error.option, f"backend.options.{error.option}",
+                         str(error), path) from error
+        raise _error(node, "name", "backend.options", str(error), path) from error
+
+
+def _icd(config: Config, node: Node | None, path: str) -> None:
+    problem = _unreadable(Path(config.icd))
+    if problem:
+        raise _error(node, "icd", "icd", f"{config.icd}: {problem} (a relative path is read "
+                     "from the config file's directory)", path)
 
 
 def _unreadable(file: Path) -> str | None:

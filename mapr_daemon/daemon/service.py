@@ -26,6 +26,7 @@ import signal
 import time
 from typing import Any
 
+from drivers.errors import BackendUnavailable
 from drivers.monitor import BusStatistics
 from drivers.rtstats import TrafficStatistics
 from mapr_daemon import __version__
@@ -330,7 +331,7 @@ class Service:
         try:
             config = load_config(self.config_path, preflight=True)
             pipe = build_pipeline(config)
-        except ConfigError as error:
+        except (ConfigError, BackendUnavailable) as error:
             log.error("reload failed, keeping the running configuration: %s", error)
             self.notifier.notify("READY=1", f"STATUS={self._status_text()}")
             return

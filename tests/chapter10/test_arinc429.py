@@ -34,10 +34,10 @@ def test_a_packet_decodes_with_times_bus_and_flags(c10: Any, tmp_path: Path) -> 
     assert words is not None and batch.records == []
     rows = words.to_json()
     assert [r["t_ns"] for r in rows] == [0, 362_000, 40_362_000]
-    assert [r["label"] for r in rows] == ["0o012", "0o212", "0o205"]
+    assert [r["label"] for r in rows] == ["012", "212", "205"]
     assert [r["errors"] for r in rows] == [[], ["parity"], []]
     assert rows[0] == {"t_ns": 0, "kind": "arinc429", "channel": 9, "bus": 3, "speed": "high",
-                       "label": "0o012", "sdi": 0, "data": 2000, "ssm": 3,
+                       "label": "012", "sdi": 0, "data": 2000, "ssm": 3,
                        "word": "0xE01F4050", "errors": []}
 
 

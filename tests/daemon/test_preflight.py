@@ -113,3 +113,11 @@ def test_run_exits_78_with_one_line(tmp_path: Path, check: bool) -> None:
     assert f"{config}:4: backend.options.path: {tmp_path / 'flight.c10'}: no such file" \
         in lines[0]
     assert not (tmp_path / "catalog.db").exists()   # nothing started
+
+
+def test_a_backend_option_it_does_not_take_is_refused_on_its_line(tmp_path: Path) -> None:
+    text = "backend:\n  name: serial\n  options:\n    port: /dev/ttyUSB0\n    baud: 9600\n"
+    line = problem(tmp_path, text)
+    assert line.startswith("CONFIG:5: backend.options.baud: backend 'serial': unknown option "
+                           "baud (its options: ")
+    assert "port" in line
