@@ -9,7 +9,8 @@ manager and an idempotent ``close()``.
     ...     for record in monitor:
     ...         print(record.to_json())
 
-Backends are found by name in :data:`BACKENDS` and in the entry-point group ``mapr.backends``
+Backends are found by name in :data:`BACKENDS`, among those another package registered with
+:func:`drivers.backends.register`, and in the entry-point group ``mapr.backends``
 (``name = "package.module:Class"``), and imported only when opened, so a missing optional
 dependency disables its backend (:class:`~drivers.errors.BackendUnavailable`), never the
 package. A read error inside a backend reaches the caller as
@@ -29,6 +30,7 @@ from importlib.metadata import entry_points
 from types import TracebackType
 from typing import Any
 
+from drivers.backends import REGISTERED
 from drivers.errors import BackendError, BackendUnavailable, MaprError, MonitorClosed
 from drivers.mil1553.record import MonitorRecord, TransferFormat
 from drivers.mil1553.wordbatch import WORD_TIME_NS
@@ -144,6 +146,11 @@ class BusMonitor(ABC):
     def _close(self) -> None:  # noqa: B027 - optional hook, most backends hold nothing
         """Release the backend's resources (called once)."""
 
+    @classmethod  # noqa: B027 - optional hook, most backends have nothing to check early
+    def check_options(cls, **config: Any) -> None:
+        """Validate options without opening (a service checks its configuration at start);
+        raises the error opening would. The default checks nothing."""
+
     # --- the API ----------------------------------------------------------------------------
     def recv(self, timeout: float | None = None) -> MonitorRecord | None:
         """The next record that passes the filters, or None on time-out or end of stream."""
@@ -205,13 +212,14 @@ class BusMonitor(ABC):
         self.close()
 
 
-def _entry_point_backends() -> dict[str, str]:
-    return {ep.name: ep.value for ep in entry_points(group="mapr.backends")}
+def _plugin_backends() -> dict[str, str]:
+    """Registered backends, then installed entry points (which win on a name clash)."""
+    return {**REGISTERED, **{ep.name: ep.value for ep in entry_points(group="mapr.backends")}}
 
 
 def available_backends() -> list[str]:
     """Names of every known backend (whether or not its dependencies are installed)."""
-    return sorted({*BACKENDS, *_entry_point_backends()})
+    return sorted({*BACKENDS, *_plugin_backends()})
 
 
 def backend_class(name: str) -> type[BusMonitor]:
@@ -220,7 +228,7 @@ def backend_class(name: str) -> type[BusMonitor]:
     if name in BACKENDS:
         module_name, class_name = BACKENDS[name]
     else:
-        target = _entry_point_backends().get(name)
+        target = _plugin_backends().get(name)
         if target is None:
             raise BackendUnavailable(
                 f"unknown backend {name!r}; known: {', '.join(available_backends())}")

@@ -20,14 +20,14 @@ from mapr_daemon.cli import exitcodes
 from mapr_daemon.errors import ConfigError, RecordError
 
 SUBCOMMANDS: tuple[str, ...] = (
-    "demo",
+    "mapr_daemon.testbed.cli_demo",
     "decode",
     "monitor",
     "record",
     "replay",
     "encode",
     "icd",
-    "simulate",
+    "mapr_daemon.testbed.cli_simulate",
     "dictionary",
     "commission",
     "diagnose",
@@ -36,7 +36,9 @@ SUBCOMMANDS: tuple[str, ...] = (
     "run",
     "devices",
 )
-"""Modules of :mod:`mapr_daemon.cli` that add a subcommand, in help order."""
+"""Modules of :mod:`mapr_daemon.cli` that add a subcommand, in help order; a dotted name is a
+module path (the simulator's front ends, ``mapr demo`` and ``mapr simulate``, live in
+:mod:`mapr_daemon.testbed`)."""
 
 
 class OneLineParser(argparse.ArgumentParser):
@@ -56,7 +58,7 @@ def build_parser() -> argparse.ArgumentParser:
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND")
     subparsers.required = True
     for name in SUBCOMMANDS:
-        module = importlib.import_module(f"mapr_daemon.cli.{name}")
+        module = importlib.import_module(name if "." in name else f"mapr_daemon.cli.{name}")
         module.add_subparser(subparsers)
     return parser
 
