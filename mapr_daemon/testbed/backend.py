@@ -24,7 +24,7 @@ from typing import Any
 
 from drivers.backends.loopback import LoopbackMonitor
 from drivers.monitor import MonitorFilter
-from mapr_daemon.daemon.config import AssetConfig, TestbedActuator, TestbedConfig
+from mapr_daemon.daemon.config import DEFAULT_ICD, AssetConfig, TestbedActuator, TestbedConfig
 from mapr_daemon.daemon.filler import fill_schedule
 from mapr_daemon.ema.faults import FaultSet, parse_fault
 from mapr_daemon.ema.params import ActuatorParams, load_actuator, with_sample_rate
@@ -50,6 +50,9 @@ def testbed_config(testbed: TestbedConfig | Mapping[str, Any] | None) -> Testbed
         return TestbedConfig()
     if isinstance(testbed, TestbedConfig):
         return testbed
+    if not isinstance(testbed, Mapping):
+        raise ConfigError(f"testbed options: expected a mapping, got {testbed!r}",
+                          field="testbed")
     fields = dict(testbed)
     entries = fields.pop("actuators", ()) or ()
     try:
@@ -58,6 +61,24 @@ def testbed_config(testbed: TestbedConfig | Mapping[str, Any] | None) -> Testbed
         return TestbedConfig(**fields, actuators=actuators)
     except TypeError as error:
         raise ConfigError(f"testbed options: {error}", field="testbed") from None
+
+
+SECTION_KEYS = frozenset(f.name for f in dataclasses.fields(TestbedConfig)) - {
+    "realtime", "bit_level", "seed"}
+"""Keys of the ``testbed:`` section that may also be given as options of their own
+(``mapr monitor --backend testbed -o duration_s=1``); the three left out are the loopback
+bus's options too, and go to it."""
+
+
+def section(testbed: TestbedConfig | Mapping[str, Any] | None,
+            options: dict[str, Any]) -> TestbedConfig:
+    """The section, with any of its keys given as options of their own (taken out of
+    ``options``) overriding it."""
+    flat = {k: options.pop(k) for k in list(options) if k in SECTION_KEYS}
+    base = testbed_config(testbed)
+    if not flat:
+        return base
+    return testbed_config({**dataclasses.asdict(base), **flat})
 
 
 def asset_configs(assets: Sequence[AssetConfig | Mapping[str, Any]] | None
@@ -108,8 +129,9 @@ def flight_profile(tb: TestbedConfig) -> Profile:
 
 
 def _icd(icd: Icd | str | None) -> Icd:
+    """The table given (an Icd or a path), default the shipped single-EMA testbed's."""
     if icd is None:
-        raise ConfigError("the testbed backend needs the ICD (option icd)", field="icd")
+        return load_icd(DEFAULT_ICD)
     return icd if isinstance(icd, Icd) else load_icd(icd)
 
 
@@ -117,10 +139,12 @@ class TestbedMonitor(LoopbackMonitor):
     """A loopback bus with the simulated aircraft on it.
 
     Options: ``testbed`` (the daemon config's ``testbed:`` section, as its dataclass or a
-    dict), ``icd`` (an :class:`~mapr_daemon.icd.Icd` or a path), ``assets`` (the config's
+    dict), ``icd`` (an :class:`~mapr_daemon.icd.Icd` or a path; default the shipped
+    ``configs/icd/ema-testbed.yaml``), ``assets`` (the config's
     ``assets:``, for the single-EMA default); any other option goes to
     :class:`~drivers.backends.loopback.LoopbackMonitor` and overrides the section's
-    ``realtime``, ``bit_level`` and ``seed``.
+    ``realtime``, ``bit_level`` and ``seed``. The section's other keys may also be given
+    as options of their own (:data:`SECTION_KEYS`), which override it.
     """
 
     __test__ = False
@@ -129,7 +153,7 @@ class TestbedMonitor(LoopbackMonitor):
                  icd: Icd | str | None = None,
                  assets: Sequence[AssetConfig | Mapping[str, Any]] | None = None,
                  filters: Sequence[MonitorFilter] | None = None, **options: Any) -> None:
-        tb = testbed_config(testbed)
+        tb = section(testbed, options)
         table = _icd(icd)
         (first, params, faults), *others = flown_emas(tb, asset_configs(assets), table)
         bit = tb.profile == "bit"
@@ -157,6 +181,7 @@ class TestbedMonitor(LoopbackMonitor):
     def check_options(cls, **config: Any) -> None:
         """What opening needs, checked without flying: the section, every EMA in the ICD,
         every fault, the flight condition (ConfigError)."""
-        tb = testbed_config(config.get("testbed"))
+        options = dict(config)
+        tb = section(options.pop("testbed", None), options)
         flown_emas(tb, asset_configs(config.get("assets")), _icd(config.get("icd")))
         condition(tb.condition)

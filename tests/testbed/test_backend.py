@@ -15,7 +15,6 @@ from mapr_daemon.errors import ConfigError
 from mapr_daemon.icd import load_icd
 
 ROOT = Path(__file__).resolve().parents[2]
-ONE = ROOT / "configs" / "icd" / "ema-testbed.yaml"
 TWO = ROOT / "configs" / "icd" / "ema-testbed-two-ema.yaml"
 ELEVATOR = str(ROOT / "configs" / "actuators" / "elevator-uav.yaml")
 AILERON = str(ROOT / "configs" / "actuators" / "aileron-uav.yaml")
@@ -28,7 +27,7 @@ def test_the_testbed_is_a_registered_backend() -> None:
 
 
 def test_opened_by_name_with_plain_options_it_flies_the_aircraft() -> None:
-    with open_monitor("testbed", testbed=QUICK, icd=str(ONE)) as monitor:
+    with open_monitor("testbed", testbed=QUICK) as monitor:   # the shipped single-EMA table
         records = list(monitor)
     assert {r.rt for r in records} == {5, 6}
     assert sum(r.rt == 5 and r.sa == 10 for r in records) == 25   # 50 ms of 2 ms frames
@@ -54,3 +53,13 @@ def test_a_bad_testbed_is_a_config_error_at_start(actuators: tuple[TestbedActuat
     config = dataclasses.replace(Config(), testbed=TestbedConfig(**QUICK, actuators=actuators))
     with pytest.raises(ConfigError, match=problem):
         source.check(config)
+
+
+def test_section_keys_are_options_of_their_own_and_bad_ones_are_config_errors() -> None:
+    """What ``mapr monitor --backend testbed -o duration_s=0.05`` passes."""
+    with open_monitor("testbed", duration_s=0.05, realtime=False, bit_level=False) as monitor:
+        assert sum(1 for r in monitor if r.rt == 5 and r.sa == 10) == 25
+    with pytest.raises(ConfigError, match="expected a mapping"):
+        open_monitor("testbed", testbed=3)
+    with pytest.raises(ConfigError, match="colour"):
+        open_monitor("testbed", testbed={"profile": "bit", "colour": "red"})
