@@ -9,7 +9,8 @@ manager and an idempotent ``close()``.
     ...     for record in monitor:
     ...         print(record.to_json())
 
-Backends are found by name in :data:`BACKENDS` and in the entry-point group ``mapr.backends``
+Backends are found by name in :data:`BACKENDS`, among those another package registered with
+:func:`drivers.backends.register`, and in the entry-point group ``mapr.backends``
 (``name = "package.module:Class"``), and imported only when opened, so a missing optional
 dependency disables its backend (:class:`~drivers.errors.BackendUnavailable`), never the
 package. A read error inside a backend reaches the caller as
@@ -29,7 +30,7 @@ from dataclasses import dataclass, field
 from types import TracebackType
 from typing import Any
 
-from drivers.backends import BACKENDS, available_backends, entry_point_backends
+from drivers.backends import BACKENDS, available_backends, plugin_backends
 from drivers.errors import (
     BackendError,
     BackendOptionError,
@@ -144,6 +145,11 @@ class BusMonitor(ABC):
     def _close(self) -> None:  # noqa: B027 - optional hook, most backends hold nothing
         """Release the backend's resources (called once)."""
 
+    @classmethod  # noqa: B027 - optional hook, most backends have nothing to check early
+    def check_options(cls, **config: Any) -> None:
+        """Validate options without opening (a service checks its configuration at start);
+        raises the error opening would. The default checks nothing."""
+
     # --- the API ----------------------------------------------------------------------------
     def recv(self, timeout: float | None = None) -> MonitorRecord | None:
         """The next record that passes the filters, or None on time-out or end of stream."""
@@ -213,7 +219,7 @@ def backend_class(name: str) -> type[BusMonitor]:
     if name in BACKENDS:
         module_name, class_name = BACKENDS[name]
     else:
-        target = entry_point_backends().get(name)
+        target = plugin_backends().get(name)
         if target is None:
             raise BackendUnavailable(
                 f"unknown backend {name!r}; known: {', '.join(available_backends())}")
@@ -247,9 +253,14 @@ def open_monitor(backend: str, **config: Any) -> BusMonitor:
 def check_options(name: str, cls: type[BusMonitor], config: dict[str, Any]) -> None:
     """Raise :class:`~drivers.errors.BackendOptionError` naming the options ``cls`` does not
     take (with those it does) or the required ones ``config`` lacks."""
-    params = [p for p in inspect.signature(cls.__init__).parameters.values()
+    signature = inspect.signature(cls.__init__).parameters.values()
+    params = [p for p in signature
               if p.name != "self" and p.kind in (p.KEYWORD_ONLY, p.POSITIONAL_OR_KEYWORD)]
     known = {p.name for p in params}
+    own_check = cls.check_options.__func__ is not BusMonitor.check_options.__func__  # type: ignore[attr-defined]
+    if own_check and any(p.kind == p.VAR_KEYWORD for p in signature):
+        cls.check_options(**config)   # a backend that takes more options checks them itself
+        return
     unknown = sorted(set(config) - known)
     if unknown:
         takes = ", ".join(sorted(known - {"filters"})) or "none"

@@ -17,7 +17,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from mapr_daemon.ema.params import default_actuator_path, load_actuator
+from mapr_daemon.ema.params import default_actuator_path, load_actuator, with_sample_rate
 from mapr_daemon.reasoner.dictionary import DictionarySpec
 
 
@@ -36,6 +36,9 @@ def add_subparser(subparsers: Any) -> None:
     b.add_argument("-o", "--output", required=True, type=Path)
     b.add_argument("--spec", type=Path, help="dictionary spec YAML (default: shipped)")
     b.add_argument("--actuator", type=Path, help="actuator YAML (default: aileron-uav)")
+    b.add_argument("--sample-rate", type=float, default=None, metavar="HZ",
+                   help="the sensors' sample rate on your bus (default: the actuator file's); "
+                        "e.g. 1000 for the elevator of configs/icd/ema-testbed-two-ema.yaml")
     b.add_argument("--jobs", type=jobs, default=None, metavar="N",
                    help="worker threads (default: the cores this process may use)")
     b.set_defaults(func=run_build)
@@ -69,6 +72,8 @@ def run_build(args: argparse.Namespace) -> int:
 
     spec = DictionarySpec.load(args.spec or default_spec_path())
     params = load_actuator(args.actuator or default_actuator_path())
+    if args.sample_rate is not None:   # the BIT record is sampled at the bus's rate
+        params = with_sample_rate(params, args.sample_rate)
     workers = resolve(args.jobs)
     start = time.monotonic()
     cpu = time.process_time()

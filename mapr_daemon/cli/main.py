@@ -62,6 +62,12 @@ SUBCOMMANDS: dict[str, str] = {
 }
 """Modules of :mod:`mapr_daemon.cli` that add a subcommand -> their one-line help, in help
 order."""
+MODULES: dict[str, str] = {
+    "demo": "mapr_daemon.testbed.cli_demo",
+    "simulate": "mapr_daemon.testbed.cli_simulate",
+}
+"""Subcommands whose module is not ``mapr_daemon.cli.<name>``: the simulator's front ends
+live in :mod:`mapr_daemon.testbed` (nothing outside it imports the simulator)."""
 
 
 class OneLineParser(argparse.ArgumentParser):
@@ -85,7 +91,7 @@ def build_parser(commands: Iterable[str] | None = None) -> argparse.ArgumentPars
     subparsers.required = True
     for name, summary in SUBCOMMANDS.items():
         if name in wanted:
-            module = importlib.import_module(f"mapr_daemon.cli.{name}")
+            module = importlib.import_module(MODULES.get(name, f"mapr_daemon.cli.{name}"))
             module.add_subparser(subparsers)
         else:
             subparsers.add_parser(name, help=summary, add_help=False)

@@ -44,6 +44,21 @@ class BackendConfig:
 
 
 @dataclasses.dataclass(frozen=True)
+class TestbedActuator:
+    """One EMA the simulated aircraft flies (``testbed.actuators[]``)."""
+
+    __test__ = False
+
+    name: str
+    rt: int
+    actuator: str
+    """Its actuator file; the plant runs at the rate of its fast block in the ICD."""
+    fault: str | None = None
+    """An EMA fault to seed on this actuator (None: healthy)."""
+    seed: int = 1
+
+
+@dataclasses.dataclass(frozen=True)
 class TestbedConfig:
     """The simulated aircraft flown on the ``loopback`` backend (ignored by other backends)."""
 
@@ -61,6 +76,16 @@ class TestbedConfig:
     bit_level: bool = False
     fill_bus: bool = False
     """Add filler transfers to a spare RT so the bus is loaded to ~100 % (a load test)."""
+    actuators: tuple[TestbedActuator, ...] = ()
+    """The EMAs flown on one bus, each with its own fault and seed; empty: one, the first
+    asset's (name, RT, actuator file), with ``fault`` and ``seed`` above."""
+
+    def flown(self, assets: tuple[AssetConfig, ...]) -> tuple[TestbedActuator, ...]:
+        """The EMAs this testbed flies: :attr:`actuators`, or the single-EMA default."""
+        if self.actuators:
+            return self.actuators
+        first = assets[0]
+        return (TestbedActuator(first.name, first.rt, first.actuator, self.fault, self.seed),)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -212,6 +237,8 @@ def _section(r: _Reader, root: Node, key: str, cls: type[Any],
     kwargs = {}
     for name, value in raw.items():
         kind, opts = spec[name]
+        if kind == "skip":   # a list parsed by its own reader
+            continue
         assert isinstance(node, Node)
         kwargs[name] = r.value(node, name, f"{key}.", value, kind, **opts)
     return cls(**kwargs)
@@ -231,11 +258,16 @@ def parse(raw: Any, path: str, *, preflight: bool = False) -> Config:
         "name": ("str", {"choices": tuple(available_backends())}),
         "options": ("dict", {}), "retry_initial_s": ("float", {"minimum": 0.01}),
         "retry_max_s": ("float", {"minimum": 0.01})})
+    testbed_node = raw.get("testbed")
+    actuators = _testbed_actuators(r, testbed_node)
     testbed = _section(r, raw, "testbed", TestbedConfig, {
+        "actuators": ("skip", {}),
         "profile": ("str", {"choices": PROFILES}), "condition": ("str", {}),
         "duration_s": ("float", {"minimum": 0.01, "optional": True}),
         "fault": ("str", {"optional": True}), "seed": ("int", {"minimum": 0}),
         "realtime": ("bool", {}), "bit_level": ("bool", {}), "fill_bus": ("bool", {})})
+    if actuators:
+        testbed = dataclasses.replace(testbed, actuators=actuators)
     reasoner = _section(r, raw, "reasoner", ReasonerConfig, {
         "dictionary": ("path", {"optional": True}),
         "threshold": ("float", {"minimum": 1e-9, "optional": True}), "paper": ("bool", {})})
@@ -292,6 +324,33 @@ def _assets(r: _Reader, root: Node, value: Any) -> tuple[AssetConfig, ...]:
             if key in raw:
                 extra[key] = r.value(item, key, prefix, raw[key], "path", optional=True)
         out.append(AssetConfig(name=name, rt=rt, **extra))
+    return tuple(out)
+
+
+def _testbed_actuators(r: _Reader, node: Any) -> tuple[TestbedActuator, ...]:
+    """``testbed.actuators``: the EMAs flown, each {name, rt, actuator, fault, seed}."""
+    if not isinstance(node, Node) or "actuators" not in node:
+        return ()
+    value = node.get("actuators")
+    if not isinstance(value, list) or not value:
+        raise r.error(node, "actuators", "testbed.",
+                      "expected a non-empty list of {name, rt, actuator, fault, seed}")
+    out: list[TestbedActuator] = []
+    for i, item in enumerate(value):
+        prefix = f"testbed.actuators[{i}]."
+        raw = r.mapping(item, TestbedActuator, prefix, node, "actuators")
+        assert isinstance(item, Node)
+        for key in ("name", "rt", "actuator"):
+            if key not in raw:
+                raise r.error(item, key, prefix, "missing")
+        rt = r.value(item, "rt", prefix, raw["rt"], "int", minimum=0)
+        if rt > 30 or any(a.rt == rt for a in out):
+            raise r.error(item, "rt", prefix, f"expected a free RT address 0..30, got {rt}")
+        out.append(TestbedActuator(
+            name=r.value(item, "name", prefix, raw["name"], "str"), rt=rt,
+            actuator=r.value(item, "actuator", prefix, raw["actuator"], "path"),
+            fault=r.value(item, "fault", prefix, raw.get("fault"), "str", optional=True),
+            seed=r.value(item, "seed", prefix, raw.get("seed", 1), "int", minimum=0)))
     return tuple(out)
 
 

@@ -74,3 +74,12 @@ def not_in_icd(signals: Mapping[str, str], icd: Icd) -> list[str]:
 def by_role(signals: Mapping[str, str]) -> dict[str, str]:
     """Reasoner channel or role -> ICD signal (the mapping turned round)."""
     return {channel: signal for signal, channel in signals.items()}
+
+
+TWO_EMA_ELEVATOR_SIGNALS: dict[str, str] = {
+    (signal if channel == PRESSURE else f"elevator_{signal}"): channel
+    for signal, channel in DEFAULT_SIGNALS.items()}
+"""ICD signal -> reasoner channel or role of the second actuator (the elevator EMA, RT 7) of
+``configs/icd/ema-testbed-two-ema.yaml``: the aileron's names prefixed ``elevator_``, and the
+air-data computer's dynamic pressure shared by both (the first actuator's wiring there is
+:data:`DEFAULT_SIGNALS`)."""

@@ -44,7 +44,7 @@ def test_commands_options_and_their_values(bash_script: Path) -> None:
         complete(bash_script, "mapr", ""))
     assert complete(bash_script, "mapr", "monitor", "--ba") == ["--backend"]
     assert complete(bash_script, "mapr", "monitor", "--backend", "") == [
-        "capture", "chapter10", "loopback", "serial", "usb"]
+        "capture", "chapter10", "loopback", "serial", "testbed", "usb"]
     assert complete(bash_script, "mapr", "monitor", "--error", "par") == ["parity"]
     assert "BC_RT" in complete(bash_script, "mapr", "monitor", "--rt", "5", "--format", "BC")
 

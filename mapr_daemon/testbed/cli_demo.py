@@ -1,4 +1,5 @@
-"""``mapr demo``: the main job on the simulated aircraft, end to end.
+"""``mapr demo``: the main job on the simulated aircraft, end to end (a simulator front end:
+it lives in the testbed, and ``mapr`` registers it by module path).
 
 A JSBSim flight (the c172x, trimmed at a flight condition, with bank manoeuvres) drives the
 flight control computer, which commands the aileron EMA over the loopback 1553 bus and asks
@@ -100,9 +101,8 @@ def seeded_faults(texts: list[str] | None) -> FaultSet:
 
 
 def run(args: argparse.Namespace) -> int:
-    # The loopback bus loads numba kernels: imported when the demo runs, not for `mapr demo
-    # --help`. The simulator, imported by its front end only: nothing else outside
-    # mapr_daemon/testbed imports it (docs/testbed.md).
+    # The loopback bus loads numba kernels, JSBSim is slow to load: imported when the demo
+    # runs, not for `mapr demo --help`.
     from drivers.backends.loopback import LoopbackMonitor
     from mapr_daemon.testbed.aircraft import Aircraft
     from mapr_daemon.testbed.profiles_jsbsim import jsbsim_flight

@@ -113,7 +113,7 @@ def _profile(kind: str, cond: str, rate: float, duration: float, seed: int,
     """The flight: the actuator's BIT motion at a condition, or a JSBSim flight."""
     if kind == "bit":
         return bit_profile(rate, cond, bit)
-    if kind == "jsbsim":  # the simulator, imported by this front end only (docs/testbed.md)
+    if kind == "jsbsim":  # imported when used: JSBSim is slow to load
         from mapr_daemon.testbed.profiles_jsbsim import jsbsim_flight
         return jsbsim_flight(rate, cond, duration, seed=seed)
     raise ConfigError(f"unknown profile {kind!r} (bit, jsbsim)", field="profile")
@@ -203,7 +203,7 @@ def run(args: argparse.Namespace) -> int:
             spec = RunSpec(params, faults, seed=args.seed, ambient_c=args.ambient,
                            bus_v=args.bus_voltage)
         else:
-            from mapr_daemon.testbed.mismatch import draw_unit  # the simulator's units
+            from mapr_daemon.testbed.mismatch import draw_unit  # imported when used
             unit = draw_unit(params, args.unit)
             spec = unit.spec(faults, seed=args.seed, ambient_c=args.ambient,
                              bus_v=args.bus_voltage)

@@ -1,0 +1,279 @@
+"""One simulated EMA remote terminal on the loopback bus: its plant, its blocks, its BIT.
+
+An aircraft carries several EMAs on one bus, each at its own RT address. They all speak the
+same interface (the messages of the shipped aileron EMA, RT 5 of
+``configs/icd/ema-testbed.yaml``); the table tells them apart by name: a terminal's messages
+are named ``<terminal>_<role>`` (``ema_fast_block``, ``elevator_fast_block``) and each of
+its parameters carries the shipped EMA's name (``phase_current_a``), or that name prefixed
+with the terminal's (``elevator_phase_current_a``: a table's parameter names are unique).
+:class:`TerminalNames` resolves both, so the terminal code is written once with the shipped
+names.
+
+The plant advances in lockstep with bus time: when the bus controller polls a block at time
+t, the terminal first runs the plant up to t, then hands over the samples the ICD's timing
+rule says it latched (the newest one plant period before t). The plant runs at the rate of
+the terminal's fast block (the ICD's ``sample_rate_hz``).
+
+Built-in test: as a real servo drive does, the EMA stores its BIT motion (the actuator's
+``bit:`` section) and runs it itself when the flight control computer sends
+``INITIATED_BIT`` with a new request sequence number: the profile's first sample is the
+first plant sample after the request arrives, the FCC's position command is ignored until
+the profile ends, and the BIT result reports ``RUNNING`` then ``DONE``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from typing import Any
+
+import numpy as np
+
+from drivers.backends.loopback import RemoteTerminal
+from drivers.mil1553.record import MonitorRecord, TransferFormat
+from mapr_daemon.ema.batch import RunSpec
+from mapr_daemon.ema.bit import bit_profile
+from mapr_daemon.ema.faults import FaultSet
+from mapr_daemon.ema.params import ActuatorParams
+from mapr_daemon.ema.plant import EmaBatch
+from mapr_daemon.icd import Icd, Message
+
+HISTORY_S = 0.2
+"""Sensor history the EMA keeps for its blocks (the slow block spans 50 ms)."""
+
+FAST_CHANNELS = {"dc_link_current": "dc_link_current_a", "phase_current_a": "phase_a_current_a",
+                 "phase_current_b": "phase_b_current_a", "phase_current_c": "phase_c_current_a",
+                 "dc_bus_voltage": "dc_bus_voltage_v", "surface_position": "position_deg"}
+POWER_CHANNELS = {"smps_input_voltage": "smps_input_voltage_v",
+                  "smps_input_current": "smps_input_current_a", "smps_ripple_rms": "ripple_rms_v"}
+SLOW_CHANNELS = {"motor_temperature": "motor_temperature_c",
+                 "power_stage_temperature": "stage_temperature_c"}
+"""Shipped ICD parameter name -> plant channel, per sample block."""
+
+TRANSMIT_ROLES = ("fast_block", "power_block", "slow_block", "position_feedback", "bit_result")
+RECEIVE_ROLES = ("position_command", "bit_request")
+
+
+class TerminalNames:
+    """The ICD names of one EMA terminal's messages and parameters (see the module doc).
+
+    Raises :class:`KeyError` naming what is missing when the RT has no terminal or lacks a
+    message of the EMA interface.
+    """
+
+    def __init__(self, icd: Icd, rt: int) -> None:
+        terminal = next((t for t in icd.terminals if t.address == rt), None)
+        if terminal is None:
+            raise KeyError(f"{icd.name}: no terminal at RT {rt}")
+        self.rt = rt
+        self.prefix = f"{terminal.name}_"
+        self.messages: dict[str, Message] = {}
+        self.parameters: set[str] = set()
+        for m in icd.messages:
+            if m.rt == rt and m.name.startswith(self.prefix):
+                self.messages[m.name[len(self.prefix):]] = m
+                self.parameters.update(p.name for p in m.all_parameters())
+        missing = [r for r in (*TRANSMIT_ROLES, *RECEIVE_ROLES) if r not in self.messages]
+        if missing:
+            raise KeyError(f"{icd.name}: RT {rt} ({terminal.name}) has no message "
+                           + ", ".join(self.prefix + r for r in missing))
+
+    def param(self, shipped: str) -> str:
+        """This terminal's name for the shipped EMA's parameter ``shipped``."""
+        return shipped if shipped in self.parameters else self.prefix + shipped
+
+    def shipped(self, name: str) -> str:
+        """The shipped EMA's name for this terminal's parameter ``name``."""
+        if name not in self.parameters or not name.startswith(self.prefix):
+            return name
+        bare = name[len(self.prefix):]
+        return name if bare in self.parameters else bare
+
+    def values(self, shipped: dict[str, Any]) -> dict[str, Any]:
+        """A message's values keyed by this terminal's names."""
+        return {self.param(k): v for k, v in shipped.items()}
+
+
+def decode_data(icd: Icd, message: Message, data: Sequence[int], t_ns: int) -> dict[str, Any]:
+    """The values in a message's data words, as a terminal that received them reads them."""
+    record = MonitorRecord(t_ns=t_ns, bus="A", format=TransferFormat.BC_RT,
+                           command=message.command, data=tuple(int(d) for d in data))
+    decoded = icd.decode(record)
+    return {} if decoded is None else decoded.as_dict()
+
+
+class EmaTerminal:
+    """An EMA remote terminal: receives commands and BIT requests, streams its sensors."""
+
+    def __init__(self, icd: Icd, params: ActuatorParams, faults: FaultSet, *, seed: int,
+                 dynamic_pressure: Callable[[float], float], rt: int = 5) -> None:
+        self.icd = icd
+        self.names = TerminalNames(icd, rt)
+        self.plant = EmaBatch([RunSpec(params, faults, seed=seed)], powered=True)
+        self.rate_hz = float(params.sensors.sample_rate_hz)
+        self.dynamic_pressure = dynamic_pressure
+        self.command_deg = 0.0
+        self.enabled = True
+        self.samples_done = 0
+        self.history: dict[str, np.ndarray] = {}
+        self.truth_position = 0.0
+        self.counters: dict[str, int] = {}
+        self.history_s = HISTORY_S
+        self.bit_command = bit_profile(self.rate_hz, "ground", params.bit).command_deg
+        """The stored BIT motion (the actuator's ``bit:`` section), one command per plant
+        sample."""
+        self.bit_start: int | None = None
+        """Plant sample index of the running (or last) BIT's first profile sample."""
+        self.bit_state = "IDLE"
+        self.bit_seq: int | None = None
+        self.bits_run = 0
+
+    @property
+    def rt(self) -> int:
+        return self.names.rt
+
+    @property
+    def bit_running(self) -> bool:
+        return self.bit_state == "RUNNING"
+
+    # --- the plant --------------------------------------------------------------------------
+    def run_to(self, t_ns: int) -> None:
+        """Advance the plant to bus time ``t_ns`` with the command it holds."""
+        target = int(t_ns * self.rate_hz / 1e9)
+        n = target - self.samples_done
+        if n <= 0:
+            return
+        start_s = self.samples_done / self.rate_hz
+        q = self.dynamic_pressure(start_s)
+        block = self.plant.advance(n, command_deg=self._commands(n), dynamic_pressure_pa=q)
+        keep = int(self.history_s * self.rate_hz)
+        for name, values in block.channels.items():
+            joined = np.concatenate([self.history.get(name, np.zeros(0)), values[0]])
+            self.history[name] = joined[-keep:]
+        self.samples_done = target
+        self.truth_position = float(block.truth["position_true_deg"][0][-1])
+        if self.bit_running and self.bit_start is not None and \
+                self.samples_done >= self.bit_start + self.bit_command.size:
+            self.bit_state = "DONE"
+
+    def _commands(self, n: int) -> np.ndarray:
+        """Position command for the next ``n`` plant samples: the FCC's, or the BIT's."""
+        held = self.command_deg if self.enabled else 0.0
+        commands = np.full(n, held)
+        if self.bit_running and self.bit_start is not None:
+            index = self.samples_done + np.arange(n) - self.bit_start
+            inside = (index >= 0) & (index < self.bit_command.size)
+            commands[inside] = self.bit_command[index[inside]]
+        return commands
+
+    def latest(self, name: str, count: int, step: int = 1) -> list[float]:
+        """The newest ``count`` samples (every ``step``-th), oldest first, latched one sample
+        period before now (the ICD's timing rule)."""
+        series = self.history.get(name, np.zeros(1))
+        series = series[:-1] if series.size > 1 else series
+        picked = series[::-1][::step][:count][::-1]
+        if picked.size < count:
+            picked = np.concatenate([np.full(count - picked.size, picked[0] if picked.size
+                                             else 0.0), picked])
+        return [float(v) for v in picked]
+
+    def _next(self, counter: str) -> int:
+        self.counters[counter] = self.counters.get(counter, 0) + 1
+        return self.counters[counter]
+
+    def _encode(self, role: str, values: dict[str, Any]) -> list[int]:
+        name = self.names.messages[role].name
+        return list(self.icd.encode(name, self.names.values(values), strict=False))
+
+    def _received(self, role: str, t_ns: int, data: Sequence[int]) -> dict[str, Any]:
+        decoded = decode_data(self.icd, self.names.messages[role], data, t_ns)
+        return {self.names.shipped(k): v for k, v in decoded.items()}
+
+    # --- subaddress callbacks -----------------------------------------------------------------
+    def receive_command(self, t_ns: int, data: Sequence[int]) -> None:
+        self.run_to(t_ns)
+        values = self._received("position_command", t_ns, data)
+        self.command_deg = float(values["position_command"])
+        self.enabled = bool(values["drive_enable"])
+
+    def receive_bit_request(self, t_ns: int, data: Sequence[int]) -> None:
+        """Start the stored BIT on a new ``INITIATED_BIT`` request (not while one runs)."""
+        self.run_to(t_ns)
+        values = self._received("bit_request", t_ns, data)
+        seq = int(values.get("bit_request_seq", 0))
+        if values.get("bit_request") != "INITIATED_BIT" or seq == self.bit_seq:
+            return
+        self.bit_seq = seq
+        if not self.bit_running:
+            self.bit_start = self.samples_done
+            self.bit_state = "RUNNING"
+            self.bits_run += 1
+
+    def fast_block(self, t_ns: int) -> list[int]:
+        self.run_to(t_ns)
+        values: dict[str, Any] = {icd_name: self.latest(plant_name, 4)
+                                  for icd_name, plant_name in FAST_CHANNELS.items()}
+        # The drive reports its own state: the Hall sector it commutates in, and its applied
+        # PWM duty as the table carries it, sign-magnitude (direction bit + duty).
+        values["commutation_sector"] = [round(v) for v in
+                                        self.latest("commutation_sector", 4)]
+        duty = self.latest("inverter_duty", 4)
+        values["drive_direction"] = [int(v >= 0) for v in duty]
+        values["pwm_duty"] = [min(1.0, abs(v)) for v in duty]
+        values.update(fast_overrun=0, fast_adc_fault=0, fast_seq=self._next("fast"))
+        return self._encode("fast_block", values)
+
+    def power_block(self, t_ns: int) -> list[int]:
+        self.run_to(t_ns)
+        values: dict[str, Any] = {icd_name: self.latest(plant_name, 4)
+                                  for icd_name, plant_name in POWER_CHANNELS.items()}
+        values["power_seq"] = self._next("power")
+        return self._encode("power_block", values)
+
+    def slow_block(self, t_ns: int) -> list[int]:
+        self.run_to(t_ns)
+        step = max(1, round(self.rate_hz / 100.0))
+        values: dict[str, Any] = {icd_name: self.latest(plant_name, 5, step)
+                                  for icd_name, plant_name in SLOW_CHANNELS.items()}
+        values["slow_seq"] = self._next("slow")
+        return self._encode("slow_block", values)
+
+    def feedback(self, t_ns: int) -> list[int]:
+        self.run_to(t_ns)
+        position = self.latest("position_deg", 2)
+        rate = (position[1] - position[0]) * self.rate_hz
+        echo = self.command_deg
+        if self.bit_running and self.bit_start is not None:
+            index = min(max(self.samples_done - 1 - self.bit_start, 0), self.bit_command.size - 1)
+            echo = float(self.bit_command[index])
+        values = {"position_feedback": position[1], "surface_rate": rate, "ema_ready": 1,
+                  "ema_fault": 0, "at_stop": int(abs(position[1]) > 29.5),
+                  "mode_echo": "POSITION" if self.enabled or self.bit_running else "STANDBY",
+                  "feedback_seq": self._next("feedback"), "command_echo": echo}
+        return self._encode("position_feedback", values)
+
+    def bit_result(self, t_ns: int) -> list[int]:
+        """The drive's own verdict is always a pass: diagnosing the motion is MAPR's job."""
+        self.run_to(t_ns)
+        values = {"bit_pass": 1, "smps_fault": 0, "inverter_fault": 0, "motor_fault": 0,
+                  "position_sensor_fault": 0, "current_sensor_fault": 0, "overtemperature": 0,
+                  "bit_state": self.bit_state, "bit_fault_code": 0}
+        return self._encode("bit_result", values)
+
+    def terminal(self) -> RemoteTerminal:
+        """This EMA as a loopback remote terminal (any other message it receives, such as
+        RT-RT air data, is accepted and ignored)."""
+        m = self.names.messages
+        transmit = {m["fast_block"].subaddress: self.fast_block,
+                    m["power_block"].subaddress: self.power_block,
+                    m["slow_block"].subaddress: self.slow_block,
+                    m["position_feedback"].subaddress: self.feedback,
+                    m["bit_result"].subaddress: self.bit_result}
+        receive: dict[int, Callable[[int, Sequence[int]], None]] = {
+            msg.subaddress: _ignore for msg in m.values() if not msg.transmit}
+        receive[m["position_command"].subaddress] = self.receive_command
+        receive[m["bit_request"].subaddress] = self.receive_bit_request
+        return RemoteTerminal(self.rt, transmit=transmit, receive=receive)
+
+
+def _ignore(t_ns: int, data: Sequence[int]) -> None:
+    """A received message the EMA model does not use."""
