@@ -4,9 +4,13 @@ Once a word's grid is fixed (its *anchor*, the sync's start, in samples), each c
 to the nearest half-bit slot, and crossings are counted per slot and direction, one word
 after another in a compiled kernel (a loop over each word's few dozen crossings, where numpy
 needed a dozen passes over all of them and a table of every word's slots). A good bit has
-exactly one crossing at its middle slot (its direction is the bit: positive-to-negative = 1)
-and at most one at its start slot; a missing mid-bit transition leaves the middle empty, a
-glitch adds a pair. Either way the word is flagged ``manchester``. Where activity stops (or
+exactly one crossing at its middle slot and at most one at its start slot; a missing mid-bit
+transition leaves the middle empty, a glitch adds a pair. Each bit is then checked on its own:
+following the line's polarity from the sync's second half through every counted crossing,
+its two halves must be opposite (the mid-bit transition) and every crossing must go to the
+other polarity; the bit is its first half (positive = 1). Anything else flags the word
+``manchester``: a bit is never guessed from a crossing the line's halves do not confirm, so a
+misread bit cannot hide behind a parity fault. Where activity stops (or
 the next sync starts) gives the number of bits sent: fewer than 17 is ``bit_count_low``, more
 is ``bit_count_high``. Parity is odd over 17 bits.
 """
@@ -95,12 +99,28 @@ def _read(crossings: FloatArray, crossing_level: Int8Array, anchors: FloatArray,
         manchester = False
         ones = 0
         bits = 0
+        # The line's polarity, half-bit by half-bit: the sync's second half, then each
+        # crossing counted in a slot takes it to the crossing's new polarity. A bit is read
+        # from its two halves, which must be opposite (the mid-bit transition) and each
+        # reached consistently (a crossing never goes to the polarity the line already has).
+        line = -int(first_level[word])
         for bit in range(BITS):
             start, mid = 2 * bit, 2 * bit + 1
-            if bit < present and (falling[mid] + rising[mid] != 1 or
-                                  falling[start] + rising[start] > 1):
-                manchester = True
-            one = 1 if falling[mid] > rising[mid] else 0
+            if bit < present:
+                starts = falling[start] + rising[start]
+                if starts > 1 or falling[mid] + rising[mid] != 1:
+                    manchester = True
+                elif starts == 1:
+                    to = 1 if rising[start] else -1
+                    manchester = manchester or to == line
+                    line = to
+                first_half = line
+                to = 1 if rising[mid] else -1
+                manchester = manchester or to == first_half
+                line = to
+                one = 1 if first_half > 0 else 0
+            else:
+                one = 1 if falling[mid] > rising[mid] else 0
             ones += one
             if bit < BITS - 1:
                 bits = (bits << 1) | one
