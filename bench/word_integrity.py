@@ -2,13 +2,13 @@
 
     python bench/word_integrity.py [--words 10000000] [--clean-words 10000000]
                                    [--rates 10e6,...,200e6] [--jitter-ns 150]
-                                   [--clean-jitter-ns 150,125] [--dead-band-ns 0] [--seed N]
+                                   [--clean-jitter-ns 150,100] [--dead-band-ns 0] [--seed N]
 
 Sends ``--words`` corrupted words, split evenly over every corruption kind of
 :mod:`drivers.mil1553.corruption` and every sample rate, each word with every zero crossing
 displaced by up to ±``--jitter-ns`` (the standard's receiver tolerance), and ``--clean-words``
 undamaged words at the lowest rate given (the minimum supported rate) for each jitter of
-``--clean-jitter-ns`` (the standard's limit, and the ±125 ns that rate decodes exactly).
+``--clean-jitter-ns`` (the standard's limit, and the ±100 ns that rate decodes exactly).
 Words are built and decoded in batches (numpy waveforms, the compiled decoder), so 2 x 10^7
 words take minutes. Prints fresh seeds (rerun one with ``--seed``), then per kind and rate
 the words that came out clean and wrong, flagged, clean and right, and lost (nothing
@@ -62,7 +62,7 @@ def main() -> None:
                         help="sample rates, Hz, comma-separated; the first is the minimum")
     parser.add_argument("--jitter-ns", type=float, default=150.0,
                         help="every crossing displaced by up to this (the standard's limit)")
-    parser.add_argument("--clean-jitter-ns", default="150,125",
+    parser.add_argument("--clean-jitter-ns", default="150,100",
                         help="jitters of the clean runs at the minimum rate, comma-separated")
     parser.add_argument("--dead-band-ns", type=float, default=0.0,
                         help="both outputs low this long around each crossing")
