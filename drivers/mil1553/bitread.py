@@ -96,34 +96,33 @@ def _read(crossings: FloatArray, crossing_level: Int8Array, anchors: FloatArray,
                     falling[int(slot) - FIRST_SLOT] += 1
         bits_sent = int(np.floor((stop[word] - anchor) / spus - 3 + 0.25))
         present = min(bits_sent, BITS)
-        manchester = False
         ones = 0
         bits = 0
         # The line's polarity, half-bit by half-bit: the sync's second half, then each
         # crossing counted in a slot takes it to the crossing's new polarity. A bit is read
         # from its two halves, which must be opposite (the mid-bit transition) and each
         # reached consistently (a crossing never goes to the polarity the line already has).
+        # Written without branches on the line's data (a mispredicted branch costs more than
+        # the arithmetic): a crossing's direction is rising - falling (+1, -1, 0 for none),
+        # and a crossing to the polarity the line already has makes their product 1.
         line = -int(first_level[word])
+        bad = 0
         for bit in range(BITS):
             start, mid = 2 * bit, 2 * bit + 1
-            if bit < present:
-                starts = falling[start] + rising[start]
-                if starts > 1 or falling[mid] + rising[mid] != 1:
-                    manchester = True
-                elif starts == 1:
-                    to = 1 if rising[start] else -1
-                    manchester = manchester or to == line
-                    line = to
-                first_half = line
-                to = 1 if rising[mid] else -1
-                manchester = manchester or to == first_half
-                line = to
-                one = 1 if first_half > 0 else 0
-            else:
-                one = 1 if falling[mid] > rising[mid] else 0
+            live = int(bit < present)
+            starts = falling[start] + rising[start]
+            to_start = rising[start] - falling[start]
+            to_mid = rising[mid] - falling[mid]
+            bad |= live & (int(starts > 1) | int(falling[mid] + rising[mid] != 1) |
+                           int(to_start * line == 1))
+            line = to_start + line * (1 - starts)  # the first half (starts is 0 or 1 here)
+            bad |= live & int(to_mid * line == 1)
+            one = int(falling[mid] > rising[mid])  # = first half positive, in a valid bit
+            line = to_mid
             ones += one
             if bit < BITS - 1:
                 bits = (bits << 1) | one
+        manchester = bad != 0
         flags = ERR_MANCHESTER if manchester else 0
         if bits_sent < BITS:
             flags |= ERR_BIT_COUNT_LOW
