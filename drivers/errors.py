@@ -10,6 +10,7 @@ the whole family in one clause and still tell the kinds apart::
         ├── BackendOptionError an option the backend does not take, or one it needs, missing
         ├── BackendError       a backend failed while running (card unplugged, read error)
         ├── CaptureFormatError a capture file that cannot be read at all (names file and cause)
+        │   └── SampleRateError a sample rate the decoder cannot guarantee its words at
         └── MonitorClosed      recv() on a monitor that has been closed
 
 Bad *signal* is never an exception: a malformed word or message is data, returned with
@@ -53,6 +54,11 @@ class BackendError(MonitorError):
 
 class CaptureFormatError(MonitorError):
     """A capture file cannot be read: wrong format, missing metadata, unreadable."""
+
+
+class SampleRateError(CaptureFormatError, ValueError):
+    """A capture's sample rate is outside what the decoder supports (too slow to see every
+    half-bit under the standard's tolerances): refused rather than decoded unreliably."""
 
 
 class MonitorClosed(MonitorError):

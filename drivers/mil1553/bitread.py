@@ -4,9 +4,13 @@ Once a word's grid is fixed (its *anchor*, the sync's start, in samples), each c
 to the nearest half-bit slot, and crossings are counted per slot and direction, one word
 after another in a compiled kernel (a loop over each word's few dozen crossings, where numpy
 needed a dozen passes over all of them and a table of every word's slots). A good bit has
-exactly one crossing at its middle slot (its direction is the bit: positive-to-negative = 1)
-and at most one at its start slot; a missing mid-bit transition leaves the middle empty, a
-glitch adds a pair. Either way the word is flagged ``manchester``. Where activity stops (or
+exactly one crossing at its middle slot and at most one at its start slot; a missing mid-bit
+transition leaves the middle empty, a glitch adds a pair. Each bit is then checked on its own:
+following the line's polarity from the sync's second half through every counted crossing,
+its two halves must be opposite (the mid-bit transition) and every crossing must go to the
+other polarity; the bit is its first half (positive = 1). Anything else flags the word
+``manchester``: a bit is never guessed from a crossing the line's halves do not confirm, so a
+misread bit cannot hide behind a parity fault. Where activity stops (or
 the next sync starts) gives the number of bits sent: fewer than 17 is ``bit_count_low``, more
 is ``bit_count_high``. Parity is odd over 17 bits.
 """
@@ -92,18 +96,33 @@ def _read(crossings: FloatArray, crossing_level: Int8Array, anchors: FloatArray,
                     falling[int(slot) - FIRST_SLOT] += 1
         bits_sent = int(np.floor((stop[word] - anchor) / spus - 3 + 0.25))
         present = min(bits_sent, BITS)
-        manchester = False
         ones = 0
         bits = 0
+        # The line's polarity, half-bit by half-bit: the sync's second half, then each
+        # crossing counted in a slot takes it to the crossing's new polarity. A bit is read
+        # from its two halves, which must be opposite (the mid-bit transition) and each
+        # reached consistently (a crossing never goes to the polarity the line already has).
+        # Written without branches on the line's data (a mispredicted branch costs more than
+        # the arithmetic): a crossing's direction is rising - falling (+1, -1, 0 for none),
+        # and a crossing to the polarity the line already has makes their product 1.
+        line = -int(first_level[word])
+        bad = 0
         for bit in range(BITS):
             start, mid = 2 * bit, 2 * bit + 1
-            if bit < present and (falling[mid] + rising[mid] != 1 or
-                                  falling[start] + rising[start] > 1):
-                manchester = True
-            one = 1 if falling[mid] > rising[mid] else 0
+            live = int(bit < present)
+            starts = falling[start] + rising[start]
+            to_start = rising[start] - falling[start]
+            to_mid = rising[mid] - falling[mid]
+            bad |= live & (int(starts > 1) | int(falling[mid] + rising[mid] != 1) |
+                           int(to_start * line == 1))
+            line = to_start + line * (1 - starts)  # the first half (starts is 0 or 1 here)
+            bad |= live & int(to_mid * line == 1)
+            one = int(falling[mid] > rising[mid])  # = first half positive, in a valid bit
+            line = to_mid
             ones += one
             if bit < BITS - 1:
                 bits = (bits << 1) | one
+        manchester = bad != 0
         flags = ERR_MANCHESTER if manchester else 0
         if bits_sent < BITS:
             flags |= ERR_BIT_COUNT_LOW

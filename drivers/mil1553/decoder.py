@@ -24,9 +24,11 @@ module keeps the streaming state between buffers and calls the kernels once per 
    before the middle crossing must start at or before grid slot 0 and the one after it end at
    or after slot 6; anything else (a long data run) is not a sync.
 4. *Bits.* Crossings are counted per half-bit slot. A good bit has exactly one crossing at
-   its middle slot (its direction is the bit: positive-to-negative = 1) and at most one at its
-   start slot; a missing mid-bit transition leaves the middle empty, a glitch adds a pair.
-   Either way the word is flagged ``manchester`` (:mod:`drivers.mil1553.bitread`).
+   its middle slot and at most one at its start slot, and its two halves, followed from the
+   sync's polarity through those crossings, are opposite (positive then negative = 1); a
+   missing mid-bit transition leaves the middle empty, a glitch adds a pair. Anything else is
+   flagged ``manchester`` (:mod:`drivers.mil1553.bitread`): no bit is guessed, and a half-bit
+   no sample showed (silence between two runs of one polarity) is never filled in.
 5. *Length.* Where activity stops (or the next sync starts) gives the number of bits sent:
    fewer than 17 is ``bit_count_low``, more is ``bit_count_high``. Parity is odd over 17 bits.
 6. *Leftovers.* Activity that no valid sync accounts for (noise, a mangled sync) is reported
@@ -41,7 +43,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from drivers.errors import EncodeError
+from drivers.errors import SampleRateError
 from drivers.mil1553.bitread import read_words
 from drivers.mil1553.edges import (
     FloatArray,
@@ -52,7 +54,6 @@ from drivers.mil1553.edges import (
     line_segments,
     thread_workspace,
 )
-from drivers.mil1553.encoder import MAX_RATE_HZ, MIN_RATE_HZ
 from drivers.mil1553.syncs import find_syncs, unexplained_segments, word_extents
 from drivers.mil1553.wordbatch import (
     BUS_A,
@@ -87,6 +88,17 @@ class DecoderSettings:
     where no legitimate segment can be a single sample."""
 
 
+MIN_DECODE_RATE_HZ = 10e6
+"""The slowest capture decoded. A receiver must accept crossings ±150 ns off (MIL-STD-1553B),
+and a transceiver's receiver outputs are both low for up to ~100 ns around each crossing, so
+a half-bit can show its polarity for only 500 - 2 x 150 - 100 = 100 ns: a sample every 100 ns
+or less is needed for every half-bit to be seen in at least one sample. Slower, a half-bit
+falls between samples and a decoder can only guess it (at 2-8 MS/s guessed bits came out as
+clean words with wrong values), so slower captures are refused (:class:`SampleRateError`)."""
+MAX_DECODE_RATE_HZ = 200e6
+"""The fastest capture decoded: the fastest the integrity campaign (bench/word_integrity.py)
+measured; faster captures are refused the same way (decimate them)."""
+
 BLOCK_SAMPLES = 1 << 20
 """Largest piece of a chunk decoded at once (see :meth:`ManchesterDecoder.feed`)."""
 
@@ -107,9 +119,11 @@ class ManchesterDecoder:
     """
 
     def __init__(self, sample_rate: float, settings: DecoderSettings | None = None) -> None:
-        if not MIN_RATE_HZ <= sample_rate <= MAX_RATE_HZ:
-            raise EncodeError(f"sample rate {sample_rate:g} Hz is outside "
-                              f"{MIN_RATE_HZ:g}-{MAX_RATE_HZ:g}")
+        if not MIN_DECODE_RATE_HZ <= sample_rate <= MAX_DECODE_RATE_HZ:
+            raise SampleRateError(
+                f"sample rate {sample_rate / 1e6:g} MS/s is not supported: the decoder needs "
+                f"{MIN_DECODE_RATE_HZ / 1e6:g}-{MAX_DECODE_RATE_HZ / 1e6:g} MS/s to see every "
+                f"half-bit (see docs/codec.md)")
         self.sample_rate = float(sample_rate)
         self.settings = settings or DecoderSettings()
         spus = self.sample_rate / 1e6
@@ -129,9 +143,6 @@ class ManchesterDecoder:
             glitch = self.sample_rate >= 20e6
         self._glitch_max = 1 if glitch else 0
         self._dropout_max = max(1, math.floor(self.settings.dead_band_max_us * spus))
-        # Below ~12.5 MS/s (a sample of 80 ns or more) a squeezed half-bit pulse can fall
-        # between two samples; two or more silent samples between one polarity mark one.
-        self._missed_pulse_min = 2 if self.sample_rate <= 12.5e6 else 0
         self._pending = np.zeros(0, dtype=np.uint8)
         """The samples not yet decoded for good: the last buffer's tail, and chunks too small
         to decode yet."""
@@ -227,7 +238,6 @@ class ManchesterDecoder:
         spus = self._spus
         seg = line_segments(values, changes, n, bus, work, dropout_max=self._dropout_max,
                             glitch_max=self._glitch_max,
-                            missed_pulse_min=self._missed_pulse_min,
                             dead_band_max=self._dropout_max,
                             half_min=self.settings.sync_half_min_us * spus,
                             span_min=self.settings.sync_span_min_us * spus)

@@ -176,7 +176,7 @@ class Segments:
 
 def line_segments(values: npt.NDArray[np.uint8], changes: IntArray, n: int, bus: int,
                   work: Workspace, *, dropout_max: int, glitch_max: int,
-                  missed_pulse_min: int = 0, dead_band_max: int, half_min: float,
+                  dead_band_max: int, half_min: float,
                   span_min: float) -> Segments:
     """The segments of ``bus`` in a buffer of ``n`` samples, given the capture bytes at the
     shared change points (``values = samples[changes]``); their arrays are views of
@@ -188,14 +188,12 @@ def line_segments(values: npt.NDArray[np.uint8], changes: IntArray, n: int, bus:
       polarity is a drop-out, and a segment of at most ``glitch_max`` samples between two runs
       of the same level is a glitch: both take their neighbours' level. Dead bands (silence
       between opposite polarities) are kept; they are timed as crossings.
-    * At low sample rates a half-bit pulse squeezed by jitter and two dead bands can be
-      shorter than a sample and fall between samples: the line then shows silence between two
-      segments of the same polarity. With ``missed_pulse_min`` > 0, such a silence of at least
-      that many samples (and at most ``dropout_max``) becomes a pulse of the other polarity.
+    * A half-bit pulse that fell between two samples (silence between two segments of the
+      same polarity) is a drop-out too: it is not restored, so the crossings it would have
+      made are missing and the bit reader flags the word (a restored pulse would be a guess).
 
-    Each decision looks at the runs as they were found (not as already repaired), except that
-    a restored pulse takes the opposite of its neighbour's repaired level; runs that end up
-    with their neighbour's level are merged into it.
+    Each decision looks at the runs as they were found (not as already repaired); runs that
+    end up with their neighbour's level are merged into it.
 
     Segments are then timed. A sample is the line state at its instant; a change happened
     between two samples, so a boundary is timed half a sample before the first sample of the
@@ -219,7 +217,7 @@ def line_segments(values: npt.NDArray[np.uint8], changes: IntArray, n: int, bus:
                    work.take("candidates", runs, np.int64),
                    work.take("candidate_crossing", runs, np.int64))
     live, crossings, ends = _segments(
-        starts, levels, runs, n, dropout_max, glitch_max, missed_pulse_min, dead_band_max,
+        starts, levels, runs, n, dropout_max, glitch_max, dead_band_max,
         seg.level, seg.left, seg.right, seg.adjacent_prev, seg.crossings, seg.crossing_level,
         seg.silent_after)
     candidates = _candidates(seg.left[:live], seg.right[:live], seg.adjacent_prev[:live],
@@ -259,7 +257,7 @@ def _bus_runs(values: npt.NDArray[np.uint8], changes: IntArray, line_level: IntA
 
 @kernel
 def _segments(starts: IntArray, levels: IntArray, runs: int, n: int, dropout_max: int,
-              glitch_max: int, missed_pulse_min: int, dead_band_max: int, level: Int8Array,
+              glitch_max: int, dead_band_max: int, level: Int8Array,
               left: FloatArray, right: FloatArray, adjacent: BoolArray, crossings: FloatArray,
               crossing_level: Int8Array, silent_after: FloatArray) -> tuple[int, int, int]:
     """The segments of :func:`line_segments` from the bus's ``runs`` runs, written to the
@@ -292,9 +290,7 @@ def _segments(starts: IntArray, levels: IntArray, runs: int, n: int, dropout_max
                 if length <= longest and before_found == found:
                     short_gap = run_found == 0 and before_found != 0 and \
                         length <= dropout_max
-                    if short_gap and missed_pulse_min > 0 and length >= missed_pulse_min:
-                        fixed = -before_fixed
-                    elif short_gap or (run_found != 0 and length <= glitch_max):
+                    if short_gap or (run_found != 0 and length <= glitch_max):
                         fixed = before_found
             if not have_before or fixed != before_fixed:
                 if have_merged and merged_level != 0:

@@ -65,6 +65,7 @@ def test_truncated_file_decodes_what_is_there_and_flags_the_cut_word(tmp_path: P
     ["decode", str(DATA / "golden-10MSps.bin"), "--words"],
     ["decode", str(DATA / "golden-10MSps.bin"), "--samplerate", "fast", "--words"],
     ["decode", str(DATA / "golden-10MSps.bin"), "--samplerate", "1e3", "--words"],
+    ["decode", str(DATA / "golden-10MSps.bin"), "--samplerate", "8e6", "--words"],
 ])
 def test_bad_file_or_argument_is_one_line_and_exit_2(args: list[str]) -> None:
     result = run_mapr(*args)
