@@ -1,8 +1,10 @@
 """``mapr decode FILE.c10``: a Chapter 10 recording as JSON lines, in file order.
 
 A 1553 message prints as for a capture (:meth:`MonitorRecord.to_json`, plus ``values`` with
-``--icd``), with two more keys: ``channel`` (the Chapter 10 channel ID) and, once the file has
-given a time packet, ``time`` (absolute, ISO 8601). An ARINC 429 word prints as::
+``--icd``; written a batch at a time by :mod:`drivers.chapter10.ms1553_json` and
+:mod:`mapr_daemon.cli.icdview_batch`, byte for byte the same), with two more keys:
+``channel`` (the Chapter 10 channel ID) and, once the file has given a time packet, ``time``
+(absolute, ISO 8601). An ARINC 429 word prints as::
 
     {"t_ns": 362000, "kind": "arinc429", "channel": 9, "bus": 3, "speed": "high",
      "label": "0o012", "sdi": 0, "data": 2000, "ssm": 3, "word": "0xE01F4050", "errors": []}
@@ -15,11 +17,13 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-from typing import Any, TextIO
+from typing import TextIO
 
+from drivers.chapter10.ms1553_json import json_lines
 from drivers.chapter10.reader import Chapter10Reader
 from mapr_daemon.cli import exitcodes
 from mapr_daemon.cli.icdview import IcdView
+from mapr_daemon.cli.icdview_batch import batch_values
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -44,16 +48,11 @@ def decode_chapter10(args: argparse.Namespace, view: IcdView, out: TextIO | None
     reader = Chapter10Reader(args.capture, channels=args.c10_channels, year=args.year)
     reported = 0
     try:
-        for batch in reader:
-            for record in batch.records:
-                line: dict[str, Any] = record.to_json()
-                line["channel"] = record.extra["channel"]
-                if "time" in record.extra:
-                    line["time"] = record.extra["time"]
-                values = view.values(record)
-                if values is not None:
-                    line["values"] = values
-                out.write(json.dumps(line) + "\n")
+        for batch in reader.batches():
+            messages = batch.ms1553
+            if messages is not None:
+                values = None if view.icd is None else batch_values(view.icd, messages)
+                out.write("".join(json_lines(messages, values)))
             if batch.arinc429 is not None:
                 for word in batch.arinc429.to_json():
                     out.write(json.dumps(word) + "\n")

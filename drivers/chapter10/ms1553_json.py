@@ -1,0 +1,82 @@
+"""JSON lines of a whole :class:`~drivers.chapter10.ms1553_batch.Ms1553Batch` at once.
+
+``mapr decode FILE.c10`` prints each 1553 message as ``json.dumps`` of
+:meth:`MonitorRecord.to_json` plus ``channel``, ``time`` and ``values``. Building a dict and
+dumping it per message cost more than reading the file, so here the text is assembled from
+pieces, byte for byte what ``json.dumps`` gives:
+
+* the part fixed by bus, format and command word(s) (``"bus"`` to ``"sa2"``) is formatted
+  once per distinct combination (a flight has a few hundred) and broadcast;
+* words are turned into text once per batch, and each line is one f-string over slices.
+
+Only ``values`` (engineering values from an ICD: floats, labels, flags) still go through
+``json.dumps``, one small dict per decoded message.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from drivers.chapter10.ms1553_batch import FORMATS, Ms1553Batch, error_names
+from drivers.mil1553.words import MODE_SUBADDRESSES
+
+
+def _prefix(bus: int, fmt: int, command: int, command2: int) -> str:
+    """``"bus": ..., "format": ..., "rt": ... "sa2": ..., `` as json.dumps writes them."""
+    out = f'"bus": "{"B" if bus else "A"}", "format": "{FORMATS[fmt]}", '
+    sa = command >> 5 & 31
+    out += f'"rt": {command >> 11 & 31}, "tr": "{"T" if command >> 10 & 1 else "R"}", ' \
+           f'"sa": {sa}, '
+    if sa in MODE_SUBADDRESSES:
+        out += f'"mode_code": {command & 31}, '
+    else:
+        out += f'"wc": {(command & 31) or 32}, '
+    if command2 >= 0:
+        out += f'"rt2": {command2 >> 11 & 31}, "sa2": {command2 >> 5 & 31}, '
+    return out
+
+
+def _errors(mask: int) -> str:
+    return "[" + ", ".join(f'"{name}"' for name in error_names(mask)) + "]"
+
+
+def json_lines(batch: Ms1553Batch, values: Sequence[dict[str, Any] | None] | None = None
+               ) -> list[str]:
+    """One JSON object per message, newline-terminated, as ``mapr decode`` prints them
+    (``values``: per message, the ICD's engineering values or None)."""
+    n = len(batch)
+    if n == 0:
+        return []
+    key = (batch.bus.astype(np.int64) | batch.format.astype(np.int64) << 1
+           | batch.command << 5 | (batch.command2 + 1) << 21)
+    kinds, inverse = np.unique(key, return_inverse=True)
+    prefixes = [_prefix(int(k) & 1, int(k) >> 1 & 15, int(k) >> 5 & 0xFFFF,
+                        (int(k) >> 21) - 1) for k in kinds.tolist()]
+    masks, mask_index = np.unique(batch.errors, return_inverse=True)
+    error_text = [_errors(m) for m in masks.tolist()]
+    words = list(map(str, batch.words.tolist()))
+    status = batch.status.tolist()
+    gaps = batch.gaps_ns.tolist()
+    t_ns = batch.t_ns.tolist()
+    channels = batch.channel.tolist()
+    starts = batch.data_start.tolist()
+    ends = (batch.data_start + batch.data_count).tolist()
+    kept = batch.n_status.tolist()
+    times = [""] * n if batch.time is None else \
+        [f', "time": "{t}"' for t in batch.time.tolist()]
+    extra = [""] * n if values is None else \
+        ["" if v is None else f', "values": {json.dumps(v)}' for v in values]
+    lines = []
+    for i, kind, err in zip(range(n), inverse.tolist(), mask_index.tolist(), strict=True):
+        k = kept[i]
+        data = ", ".join(words[starts[i]:ends[i]])
+        lines.append(
+            f'{{"t_ns": {t_ns[i]}, {prefixes[kind]}"data": [{data}], '
+            f'"status": [{", ".join(map(str, status[i][:k]))}], '
+            f'"gaps_ns": [{", ".join(map(str, gaps[i][:k]))}], "errors": {error_text[err]}, '
+            f'"channel": {channels[i]}{times[i]}{extra[i]}}}\n')
+    return lines
