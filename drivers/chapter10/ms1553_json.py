@@ -20,6 +20,7 @@ from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 
 from drivers.chapter10.ms1553_batch import FORMATS, Ms1553Batch, error_names
 from drivers.mil1553.words import MODE_SUBADDRESSES
@@ -58,25 +59,43 @@ def json_lines(batch: Ms1553Batch, values: Sequence[dict[str, Any] | None] | Non
                         (int(k) >> 21) - 1) for k in kinds.tolist()]
     masks, mask_index = np.unique(batch.errors, return_inverse=True)
     error_text = [_errors(m) for m in masks.tolist()]
-    words = list(map(str, batch.words.tolist()))
-    status = batch.status.tolist()
-    gaps = batch.gaps_ns.tolist()
-    t_ns = batch.t_ns.tolist()
-    channels = batch.channel.tolist()
-    starts = batch.data_start.tolist()
-    ends = (batch.data_start + batch.data_count).tolist()
-    kept = batch.n_status.tolist()
+    data = _data_text(batch)
+    status = _pair_text(batch.status, batch.n_status)
+    gaps = _pair_text(batch.gaps_ns, batch.n_status)
     times = [""] * n if batch.time is None else \
         [f', "time": "{t}"' for t in batch.time.tolist()]
     extra = [""] * n if values is None else \
         ["" if v is None else f', "values": {json.dumps(v)}' for v in values]
-    lines = []
-    for i, kind, err in zip(range(n), inverse.tolist(), mask_index.tolist(), strict=True):
-        k = kept[i]
-        data = ", ".join(words[starts[i]:ends[i]])
-        lines.append(
-            f'{{"t_ns": {t_ns[i]}, {prefixes[kind]}"data": [{data}], '
-            f'"status": [{", ".join(map(str, status[i][:k]))}], '
-            f'"gaps_ns": [{", ".join(map(str, gaps[i][:k]))}], "errors": {error_text[err]}, '
-            f'"channel": {channels[i]}{times[i]}{extra[i]}}}\n')
-    return lines
+    prefix = [prefixes[k] for k in inverse.tolist()]
+    errors = [error_text[k] for k in mask_index.tolist()]
+    return [f'{{"t_ns": {t}, {p}"data": [{d}], "status": [{s}], "gaps_ns": [{g}], '
+            f'"errors": {e}, "channel": {c}{tm}{x}}}\n'
+            for t, p, d, s, g, e, c, tm, x in zip(
+                batch.t_ns.tolist(), prefix, data, status, gaps, errors,
+                batch.channel.tolist(), times, extra, strict=True)]
+
+
+_WORD_TEXT = [str(i) for i in range(1 << 16)]
+_WORD_CHARS = np.array([len(t) for t in _WORD_TEXT], np.int64)
+
+
+def _data_text(batch: Ms1553Batch) -> list[str]:
+    """Each message's data words as ``1, 2, 3``: every word of the batch is joined into
+    one string once, and each message's text is a slice of it."""
+    words = batch.words
+    text = ", ".join(map(_WORD_TEXT.__getitem__, words.tolist())) + ", "
+    ends = np.concatenate([[0], np.cumsum(_WORD_CHARS[words] + 2)])
+    start = ends[batch.data_start]
+    stop = ends[batch.data_start + batch.data_count] - 2
+    stop = np.maximum(stop, start)
+    return [text[a:b] for a, b in zip(start.tolist(), stop.tolist(), strict=True)]
+
+
+def _pair_text(pairs: npt.NDArray[np.int64], kept: npt.NDArray[np.int64]) -> list[str]:
+    """``a, b`` / ``a`` / empty per message (status words or gaps, ``kept`` of the two;
+    values below 2**16), formatted once per distinct value."""
+    key = pairs[:, 0] * (kept > 0) | (pairs[:, 1] * (kept > 1)) << 16 | kept << 32
+    kinds, inverse = np.unique(key, return_inverse=True)
+    text = [", ".join(map(str, (k & 0xFFFF, k >> 16 & 0xFFFF)[:k >> 32]))
+            for k in kinds.tolist()]
+    return [text[k] for k in inverse.tolist()]
