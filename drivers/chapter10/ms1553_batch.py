@@ -36,7 +36,7 @@ from drivers.chapter10.status import (
     SYNC_TYPE_ERROR,
     WORD_COUNT_ERROR,
 )
-from drivers.chapter10.timebase import RTC_NS, Timebase
+from drivers.chapter10.timebase import RTC_NS, Timebase, TimeReference
 from drivers.chapter10.walker import HEADER_BYTES, SECONDARY_HEADER_BYTES, RawPacket, ReadIssue
 from drivers.jit import kernel
 from drivers.mil1553.record import MESSAGE_ERROR_NAMES, MonitorRecord, TransferFormat
@@ -59,6 +59,8 @@ _BLOCK_STATUS_BITS = 0x3E38
 """The block status bits pychapter10 reads (and the per-message path keeps)."""
 _TIMING = BusTiming()
 _EPOCH = datetime(1970, 1, 1)
+NO_EPOCH = np.iinfo(np.int64).min
+"""``Ms1553Batch.epoch_ns`` of a message whose time packets give no full date."""
 
 OK, CUT_SHORT, BAD_LENGTH = 0, 1, 2
 
@@ -119,8 +121,9 @@ class Ms1553Batch:
     ``words[data_start:data_start + data_count]``, its status words ``status[:, :n_status]``
     and its response gaps ``gaps_ns[:, :n_status]``. ``format`` indexes :data:`FORMATS`;
     ``command2`` is -1 when there is none; ``errors`` is a bit set (:data:`ERROR_BIT`).
-    ``time`` (ISO 8601 text) and ``epoch_ns`` are None when the file has given no time
-    packet, or no full date, before these messages.
+    ``time`` (ISO 8601 text, "" where the file has given no time packet yet) and
+    ``epoch_ns`` (:data:`NO_EPOCH` where the time packets give no full date) are None when
+    no message of the batch has one.
     """
 
     t_ns: I64
@@ -168,9 +171,9 @@ class Ms1553Batch:
         n = int(self.n_status[i])
         extra: dict[str, object] = {"block_status": int(self.block_status[i]),
                                     "channel": int(self.channel[i])}
-        if self.time is not None:
+        if self.time is not None and self.time[i]:
             extra["time"] = str(self.time[i])
-        if self.epoch_ns is not None:
+        if self.epoch_ns is not None and self.epoch_ns[i] != NO_EPOCH:
             extra["epoch_ns"] = int(self.epoch_ns[i])
         command2 = int(self.command2[i])
         return MonitorRecord(
@@ -240,10 +243,13 @@ class _Parts:
     channel: list[I64]
     offset: list[I64]
     words: list[npt.NDArray[np.uint16]]
+    ref_id: list[I64]
+    refs: list[TimeReference | None]
     word_total: int = 0
 
 
-def walk_packet(item: RawPacket, parts: _Parts, found: list[ReadIssue]) -> int:
+def walk_packet(item: RawPacket, parts: _Parts, found: list[ReadIssue], timebase: Timebase
+                ) -> int:
     """Add one packet's messages to ``parts`` and its problems to ``issues`` (the same
     problems, in the same words, as :func:`~drivers.chapter10.ms1553.records_from_packet`).
     Returns the number of messages added."""
@@ -289,6 +295,9 @@ def walk_packet(item: RawPacket, parts: _Parts, found: list[ReadIssue]) -> int:
     parts.channel.append(np.full(kept, header.channel_id, np.int64))
     parts.offset.append(np.full(kept, header.offset, np.int64))
     parts.words.append(words[:n_words_total])
+    if not parts.refs or parts.refs[-1] is not timebase.reference:
+        parts.refs.append(timebase.reference)
+    parts.ref_id.append(np.full(kept, len(parts.refs) - 1, np.int64))
     parts.word_total += n_words_total
     return kept
 
@@ -303,7 +312,7 @@ def _message_start(body: npt.NDArray[np.uint8], number: int, length: I64) -> int
 
 
 def new_parts() -> _Parts:
-    return _Parts([], [], [], [], [], [], [], [], [])
+    return _Parts([], [], [], [], [], [], [], [], [], [], [])
 
 
 def build_batch(parts: _Parts, timebase: Timebase, timing: BusTiming | None = None
@@ -367,7 +376,7 @@ def build_batch(parts: _Parts, timebase: Timebase, timing: BusTiming | None = No
     stamp = _signed_delta(rtc, origin) * RTC_NS
     start = np.where(stamp_bit == TIME_TAG_LAST_BIT, stamp - span,
                      np.where(stamp_bit == TIME_TAG_COMMAND_END, stamp - WORD_TIME_NS, stamp))
-    time_text, epoch = _absolute(rtc, start - stamp, timebase)
+    time_text, epoch = _times(parts, rtc, start - stamp)
     return Ms1553Batch(
         t_ns=start, end_ns=start + span, bus=((block & BUS_B) != 0).astype(np.uint8),
         format=fmt.astype(np.uint8), command=command, command2=command2, block_status=block,
@@ -381,13 +390,29 @@ def _signed_delta(rtc: I64, reference: int) -> I64:
     return np.where(delta >= _RTC_HALF, delta - _RTC_MOD, delta)
 
 
-def _absolute(rtc: I64, shift: I64, timebase: Timebase
-              ) -> tuple[npt.NDArray[np.str_] | None, I64 | None]:
+def _times(parts: _Parts, rtc: I64, shift: I64
+           ) -> tuple[npt.NDArray[np.str_] | None, I64 | None]:
+    """Absolute time text and epoch ns of every message, from the time reference in force
+    when its packet was read."""
+    if all(ref is None for ref in parts.refs):
+        return None, None
+    ref_id = np.concatenate(parts.ref_id)
+    text = np.full(rtc.size, "", "<U32")
+    epoch = np.full(rtc.size, NO_EPOCH, np.int64)
+    for number, ref in enumerate(parts.refs):
+        if ref is None:
+            continue
+        rows = np.flatnonzero(ref_id == number)
+        text[rows], some = _absolute(rtc[rows], shift[rows], ref)
+        if some is not None:
+            epoch[rows] = some
+    return text, (None if bool((epoch == NO_EPOCH).all()) else epoch)
+
+
+def _absolute(rtc: I64, shift: I64, ref: TimeReference
+              ) -> tuple[npt.NDArray[np.str_], I64 | None]:
     """:meth:`Timebase.absolute` and :meth:`Timebase.epoch_ns` (moved by ``shift``, from
     the stamp to the message's start) for every message."""
-    ref = timebase.reference
-    if ref is None:
-        return None, None
     delta = _signed_delta(rtc, ref.rtc)
     # timedelta(microseconds=delta / 10) rounds half to even
     whole, tenth = np.divmod(delta, 10)

@@ -9,15 +9,13 @@ pieces, byte for byte what ``json.dumps`` gives:
   once per distinct combination (a flight has a few hundred) and broadcast;
 * words are turned into text once per batch, and each line is one f-string over slices.
 
-Only ``values`` (engineering values from an ICD: floats, labels, flags) still go through
-``json.dumps``, one small dict per decoded message.
+``values`` (engineering values from an ICD) come as text too
+(:mod:`mapr_daemon.cli.icdview_batch`).
 """
 
 from __future__ import annotations
 
-import json
 from collections.abc import Sequence
-from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -45,10 +43,10 @@ def _errors(mask: int) -> str:
     return "[" + ", ".join(f'"{name}"' for name in error_names(mask)) + "]"
 
 
-def json_lines(batch: Ms1553Batch, values: Sequence[dict[str, Any] | None] | None = None
+def json_lines(batch: Ms1553Batch, values: Sequence[str | None] | None = None
                ) -> list[str]:
     """One JSON object per message, newline-terminated, as ``mapr decode`` prints them
-    (``values``: per message, the ICD's engineering values or None)."""
+    (``values``: per message, the JSON text of the ICD's engineering values, or None)."""
     n = len(batch)
     if n == 0:
         return []
@@ -63,9 +61,9 @@ def json_lines(batch: Ms1553Batch, values: Sequence[dict[str, Any] | None] | Non
     status = _pair_text(batch.status, batch.n_status)
     gaps = _pair_text(batch.gaps_ns, batch.n_status)
     times = [""] * n if batch.time is None else \
-        [f', "time": "{t}"' for t in batch.time.tolist()]
+        [f', "time": "{t}"' if t else "" for t in batch.time.tolist()]
     extra = [""] * n if values is None else \
-        ["" if v is None else f', "values": {json.dumps(v)}' for v in values]
+        ["" if v is None else f', "values": {v}' for v in values]
     prefix = [prefixes[k] for k in inverse.tolist()]
     errors = [error_text[k] for k in mask_index.tolist()]
     return [f'{{"t_ns": {t}, {p}"data": [{d}], "status": [{s}], "gaps_ns": [{g}], '

@@ -108,8 +108,9 @@ class Chapter10Reader:
 
     def batches(self, max_messages: int = 8192) -> Iterator[Chapter10Batch]:
         """Like iterating, but consecutive 1553 packets are merged into one batch of up to
-        about ``max_messages`` messages (a time or ARINC 429 packet between them ends a
-        batch, so batches stay in file order and one time reference covers each)."""
+        about ``max_messages`` messages (an ARINC 429 packet between them ends a batch, so
+        batches stay in file order; each message keeps the time reference in force when
+        its packet was read)."""
         return self._batches(merge=max(1, max_messages))
 
     def _batches(self, merge: int) -> Iterator[Chapter10Batch]:
@@ -129,10 +130,6 @@ class Chapter10Reader:
             if self.walker.first_rtc is not None:
                 self.timebase.start(self.walker.first_rtc)
             if header.data_type == TIME_F1:
-                if first is not None:
-                    done = flush()
-                    if done is not None:
-                        yield done
                 try:
                     self.timebase.add_time_packet(item.packet, header.rtc)
                 except (ValueError, OverflowError) as error:  # a date that does not exist
@@ -155,7 +152,7 @@ class Chapter10Reader:
                     continue
                 if first is None:
                     first = (header.offset, header.channel_id)
-                held += walk_packet(item, parts, self._message_issues)
+                held += walk_packet(item, parts, self._message_issues, self.timebase)
                 if held >= merge:
                     done = flush()
                     if done is not None:

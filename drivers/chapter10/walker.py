@@ -19,6 +19,7 @@ from io import BytesIO
 from pathlib import Path
 from typing import Any, BinaryIO
 
+import numpy as np
 from chapter10.c10 import TYPES
 
 from drivers.errors import CaptureFormatError
@@ -110,8 +111,8 @@ def _data_checksum_ok(header: Header, raw: bytes) -> bool:
     start = HEADER_BYTES + (SECONDARY_HEADER_BYTES if header.secondary_header else 0)
     body = raw[start:len(raw) - size]
     body = body[:len(body) - len(body) % size]
-    code = "xBHI"[kind]
-    total = sum(array(code, body)) & (1 << 8 * size) - 1
+    values = np.frombuffer(body, ("u1", "u1", "<u2", "<u4")[kind])
+    total = int(values.sum(dtype=np.uint64)) & (1 << 8 * size) - 1
     stored = int.from_bytes(raw[len(raw) - size:], "little")
     return total == stored
 

@@ -23,7 +23,7 @@ from drivers.chapter10.ms1553_json import json_lines
 from drivers.chapter10.reader import Chapter10Reader
 from mapr_daemon.cli import exitcodes
 from mapr_daemon.cli.icdview import IcdView
-from mapr_daemon.cli.icdview_batch import batch_values
+from mapr_daemon.cli.icdview_batch import batch_values_json
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -51,7 +51,7 @@ def decode_chapter10(args: argparse.Namespace, view: IcdView, out: TextIO | None
         for batch in reader.batches():
             messages = batch.ms1553
             if messages is not None:
-                values = None if view.icd is None else batch_values(view.icd, messages)
+                values = None if view.icd is None else batch_values_json(view.icd, messages)
                 out.write("".join(json_lines(messages, values)))
             if batch.arinc429 is not None:
                 for word in batch.arinc429.to_json():

@@ -9,9 +9,11 @@ per message is the same dict, key for key.
 
 from __future__ import annotations
 
-from typing import Any
+import json
+from functools import lru_cache
 
 import numpy as np
+import numpy.typing as npt
 
 from drivers.chapter10.ms1553_batch import FORMATS, Ms1553Batch
 from drivers.mil1553.record import TransferFormat
@@ -26,10 +28,11 @@ for _code, _fmt in enumerate(FORMATS):
                                  TransferFormat.BCAST_RT_RT)
 
 
-def batch_values(icd: Icd, batch: Ms1553Batch) -> list[dict[str, Any] | None]:
-    """Per message: ``{"message": name, parameter: value..., "flags": {...}}`` or None."""
+def batch_values_json(icd: Icd, batch: Ms1553Batch) -> list[str | None]:
+    """Per message: the JSON text of ``{"message": name, parameter: value..., "flags":
+    {...}}`` (what ``json.dumps`` of :meth:`IcdView.values` gives), or None."""
     n = len(batch)
-    out: list[dict[str, Any] | None] = [None] * n
+    out: list[str | None] = [None] * n
     decodable = _DECODABLE[batch.format]
     pairs = batch.command << 17 | (batch.command2 + 1)
     names = np.full(n, -1, np.int64)
@@ -46,40 +49,62 @@ def batch_values(icd: Icd, batch: Ms1553Batch) -> list[dict[str, Any] | None]:
         names[decodable & (pairs == pair)] = index[message.name]
     for code, message in enumerate(messages):
         members = np.flatnonzero(names == code)
-        empty = members[batch.data_count[members] == 0]
-        for i in empty.tolist():
-            out[i] = {"message": message.name}
+        head = "{" + f'"message": {json.dumps(message.name)}'
+        for i in members[batch.data_count[members] == 0].tolist():
+            out[i] = head + "}"
         members = members[batch.data_count[members] > 0]
-        if not members.size:
-            continue
-        wc = message.word_count
-        length = np.minimum(batch.data_count[members], wc)
-        columns = np.arange(wc)
-        present = columns[None, :] < length[:, None]
-        at = np.where(present, batch.data_start[members, None] + columns[None, :], 0)
-        data = np.where(present, batch.words[at], 0).astype(np.uint16)
-        series = icd.decode_block(message.name, data, length.astype(np.intp),
-                                  batch.t_ns[members], batch.errors[members] != 0)
-        group = {c.name for c in message.group.channels} if message.group else set()
-        columns_out = []
-        for name, s in series.items():
-            width = len(s) // members.size
-            if s.parameter.labels:
-                items = [s.parameter.label(r) or v for v, r in
-                         zip(s.value.tolist(), s.raw.tolist(), strict=True)]
-            else:
-                items = s.value.tolist()
-            flags = s.flags.reshape(members.size, width)
-            flagged = set(np.flatnonzero(flags.any(axis=1)).tolist())
-            columns_out.append((name, name in group, width, items, flags, flagged))
-        for j, i in enumerate(members.tolist()):
-            values: dict[str, Any] = {"message": message.name}
-            marks: dict[str, list[str]] = {}
-            for name, is_group, width, items, flags, flagged in columns_out:
-                values[name] = items[j * width:(j + 1) * width] if is_group else items[j * width]
-                if j in flagged:
-                    marks[name] = sorted({f for v in flags[j].tolist() for f in flag_names(v)})
-            if marks:
-                values["flags"] = marks
-            out[i] = values
+        if members.size:
+            for i, text in zip(members.tolist(), _message_json(icd, message, batch, members),
+                               strict=True):
+                out[i] = head + text
     return out
+
+
+def _message_json(icd: Icd, message: Message, batch: Ms1553Batch,
+                  members: npt.NDArray[np.intp]) -> list[str]:
+    """The text after ``"message": name`` for each of ``members`` (all of ``message``)."""
+    wc = message.word_count
+    length = np.minimum(batch.data_count[members], wc)
+    columns = np.arange(wc)
+    present = columns[None, :] < length[:, None]
+    at = np.where(present, batch.data_start[members, None] + columns[None, :], 0)
+    data = np.where(present, batch.words[at], 0).astype(np.uint16)
+    series = icd.decode_block(message.name, data, length.astype(np.intp),
+                              batch.t_ns[members], batch.errors[members] != 0)
+    group = {c.name for c in message.group.channels} if message.group else set()
+    count = members.size
+    cells: list[list[str]] = []
+    marks: list[list[str]] = [[] for _ in range(count)]
+    for name, s in series.items():
+        key = json.dumps(name)
+        width = len(s) // count
+        text = _numbers(s.value)
+        if s.parameter.labels:
+            for place, code in enumerate(s.raw.tolist()):
+                label = s.parameter.label(code)
+                if label:
+                    text[place] = json.dumps(label)
+        if name in group:
+            cells.append([f"{key}: [{', '.join(text[j * width:(j + 1) * width])}]"
+                          for j in range(count)])
+        else:
+            cells.append([f"{key}: {t}" for t in text[::width]])
+        union = np.bitwise_or.reduce(s.flags.reshape(count, width), axis=1)
+        for j in np.flatnonzero(union).tolist():
+            marks[j].append(f"{key}: {_flag_list(int(union[j]))}")
+    return [", " + ", ".join(row) + (", \"flags\": {" + ", ".join(m) + "}" if m else "") + "}"
+            for row, m in zip(zip(*cells, strict=True), marks, strict=True)]
+
+
+def _numbers(values: npt.NDArray[np.float64]) -> list[str]:
+    """Floats as ``json.dumps`` writes them (``repr``; NaN and infinities by name)."""
+    text = list(map(repr, values.tolist()))
+    for at in np.flatnonzero(~np.isfinite(values)).tolist():
+        value = float(values[at])
+        text[at] = "NaN" if value != value else ("Infinity" if value > 0 else "-Infinity")
+    return text
+
+
+@lru_cache(maxsize=256)
+def _flag_list(bits: int) -> str:
+    return json.dumps(sorted(flag_names(bits)))
