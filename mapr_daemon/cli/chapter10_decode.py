@@ -9,6 +9,10 @@ A 1553 message prints as for a capture (:meth:`MonitorRecord.to_json`, plus ``va
     {"t_ns": 362000, "kind": "arinc429", "channel": 9, "bus": 3, "speed": "high",
      "label": "0o012", "sdi": 0, "data": 2000, "ssm": 3, "word": "0xE01F4050", "errors": []}
 
+With a filter (``--rt``, ``--sa``, ``--tr``, ``--format``, ``--errors``, ``--error``,
+``--from``, ``--to``) or ``--text``, only 1553 messages print (filtered as numpy masks on each
+batch; see :mod:`mapr_daemon.cli.decode_filter` and :mod:`mapr_daemon.cli.decode_text`).
+
 Damaged packets are skipped and named on stderr with their file offset; decoding goes on.
 """
 
@@ -22,6 +26,8 @@ from typing import TextIO
 from drivers.chapter10.ms1553_json import json_lines
 from drivers.chapter10.reader import Chapter10Reader
 from mapr_daemon.cli import exitcodes
+from mapr_daemon.cli.decode_filter import DecodeFilter
+from mapr_daemon.cli.decode_text import HEADER, text_lines
 from mapr_daemon.cli.icdview import IcdView
 from mapr_daemon.cli.icdview_batch import batch_values_json
 
@@ -36,21 +42,33 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                        help="year of day-of-year time packets (for the absolute 'time')")
 
 
-def decode_chapter10(args: argparse.Namespace, view: IcdView, out: TextIO | None = None,
+def decode_chapter10(args: argparse.Namespace, view: IcdView,
+                     wanted: DecodeFilter | None = None, out: TextIO | None = None,
                      err: TextIO | None = None) -> int:
-    """Print every 1553 message and ARINC 429 word of the file; issues go to ``err``."""
+    """Print the file's 1553 messages (those ``wanted`` keeps; all by default) and ARINC
+    429 words (not with a filter or ``--text``); issues go to ``err``."""
     out = out or sys.stdout
     err = err or sys.stderr
     if args.words:
         err.write("mapr decode: --words applies to bit-level captures, not to Chapter 10 "
                   f"recordings ({args.capture})\n")
         return exitcodes.USAGE
-    reader = Chapter10Reader(args.capture, channels=args.c10_channels, year=args.year)
+    wanted = wanted or DecodeFilter()
+    text = bool(getattr(args, "text", False))
+    only_1553 = wanted.active or text
+    reader = Chapter10Reader(args.capture, channels=args.c10_channels, year=args.year,
+                             arinc429=not only_1553)
     reported = 0
+    if text:
+        out.write(HEADER)
     try:
         for batch in reader.batches():
             messages = batch.ms1553
-            if messages is not None:
+            if messages is not None and wanted.active:
+                messages = messages.take(wanted.mask(messages))
+            if messages is not None and text:
+                out.write("".join(text_lines(messages)))
+            elif messages is not None:
                 values = None if view.icd is None else batch_values_json(view.icd, messages)
                 out.write("".join(json_lines(messages, values)))
             if batch.arinc429 is not None:
