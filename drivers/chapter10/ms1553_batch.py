@@ -184,7 +184,33 @@ class Ms1553Batch:
             end_ns=int(self.end_ns[i]), extra=extra)
 
     def records(self) -> list[MonitorRecord]:
-        return [self.record(i) for i in range(len(self))]
+        """Every message as :meth:`record` builds it (columns turned into lists once)."""
+        n = len(self)
+        words = self.words.tolist()
+        kept = self.n_status.tolist()
+        status = [tuple(row[:k]) for row, k in zip(self.status.tolist(), kept, strict=True)]
+        gaps = [tuple(row[:k]) for row, k in zip(self.gaps_ns.tolist(), kept, strict=True)]
+        times = [None] * n if self.time is None else self.time.tolist()
+        epochs = [NO_EPOCH] * n if self.epoch_ns is None else self.epoch_ns.tolist()
+        out = []
+        for (t, end, bus, fmt, command, command2, block, channel, start, count, state, gap,
+             errors, text, epoch) in zip(
+                self.t_ns.tolist(), self.end_ns.tolist(), self.bus.tolist(),
+                self.format.tolist(), self.command.tolist(), self.command2.tolist(),
+                self.block_status.tolist(), self.channel.tolist(), self.data_start.tolist(),
+                self.data_count.tolist(), status, gaps, self.errors.tolist(), times, epochs,
+                strict=True):
+            extra: dict[str, object] = {"block_status": block, "channel": channel}
+            if text:
+                extra["time"] = text
+            if epoch != NO_EPOCH:
+                extra["epoch_ns"] = epoch
+            out.append(MonitorRecord(
+                t_ns=t, bus="B" if bus else "A", format=FORMATS[fmt], command=command,
+                data=tuple(words[start:start + count]), status=state, gaps_ns=gap,
+                errors=error_names(errors), command2=None if command2 < 0 else command2,
+                end_ns=end, extra=extra))
+        return out
 
     def take(self, keep: npt.NDArray[np.bool_]) -> Ms1553Batch:
         """The messages where ``keep`` is True (``words`` shared)."""

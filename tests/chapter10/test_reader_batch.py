@@ -57,7 +57,12 @@ def _assert_same(path: Path) -> int:
     assert batched == reference
     assert batch_issues == issues
     merged = Chapter10Reader(path)
-    records = [(r, r.extra) for b in merged.batches(max_messages=300) for r in b.records]
+    batches = list(merged.batches(max_messages=300))
+    for batch in batches:
+        if batch.ms1553 is not None:   # one message at a time, as the whole batch
+            one = [batch.ms1553.record(i) for i in range(len(batch.ms1553))]
+            assert [(r, r.extra) for r in one] == [(r, r.extra) for r in batch.records]
+    records = [(r, r.extra) for b in batches for r in b.records]
     assert records == [(r, e) for _, r, e in reference]
     assert [str(i) for i in merged.issues] == issues
     return len(reference)
