@@ -21,7 +21,7 @@ time, so records of different channels are not merged into one time order.
 from __future__ import annotations
 
 from collections.abc import Collection, Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from drivers.chapter10.arinc429 import Arinc429Words, words_from_packet
@@ -52,6 +52,9 @@ class Chapter10Batch:
     ms1553: Ms1553Batch | None = None
     arinc429: Arinc429Words | None = None
     _records: list[MonitorRecord] | None = None
+    arinc429_at: list[tuple[int, Arinc429Words]] = field(default_factory=list)
+    """From :meth:`Chapter10Reader.batches`: ARINC 429 packets met among the merged 1553
+    packets, each with the number of ``ms1553`` messages that came before it in the file."""
 
     @property
     def records(self) -> list[MonitorRecord]:
@@ -108,9 +111,9 @@ class Chapter10Reader:
 
     def batches(self, max_messages: int = 8192) -> Iterator[Chapter10Batch]:
         """Like iterating, but consecutive 1553 packets are merged into one batch of up to
-        about ``max_messages`` messages (an ARINC 429 packet between them ends a batch, so
-        batches stay in file order; each message keeps the time reference in force when
-        its packet was read)."""
+        about ``max_messages`` messages; ARINC 429 packets between them come in the batch's
+        ``arinc429_at`` with their place among its messages; each message keeps the time
+        reference in force when its packet was read."""
         return self._batches(merge=max(1, max_messages))
 
     def _batches(self, merge: int) -> Iterator[Chapter10Batch]:
@@ -118,11 +121,14 @@ class Chapter10Reader:
         first: tuple[int, int] | None = None
         held = 0
 
+        between: list[tuple[int, Arinc429Words]] = []
+
         def flush() -> Chapter10Batch | None:
-            nonlocal parts, first, held
+            nonlocal parts, first, held, between
             batch = build_batch(parts, self.timebase, self.timing)
-            out = None if first is None else Chapter10Batch(first[0], first[1], ms1553=batch)
-            parts, first, held = new_parts(), None, 0
+            out = None if first is None else Chapter10Batch(first[0], first[1], ms1553=batch,
+                                                            arinc429_at=between)
+            parts, first, held, between = new_parts(), None, 0, []
             return out
 
         for item in self.walker:
@@ -158,10 +164,6 @@ class Chapter10Reader:
                     if done is not None:
                         yield done
             elif header.data_type == ARINC429_F0:
-                if first is not None:
-                    done = flush()
-                    if done is not None:
-                        yield done
                 start = HEADER_BYTES + (SECONDARY_HEADER_BYTES if header.secondary_header
                                         else 0)
                 body = item.raw[start + 4:start + header.data_length]
@@ -171,6 +173,13 @@ class Chapter10Reader:
                     self._message_issues.append(ReadIssue(
                         header.offset, f"ARINC 429 packet announces {item.packet.count} words "
                                        f"but holds {len(words)}"))
+                if first is not None and merge > 0:
+                    between.append((held, words))
+                    continue
+                if first is not None:
+                    done = flush()
+                    if done is not None:
+                        yield done
                 yield Chapter10Batch(header.offset, header.channel_id, arinc429=words)
         if first is not None:
             done = flush()

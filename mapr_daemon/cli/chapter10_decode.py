@@ -66,11 +66,18 @@ def decode_chapter10(args: argparse.Namespace, view: IcdView,
             messages = batch.ms1553
             if messages is not None and wanted.active:
                 messages = messages.take(wanted.mask(messages))
+            lines: list[str] = []
             if messages is not None and text:
-                out.write("".join(text_lines(messages)))
+                lines = text_lines(messages)
             elif messages is not None:
                 values = None if view.icd is None else batch_values_json(view.icd, messages)
-                out.write("".join(json_lines(messages, values)))
+                lines = json_lines(messages, values)
+            done = 0
+            for place, words in batch.arinc429_at:   # in file order among the messages
+                out.write("".join(lines[done:place]))
+                out.writelines(json.dumps(word) + "\n" for word in words.to_json())
+                done = place
+            out.write("".join(lines[done:]))
             if batch.arinc429 is not None:
                 for word in batch.arinc429.to_json():
                     out.write(json.dumps(word) + "\n")
