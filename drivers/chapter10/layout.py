@@ -125,19 +125,25 @@ def layout_for(command: int, command2: int | None) -> Layout:
                   ((words + 1, rt),), frozenset(errors))
 
 
-def split_message(words: tuple[int, ...], *, rt_to_rt: bool, timed_out: bool,
-                  gaps_ns: tuple[int, ...] = (), timing: BusTiming | None = None
-                  ) -> SplitMessage:
-    """Split a stored message (``words`` in bus order, at least one) into its parts.
+@dataclass(frozen=True, slots=True)
+class SplitPlan:
+    """Where a stored message's parts sit, from its command word(s), its word count and its
+    time-out flag alone: what :func:`split_message` slices by, and what the batch reader
+    (:mod:`drivers.chapter10.ms1553_batch`) computes once per distinct message shape."""
 
-    ``rt_to_rt`` and ``timed_out`` are the block status word's RR and TM flags; ``gaps_ns``
-    the response gaps in bus order, checked against ``timing`` (early/late response).
-    In every format the data words are one run, so the split is slicing, not a pass per word.
-    """
-    timing = timing or _TIMING
-    n = len(words)
-    command = words[0]
-    command2 = words[1] if rt_to_rt and n > 1 else None
+    format: TransferFormat
+    data_start: int
+    data_count: int
+    status_positions: tuple[tuple[int, int], ...]
+    """(position in the message, RT expected to send it) per status word kept."""
+    expected_words: int
+    errors: frozenset[str]
+
+
+@lru_cache(maxsize=16384)
+def split_plan(command: int, command2: int | None, n: int, timed_out: bool) -> SplitPlan:
+    """The split of an ``n``-word message starting with ``command`` (``command2``: the
+    transmit command of an RT-RT transfer; ``timed_out``: the block status TM flag)."""
     layout = layout_for(command, command2)
     size, start, count = len(layout.roles), layout.data_start, layout.data_count
     statuses = list(layout.status_positions)
@@ -156,9 +162,27 @@ def split_message(words: tuple[int, ...], *, rt_to_rt: bool, timed_out: bool,
     elif n < size:
         statuses = [s for s in statuses if s[0] < n]
         count = max(0, min(start + count, n) - start)
-    data = words[start:start + count]
+    return SplitPlan(layout.format, start, count, tuple(statuses), expected, layout.errors)
+
+
+def split_message(words: tuple[int, ...], *, rt_to_rt: bool, timed_out: bool,
+                  gaps_ns: tuple[int, ...] = (), timing: BusTiming | None = None
+                  ) -> SplitMessage:
+    """Split a stored message (``words`` in bus order, at least one) into its parts.
+
+    ``rt_to_rt`` and ``timed_out`` are the block status word's RR and TM flags; ``gaps_ns``
+    the response gaps in bus order, checked against ``timing`` (early/late response).
+    In every format the data words are one run, so the split is slicing, not a pass per word.
+    """
+    timing = timing or _TIMING
+    n = len(words)
+    command = words[0]
+    command2 = words[1] if rt_to_rt and n > 1 else None
+    plan = split_plan(command, command2, n, timed_out)
+    statuses = plan.status_positions
+    data = words[plan.data_start:plan.data_start + plan.data_count]
     status = tuple(words[pos] for pos, _ in statuses)
-    errors = set(layout.errors)
+    errors = set(plan.errors)
     for word, (_, owner) in zip(status, statuses, strict=True):
         if word >> 11 != owner:
             errors.add("wrong_rt_address")
@@ -171,5 +195,5 @@ def split_message(words: tuple[int, ...], *, rt_to_rt: bool, timed_out: bool,
             errors.add("early_response")
         elif gap > timing.response_max_ns:
             errors.add("late_response")
-    return SplitMessage(layout.format, command, command2, data, status, expected,
+    return SplitMessage(plan.format, command, command2, data, status, plan.expected_words,
                         frozenset(errors))

@@ -19,6 +19,7 @@ from io import BytesIO
 from pathlib import Path
 from typing import Any, BinaryIO
 
+import numpy as np
 from chapter10.c10 import TYPES
 
 from drivers.errors import CaptureFormatError
@@ -110,8 +111,8 @@ def _data_checksum_ok(header: Header, raw: bytes) -> bool:
     start = HEADER_BYTES + (SECONDARY_HEADER_BYTES if header.secondary_header else 0)
     body = raw[start:len(raw) - size]
     body = body[:len(body) - len(body) % size]
-    code = "xBHI"[kind]
-    total = sum(array(code, body)) & (1 << 8 * size) - 1
+    values = np.frombuffer(body, ("u1", "u1", "<u2", "<u4")[kind])
+    total = int(values.sum(dtype=np.uint64)) & (1 << 8 * size) - 1
     stored = int.from_bytes(raw[len(raw) - size:], "little")
     return total == stored
 
@@ -123,7 +124,8 @@ class RawPacket:
     header: Header
     raw: bytes
     packet: Any
-    """The pychapter10 packet object (``MS1553F1``, ``TimeF1``, ``ARINC429F0`` ...)."""
+    """The pychapter10 packet object (``MS1553F1``, ``TimeF1``, ``ARINC429F0`` ...); None
+    for the walker's ``raw_types``."""
 
 
 class PacketWalker:
@@ -133,7 +135,8 @@ class PacketWalker:
     ``position`` and ``size`` tell how far the walk has come (for a progress bar).
     """
 
-    def __init__(self, path: str | Path, data_types: frozenset[int] | None = None) -> None:
+    def __init__(self, path: str | Path, data_types: frozenset[int] | None = None,
+                 raw_types: frozenset[int] = frozenset()) -> None:
         self.path = Path(path)
         try:
             self._file: BinaryIO = self.path.open("rb")
@@ -142,6 +145,9 @@ class PacketWalker:
         self.size = self.path.stat().st_size
         self.position = 0
         self.data_types = data_types
+        self.raw_types = raw_types
+        """Types yielded framed and checked but not parsed (``RawPacket.packet`` None) unless
+        they have a secondary header."""
         self.issues: list[ReadIssue] = []
         self.packets_read = 0
         self.headers_seen = 0
@@ -208,6 +214,11 @@ class PacketWalker:
                                            "room for the channel-specific word (type "
                                            f"0x{header.data_type:02X}, channel "
                                            f"{header.channel_id}); packet skipped")
+                continue
+            if header.data_type in self.raw_types and not header.secondary_header:
+                # (a secondary header's time is pychapter10's to judge, as for other types)
+                self.packets_read += 1
+                yield RawPacket(header, raw, None)
                 continue
             body_end = HEADER_BYTES + header.data_length + \
                 (SECONDARY_HEADER_BYTES if header.secondary_header else 0)

@@ -1,11 +1,17 @@
 """``mapr decode FILE.c10``: a Chapter 10 recording as JSON lines, in file order.
 
 A 1553 message prints as for a capture (:meth:`MonitorRecord.to_json`, plus ``values`` with
-``--icd``), with two more keys: ``channel`` (the Chapter 10 channel ID) and, once the file has
-given a time packet, ``time`` (absolute, ISO 8601). An ARINC 429 word prints as::
+``--icd``; written a batch at a time by :mod:`drivers.chapter10.ms1553_json` and
+:mod:`mapr_daemon.cli.icdview_batch`, byte for byte the same), with two more keys:
+``channel`` (the Chapter 10 channel ID) and, once the file has given a time packet, ``time``
+(absolute, ISO 8601). An ARINC 429 word prints as::
 
     {"t_ns": 362000, "kind": "arinc429", "channel": 9, "bus": 3, "speed": "high",
      "label": "012", "sdi": 0, "data": 2000, "ssm": 3, "word": "0xE01F4050", "errors": []}
+
+With a filter (``--rt``, ``--sa``, ``--tr``, ``--format``, ``--errors``, ``--error``,
+``--from``, ``--to``) or ``--text``, only 1553 messages print (filtered as numpy masks on each
+batch; see :mod:`mapr_daemon.cli.decode_filter` and :mod:`mapr_daemon.cli.decode_text`).
 
 Damaged packets are skipped and named on stderr with their file offset; decoding goes on.
 """
@@ -15,13 +21,14 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-from typing import TYPE_CHECKING, Any, TextIO
+from typing import TYPE_CHECKING, TextIO
 
 from mapr_daemon.cli import exitcodes
 from mapr_daemon.cli.validate import bounded_int
 
 if TYPE_CHECKING:
     from drivers.chapter10.reader import Chapter10Reader
+    from mapr_daemon.cli.decode_filter import DecodeFilter
     from mapr_daemon.cli.icdview import IcdView
 
 
@@ -36,29 +43,47 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                        help="year of day-of-year time packets (for the absolute 'time')")
 
 
-def decode_chapter10(args: argparse.Namespace, view: IcdView, out: TextIO | None = None,
+def decode_chapter10(args: argparse.Namespace, view: IcdView,
+                     wanted: DecodeFilter | None = None, out: TextIO | None = None,
                      err: TextIO | None = None) -> int:
-    """Print every 1553 message and ARINC 429 word of the file; issues go to ``err``."""
+    """Print the file's 1553 messages (those ``wanted`` keeps; all by default) and ARINC
+    429 words (not with a filter or ``--text``); issues go to ``err``."""
     out = out or sys.stdout
     err = err or sys.stderr
     if args.words:
         err.write("mapr decode: --words applies to bit-level captures, not to Chapter 10 "
                   f"recordings ({args.capture})\n")
         return exitcodes.USAGE
+    from drivers.chapter10.ms1553_json import json_lines
     from drivers.chapter10.reader import Chapter10Reader
-    reader = Chapter10Reader(args.capture, channels=args.c10_channels, year=args.year)
+    from mapr_daemon.cli.decode_filter import DecodeFilter
+    from mapr_daemon.cli.decode_text import HEADER, text_lines
+    from mapr_daemon.cli.icdview_batch import batch_values_json
+    wanted = wanted or DecodeFilter()
+    text = bool(getattr(args, "text", False))
+    only_1553 = wanted.active or text
+    reader = Chapter10Reader(args.capture, channels=args.c10_channels, year=args.year,
+                             arinc429=not only_1553)
     reported = 0
+    if text:
+        out.write(HEADER)
     try:
-        for batch in reader:
-            for record in batch.records:
-                line: dict[str, Any] = record.to_json()
-                line["channel"] = record.extra["channel"]
-                if "time" in record.extra:
-                    line["time"] = record.extra["time"]
-                values = view.values(record)
-                if values is not None:
-                    line["values"] = values
-                out.write(json.dumps(line) + "\n")
+        for batch in reader.batches():
+            messages = batch.ms1553
+            if messages is not None and wanted.active:
+                messages = messages.take(wanted.mask(messages))
+            lines: list[str] = []
+            if messages is not None and text:
+                lines = text_lines(messages)
+            elif messages is not None:
+                values = None if view.icd is None else batch_values_json(view.icd, messages)
+                lines = json_lines(messages, values)
+            done = 0
+            for place, words in batch.arinc429_at:   # in file order among the messages
+                out.write("".join(lines[done:place]))
+                out.writelines(json.dumps(word) + "\n" for word in words.to_json())
+                done = place
+            out.write("".join(lines[done:]))
             if batch.arinc429 is not None:
                 for word in batch.arinc429.to_json():
                     out.write(json.dumps(word) + "\n")

@@ -54,8 +54,30 @@ def add_subparser(subparsers: Any) -> None:
                              "messages: a table (default) or JSON lines")
     parser.add_argument("--stats-window", type=positive_seconds, default=1.0, metavar="S",
                         help="bus-load window for --stats, in seconds (default 1)")
+    parser.add_argument("--text", action="store_true",
+                        help="aligned columns for people (time, bus, RT-SA, T/R, wc, status, "
+                             "data in hex, errors) instead of JSON lines")
+    add_filter_arguments(parser)
     chapter10_decode.add_arguments(parser)
     parser.set_defaults(func=run)
+
+
+def add_filter_arguments(parser: argparse.ArgumentParser) -> None:
+    """Monitor's filters, with lists and ranges (:mod:`mapr_daemon.cli.decode_filter`)."""
+    group = parser.add_argument_group("filters (lists and ranges: --rt 1-4,7)")
+    group.add_argument("--rt", metavar="LIST", help="remote terminal addresses, 0-31 (either "
+                                                    "terminal of an RT-RT transfer)")
+    group.add_argument("--sa", metavar="LIST", help="subaddresses, 0-31")
+    group.add_argument("--tr", metavar="T|R", help="transmit or receive command")
+    group.add_argument("--format", dest="fmt", metavar="LIST",
+                       help="transfer formats, e.g. BC_RT,RT_RT")
+    group.add_argument("--errors", action="store_true", help="only messages with errors")
+    group.add_argument("--error", metavar="LIST",
+                       help="only messages with one of these errors, e.g. no_response")
+    group.add_argument("--from", dest="t_from", metavar="SECONDS",
+                       help="only messages starting at or after this bus time")
+    group.add_argument("--to", dest="t_to", metavar="SECONDS",
+                       help="only messages starting before this bus time")
 
 
 def _rate(text: str) -> float:
@@ -82,22 +104,45 @@ def run(args: argparse.Namespace) -> int:
     from drivers.chapter10.walker import looks_like_chapter10
     from drivers.errors import CaptureFormatError
     from drivers.pipeline import SamplePipeline
+    from mapr_daemon.cli.decode_filter import FilterError, filter_from_args
     from mapr_daemon.cli.icdview import IcdView
     from mapr_daemon.cli.render import record_json
 
+    try:
+        wanted = filter_from_args(args)
+    except FilterError as error:
+        print(f"mapr decode: {error}", file=sys.stderr)
+        return exitcodes.USAGE
+    if args.words and (wanted.active or args.text):
+        print("mapr decode: --words prints every word; filters and --text apply to messages",
+              file=sys.stderr)
+        return exitcodes.USAGE
+    if args.text and args.icd:
+        print("mapr decode: --text does not show --icd values; use the JSON lines",
+              file=sys.stderr)
+        return exitcodes.USAGE
     view = IcdView(args.icd)
     if args.capture != "-" and looks_like_chapter10(args.capture):
-        return chapter10_decode.decode_chapter10(args, view)
+        return chapter10_decode.decode_chapter10(args, view, wanted)
     check_capture_file(args.capture, args.samplerate, rate_hint="--samplerate HZ")
+    from mapr_daemon.cli.decode_text import HEADER, record_text
     source = open_capture(args.capture, args.samplerate, args.channels)
     pipeline = SamplePipeline(source.sample_rate)
     out = sys.stdout
 
+    if args.text:
+        out.write(HEADER)
+
     def emit(records: list[MonitorRecord]) -> None:
         if args.words:
             _print_words(pipeline.last_words, out)
-        else:
-            for record in records:
+            return
+        if wanted.active:
+            records = [r for r in records if wanted.matches(r)]
+        for record in records:
+            if args.text:
+                out.write(record_text(record))
+            else:
                 out.write(record_json(record, view.values(record)) + "\n")
 
     try:

@@ -35,6 +35,10 @@ def add_subparser(subparsers: Any) -> None:
     b = sub.add_parser("build", help="simulate fault-seeded BIT runs into a dictionary file")
     b.add_argument("-o", "--output", required=True, type=Path)
     b.add_argument("--spec", type=Path, help="dictionary spec YAML (default: shipped)")
+    b.add_argument("--prognosis", type=Path, metavar="FILE",
+                   help="also build the actuator's prognostic model (degradation estimators, "
+                        "their measured noise, fleet priors) into FILE: what SoH trends and "
+                        "RUL need (assets[].prognosis)")
     b.add_argument("--actuator", type=Path, help="actuator YAML (default: aileron-uav)")
     b.add_argument("--sample-rate", type=float, default=None, metavar="HZ",
                    help="the sensors' sample rate on your bus (default: the actuator file's); "
@@ -92,6 +96,14 @@ def run_build(args: argparse.Namespace) -> int:
           f"pressures, threshold {d.threshold:.1f}, {time.monotonic() - start:.1f} s "
           f"({time.process_time() - cpu:.1f} s CPU on {workers} worker"
           f"{'s' if workers > 1 else ''}, peak memory {peak_rss_mb():.0f} MB)")
+    if args.prognosis is not None:
+        from mapr_daemon.reasoner.wear_model import build_prognostic_model
+        start = time.monotonic()
+        model = build_prognostic_model(d, params, workers=workers)
+        model.save(args.prognosis)
+        unusable = "".join(f"; {k} not trended: {why}" for k, why in model.unobservable.items())
+        print(f"wrote {args.prognosis}: degradation estimators for {', '.join(model.kinds)}"
+              f"{unusable}, {time.monotonic() - start:.1f} s")
     return 0
 
 

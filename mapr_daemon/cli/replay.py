@@ -30,13 +30,8 @@ import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TextIO
 
-from drivers.backends.chapter10 import Chapter10Monitor
-from drivers.chapter10.walker import looks_like_chapter10
-from drivers.errors import CaptureFormatError
-from drivers.monitor import BusStatistics, open_monitor
 from mapr_daemon.cli import exitcodes
 from mapr_daemon.cli.validate import bounded_int
-from mapr_daemon.daemon.clock import BusClock
 from mapr_daemon.errors import CatalogError, ConfigError
 
 if TYPE_CHECKING:
@@ -72,6 +67,13 @@ def add_subparser(subparsers: Any) -> None:
                    metavar="ID", help="replay only this 1553 channel ID (repeat for more)")
     p.add_argument("--year", type=bounded_int(1970, 2199, "year"),
                    help="year of day-of-year time packets")
+    p.add_argument("--tail", help="the aircraft's tail number (default: the config's "
+                                  "aircraft.tail)")
+    p.add_argument("--flight", type=bounded_int(1, 10**7, "flight number"), metavar="N",
+                   help="the recording is this flight of the aircraft (default: flights told "
+                        "from the traffic's gaps, aircraft.flight_gap_s)")
+    p.add_argument("--flight-hours", type=float, metavar="H",
+                   help="with --flight: its length in hours (default: the recording's span)")
     bar = p.add_mutually_exclusive_group()
     bar.add_argument("--progress", action="store_true", default=None,
                      help="show the progress bar even when stderr is not a terminal")
@@ -109,10 +111,17 @@ def run(args: argparse.Namespace) -> int:
     from mapr_daemon.daemon.pipeline import build_pipeline
 
     path = Path(args.recording)
+    if args.flight_hours is not None and (args.flight is None or not args.flight_hours > 0
+                                          or args.flight_hours > 1000):
+        print("mapr replay: --flight-hours needs --flight and a length in (0, 1000] hours",
+              file=sys.stderr)
+        return exitcodes.USAGE
     if args.threshold is not None and not args.threshold > 0:
         print(f"mapr replay: --threshold must be above 0, not {args.threshold}",
               file=sys.stderr)
         return exitcodes.USAGE
+    from drivers.chapter10.walker import looks_like_chapter10
+    from drivers.errors import CaptureFormatError
     if not looks_like_chapter10(path):
         raise CaptureFormatError(f"{path}: not a Chapter 10 recording (no packet header at "
                                  "its start)" if path.is_file() else f"{path}: no such file")
@@ -129,8 +138,10 @@ def run(args: argparse.Namespace) -> int:
                           "reasoner.dictionary in --config)")
     options = {"path": str(path), "channels": args.c10_channels, "speed": args.speed,
                "year": args.year}
+    aircraft = config.aircraft if args.tail is None else \
+        dataclasses.replace(config.aircraft, tail=args.tail)
     config = dataclasses.replace(
-        config, icd=args.icd or config.icd, reasoner=reasoner,
+        config, icd=args.icd or config.icd, reasoner=reasoner, aircraft=aircraft,
         catalog=dataclasses.replace(config.catalog, path=args.catalog or config.catalog.path),
         backend=dataclasses.replace(config.backend, name="chapter10", options=options))
     from mapr_daemon.daemon import logs
@@ -144,6 +155,9 @@ def run(args: argparse.Namespace) -> int:
     except CatalogError as error:
         print(f"mapr replay: {error}", file=sys.stderr)
         return exitcodes.NOINPUT
+    pipe.resume(*catalog.history(config.aircraft.tail))   # continue each actuator's trend
+    if args.flight is not None:
+        pipe.declare_flight(args.flight, args.flight_hours)
     replay = Replay(pipe, catalog, config, path)
     try:
         replay.run(args.progress if args.progress is not None else sys.stderr.isatty())
@@ -160,6 +174,9 @@ class Replay:
     def __init__(self, pipe: Pipeline, catalog: CatalogWriter, config: Config, path: Path
                  ) -> None:
         self.pipe, self.catalog, self.config, self.path = pipe, catalog, config, path
+        from drivers.backends.chapter10 import Chapter10Monitor
+        from drivers.monitor import BusStatistics, open_monitor
+        from mapr_daemon.daemon.clock import BusClock
         self.stats = BusStatistics()
         self.events = 0
         self.error_messages = 0
@@ -201,7 +218,7 @@ class Replay:
             o.event, evidence={**o.event.evidence, "recording": str(self.path)}))
             for o in result.outcomes]
         if outcomes:  # the events, and every BIT's effect on the fault episodes
-            self.events += len(self.catalog.add_bits(outcomes))
+            self.events += len(self.catalog.add_bits(outcomes, result.flights))
 
     def _when(self, bus_ns: int) -> int:
         absolute = self.clock.absolute(bus_ns)
@@ -226,6 +243,7 @@ class Replay:
                 self.catalog.add_stats(first + offset, last + offset, stats)
             else:
                 self.catalog.add_stats(self.started_ns, time.time_ns(), stats)
+        self.catalog.save_flights(self.pipe.pending_flights())
         session = self.catalog.session_id
         self.catalog.close(reason)
         print(self.summary(session, reason))

@@ -121,6 +121,12 @@ class Pipeline:
         self.trending = Trending(self.trending.tail, self.config.aircraft.flight_gap_s,
                                  self.trending.models, history, flights)
 
+    def declare_flight(self, number: int, hours: float | None = None) -> None:
+        """The traffic from now on is this flight (a replay's or fleet run's, known from its
+        file), of ``hours`` (else its span)."""
+        if self.trending is not None:
+            self.trending.log.declare(number, hours)
+
     def process(self, records: Sequence[MonitorRecord], clock: BusClock) -> Batch:
         """Decode and diagnose one batch (records in time order). ``clock`` is the
         session's: it sees the records first, then stamps the events found in them."""

@@ -120,6 +120,7 @@ class Service:
         selector.register(self.doorbell, selectors.EVENT_READ, "work")
         try:
             self.catalog.open_session(backend=cfg.backend.name, config_hash=cfg.digest())
+            self.pipe.resume(*self.catalog.history(cfg.aircraft.tail))  # trends continue
             log.info("mapr %s: session %s, backend %s, ICD %s, catalog %s, reasoner %s",
                      __version__, self.catalog.session_id, cfg.backend.name, cfg.icd,
                      cfg.catalog.path, cfg.reasoner.dictionary or "off (no dictionary)")
@@ -259,7 +260,7 @@ class Service:
             self._catalog(self.catalog.record_gap, at, at,
                           f"reasoner failed on a BIT: {failure.error}")
         if batch.outcomes:  # the events, and every BIT's effect on the fault episodes
-            ids = self._catalog(self.catalog.add_bits, batch.outcomes)
+            ids = self._catalog(self.catalog.add_bits, batch.outcomes, batch.flights)
             if ids:
                 self.events += len(ids)
                 for event_id, event in zip(ids, batch.events, strict=True):
@@ -307,6 +308,9 @@ class Service:
             self._catalog(self.catalog.add_stats, self.interval_start, end, self.interval)
             self._catalog(self.catalog.add_rt_stats, self.interval_start, end,
                           [dataclasses.asdict(row) for row in self.traffic.rows()])
+        flights = self.pipe.pending_flights()
+        if flights:
+            self._catalog(self.catalog.save_flights, flights)
         self.interval = BusStatistics()
         self.traffic = TrafficStatistics()
         self.interval_start = end
@@ -344,6 +348,10 @@ class Service:
             (old.backend, old.testbed, old.icd)
         if restart:
             self._stop_reader()
+        try:
+            pipe.resume(*self.catalog.history(config.aircraft.tail))
+        except CatalogError as error:
+            log.error("catalog: %s (the trends restart empty)", error)
         self.pipe = pipe
         if restart:
             self._start_reader()

@@ -18,6 +18,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 
 from drivers.mil1553.record import MonitorRecord, TransferFormat
 from mapr_daemon.icd.busload import BusLoad, bus_load, frame_slots
@@ -147,6 +148,21 @@ class Icd:
             result.records[name] = len(recs)
             result.data_words += int(length.sum())
         return result
+
+    def match_key(self, command: int, command2: int | None = None) -> Message | None:
+        """The message of a decodable record with these command words (what :meth:`match`
+        gives once the format is known to be one the table can describe)."""
+        message = self._by_key.get(command >> 5)
+        if message is None and command2 is not None:
+            message = self._by_key.get(command2 >> 5)
+        return message
+
+    def decode_block(self, name: str, data: U16, length: IntP, t_ns: npt.NDArray[np.int64],
+                     record_error: npt.NDArray[np.bool_]) -> dict[str, Series]:
+        """Decode records of message ``name`` already stacked as :meth:`decode_batch` stacks
+        them (``data``: n x word count, zero-padded; ``length``: words each record had, at
+        most the word count): parameter name -> series, record-major."""
+        return self._decoders[name].decode(data, length, t_ns, record_error)
 
     # --- encode -------------------------------------------------------------------------
     def encode(self, message: str, values: Mapping[str, Any], *,

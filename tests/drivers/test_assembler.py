@@ -216,3 +216,35 @@ def test_horizon_closes_a_silent_no_response() -> None:
     last_end = int(words["end_ns"][-1])
     (record,) = assembler.feed(empty_words(), horizon_ns=last_end + 15_000)
     assert record.errors == ("no_response",)
+
+
+def test_both_buses_active_marks_what_a_span_by_span_test_marks() -> None:
+    """Overlapping traffic on both buses: each message is flagged exactly when one of the
+    other bus's last 64 spans (recent and this call's) overlaps it, as a plain loop says."""
+    from drivers.mil1553.wordbatch import make_words
+
+    rows = []
+    for k in range(300):   # 2-word BC-RT messages, bus B shifted so some overlap bus A's
+        for bus, shift in ((0, 0), (1, 7_000 + (k // 50) * 200_000)):
+            t = k * 120_000 + shift
+            rows += [(t, bus, 1, 0x2822), (t + 20_000, bus, 0, k), (t + 40_000, bus, 0, 1),
+                     (t + 66_000, bus, 1, 0x2800)]
+    words = make_words(sorted(rows))
+    plain = MessageAssembler()
+    raw: list[MonitorRecord] = []
+    for start in range(0, words.size, 333):
+        raw += plain.feed(words[start:start + 333])
+    flagged = [r for r in raw if "both_buses_active" in r.errors]
+    assert flagged and len(flagged) < len(raw)
+    # the same calls again, each message's flag recomputed span by span
+    again = MessageAssembler()
+    recent: dict[str, list[tuple[int, int]]] = {"A": [], "B": []}
+    for start in range(0, words.size, 333):
+        got = again.feed(words[start:start + 333])
+        spans = {b: [*recent[b], *((r.t_ns, r.end_ns) for r in got if r.bus == b)]
+                 for b in "AB"}
+        for r in got:
+            other = spans["B" if r.bus == "A" else "A"][-64:]
+            expected = any(s < r.end_ns and e > r.t_ns for s, e in other)
+            assert ("both_buses_active" in r.errors) == expected
+        recent = {b: spans[b][-8:] for b in "AB"}

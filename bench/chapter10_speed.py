@@ -1,0 +1,225 @@
+"""Chapter 10 at full speed: file -> records against pychapter10, the JSON writer, decode --icd.
+
+    python bench/chapter10_speed.py [--seconds 60] [--repeat 40] [--seed N]
+
+Files (all made here, in a temporary folder):
+
+* dense: a fully loaded bus of mixed traffic (32-word BC-RT, 16-word RT-BC, RT-RT, mode
+  codes, both buses; bench/recording.py's mix) through the project's writer;
+* sample xN: the real sample recording, its packets of the types pychapter10 knows
+  (pychapter10's iterator stops on the others) repeated N times, when it is next to the
+  repository;
+* icd: the ICD's messages with random words (seeded, printed) at 1 ms intervals, half the
+  messages, the other half traffic it does not describe.
+
+Every figure is CPU time of this process (the machine is shared; wall time beside it) and
+each rate is the best of three runs, measured side by side in one run:
+
+* pychapter10: ``for packet in C10(f): for message in packet`` (1553 packets);
+* MAPR batches: :meth:`Chapter10Reader.batches` with ``arinc429=False`` (1553 records as
+  arrays, as pychapter10's loop yields 1553 messages only; replay reads so); the same with
+  ARINC 429 decoded too (each ARINC packet then ends a 1553 batch, to keep file order, as
+  ``mapr decode`` needs); MAPR records: each message made a MonitorRecord;
+  per-message: ``batched=False`` (pychapter10's parse, one record at a time: the old path);
+* JSON writer: :func:`json_lines` per batch against ``json.dumps`` per record;
+* ``mapr decode`` and ``mapr decode --icd`` on the icd file (in process, to /dev/null),
+  and the per-record ICD path ``decode --icd`` used before (one run).
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import io
+import json
+import os
+import sys
+import tempfile
+import time
+from collections.abc import Callable
+from datetime import datetime
+from pathlib import Path
+
+import numpy as np
+from chapter10 import C10
+from chapter10.c10 import TYPES
+
+from bench.recording import mixed
+from bench.seeds import fresh
+from drivers.chapter10.ms1553_json import json_lines
+from drivers.chapter10.reader import Chapter10Reader
+from drivers.chapter10.walker import PacketWalker
+from drivers.chapter10.writer import Chapter10Writer
+from drivers.mil1553.record import MonitorRecord, TransferFormat
+from mapr_daemon.cli.icdview import IcdView
+from mapr_daemon.cli.main import main as mapr
+from mapr_daemon.icd import load_icd
+
+ROOT = Path(__file__).resolve().parents[1]
+SAMPLE = ROOT / ".." / "shared" / "data" / "chapter10" / "sample.c10"
+ICD = ROOT / "configs" / "icd" / "ema-testbed.yaml"
+
+
+def best(run: Callable[[], int], times: int = 3) -> tuple[float, float, int]:
+    """(CPU s, wall s, items) of the fastest of ``times`` runs (by CPU)."""
+    results = []
+    for _ in range(times):
+        cpu, wall = time.process_time(), time.perf_counter()
+        items = run()
+        results.append((time.process_time() - cpu, time.perf_counter() - wall, items))
+    return min(results)
+
+
+def pychapter10(path: Path) -> int:
+    n = 0
+    for packet in C10(str(path)):
+        if packet.data_type == 0x19:
+            for _ in packet:
+                n += 1
+    return n
+
+
+def mapr_batches(path: Path, arinc429: bool = False) -> int:
+    return sum(len(b.ms1553) for b in Chapter10Reader(path, arinc429=arinc429).batches()
+               if b.ms1553 is not None)
+
+
+def mapr_with_arinc(path: Path) -> int:
+    return mapr_batches(path, arinc429=True)
+
+
+def mapr_records(path: Path) -> int:
+    return sum(len(b.records) for b in Chapter10Reader(path, arinc429=False).batches())
+
+
+def per_message(path: Path) -> int:
+    return sum(len(b.records) for b in Chapter10Reader(path, batched=False))
+
+
+def json_batched(path: Path) -> int:
+    return sum(len(json_lines(b.ms1553)) for b in Chapter10Reader(path).batches()
+               if b.ms1553 is not None)
+
+
+def json_per_record(path: Path) -> int:
+    n = 0
+    for batch in Chapter10Reader(path).batches():
+        for record in batch.records:
+            line = record.to_json()
+            line["channel"] = record.extra["channel"]
+            if "time" in record.extra:
+                line["time"] = record.extra["time"]
+            n += len(json.dumps(line)) > 0
+    return n
+
+
+def decode_icd_per_record(path: Path) -> int:
+    """What ``mapr decode --icd`` did before batches: one ICD decode and one json.dumps
+    per record."""
+    view = IcdView(str(ICD))
+    n = 0
+    for batch in Chapter10Reader(path, batched=False):
+        for record in batch.records:
+            line = record.to_json()
+            line["channel"] = record.extra["channel"]
+            values = view.values(record)
+            if values is not None:
+                line["values"] = values
+            n += len(json.dumps(line)) > 0
+    return n
+
+
+def decode(*argv: str) -> int:
+    with open(os.devnull, "w") as sink, contextlib.redirect_stdout(sink), \
+            contextlib.redirect_stderr(io.StringIO()):
+        assert mapr(["decode", *argv]) == 0
+    return 1
+
+
+def sample_repeated(target: Path, times: int) -> bool:
+    if not SAMPLE.is_file():
+        return False
+    walker = PacketWalker(SAMPLE, frozenset(TYPES))
+    packets = [item.raw for item in walker]
+    walker.close()
+    target.write_bytes(b"".join(packets) * times)
+    return True
+
+
+def icd_traffic(seconds: float, seed: int) -> list[MonitorRecord]:
+    icd = load_icd(ICD)
+    rng = np.random.default_rng(seed)
+    records = []
+    for i in range(int(seconds * 1000)):
+        t = i * 1_000_000
+        if i % 2:
+            message = icd.messages[int(rng.integers(len(icd.messages)))]
+            command, count = message.command, message.word_count
+        else:
+            command = int(rng.integers(20, 28)) << 11 | 2 << 5 | 4
+            count = 4
+        tx = command >> 10 & 1
+        data = tuple(int(w) for w in rng.integers(0, 1 << 16, count))
+        records.append(MonitorRecord(t, "AB"[i % 2], TransferFormat.RT_BC if tx
+                                     else TransferFormat.BC_RT, command, data=data,
+                                     status=(command >> 11 << 11,), gaps_ns=(8_000,)))
+    return records
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--seconds", type=float, default=60.0, help="bus time of each file")
+    parser.add_argument("--repeat", type=int, default=40, help="copies of the sample")
+    parser.add_argument("--seed", type=int, default=None)
+    args = parser.parse_args()
+    seed = fresh(args.seed)
+    print(f"load average at start: {os.getloadavg()[0]:.2f}")
+    with tempfile.TemporaryDirectory() as folder:
+        dense = Path(folder) / "dense.c10"
+        with Chapter10Writer(dense, start_time=datetime(2026, 1, 1)) as writer:
+            writer.write(mixed(args.seconds))
+        files = [("dense", dense)]
+        repeated = Path(folder) / "sample.c10"
+        if sample_repeated(repeated, args.repeat):
+            files.append((f"sample x{args.repeat}", repeated))
+        else:
+            print(f"sample recording not at {SAMPLE}: skipped")
+        icd_file = Path(folder) / "icd.c10"
+        with Chapter10Writer(icd_file, start_time=datetime(2026, 1, 1)) as writer:
+            writer.write(icd_traffic(args.seconds, seed))
+        mapr_batches(dense)   # loads the compiled kernel, imports
+        for name, path in files:
+            size = path.stat().st_size / 2**20
+            print(f"\n{name}: {size:.1f} MiB")
+            rates = {}
+            for label, run in (("pychapter10", pychapter10), ("MAPR batches", mapr_batches),
+                               ("MAPR batches + ARINC 429", mapr_with_arinc),
+                               ("MAPR records", mapr_records),
+                               ("MAPR per-message (old)", per_message)):
+                cpu, wall, n = best(lambda run=run, path=path: run(path))
+                rates[label] = n / cpu
+                print(f"  {label:<24} {n:>9,} messages  {n / cpu:>12,.0f} msg/s CPU "
+                      f"({n / wall:,.0f} wall)")
+            base = rates["pychapter10"]
+            print(f"  ratio to pychapter10: batches {rates['MAPR batches'] / base:.2f}x, "
+                  f"records {rates['MAPR records'] / base:.2f}x, "
+                  f"per-message {rates['MAPR per-message (old)'] / base:.2f}x")
+            cpu_b, _, n = best(lambda path=path: json_batched(path))
+            cpu_r, _, _ = best(lambda path=path: json_per_record(path))
+            print(f"  JSON lines (read + write): batched {n / cpu_b:,.0f} msg/s CPU, "
+                  f"json.dumps per record {n / cpu_r:,.0f} msg/s CPU ({cpu_r / cpu_b:.1f}x)")
+        print(f"\nicd: {icd_file.stat().st_size / 2**20:.1f} MiB, "
+              f"{int(args.seconds * 1000):,} messages")
+        plain, plain_wall, _ = best(lambda: decode(str(icd_file)))
+        with_icd, icd_wall, _ = best(lambda: decode("--icd", str(ICD), str(icd_file)))
+        print(f"  mapr decode        {plain:.2f} s CPU ({plain_wall:.2f} s wall)")
+        print(f"  mapr decode --icd  {with_icd:.2f} s CPU ({icd_wall:.2f} s wall): "
+              f"{with_icd / plain:.2f}x decode")
+        old, old_wall, _ = best(lambda: decode_icd_per_record(icd_file), times=1)
+        print(f"  the per-record --icd path it replaces: {old:.2f} s CPU ({old_wall:.2f} s "
+              f"wall, one run): {old / with_icd:.1f}x slower than decode --icd now")
+    print(f"\nload average at end: {os.getloadavg()[0]:.2f}")
+
+
+if __name__ == "__main__":
+    sys.exit(main())

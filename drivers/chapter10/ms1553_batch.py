@@ -1,0 +1,462 @@
+"""MS1553F1 packets to a struct of arrays, in numpy: :class:`Ms1553Batch`.
+
+:mod:`drivers.chapter10.ms1553` builds one :class:`MonitorRecord` per message from
+pychapter10's parse, which is what costs when a recording is read at full speed. Here the
+packet's bytes are walked once by a compiled kernel (intra-packet headers and words as
+arrays), and the rest is numpy over all the messages of one or more packets:
+
+* the split into command, data and status words depends on the command word(s), the word
+  count and the time-out flag only, so :func:`~drivers.chapter10.layout.split_plan` runs
+  once per distinct shape (a few hundred in a flight) and is broadcast;
+* status-word checks, response-gap checks, block-status error names, time stamps, absolute
+  time and epoch time are array expressions;
+* errors are a bit set over :data:`~drivers.mil1553.record.MESSAGE_ERROR_NAMES`.
+
+The batch gives exactly the records :func:`~drivers.chapter10.ms1553.records_from_packet`
+gives (:meth:`Ms1553Batch.record`, built on demand), and the same problems, word for word.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from datetime import datetime, timedelta
+from functools import lru_cache
+
+import numpy as np
+import numpy.typing as npt
+
+from drivers.chapter10.layout import split_plan
+from drivers.chapter10.ms1553 import TIME_TAG_COMMAND_END, TIME_TAG_LAST_BIT
+from drivers.chapter10.status import (
+    BUS_B,
+    FORMAT_ERROR,
+    INVALID_WORD_ERROR,
+    RESPONSE_TIMEOUT,
+    RT_TO_RT,
+    SYNC_TYPE_ERROR,
+    WORD_COUNT_ERROR,
+)
+from drivers.chapter10.timebase import RTC_NS, Timebase, TimeReference
+from drivers.chapter10.walker import HEADER_BYTES, SECONDARY_HEADER_BYTES, RawPacket, ReadIssue
+from drivers.jit import kernel
+from drivers.mil1553.record import MESSAGE_ERROR_NAMES, MonitorRecord, TransferFormat
+from drivers.mil1553.timing import CONTIGUOUS_GAP_NS, BusTiming
+from drivers.mil1553.wordbatch import WORD_TIME_NS
+
+I64 = npt.NDArray[np.int64]
+FORMATS: tuple[TransferFormat, ...] = tuple(TransferFormat)
+"""``Ms1553Batch.format`` codes index this tuple."""
+_FORMAT_CODE = {f: i for i, f in enumerate(FORMATS)}
+ERROR_BIT = {name: 1 << i for i, name in enumerate(MESSAGE_ERROR_NAMES)}
+"""The bit of each error name in ``Ms1553Batch.errors``."""
+
+_IPH_BYTES = 14
+_RTC_MASK = (1 << 48) - 1
+_RTC_MOD = 1 << 48
+_RTC_HALF = 1 << 47
+_STATUS_RESERVED = 0x00E0
+_BLOCK_STATUS_BITS = 0x3E38
+"""The block status bits pychapter10 reads (and the per-message path keeps)."""
+_TIMING = BusTiming()
+_EPOCH = datetime(1970, 1, 1)
+NO_EPOCH = np.iinfo(np.int64).min
+"""``Ms1553Batch.epoch_ns`` of a message whose time packets give no full date."""
+
+OK, CUT_SHORT, BAD_LENGTH = 0, 1, 2
+
+
+@kernel
+def _walk(body: npt.NDArray[np.uint8], count: int) -> tuple[I64, I64, I64, I64, I64, I64,
+                                                            npt.NDArray[np.uint16], int]:
+    """The messages of one packet body (after the channel-specific word), as pychapter10
+    reads them: at most ``count``, stopping at the end of the body or at a header cut
+    short. Per message: IPTS (48 bits), block status, gap word, length in bytes, where its
+    words start in the returned word array, and OK / CUT_SHORT / BAD_LENGTH."""
+    size = body.size
+    cap = min(count, size // _IPH_BYTES + 1)
+    ipts = np.zeros(cap, np.int64)
+    block = np.zeros(cap, np.int64)
+    gap = np.zeros(cap, np.int64)
+    length = np.zeros(cap, np.int64)
+    first = np.zeros(cap, np.int64)
+    state = np.zeros(cap, np.int64)
+    words = np.zeros(size // 2, np.uint16)
+    nwords = 0
+    pos = 0
+    m = 0
+    while m < count and pos < size:
+        if pos + _IPH_BYTES > size:
+            break
+        stamp = 0
+        for k in range(6):
+            stamp |= int(body[pos + k]) << (8 * k)
+        ipts[m] = stamp
+        block[m] = int(body[pos + 8]) | int(body[pos + 9]) << 8
+        gap[m] = int(body[pos + 10]) | int(body[pos + 11]) << 8
+        n_bytes = int(body[pos + 12]) | int(body[pos + 13]) << 8
+        length[m] = n_bytes
+        start = pos + _IPH_BYTES
+        held = min(n_bytes, size - start)
+        first[m] = nwords
+        if held < n_bytes:
+            state[m] = CUT_SHORT
+        elif n_bytes < 2 or n_bytes % 2:
+            state[m] = BAD_LENGTH
+        else:
+            for k in range(n_bytes // 2):
+                words[nwords + k] = int(body[start + 2 * k]) | int(body[start + 2 * k + 1]) << 8
+            nwords += n_bytes // 2
+        pos = start + n_bytes + (n_bytes & 1)
+        m += 1
+        if state[m - 1] == CUT_SHORT:
+            break
+    return ipts[:m], block[:m], gap[:m], length[:m], first[:m], state[:m], words, nwords
+
+
+@dataclass(frozen=True, slots=True)
+class Ms1553Batch:
+    """The 1553 messages of one or more MS1553F1 packets, one array element per message.
+
+    Words of all messages sit in ``words``, in bus order; a message's data words are
+    ``words[data_start:data_start + data_count]``, its status words ``status[:, :n_status]``
+    and its response gaps ``gaps_ns[:, :n_status]``. ``format`` indexes :data:`FORMATS`;
+    ``command2`` is -1 when there is none; ``errors`` is a bit set (:data:`ERROR_BIT`).
+    ``time`` (ISO 8601 text, "" where the file has given no time packet yet) and
+    ``epoch_ns`` (:data:`NO_EPOCH` where the time packets give no full date) are None when
+    no message of the batch has one.
+    """
+
+    t_ns: I64
+    end_ns: I64
+    bus: npt.NDArray[np.uint8]
+    format: npt.NDArray[np.uint8]
+    command: I64
+    command2: I64
+    block_status: I64
+    channel: I64
+    offset: I64
+    """File offset of the packet each message came from."""
+    data_start: I64
+    data_count: I64
+    status: I64
+    n_status: I64
+    gaps_ns: I64
+    errors: I64
+    words: npt.NDArray[np.uint16]
+    time: npt.NDArray[np.str_] | None
+    epoch_ns: I64 | None
+
+    def __len__(self) -> int:
+        return int(self.t_ns.size)
+
+    @property
+    def rt(self) -> I64:
+        return self.command >> 11 & 31
+
+    @property
+    def tr(self) -> I64:
+        """1 for transmit, 0 for receive."""
+        return self.command >> 10 & 1
+
+    @property
+    def sa(self) -> I64:
+        return self.command >> 5 & 31
+
+    def data(self, i: int) -> tuple[int, ...]:
+        start = int(self.data_start[i])
+        return tuple(self.words[start:start + int(self.data_count[i])].tolist())
+
+    def record(self, i: int) -> MonitorRecord:
+        """Message ``i`` as the record the per-message path builds."""
+        n = int(self.n_status[i])
+        extra: dict[str, object] = {"block_status": int(self.block_status[i]),
+                                    "channel": int(self.channel[i])}
+        if self.time is not None and self.time[i]:
+            extra["time"] = str(self.time[i])
+        if self.epoch_ns is not None and self.epoch_ns[i] != NO_EPOCH:
+            extra["epoch_ns"] = int(self.epoch_ns[i])
+        command2 = int(self.command2[i])
+        return MonitorRecord(
+            t_ns=int(self.t_ns[i]), bus="B" if self.bus[i] else "A",
+            format=FORMATS[self.format[i]], command=int(self.command[i]), data=self.data(i),
+            status=tuple(self.status[i, :n].tolist()), gaps_ns=tuple(self.gaps_ns[i, :n].tolist()),
+            errors=error_names(int(self.errors[i])), command2=None if command2 < 0 else command2,
+            end_ns=int(self.end_ns[i]), extra=extra)
+
+    def records(self) -> list[MonitorRecord]:
+        """Every message as :meth:`record` builds it (columns turned into lists once)."""
+        n = len(self)
+        words = self.words.tolist()
+        kept = self.n_status.tolist()
+        status = [tuple(row[:k]) for row, k in zip(self.status.tolist(), kept, strict=True)]
+        gaps = [tuple(row[:k]) for row, k in zip(self.gaps_ns.tolist(), kept, strict=True)]
+        times = [None] * n if self.time is None else self.time.tolist()
+        epochs = [NO_EPOCH] * n if self.epoch_ns is None else self.epoch_ns.tolist()
+        out = []
+        for (t, end, bus, fmt, command, command2, block, channel, start, count, state, gap,
+             errors, text, epoch) in zip(
+                self.t_ns.tolist(), self.end_ns.tolist(), self.bus.tolist(),
+                self.format.tolist(), self.command.tolist(), self.command2.tolist(),
+                self.block_status.tolist(), self.channel.tolist(), self.data_start.tolist(),
+                self.data_count.tolist(), status, gaps, self.errors.tolist(), times, epochs,
+                strict=True):
+            extra: dict[str, object] = {"block_status": block, "channel": channel}
+            if text:
+                extra["time"] = text
+            if epoch != NO_EPOCH:
+                extra["epoch_ns"] = epoch
+            out.append(MonitorRecord(
+                t_ns=t, bus="B" if bus else "A", format=FORMATS[fmt], command=command,
+                data=tuple(words[start:start + count]), status=state, gaps_ns=gap,
+                errors=error_names(errors), command2=None if command2 < 0 else command2,
+                end_ns=end, extra=extra))
+        return out
+
+    def take(self, keep: npt.NDArray[np.bool_]) -> Ms1553Batch:
+        """The messages where ``keep`` is True (``words`` shared)."""
+        return Ms1553Batch(
+            self.t_ns[keep], self.end_ns[keep], self.bus[keep], self.format[keep],
+            self.command[keep], self.command2[keep], self.block_status[keep],
+            self.channel[keep], self.offset[keep], self.data_start[keep], self.data_count[keep],
+            self.status[keep], self.n_status[keep], self.gaps_ns[keep], self.errors[keep],
+            self.words, None if self.time is None else self.time[keep],
+            None if self.epoch_ns is None else self.epoch_ns[keep])
+
+
+@lru_cache(maxsize=4096)
+def error_names(mask: int) -> tuple[str, ...]:
+    """The sorted error names of a bit set."""
+    return tuple(sorted(name for name, bit in ERROR_BIT.items() if mask & bit))
+
+
+@dataclass(frozen=True, slots=True)
+class _Plan:
+    format: int
+    data_start: int
+    data_count: int
+    n_status: int
+    positions: tuple[int, int]
+    owners: tuple[int, int]
+    expected: int
+    errors: int
+
+
+@lru_cache(maxsize=16384)
+def _plan(key: int) -> _Plan:
+    command, command2 = key & 0xFFFF, (key >> 16 & 0x1FFFF) - 1
+    n, timed_out = key >> 33 & 0x1FFFF, bool(key >> 50 & 1)
+    plan = split_plan(command, None if command2 < 0 else command2, n, timed_out)
+    positions = [p for p, _ in plan.status_positions] + [0, 0]
+    owners = [o for _, o in plan.status_positions] + [-1, -1]
+    mask = 0
+    for name in plan.errors:
+        mask |= ERROR_BIT[name]
+    return _Plan(_FORMAT_CODE[plan.format], plan.data_start, plan.data_count,
+                 len(plan.status_positions), (positions[0], positions[1]),
+                 (owners[0], owners[1]), plan.expected_words, mask)
+
+
+@dataclass
+class _Parts:
+    """Per-packet kernel output gathered before the numpy pass."""
+
+    rtc: list[I64]
+    block: list[I64]
+    gap: list[I64]
+    first: list[I64]
+    n_words: list[I64]
+    stamp_bit: list[I64]
+    channel: list[I64]
+    offset: list[I64]
+    words: list[npt.NDArray[np.uint16]]
+    ref_id: list[I64]
+    refs: list[TimeReference | None]
+    word_total: int = 0
+
+
+def walk_packet(item: RawPacket, parts: _Parts, found: list[ReadIssue], timebase: Timebase
+                ) -> int:
+    """Add one packet's messages to ``parts`` and its problems to ``issues`` (the same
+    problems, in the same words, as :func:`~drivers.chapter10.ms1553.records_from_packet`).
+    Returns the number of messages added."""
+    header = item.header
+    start = HEADER_BYTES + (SECONDARY_HEADER_BYTES if header.secondary_header else 0)
+    csdw = int.from_bytes(item.raw[start:start + 4], "little")
+    count = csdw & 0xFFFFFF
+    body = np.frombuffer(item.raw, np.uint8, header.data_length - 4, start + 4)
+    ipts, block, gap, length, first, state, words, n_words_total = _walk(body, count)
+    issues: list[ReadIssue] = []
+    packet_stamps = header.ipts_source != 0
+    if packet_stamps:
+        issues.append(ReadIssue(header.offset, "message time stamps in secondary-header format "
+                                               "are not supported; the packet's time is used"))
+    problems = np.flatnonzero(state != OK)
+    for number in problems.tolist():
+        n_bytes = int(length[number])
+        if state[number] == CUT_SHORT:
+            held = body.size - int(_message_start(body, number, length))
+            issues.append(ReadIssue(header.offset, f"1553 message {number + 1} cut short "
+                                                   f"({max(held, 0)} of {n_bytes} "
+                                                   "bytes); rest of the packet skipped"))
+        else:
+            issues.append(ReadIssue(header.offset, f"1553 message {number + 1} has an "
+                                                   f"impossible length of {n_bytes} bytes; "
+                                                   "skipped"))
+    keep = state == OK
+    kept = int(np.count_nonzero(keep))
+    cut = problems.size and state[problems[-1]] == CUT_SHORT
+    if kept < count and not issues and not cut:
+        issues.append(ReadIssue(header.offset, f"1553 packet announces {count} messages "
+                                               f"but holds {kept}"))
+    found += issues
+    if not kept:
+        return 0
+    rtc = np.full(kept, header.rtc, np.int64) if packet_stamps else ipts[keep]
+    parts.rtc.append(rtc)
+    parts.block.append(block[keep] & _BLOCK_STATUS_BITS)
+    parts.gap.append(gap[keep])
+    parts.first.append(first[keep] + parts.word_total)
+    parts.n_words.append(length[keep] // 2)
+    parts.stamp_bit.append(np.full(kept, csdw >> 30, np.int64))
+    parts.channel.append(np.full(kept, header.channel_id, np.int64))
+    parts.offset.append(np.full(kept, header.offset, np.int64))
+    parts.words.append(words[:n_words_total])
+    if not parts.refs or parts.refs[-1] is not timebase.reference:
+        parts.refs.append(timebase.reference)
+    parts.ref_id.append(np.full(kept, len(parts.refs) - 1, np.int64))
+    parts.word_total += n_words_total
+    return kept
+
+
+def _message_start(body: npt.NDArray[np.uint8], number: int, length: I64) -> int:
+    """Where message ``number``'s words start in the body (for the cut-short text)."""
+    pos = 0
+    for k in range(number):
+        n = int(length[k])
+        pos += _IPH_BYTES + n + (n & 1)
+    return pos + _IPH_BYTES
+
+
+def new_parts() -> _Parts:
+    return _Parts([], [], [], [], [], [], [], [], [], [], [])
+
+
+def build_batch(parts: _Parts, timebase: Timebase, timing: BusTiming | None = None
+                ) -> Ms1553Batch | None:
+    """The batch of the messages gathered in ``parts`` (None when there are none)."""
+    if not parts.rtc:
+        return None
+    timing = timing or _TIMING
+    rtc = np.concatenate(parts.rtc)
+    block = np.concatenate(parts.block)
+    gap = np.concatenate(parts.gap)
+    first = np.concatenate(parts.first)
+    n = np.concatenate(parts.n_words)
+    stamp_bit = np.concatenate(parts.stamp_bit)
+    words = np.concatenate(parts.words)
+    w = words.astype(np.int64)
+    command = w[first]
+    has2 = ((block & RT_TO_RT) != 0) & (n > 1)
+    command2 = np.where(has2, w[np.minimum(first + 1, w.size - 1)], -1)
+    timed_out = (block & RESPONSE_TIMEOUT) != 0
+    key = command | (command2 + 1) << 16 | n << 33 | timed_out.astype(np.int64) << 50
+    shapes, inverse = np.unique(key, return_inverse=True)
+    plans = [_plan(int(k)) for k in shapes.tolist()]
+
+    def column(values: list[int]) -> I64:
+        return np.asarray(values, np.int64)[inverse]
+
+    fmt = column([p.format for p in plans])
+    data_start = first + column([p.data_start for p in plans])
+    data_count = column([p.data_count for p in plans])
+    n_status = column([p.n_status for p in plans])
+    expected = column([p.expected for p in plans])
+    errors = column([p.errors for p in plans])
+    gaps = np.stack([(gap & 0xFF) * 100, (gap >> 8) * 100], axis=1)
+    status = np.zeros((rtc.size, 2), np.int64)
+    for j in range(2):
+        present = n_status > j
+        pos = column([p.positions[j] for p in plans])
+        owner = column([p.owners[j] for p in plans])
+        word = np.where(present, w[np.minimum(first + pos, w.size - 1)], 0)
+        status[:, j] = word
+        errors |= np.where(present & (word >> 11 != owner), ERROR_BIT["wrong_rt_address"], 0)
+        errors |= np.where(present & (word & _STATUS_RESERVED != 0),
+                           ERROR_BIT["reserved_status_bits"], 0)
+        g = gaps[:, j]
+        measured = present & (g != 0)
+        errors |= np.where(measured & (g < timing.response_min_ns),
+                           ERROR_BIT["early_response"], 0)
+        errors |= np.where(measured & (g >= timing.response_min_ns)
+                           & (g > timing.response_max_ns), ERROR_BIT["late_response"], 0)
+    for bit, name in ((RESPONSE_TIMEOUT, "no_response"), (FORMAT_ERROR, "illegal_format"),
+                      (SYNC_TYPE_ERROR, "sync"), (INVALID_WORD_ERROR, "word_error")):
+        errors |= np.where(block & bit != 0, ERROR_BIT[name], 0)
+    count_error = block & WORD_COUNT_ERROR != 0
+    errors |= np.where(count_error & (n > expected), ERROR_BIT["word_count_high"],
+                       np.where(count_error, ERROR_BIT["word_count_low"], 0))
+    kept_gaps = np.where(np.arange(2) < n_status[:, None], gaps, 0)
+    span = n * WORD_TIME_NS + np.maximum(kept_gaps - CONTIGUOUS_GAP_NS, 0).sum(axis=1)
+    origin = timebase.origin if timebase.origin is not None else int(rtc[0])
+    timebase.start(origin)
+    stamp = _signed_delta(rtc, origin) * RTC_NS
+    start = np.where(stamp_bit == TIME_TAG_LAST_BIT, stamp - span,
+                     np.where(stamp_bit == TIME_TAG_COMMAND_END, stamp - WORD_TIME_NS, stamp))
+    time_text, epoch = _times(parts, rtc, start - stamp)
+    return Ms1553Batch(
+        t_ns=start, end_ns=start + span, bus=((block & BUS_B) != 0).astype(np.uint8),
+        format=fmt.astype(np.uint8), command=command, command2=command2, block_status=block,
+        channel=np.concatenate(parts.channel), offset=np.concatenate(parts.offset),
+        data_start=data_start, data_count=data_count, status=status, n_status=n_status,
+        gaps_ns=gaps, errors=errors, words=words, time=time_text, epoch_ns=epoch)
+
+
+def _signed_delta(rtc: I64, reference: int) -> I64:
+    delta = (rtc - (reference & _RTC_MASK)) % _RTC_MOD
+    return np.where(delta >= _RTC_HALF, delta - _RTC_MOD, delta)
+
+
+def _times(parts: _Parts, rtc: I64, shift: I64
+           ) -> tuple[npt.NDArray[np.str_] | None, I64 | None]:
+    """Absolute time text and epoch ns of every message, from the time reference in force
+    when its packet was read."""
+    if all(ref is None for ref in parts.refs):
+        return None, None
+    ref_id = np.concatenate(parts.ref_id)
+    text = np.full(rtc.size, "", "<U32")
+    epoch = np.full(rtc.size, NO_EPOCH, np.int64)
+    for number, ref in enumerate(parts.refs):
+        if ref is None:
+            continue
+        rows = np.flatnonzero(ref_id == number)
+        text[rows], some = _absolute(rtc[rows], shift[rows], ref)
+        if some is not None:
+            epoch[rows] = some
+    return text, (None if bool((epoch == NO_EPOCH).all()) else epoch)
+
+
+def _absolute(rtc: I64, shift: I64, ref: TimeReference
+              ) -> tuple[npt.NDArray[np.str_], I64 | None]:
+    """:meth:`Timebase.absolute` and :meth:`Timebase.epoch_ns` (moved by ``shift``, from
+    the stamp to the message's start) for every message."""
+    delta = _signed_delta(rtc, ref.rtc)
+    # timedelta(microseconds=delta / 10) rounds half to even
+    whole, tenth = np.divmod(delta, 10)
+    micros = whole + ((tenth > 5) | ((tenth == 5) & (whole % 2 == 1)))
+    if ref.date is not None:
+        base = np.datetime64(ref.date, "us")
+    else:
+        assert ref.day_of_year is not None
+        base = np.datetime64(datetime(2000, 1, 1) + timedelta(days=ref.day_of_year - 1,
+                                                              seconds=ref.seconds_of_day), "us")
+    moment = base + micros.astype("timedelta64[us]")
+    if ref.date is not None:
+        text = np.datetime_as_string(moment, unit="us")
+        epoch = (ref.date - _EPOCH) // timedelta(microseconds=1) * 1000 + delta * RTC_NS + shift
+        return text, epoch
+    day = moment.astype("datetime64[D]")
+    yday = (day - day.astype("datetime64[Y]")).astype(np.int64) + 1
+    clock = np.datetime_as_string(moment, unit="us")
+    text = np.char.add(np.char.add("day ", np.char.zfill(yday.astype(str), 3)),
+                       np.char.add(" ", np.char.partition(clock, "T")[:, 2]))
+    return text, None

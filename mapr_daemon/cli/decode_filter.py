@@ -1,0 +1,155 @@
+"""``mapr decode``'s message filters: RT, SA, T/R, format, errors, a time window.
+
+The same choices as ``mapr monitor`` (an RT or SA matches either terminal of an RT-RT
+transfer), widened to lists and ranges (``--rt 1-4,7``). They are checked before the file
+is opened: a value that can never match is a usage error naming the flag and the allowed
+range (:class:`FilterError`, exit 2), not a silent empty output. On a Chapter 10 batch the
+filter is a numpy mask (:meth:`DecodeFilter.mask`); on records, :meth:`DecodeFilter.matches`.
+"""
+
+from __future__ import annotations
+
+import argparse
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+from drivers.chapter10.ms1553_batch import ERROR_BIT, FORMATS, Ms1553Batch
+from drivers.errors import MaprError
+from drivers.mil1553.record import MESSAGE_ERROR_NAMES, MonitorRecord
+
+Mask = npt.NDArray[np.bool_]
+
+
+class FilterError(MaprError, ValueError):
+    """A filter flag whose value can never match (one line: the flag and what is allowed)."""
+
+
+@dataclass(frozen=True, slots=True)
+class DecodeFilter:
+    """What to keep; None (or False) for a field means any."""
+
+    rts: frozenset[int] | None = None
+    sas: frozenset[int] | None = None
+    transmit: bool | None = None
+    formats: frozenset[int] | None = None
+    """Indexes into :data:`~drivers.chapter10.ms1553_batch.FORMATS`."""
+    errors: bool = False
+    error_bits: int = 0
+    start_ns: int | None = None
+    end_ns: int | None = None
+
+    @property
+    def active(self) -> bool:
+        return self != DecodeFilter()
+
+    def mask(self, batch: Ms1553Batch) -> Mask:
+        """True for the messages of ``batch`` to keep."""
+        keep = np.ones(len(batch), np.bool_)
+        second = batch.command2 >= 0
+        if self.rts is not None:
+            rts = np.fromiter(self.rts, np.int64)
+            keep &= np.isin(batch.rt, rts) | (second & np.isin(batch.command2 >> 11 & 31, rts))
+        if self.sas is not None:
+            sas = np.fromiter(self.sas, np.int64)
+            keep &= np.isin(batch.sa, sas) | (second & np.isin(batch.command2 >> 5 & 31, sas))
+        if self.transmit is not None:
+            keep &= batch.tr == int(self.transmit)
+        if self.formats is not None:
+            keep &= np.isin(batch.format, np.fromiter(self.formats, np.int64))
+        if self.errors:
+            keep &= batch.errors != 0
+        if self.error_bits:
+            keep &= batch.errors & self.error_bits != 0
+        if self.start_ns is not None:
+            keep &= batch.t_ns >= self.start_ns
+        if self.end_ns is not None:
+            keep &= batch.t_ns < self.end_ns
+        return keep
+
+    def matches(self, record: MonitorRecord) -> bool:
+        """The same test on one record (bit-level captures)."""
+        if self.rts is not None and record.rt not in self.rts and record.rt2 not in self.rts:
+            return False
+        if self.sas is not None and record.sa not in self.sas and record.sa2 not in self.sas:
+            return False
+        if self.transmit is not None and record.tr != ("T" if self.transmit else "R"):
+            return False
+        if self.formats is not None and FORMATS.index(record.format) not in self.formats:
+            return False
+        if self.errors and not record.errors:
+            return False
+        if self.error_bits and not any(ERROR_BIT[e] & self.error_bits for e in record.errors):
+            return False
+        if self.start_ns is not None and record.t_ns < self.start_ns:
+            return False
+        return self.end_ns is None or record.t_ns < self.end_ns
+
+
+def filter_from_args(args: argparse.Namespace) -> DecodeFilter:
+    """The filter the flags ask for; :class:`FilterError` for a value that cannot match."""
+    start = _seconds("--from", args.t_from)
+    end = _seconds("--to", args.t_to)
+    if start is not None and end is not None and end <= start:
+        raise FilterError(f"--to {args.t_to}: must be later than --from {args.t_from}")
+    transmit = None
+    if args.tr is not None:
+        if args.tr.upper() not in ("T", "R"):
+            raise FilterError(f"--tr {args.tr}: allowed T or R")
+        transmit = args.tr.upper() == "T"
+    formats = None
+    if args.fmt is not None:
+        names = [f.name for f in FORMATS]
+        chosen = set()
+        for part in _parts("--format", args.fmt):
+            if part.upper() not in names:
+                raise FilterError(f"--format {part}: allowed {', '.join(names)}")
+            chosen.add(names.index(part.upper()))
+        formats = frozenset(chosen)
+    bits = 0
+    if args.error is not None:
+        for part in _parts("--error", args.error):
+            if part not in ERROR_BIT:
+                raise FilterError(f"--error {part}: allowed {', '.join(MESSAGE_ERROR_NAMES)}")
+            bits |= ERROR_BIT[part]
+    return DecodeFilter(rts=_numbers("--rt", args.rt), sas=_numbers("--sa", args.sa),
+                        transmit=transmit, formats=formats, errors=bool(args.errors),
+                        error_bits=bits, start_ns=start, end_ns=end)
+
+
+def _parts(flag: str, text: str) -> list[str]:
+    parts = [p.strip() for p in text.split(",")]
+    if not all(parts):
+        raise FilterError(f"{flag} {text}: an empty item in the list")
+    return parts
+
+
+def _numbers(flag: str, text: str | None) -> frozenset[int] | None:
+    """``5``, ``1-4,7``: addresses 0-31."""
+    if text is None:
+        return None
+    chosen: set[int] = set()
+    for part in _parts(flag, text):
+        low, _, high = part.partition("-")
+        try:
+            first, last = int(low), int(high or low)
+        except ValueError:
+            raise FilterError(f"{flag} {part}: allowed numbers 0-31, lists and ranges "
+                              "(1-4,7)") from None
+        if not 0 <= first <= last <= 31:
+            raise FilterError(f"{flag} {part}: allowed 0-31 (a range low-high)")
+        chosen.update(range(first, last + 1))
+    return frozenset(chosen)
+
+
+def _seconds(flag: str, text: str | None) -> int | None:
+    if text is None:
+        return None
+    try:
+        value = float(text)
+    except ValueError:
+        raise FilterError(f"{flag} {text}: allowed a number of seconds") from None
+    if not np.isfinite(value):
+        raise FilterError(f"{flag} {text}: allowed a finite number of seconds")
+    return round(value * 1e9)
