@@ -2,11 +2,15 @@
 ``mapr run --check``, and a SIGHUP reload).
 
 A config can be well-formed and still not work: a file-reading backend (``capture``,
-``chapter10``) whose file is missing (the daemon would retry opening it for ever), a
+``chapter10``) whose file is missing (the daemon would retry opening it for ever), a backend
+option it does not take or a time option that is not a finite positive number (every open
+would fail, retried for ever), an ICD, dictionary or actuator file that cannot be read, a
 recording directory that is a file or cannot be written (recording would stop at the first
-record while monitoring goes on), a catalog path that is a directory. Under systemd each of
-those is a "running" service doing nothing useful, so each is a
-:class:`~mapr_daemon.errors.ConfigError` naming the config file and line (exit 78).
+record while monitoring goes on), a catalog path that is a directory or whose directory is
+missing or not writable. Under systemd each of those is a "running" service doing nothing
+useful, so each is a :class:`~mapr_daemon.errors.ConfigError` naming the config file and line
+(exit 78). Writability is tried (a file created and removed), not inferred from permission
+bits, which say nothing for root or on a read-only file system.
 
 These checks look at the filesystem, so they are not part of parsing: ``mapr replay`` and
 ``mapr devices`` read the same config but never open its backend or its recording
@@ -15,11 +19,15 @@ directory.
 
 from __future__ import annotations
 
+import inspect
 import math
 import os
+import tempfile
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from drivers.errors import BackendUnavailable
+from drivers.monitor import backend_class
 from mapr_daemon.errors import ConfigError
 from mapr_daemon.icd.yamlsrc import Node
 
@@ -35,6 +43,8 @@ def check(config: Config, raw: Any, path: str) -> None:
     of ``path``) the daemon could not use here."""
     root = raw if isinstance(raw, Node) else None
     _backend(config, _node(root, "backend"), path)
+    _backend_options(config, _node(root, "backend"), path)
+    _inputs(config, root, path)
     _record(config, _node(root, "record"), path)
     _catalog(config, _node(root, "catalog"), path)
 
@@ -70,6 +80,58 @@ def _backend(config: Config, node: Node | None, path: str) -> None:
                      f"expected a finite number >= 0, got {speed!r}", path)
 
 
+_NOT_OPTIONS = ("self", "filters", "timing", "config")
+
+
+def _backend_options(config: Config, node: Node | None, path: str) -> None:
+    """The backend loads, takes every option given, and its time options (``*_s``) and
+    other numbers are finite (times > 0). The loopback is the testbed: its options are the
+    ``testbed:`` section, checked when it opens."""
+    backend = config.backend
+    if backend.name == "loopback":
+        return
+    try:
+        cls = backend_class(backend.name)
+    except BackendUnavailable as error:
+        raise _error(node, "name", "backend.name", str(error), path) from None
+    options = node.get("options") if node is not None else None
+    where = options if isinstance(options, Node) else node
+    known = [name for name, parameter in inspect.signature(cls.__init__).parameters.items()
+             if name not in _NOT_OPTIONS
+             and parameter.kind in (parameter.KEYWORD_ONLY, parameter.POSITIONAL_OR_KEYWORD)]
+    for name, value in backend.options.items():
+        field = f"backend.options.{name}"
+        if name not in known:
+            raise _error(where, name, field, f"the {backend.name} backend takes no option "
+                                             f"{name!r} (it takes: {', '.join(known)})", path)
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            continue
+        if not math.isfinite(value):
+            raise _error(where, name, field, f"expected a finite number, got {value!r}", path)
+        if name.endswith("_s") and value <= 0:
+            raise _error(where, name, field, f"a time must be > 0 seconds, got {value!r}",
+                         path)
+
+
+def _inputs(config: Config, root: Node | None, path: str) -> None:
+    """The files the daemon reads at start: the ICD, the fault dictionary, each actuator."""
+    wanted: list[tuple[Node | None, str, str, str | None]] = [
+        (root, "icd", "icd", config.icd),
+        (_node(root, "reasoner"), "dictionary", "reasoner.dictionary",
+         config.reasoner.dictionary)]
+    assets = root.get("assets") if root is not None else None
+    for i, asset in enumerate(config.assets):
+        item = assets[i] if isinstance(assets, list) and i < len(assets) else None
+        wanted.append((item if isinstance(item, Node) else root, "actuator",
+                       f"assets[{i}].actuator", asset.actuator))
+    for node, key, field, name in wanted:
+        if name is None:
+            continue
+        problem = _unreadable(Path(name))
+        if problem:
+            raise _error(node, key, field, f"{name}: {problem}", path)
+
+
 def _unreadable(file: Path) -> str | None:
     if not file.exists():
         return "no such file"
@@ -85,26 +147,37 @@ def _record(config: Config, node: Node | None, path: str) -> None:
     if directory is None:
         return
     problem = _unwritable_directory(Path(directory))
+    if problem and Path(directory).exists() and not Path(directory).is_dir():
+        problem += " (recordings are files in a directory)"
     if problem:
         raise _error(node, "path", "record.path", f"{directory}: {problem}", path)
 
 
+def _cannot_write_in(directory: Path) -> str | None:
+    """Why no file can be created in the existing ``directory`` (None: one was): tried, since
+    permission bits do not tell for root, ACLs or a read-only file system."""
+    try:
+        with tempfile.NamedTemporaryFile(dir=directory, prefix=".mapr-check-"):
+            return None
+    except OSError as error:
+        return error.strerror or str(error)
+
+
 def _unwritable_directory(directory: Path) -> str | None:
-    """Why recordings could not be created in ``directory`` (None: they can)."""
+    """Why files could not be created in ``directory``, made first if missing (None: they
+    can)."""
     if directory.exists():
         if not directory.is_dir():
-            return "exists and is not a directory (recordings are files in a directory)"
-        if not os.access(directory, os.W_OK | os.X_OK):
-            return "directory not writable by this user"
-        return None
+            return "exists and is not a directory"
+        problem = _cannot_write_in(directory)
+        return f"directory not writable: {problem}" if problem else None
     parent = directory.parent
     while not parent.exists() and parent != parent.parent:
         parent = parent.parent
     if not parent.is_dir():
         return f"cannot be created: {parent} is not a directory"
-    if not os.access(parent, os.W_OK | os.X_OK):
-        return f"cannot be created: {parent} is not writable by this user"
-    return None
+    problem = _cannot_write_in(parent)
+    return f"cannot be created in {parent}: {problem}" if problem else None
 
 
 def _catalog(config: Config, node: Node | None, path: str) -> None:
@@ -112,3 +185,8 @@ def _catalog(config: Config, node: Node | None, path: str) -> None:
     if catalog.is_dir():
         raise _error(node, "path", "catalog.path",
                      f"{catalog}: is a directory (the catalog is a file)", path)
+    # A missing directory passes if it can be made (systemd's StateDirectory= makes it).
+    problem = _unwritable_directory(catalog.parent)
+    if problem:
+        raise _error(node, "path", "catalog.path", f"{catalog}: {catalog.parent}: {problem}",
+                     path)
