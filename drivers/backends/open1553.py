@@ -1,4 +1,4 @@
-"""The open1553 card's host line protocol, and word times for a card without time tags.
+"""The open1553 card's host line protocol: parsing and formatting its lines, splitting bytes.
 
 open1553 (an open FPGA design on a pmod1553 transceiver board) decodes the bus itself and
 sends one line per word over a 2,000,000-baud serial link (../shared/REFERENCE.md)::
@@ -8,17 +8,12 @@ sends one line per word over a 2,000,000-baud serial link (../shared/REFERENCE.m
 ``CMDS`` (command/status sync) or ``DATA`` (data sync); ``D1`` = at least 4 µs of idle bus
 before the word; ``P1`` = parity good; ``I1`` = the word was received inverted; then the 16
 bits in hex. Here: :func:`parse_line` / :func:`format_line` (the emulator in the tests speaks
-the protocol through the same function), :class:`LineSplitter` (bytes to lines, resynchronizing
-on the next terminator after garbage) and :class:`WordClock`, which gives each word a time.
+the protocol through the same function) and :class:`LineSplitter` (bytes to lines,
+resynchronizing on the next terminator after garbage).
 
-Why a synthetic clock: the card sends no time tags, and its link is slower than the bus (a
-21-byte line takes 105 µs at 2 Mbaud, a bus word 20 µs), so host arrival times say nothing
-about µs gaps. :class:`WordClock` therefore lays words out on a synthetic timeline the message
-assembler can segment: a ``D0`` word 20 µs after the previous one (contiguous), a ``D1`` word
-a nominal response gap after it — unless the link sat idle for ``idle_ns`` before the line
-came, in which case the bus was idle too, and the word is anchored to its host arrival time.
-Response times are thus never measured on this card; ``no_response`` is seen only when the bus
-falls idle for ``idle_ns`` after the unanswered command.
+The card sends no time tags, and its link is slower than the bus (a 21-byte line takes 105 µs
+at 2 Mbaud, a bus word 20 µs), so host arrival times say nothing about µs gaps: word times
+come from :mod:`drivers.backends.open1553_framer`, from the card's report alone.
 """
 
 from __future__ import annotations
@@ -26,16 +21,11 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass
 
-from drivers.mil1553.timing import SYNC_MID_NS
-from drivers.mil1553.wordbatch import SYNC_CMD, SYNC_DATA, WORD_TIME_NS
+from drivers.mil1553.wordbatch import SYNC_CMD, SYNC_DATA
 
 BAUD_RATE = 2_000_000
 MAX_LINE = 64
 """Longer runs without a terminator are garbage: they are cut and flagged."""
-RESPONSE_GAP_NS = 8_000
-"""The gap given to a ``D1`` word that came without link idle (mid-crossing to mid-crossing,
-inside the standard's 4-12 µs response window)."""
-_END_TO_MID = WORD_TIME_NS - 500
 _LINE = re.compile(rb"(CMDS|DATA);D([01]);P([01]);I([01]);Hx([0-9A-Fa-f]{4})")
 
 
@@ -88,46 +78,3 @@ class LineSplitter:
         """Forget a partial line (after a reconnect); returns what was dropped."""
         dropped, self._partial = self._partial, b""
         return dropped
-
-
-class WordClock:
-    """Synthetic word times for one bus (see the module docstring).
-
-    ``place(gap, arrival_wall_ns, arrival_mono_ns)`` returns the sync leading-edge time of the
-    next word; ``idle_ns`` is how long the link must stay quiet before a line to count as an
-    idle bus.
-    """
-
-    def __init__(self, idle_ns: int) -> None:
-        self.idle_ns = idle_ns
-        self.last_t: int | None = None
-        self._last_mono: int | None = None
-
-    def place(self, gap: bool, arrival_wall_ns: int, arrival_mono_ns: int) -> int:
-        previous, quiet_since = self.last_t, self._last_mono
-        self._last_mono = arrival_mono_ns
-        if previous is None or quiet_since is None:
-            t = arrival_wall_ns
-        elif not gap:
-            t = previous + WORD_TIME_NS
-        else:
-            t = previous + _END_TO_MID + RESPONSE_GAP_NS - SYNC_MID_NS
-            if arrival_mono_ns - quiet_since >= self.idle_ns:
-                t = max(t, arrival_wall_ns)
-        self.last_t = t
-        return t
-
-    def horizon(self, now_wall_ns: int, now_mono_ns: int) -> int | None:
-        """Up to when this bus's word stream is known complete: the last word's end while
-        lines flow; the present once the link has been quiet for ``idle_ns`` (the next word
-        will then be anchored at its arrival). None before any word."""
-        if self.last_t is None or self._last_mono is None:
-            return None
-        end = self.last_t + _END_TO_MID
-        if now_mono_ns - self._last_mono >= self.idle_ns:
-            return max(end, now_wall_ns)
-        return end
-
-    def restart(self) -> None:
-        """After a reconnect: the next word is anchored to its arrival time."""
-        self.last_t = self._last_mono = None

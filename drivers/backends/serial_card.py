@@ -2,24 +2,28 @@
 
 The card decodes the bus and sends one line per word (:mod:`drivers.backends.open1553`).
 Words go through the same :class:`~drivers.mil1553.assembler.MessageAssembler` as every
-other backend, built with ``time_tags=False``; the gap flag segments transmissions and
-:class:`~drivers.backends.open1553.WordClock` places the words in time, anchored to host
-arrival time. Consequences, stated in every record (``record.extra["time_tags"] == "host"``):
-response times are never judged (no ``early_response``/``late_response``), ``no_response``
-needs the bus to fall idle for ``idle_s`` after the unanswered command, and ``gaps_ns`` are
-nominal, not measured.
+other backend, built with ``time_tags=False``. Message boundaries come from what the card
+reports (its gap flag and the 1553 grammar), never from when lines reach the host:
+:class:`~drivers.backends.open1553_framer.LineFramer` places the words on a synthetic
+timeline, so the framing is the same on an idle and on a saturated host. Consequences, stated
+in every record (``record.extra["time_tags"] == "host"``): response times are never judged
+(no ``early_response``/``late_response``), ``gaps_ns`` are nominal, and record times are host
+arrival times of each message's first word (or a little later, to keep them in order).
 
 Options: ``port`` (a path such as ``/dev/ttyUSB0`` or ``/dev/serial/by-id/...``) or
 ``serial_number`` (the USB adapter's serial number, looked up with
 ``serial.tools.list_ports``: stable across replugs and ports); ``bus`` (the bus the card
 taps, ``"A"``); ``port_b``/``serial_number_b`` for a second card on bus B; ``idle_s``
-(0.001); ``reconnect`` (True: after an unplug, reopen with exponential backoff from
-``backoff_s`` up to ``backoff_max_s``; False: the stream ends at the unplug).
+(0.05: the read time-out; a read that stays empty that long means the card sent nothing, i.e.
+the bus is idle: the last message is then complete); ``reconnect`` (True: after an unplug,
+reopen with exponential backoff from ``backoff_s`` up to ``backoff_max_s``; False: the
+stream ends at the unplug).
 
 A reader thread per card reads without ever dying on a read error: an unplug or a read error
 closes the port, appends a :class:`Gap` to :attr:`SerialMonitor.gaps` (the daemon reads it)
 and reopens. Malformed lines become words flagged ``sync`` (stray ones an ``orphan_words``
-record); decoding goes on at the next line.
+record), a partial line cut by an unplug included; all are counted in ``malformed_lines``;
+decoding goes on at the next line.
 """
 
 from __future__ import annotations
@@ -38,7 +42,8 @@ import serial
 from serial.tools import list_ports
 
 from drivers.backends.attached import UDEV_HINT, AttachedCard, access_problem
-from drivers.backends.open1553 import BAUD_RATE, LineSplitter, WordClock, parse_line
+from drivers.backends.open1553 import BAUD_RATE, LineSplitter, parse_line
+from drivers.backends.open1553_framer import LineFramer, horizon
 from drivers.errors import BackendError
 from drivers.mil1553.assembler import MessageAssembler
 from drivers.mil1553.record import MonitorRecord
@@ -86,10 +91,11 @@ def explain(error: BaseException, port: str) -> str:
     return f"cannot open {port}: {error}"
 
 
-def open_port(port: str) -> serial.Serial:
-    """Open the card's port (2 Mbaud, 8N1, exclusive), or raise BackendError explaining why."""
+def open_port(port: str, timeout_s: float = 0.05) -> serial.Serial:
+    """Open the card's port (2 Mbaud, 8N1, exclusive, reads time out after ``timeout_s``), or
+    raise BackendError explaining why."""
     try:
-        return serial.Serial(port, BAUD_RATE, timeout=0.05, exclusive=True)
+        return serial.Serial(port, BAUD_RATE, timeout=timeout_s, exclusive=True)
     except (serial.SerialException, OSError, ValueError) as error:
         raise BackendError(explain(error, port)) from error
 
@@ -99,14 +105,16 @@ class _Reader(threading.Thread):
 
     def __init__(self, bus: int, port: str | None, serial_number: str | None,
                  out: queue.Queue[tuple[Any, ...]], *, reconnect: bool, backoff_s: float,
-                 backoff_max_s: float) -> None:
+                 backoff_max_s: float, quiet_s: float) -> None:
         super().__init__(name=f"mapr-serial-{BUS_NAMES[bus]}", daemon=True)
         self.bus, self.port, self.serial_number = bus, port, serial_number
         self.out, self.reconnect = out, reconnect
         self.backoff_s, self.backoff_max_s = backoff_s, backoff_max_s
         self.stop = threading.Event()
         self.lines_read = 0
-        self.device: serial.Serial | None = open_port(self.path())
+        self.bytes_read = 0
+        self.quiet_s = quiet_s
+        self.device: serial.Serial | None = open_port(self.path(), quiet_s)
 
     def path(self) -> str:
         return self.port if self.port is not None else find_port(str(self.serial_number))
@@ -124,7 +132,7 @@ class _Reader(threading.Thread):
         while not self.stop.is_set():
             if self.device is None:
                 try:
-                    self.device = open_port(self.path())
+                    self.device = open_port(self.path(), self.quiet_s)
                 except BackendError as error:
                     self.stop.wait(delay)
                     delay = min(delay * 2, self.backoff_max_s)
@@ -142,7 +150,12 @@ class _Reader(threading.Thread):
                 continue
             if data:
                 self.lines_read += data.count(b"\r") + data.count(b"\n")
-                self._put(("data", self.bus, time.time_ns(), time.monotonic_ns(), data))
+                self.bytes_read += len(data)
+                self._put(("data", self.bus, time.time_ns(), data))
+            else:
+                # The read waited quiet_s and the kernel held no byte: the card sent nothing
+                # for that long, whatever this host was doing meanwhile.
+                self._put(("quiet", self.bus))
         self._close_device()
 
     def _drop(self, reason: str) -> None:
@@ -162,7 +175,7 @@ class SerialMonitor(BusMonitor):
     def __init__(self, *, filters: Sequence[MonitorFilter] | None = None,
                  port: str | None = None, serial_number: str | None = None, bus: str = "A",
                  port_b: str | None = None, serial_number_b: str | None = None,
-                 idle_s: float = 0.001, reconnect: bool = True, backoff_s: float = 0.1,
+                 idle_s: float = 0.05, reconnect: bool = True, backoff_s: float = 0.1,
                  backoff_max_s: float = 5.0, timing: BusTiming | None = None,
                  queue_chunks: int = 4096, **config: Any) -> None:
         super().__init__(filters=filters, **config)
@@ -180,14 +193,17 @@ class SerialMonitor(BusMonitor):
         self.inverted_words = 0
         self.last_error: str | None = None
         self._chunks: queue.Queue[tuple[Any, ...]] = queue.Queue(maxsize=queue_chunks)
-        self._clocks = {b: WordClock(round(idle_s * 1e9)) for b, _, _ in cards}
-        self._poll_s = min(max(idle_s, 0.001), 0.1)
+        if not 0.001 <= idle_s <= 10.0:
+            raise BackendError(f"idle_s must be between 0.001 and 10 seconds, not {idle_s}")
+        self._framers = {b: LineFramer() for b, _, _ in cards}
+        self._poll_s = min(idle_s, 0.1)
         self._splitters = {b: LineSplitter() for b, _, _ in cards}
         self._readers: list[_Reader] = []
         try:
             for b, p, sn in cards:
                 self._readers.append(_Reader(b, p, sn, self._chunks, reconnect=reconnect,
-                                             backoff_s=backoff_s, backoff_max_s=backoff_max_s))
+                                             backoff_s=backoff_s, backoff_max_s=backoff_max_s,
+                                             quiet_s=idle_s))
         except BackendError:
             for reader in self._readers:
                 reader._close_device()
@@ -202,12 +218,16 @@ class SerialMonitor(BusMonitor):
         """Lines received from all cards so far (counted by the reader threads)."""
         return sum(r.lines_read for r in self._readers)
 
+    @property
+    def bytes_read(self) -> int:
+        """Bytes received from all cards so far."""
+        return sum(r.bytes_read for r in self._readers)
+
     def _recv_internal(self, timeout: float | None) -> list[MonitorRecord] | None:
         if self._flushed:
             return None
         rows: list[tuple[int, int, int, int, int]] = []
         try:
-            # Wake at least every idle_s: an idle link moves the horizon on by itself.
             wait = self._poll_s if timeout is None else min(max(timeout, 0.0), self._poll_s)
             item = self._chunks.get(timeout=wait)
         except queue.Empty:
@@ -222,23 +242,26 @@ class SerialMonitor(BusMonitor):
         if not self._live:
             self._flushed = True
             return self._mark(self.assembler.feed(words) + self.assembler.flush())
-        horizon = self._horizon()
-        if not words.size and horizon is None:
+        known = horizon([self._framers[b] for b in sorted(self._live)])
+        if not words.size and known is None:
             return []
-        return self._mark(self.assembler.feed(words, horizon_ns=horizon))
+        return self._mark(self.assembler.feed(words, horizon_ns=known))
 
     def _handle(self, item: tuple[Any, ...], rows: list[tuple[int, int, int, int, int]]
                 ) -> None:
         kind, bus = item[0], item[1]
         if kind == "data":
-            _, _, wall, mono, data = item
+            _, _, wall, data = item
             for line in self._splitters[bus].feed(data):
-                rows.append(self._word(bus, line, wall, mono))
+                rows.append(self._word(bus, line, wall))
+        elif kind == "quiet":
+            self._framers[bus].quiet()
         elif kind == "gap":
             self.gaps.append(Gap(BUS_NAMES[bus], item[2], None, item[3]))
             self.last_error = item[3]
-            self._splitters[bus].reset()
-            self._clocks[bus].restart()
+            if self._splitters[bus].reset().strip(b" \t\0"):
+                rows.append(self._word(bus, b"", item[2]))  # a line cut by the unplug
+            self._framers[bus].restart()
         elif kind == "back":
             for gap in reversed(self.gaps):
                 if gap.bus == BUS_NAMES[bus] and gap.end_ns is None:
@@ -249,21 +272,15 @@ class SerialMonitor(BusMonitor):
         elif kind == "eof":
             self._live.discard(bus)
 
-    def _word(self, bus: int, line: bytes, wall: int, mono: int
-              ) -> tuple[int, int, int, int, int]:
+    def _word(self, bus: int, line: bytes, wall: int) -> tuple[int, int, int, int, int]:
         word = parse_line(line)
         if word is None:
             self.malformed_lines += 1
-            t = self._clocks[bus].place(True, wall, mono)
+            t = self._framers[bus].place_unreadable(wall)
             return (t, bus, SYNC_DATA, 0, ERR_SYNC)
         self.inverted_words += word.inverted
-        t = self._clocks[bus].place(word.gap, wall, mono)
+        t = self._framers[bus].place(word.sync, word.gap, word.value, wall)
         return (t, bus, word.sync, word.value, 0 if word.parity_ok else ERR_PARITY)
-
-    def _horizon(self) -> int | None:
-        now, mono = time.time_ns(), time.monotonic_ns()
-        known = [h for b in self._live if (h := self._clocks[b].horizon(now, mono)) is not None]
-        return min(known) if known else None
 
     @staticmethod
     def _mark(records: list[MonitorRecord]) -> list[MonitorRecord]:

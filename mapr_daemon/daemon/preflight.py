@@ -2,11 +2,15 @@
 ``mapr run --check``, and a SIGHUP reload).
 
 A config can be well-formed and still not work: a file-reading backend (``capture``,
-``chapter10``) whose file is missing (the daemon would retry opening it for ever), a
+``chapter10``) whose file is missing (the daemon would retry opening it for ever), a backend
+option it does not take or a time option that is not a finite positive number (every open
+would fail, retried for ever), an ICD, dictionary or actuator file that cannot be read, a
 recording directory that is a file or cannot be written (recording would stop at the first
-record while monitoring goes on), a catalog path that is a directory. Under systemd each of
-those is a "running" service doing nothing useful, so each is a
-:class:`~mapr_daemon.errors.ConfigError` naming the config file and line (exit 78). A backend
+record while monitoring goes on), a catalog path that is a directory or whose directory is
+missing or not writable. Under systemd each of those is a "running" service doing nothing
+useful, so each is a :class:`~mapr_daemon.errors.ConfigError` naming the config file and line
+(exit 78). Writability is tried (a file created and removed), not inferred from permission
+bits, which say nothing for root or on a read-only file system. A backend
 that can never open on this machine (its Python module or its system library, e.g. libusb,
 is missing) is a :class:`~drivers.errors.BackendUnavailable` naming the same (exit 69).
 
@@ -19,6 +23,7 @@ from __future__ import annotations
 
 import math
 import os
+import tempfile
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -41,6 +46,8 @@ def check(config: Config, raw: Any, path: str) -> None:
     _backend(config, _node(root, "backend"), path)
     _assets(config, root, path)
     _icd(config, root, path)
+    _reasoner_dictionary(config, root, path)
+    _backend_numbers(config, _node(root, "backend"), path)
     _record(config, _node(root, "record"), path)
     _catalog(config, _node(root, "catalog"), path)
 
@@ -94,6 +101,32 @@ def _assets(config: Config, root: Node | None, path: str) -> None:
             problem = None if name is None else _unreadable(Path(name))
             if problem:
                 raise _error(where, key, f"assets[{i}].{key}", f"{name}: {problem}", path)
+
+
+def _reasoner_dictionary(config: Config, root: Node | None, path: str) -> None:
+    name = config.reasoner.dictionary
+    problem = None if name is None else _unreadable(Path(name))
+    if problem:
+        raise _error(_node(root, "reasoner"), "dictionary", "reasoner.dictionary",
+                     f"{name}: {problem}", path)
+
+
+def _backend_numbers(config: Config, node: Node | None, path: str) -> None:
+    """The backend's numeric options are finite, its times (``*_s``) > 0: a NaN time-out
+    would make every open fail, retried for ever."""
+    options = node.get("options") if node is not None else None
+    where = options if isinstance(options, Node) else node
+    for name, value in config.backend.options.items():
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            continue
+        field = f"backend.options.{name}"
+        if not math.isfinite(value):
+            raise _error(where, name, field, f"expected a finite number, got {value!r}", path)
+        if name.endswith("_s") and value <= 0:
+            raise _error(where, name, field, f"a time must be > 0 seconds, got {value!r}",
+                         path)
+
+
 def _loadable(config: Config, node: Node | None, path: str) -> type[BusMonitor]:
     """The backend's class; BackendUnavailable (``mapr run`` exits 69, and systemd does not
     restart it) when the backend can never open here: its module or library is missing.
@@ -149,26 +182,37 @@ def _record(config: Config, node: Node | None, path: str) -> None:
     if directory is None:
         return
     problem = _unwritable_directory(Path(directory))
+    if problem and Path(directory).exists() and not Path(directory).is_dir():
+        problem += " (recordings are files in a directory)"
     if problem:
         raise _error(node, "path", "record.path", f"{directory}: {problem}", path)
 
 
+def _cannot_write_in(directory: Path) -> str | None:
+    """Why no file can be created in the existing ``directory`` (None: one was): tried, since
+    permission bits do not tell for root, ACLs or a read-only file system."""
+    try:
+        with tempfile.NamedTemporaryFile(dir=directory, prefix=".mapr-check-"):
+            return None
+    except OSError as error:
+        return error.strerror or str(error)
+
+
 def _unwritable_directory(directory: Path) -> str | None:
-    """Why recordings could not be created in ``directory`` (None: they can)."""
+    """Why files could not be created in ``directory``, made first if missing (None: they
+    can)."""
     if directory.exists():
         if not directory.is_dir():
-            return "exists and is not a directory (recordings are files in a directory)"
-        if not os.access(directory, os.W_OK | os.X_OK):
-            return "directory not writable by this user"
-        return None
+            return "exists and is not a directory"
+        problem = _cannot_write_in(directory)
+        return f"directory not writable: {problem}" if problem else None
     parent = directory.parent
     while not parent.exists() and parent != parent.parent:
         parent = parent.parent
     if not parent.is_dir():
         return f"cannot be created: {parent} is not a directory"
-    if not os.access(parent, os.W_OK | os.X_OK):
-        return f"cannot be created: {parent} is not writable by this user"
-    return None
+    problem = _cannot_write_in(parent)
+    return f"cannot be created in {parent}: {problem}" if problem else None
 
 
 def _catalog(config: Config, node: Node | None, path: str) -> None:
@@ -176,3 +220,8 @@ def _catalog(config: Config, node: Node | None, path: str) -> None:
     if catalog.is_dir():
         raise _error(node, "path", "catalog.path",
                      f"{catalog}: is a directory (the catalog is a file)", path)
+    # A missing directory passes if it can be made (systemd's StateDirectory= makes it).
+    problem = _unwritable_directory(catalog.parent)
+    if problem:
+        raise _error(node, "path", "catalog.path", f"{catalog}: {catalog.parent}: {problem}",
+                     path)

@@ -6,10 +6,13 @@ The monitor opens the slave path with pyserial, as it would open /dev/ttyUSB0. `
 closes the pty (the slave path disappears, reads fail) and ``replug()`` makes a new one behind
 the same symlink, as udev's /dev/serial/by-id links behave.
 
-Pacing: the card's link is slower than the bus, so the backend sees an idle bus only as an idle
-link (drivers/backends/open1553.py). The emulator therefore waits until the monitor has read
-every line written (a condition it polls, with a generous time-out) and then keeps the link
-quiet for ``pause_s`` wherever the bus was idle for longer than the no-response time-out.
+Pacing: the backend frames from the card's report alone (drivers/backends/open1553_framer.py),
+never from when lines arrive, so the emulator's timing is free. A real card's link runs
+back-to-back while the bus is busy (its FIFO drains at line rate), so each stretch of busy bus is
+written in one write, and an empty link only ever means an idle bus, as on the card. Between
+stretches (bus idle longer than the no-response time-out) the emulator waits until the monitor
+has read every line written (a condition it polls, with a generous time-out) and then keeps the
+link quiet for ``pause_s`` (0: no pause at all).
 """
 
 from __future__ import annotations
@@ -115,11 +118,12 @@ class SerialCard:
         """Write the setup's traffic, pausing at idle bus; then unplug (the stream ends)."""
         for traffic in traffic_of(setup):
             for chunk in self.write_traffic(traffic):
-                for bus, line in chunk:
-                    self.write(bus, line)
+                for bus in sorted({bus for bus, _ in chunk}):
+                    self.write(bus, b"".join(line for b, line in chunk if b == bus))
                 if not self.wait(lambda: drained() or stopped()) or stopped():
                     return
-                time.sleep(self.pause_s)  # the quiet link the backend reads as idle bus
+                if self.pause_s:
+                    time.sleep(self.pause_s)  # a quiet link: the backend may read idle bus
         if end:
             self.unplug()
 

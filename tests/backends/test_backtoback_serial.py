@@ -25,15 +25,17 @@ from .backtoback import (
 )
 from .card_emulators import SerialCard
 
-IDLE_S = 0.01
+PAUSE_S = 0.0
+"""No quiet link between messages: boundaries come from the card's report alone (the quiet
+link is exercised in test_serial_card.py)."""
 
 
 def serial_factory(setup: Setup) -> BusMonitor:
     """A serial monitor on two emulated cards playing ``setup``; the stream ends when the
     emulator unplugs after the last frame (``reconnect=False``)."""
-    card = SerialCard(buses=2, pause_s=3 * IDLE_S)
-    monitor = SerialMonitor(port=card.path(0), port_b=card.path(1), idle_s=IDLE_S,
-                            reconnect=False, filters=setup.filters)
+    card = SerialCard(buses=2, pause_s=PAUSE_S)
+    monitor = SerialMonitor(port=card.path(0), port_b=card.path(1), reconnect=False,
+                            filters=setup.filters)
     card.start(setup, drained=lambda: monitor.lines_read >= card.lines_written,
                stopped=lambda: monitor.closed)
     return monitor

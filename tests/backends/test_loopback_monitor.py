@@ -73,9 +73,13 @@ def test_realtime_pacing_follows_the_wall_clock() -> None:
     records = list(LoopbackMonitor(duration_s=0.1, realtime=True, bit_level=False))
     assert time.monotonic() - started >= 0.08
     assert records
+    opened = time.monotonic()
     monitor = LoopbackMonitor(realtime=True, bit_level=False)
-    monitor.recv(timeout=0.01)
-    assert monitor.recv(timeout=0.0) is None or monitor.bus_time_ns < 100_000_000
+    for _ in range(20):
+        monitor.recv(timeout=0.01)
+        # never ahead of the wall clock by more than the frame being played (2 ms), however
+        # late this host runs (running late only puts the bus behind)
+        assert monitor.bus_time_ns <= (time.monotonic() - opened) * 1e9 + 2_000_000
     monitor.close()
 
 

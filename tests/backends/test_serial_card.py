@@ -4,15 +4,18 @@ clear open errors, the registry entry."""
 from __future__ import annotations
 
 import queue
+import random
 import threading
 
 import pytest
 
-from drivers.backends.open1553 import LineSplitter, LineWord, WordClock, format_line, parse_line
+from drivers.backends.open1553 import LineSplitter, LineWord, format_line, parse_line
+from drivers.backends.open1553_framer import LineFramer, horizon
 from drivers.backends.serial_card import SerialMonitor, explain
 from drivers.errors import BackendError
+from drivers.mil1553.assembler import MessageAssembler
 from drivers.mil1553.record import MonitorRecord
-from drivers.mil1553.wordbatch import SYNC_CMD, SYNC_DATA
+from drivers.mil1553.wordbatch import SYNC_CMD, SYNC_DATA, empty_words
 from drivers.monitor import backend_class
 
 from .card_emulators import SerialCard
@@ -46,13 +49,64 @@ def test_splitter_resynchronizes() -> None:
     assert splitter.feed(b"\nDATA;D0;P1;I0;Hx0001\r") == [b"DATA;D0;P1;I0;Hx0001"]
 
 
-def test_word_clock_synthesizes_times() -> None:
-    clock = WordClock(idle_ns=1_000_000)
-    t0 = clock.place(True, 5_000_000_000, 0)
-    assert clock.place(False, 0, 10) == t0 + 20_000  # contiguous
-    t2 = clock.place(True, 0, 20)  # response: a nominal gap, not host time
-    assert t2 - (t0 + 20_000 + 19_500) == 8_000 - 1_500
-    assert clock.place(True, 9_000_000_000, 5_000_000) == 9_000_000_000  # after idle link
+def _frame(lines: list[bytes], arrivals: list[int]) -> list[MonitorRecord]:
+    """The records a framer and the assembler make of ``lines`` reaching the host at
+    ``arrivals`` (host wall times, ns)."""
+    framer = LineFramer()
+    words = empty_words(len(lines))
+    for i, (line, wall) in enumerate(zip(lines, arrivals, strict=True)):
+        word = parse_line(line.rstrip(b"\r"))
+        assert word is not None
+        t = framer.place(word.sync, word.gap, word.value, wall)
+        words[i] = (t, 0, word.sync, word.value, 0, t + 19_500)
+    return MessageAssembler(time_tags=False).assemble(words)
+
+
+def test_framing_does_not_depend_on_arrival_times() -> None:
+    """The same lines framed with arrival times all equal, wildly irregular (a host stalling
+    between reads) or seconds apart give the same messages: the card's report decides."""
+    rt_bc = 7 << 11 | 1 << 10 | 1 << 5 | 2
+    lines = [*_bc_rt(5).splitlines(keepends=True),
+             _line(SYNC_CMD, rt_bc),  # unanswered: the next command comes instead
+             _line(SYNC_CMD, 9 << 11 | 3 << 5 | 1), _line(SYNC_DATA, 0x0101, gap=False),
+             _line(SYNC_CMD, 9 << 11),
+             _line(SYNC_CMD, rt_bc), _line(SYNC_CMD, 7 << 11),
+             _line(SYNC_DATA, 0x0042, gap=False), _line(SYNC_DATA, 0x0043, gap=False)]
+    rng = random.Random(16)
+    base = 1_700_000_000 * 10**9
+    irregular = sorted(base + rng.randrange(0, 10**9) for _ in lines)
+    spread = [base + i * 2 * 10**9 for i in range(len(lines))]
+    runs = [_frame(lines, arrivals) for arrivals in ([base] * len(lines), irregular, spread)]
+    for records in runs:
+        assert [(str(r.format), r.rt, r.errors, r.data, r.status) for r in records] == [
+            ("BC_RT", 5, (), (0x1234, 0xABCD), (5 << 11,)),
+            ("RT_BC", 7, ("no_response",), (), ()),
+            ("BC_RT", 9, (), (0x0101,), (9 << 11,)),
+            ("RT_BC", 7, (), (0x0042, 0x0043), (7 << 11,))]
+        assert all(r.gaps_ns in ((), (8_000,)) for r in records)
+
+
+def test_framer_quiet_link_ends_the_wait_for_a_response() -> None:
+    """A command still awaiting its status holds the horizon until the link is seen quiet;
+    then the assembler may call it unanswered, and the next word opens a message."""
+    framer = LineFramer()
+    t0 = framer.place(SYNC_CMD, True, 4 << 11 | 1 << 10 | 1 << 5 | 1, 10**12)
+    assert horizon([framer]) == t0 + 19_500  # the status may still come
+    framer.quiet()
+    held = horizon([framer])
+    assert held is not None and held >= t0 + 19_500 + 14_000
+    t1 = framer.place(SYNC_CMD, True, 4 << 11, 10**12)  # a status-like word, after the quiet
+    assert t1 > held
+
+
+def test_a_quiet_link_releases_the_last_message() -> None:
+    """On the real port: the last message comes out once the link stays empty for idle_s."""
+    card = SerialCard(buses=1)
+    with SerialMonitor(port=card.path(0), idle_s=0.02) as monitor:
+        card.write(0, _line(SYNC_CMD, 4 << 11 | 1 << 10 | 1 << 5 | 1))
+        records = _collect(monitor, 1)
+    card.close()
+    assert records[0].errors == ("no_response",)
 
 
 def _collect(monitor: SerialMonitor, count: int, timeout: float = 20.0) -> list[MonitorRecord]:
@@ -113,6 +167,22 @@ def test_unplug_without_reconnect_ends_the_stream() -> None:
     assert monitor.ended
     monitor.close()
     card.close()
+
+
+def test_a_line_cut_by_an_unplug_is_counted_malformed() -> None:
+    """The half line left when the card is pulled is a flagged word, not silently dropped."""
+    card = SerialCard(buses=1)
+    monitor = SerialMonitor(port=card.path(0), reconnect=False)
+    partial = b"DATA;D0;P1;I0;Hx12"
+    card.write(0, _bc_rt(5) + partial)
+    assert card.wait(lambda: monitor.bytes_read == len(_bc_rt(5) + partial))
+    card.unplug()
+    records = list(monitor)
+    monitor.close()
+    card.close()
+    assert monitor.malformed_lines == 1
+    assert [str(r.format) for r in records] == ["BC_RT", "UNKNOWN"]
+    assert records[0].ok and "orphan_words" in records[1].errors
 
 
 def test_close_stops_the_reader_threads() -> None:

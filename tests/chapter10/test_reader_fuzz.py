@@ -1,10 +1,12 @@
 """Damaged recordings, property-tested: `mapr decode` and `mapr replay` never stop on a bad
 packet, and every packet the damage did not touch still comes out.
 
-Damages (header fields rewritten with a valid header checksum, lengths included; flipped
-bytes; zeroed runs; cuts) are drawn by hypothesis and applied to the sample recording (when
-it is next to the repository) and to a recording the project's own writer makes here, so the
-property is tested everywhere. The big campaign is ``bench/chapter10_fuzz.py``.
+Damages (header fields rewritten with a valid header checksum, lengths included; 1553 body
+fields (channel-specific word, message time stamp, block status, gap word, length) rewritten
+with a valid data checksum; flipped bytes; zeroed runs; cuts) are drawn by hypothesis and
+applied to the sample recording (when it is next to the repository) and to a recording the
+project's own writer makes here, so the property is tested everywhere. The big campaign is
+``bench/chapter10_fuzz.py``.
 """
 
 from __future__ import annotations
@@ -26,9 +28,11 @@ from drivers.chapter10.reader import Chapter10Reader
 from mapr_daemon.cli import exitcodes
 from mapr_daemon.cli.main import main
 from mapr_daemon.testbed.c10damage import (
+    BODY_FIELDS,
     FIELDS,
     Damage,
     PacketSpan,
+    body_fields,
     intact_packets,
     many_packet_recording,
     packet_spans,
@@ -85,8 +89,18 @@ def recording(which: str) -> Recording:
 
 @st.composite
 def damages(draw: st.DrawFn, rec: Recording) -> Damage:
-    kind = draw(st.sampled_from(["field", "field", "flip", "zeros", "truncate"]))
+    kind = draw(st.sampled_from(["field", "field", "body", "flip", "zeros", "truncate"]))
     size = len(rec.data)
+    if kind == "body":
+        span = draw(st.sampled_from([s for s in rec.spans if s.offset in rec.lines]))
+        name, offset = draw(st.sampled_from(body_fields(rec.data, span)))
+        fmt = BODY_FIELDS[name]
+        (old,) = struct.unpack_from(fmt, rec.data, offset)
+        top = (1 << 8 * struct.calcsize(fmt)) - 1
+        value = draw(st.one_of(st.integers(0, 7), st.just(top),
+                               st.integers(-40, 40).map(lambda d: (old + d) % (top + 1)),
+                               st.integers(0, top)))
+        return Damage("body", offset, value, name, span.offset)
     if kind == "field":
         span = draw(st.sampled_from(rec.spans))
         name = draw(st.sampled_from(sorted(FIELDS)))

@@ -83,6 +83,59 @@ def test_a_catalog_path_that_is_a_directory_is_refused(tmp_path: Path) -> None:
         "CONFIG:2: catalog.path: TMP: is a directory (the catalog is a file)"
 
 
+def test_a_catalog_under_a_file_is_refused(tmp_path: Path) -> None:
+    (tmp_path / "file").write_text("")
+    assert problem(tmp_path, f"catalog:\n  path: {tmp_path / 'file' / 'c.db'}\n") == \
+        "CONFIG:2: catalog.path: TMP/file/c.db: TMP/file: exists and is not a directory"
+
+
+@pytest.mark.skipif(not Path("/proc/self").is_dir(), reason="needs a Linux /proc")
+def test_output_paths_where_nothing_can_be_written_are_refused(tmp_path: Path) -> None:
+    """Tried, not read off permission bits: /proc takes no file, even from root."""
+    assert problem(tmp_path, "record:\n  path: /proc/mapr-flights\n").startswith(
+        "CONFIG:2: record.path: /proc/mapr-flights: cannot be created in /proc: ")
+    assert problem(tmp_path, "catalog:\n  path: /proc/self/mapr.db\n").startswith(
+        "CONFIG:2: catalog.path: /proc/self/mapr.db: /proc/self: directory not writable: ")
+
+
+@pytest.mark.parametrize(("key", "field"), [("icd", "icd"),
+                                            ("reasoner:\n  dictionary", "reasoner.dictionary")])
+def test_unreadable_inputs_are_refused_with_their_line(tmp_path: Path, key: str,
+                                                       field: str) -> None:
+    text = f"log_level: info\n{key}: {tmp_path / 'gone.yaml'}\n"
+    line = 2 if "\n" not in key else 3
+    assert problem(tmp_path, text).startswith(
+        f"CONFIG:{line}: {field}: TMP/gone.yaml: no such file")
+    assert problem(tmp_path, f"log_level: info\n{key}: {tmp_path}\n").startswith(
+        f"CONFIG:{line}: {field}: TMP: not a regular file")
+
+
+def test_a_missing_actuator_file_is_refused_with_its_line(tmp_path: Path) -> None:
+    text = f"assets:\n  - name: EMA1\n    rt: 5\n  - name: EMA2\n    rt: 6\n" \
+           f"    actuator: {tmp_path / 'gone.yaml'}\n"
+    assert problem(tmp_path, text) == \
+        "CONFIG:6: assets[1].actuator: TMP/gone.yaml: no such file"
+
+
+def test_backend_options_it_does_not_take_are_refused(tmp_path: Path) -> None:
+    text = "backend:\n  name: serial\n  options:\n    port: /dev/ttyUSB0\n    baud: 9600\n"
+    message = problem(tmp_path, text)
+    assert message.startswith("CONFIG:5: backend.options.baud: backend 'serial': unknown "
+                              "option baud (its options: ")
+    assert "idle_s" in message
+
+
+@pytest.mark.parametrize(("value", "why"), [(".nan", "expected a finite number, got nan"),
+                                            ("-.inf", "expected a finite number, got -inf"),
+                                            ("0", "a time must be > 0 seconds, got 0"),
+                                            ("-0.5", "a time must be > 0 seconds, got -0.5")])
+def test_backend_time_options_must_be_finite_and_positive(tmp_path: Path, value: str,
+                                                          why: str) -> None:
+    text = f"backend:\n  name: serial\n  options:\n    port: /dev/ttyUSB0\n" \
+           f"    idle_s: {value}\n"
+    assert problem(tmp_path, text) == f"CONFIG:5: backend.options.idle_s: {why}"
+
+
 def test_usable_paths_pass(tmp_path: Path) -> None:
     recording = tmp_path / "flight.c10"
     recording.write_bytes(b"")
