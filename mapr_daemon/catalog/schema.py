@@ -21,6 +21,9 @@ History:
    actuator's part across BITs, its severity trend and its acknowledgment) and
    ``events.episode_id``. Events written before keep it NULL: the BITs that found the
    actuator nominal were never stored, so their episodes cannot be rebuilt.
+5. ``recordings`` (:mod:`~mapr_daemon.catalog.recordings`): each archive recording a fleet
+   run stored, by content digest, with its tail, flight, flight hours, status and the config
+   it was processed with; what makes a fleet run idempotent and resumable.
 """
 
 from __future__ import annotations
@@ -120,6 +123,23 @@ MIGRATIONS: tuple[tuple[str, ...], ...] = (
         "CREATE INDEX episodes_open ON episodes(asset, part) WHERE closed_ns IS NULL",
         "ALTER TABLE events ADD COLUMN episode_id INTEGER REFERENCES episodes(id)",
         "CREATE INDEX events_episode ON events(episode_id)",
+    ),
+    (  # 5: the recordings a fleet run stored (catalog/recordings.py)
+        """CREATE TABLE recordings (
+            id INTEGER PRIMARY KEY,
+            digest TEXT NOT NULL UNIQUE,
+            path TEXT NOT NULL,
+            tail TEXT NOT NULL,
+            flight INTEGER NOT NULL,
+            flight_hours REAL,
+            status TEXT NOT NULL,
+            error TEXT,
+            bits INTEGER NOT NULL DEFAULT 0,
+            events INTEGER NOT NULL DEFAULT 0,
+            session_id INTEGER REFERENCES sessions(id),
+            processed_ns INTEGER NOT NULL,
+            config_digest TEXT NOT NULL)""",
+        "CREATE INDEX recordings_tail_flight ON recordings(tail, flight)",
     ),
 )
 

@@ -124,7 +124,7 @@ def test_migration_from_v3_keeps_every_event(tmp_path: Path) -> None:
                                              confidence=0.9, severity=0.7,
                                              evidence={"part": ESR})])
     with CatalogReader(path) as reader:
-        assert reader.schema_version == LATEST == 4
+        assert reader.schema_version == LATEST == 5
         after = reader.events(newest_first=False)
         (episode,) = reader.episodes()
     assert [e.id for e in after] == [*(e.id for e in before), new_id]
