@@ -25,6 +25,7 @@ SUBCOMMANDS: tuple[str, ...] = (
     "monitor",
     "record",
     "replay",
+    "fleet",
     "encode",
     "icd",
     "simulate",
