@@ -35,6 +35,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+from collections.abc import Callable, Iterable
 from datetime import UTC, datetime, timedelta
 from pathlib import Path
 from typing import Any
@@ -87,46 +88,68 @@ def recording_path(tail: str, flight: int) -> str:
     return f"{tail}/flight-{flight:04d}.ch10"
 
 
-def generate(root: str | Path, spec: FleetSpec) -> dict[str, Any]:
-    """Write the archive under ``root`` (created) and return its manifest (also written)."""
+def generate(root: str | Path, spec: FleetSpec,
+             map_tails: Callable[..., Iterable[TailArchive]] = map) -> dict[str, Any]:
+    """Write the archive under ``root`` (created) and return its manifest (also written).
+
+    ``map_tails`` maps :func:`generate_tail` over the tails (``Executor.map`` of a process
+    pool writes tails in parallel; the archive is the same either way)."""
     out = Path(root)
     out.mkdir(parents=True, exist_ok=True)
-    icd = load_icd(DEFAULT_ICD)
-    params = with_sample_rate(load_actuator(default_actuator_path()), RATE_HZ)
-    profile = steady_profile(RATE_HZ, spec.condition, duration_s=max(spec.flight_s, 1.0))
     rng = np.random.default_rng(spec.seed)
     n_degrading = 0 if spec.degrading <= 0 else max(1, math.ceil(spec.degrading * spec.tails))
     degrading = set(rng.choice(spec.tails, size=min(n_degrading, spec.tails), replace=False)
                     .tolist())
-    life = spec.life_flights or 1.5 * spec.flights
-    recordings: list[dict[str, Any]] = []
-    truth: dict[str, dict[str, Any]] = {}
-    for index in range(spec.tails):
-        tail = spec.tail_name(index)
-        path: Trajectory | None = None
-        if index in degrading:
-            kind = spec.kinds[int(rng.integers(len(spec.kinds)))]
-            path = trajectory(params, kind, max(spec.flights, 2),
-                              seed=spec.seed * 1000 + index, mean_life_flights=life)
-        truth[tail] = {} if path is None else {ASSET: _truth(path, spec.flights)}
-        for flight in range(1, spec.flights + 1):
-            faults = FaultSet() if path is None else FaultSet.of([path.fault(flight - 1)])
-            bit = (flight - 1) % spec.bit_every == 0
-            name = recording_path(tail, flight)
-            (out / tail).mkdir(exist_ok=True)
-            start = FIRST_DAY + timedelta(days=flight - 1, minutes=index)
-            aircraft = Aircraft(icd, profile, params, faults,
-                                seed=spec.seed * 100_000 + index * 1000 + flight,
-                                bit_requests_s=(0.0,) if bit else ())
-            _fly(aircraft, out / name, spec.flight_s, start, seed=flight)
-            recordings.append({"path": name, "tail": tail, "flight": flight,
-                               "flight_hours": spec.flight_hours, "bit": bit,
-                               "start": start.isoformat()})
+    kinds = [spec.kinds[int(rng.integers(len(spec.kinds)))] if i in degrading else None
+             for i in range(spec.tails)]
+    tails = list(map_tails(generate_tail, [str(out)] * spec.tails, [spec] * spec.tails,
+                           range(spec.tails), kinds))
+    recordings = [r for tail in tails for r in tail.recordings]
+    truth = {tail.tail: tail.truth for tail in tails}
     manifest = {"seed": spec.seed, "tails": spec.tails, "flights": spec.flights,
                 "flight_hours": spec.flight_hours, "flight_s": spec.flight_s,
                 "bit_every": spec.bit_every, "recordings": recordings, "truth": truth}
     (out / MANIFEST).write_text(json.dumps(manifest, indent=1) + "\n", encoding="utf-8")
     return manifest
+
+
+@dataclasses.dataclass(frozen=True)
+class TailArchive:
+    """One tail's part of the manifest."""
+
+    tail: str
+    recordings: list[dict[str, Any]]
+    truth: dict[str, Any]
+
+
+def generate_tail(root: str, spec: FleetSpec, index: int, kind: str | None) -> TailArchive:
+    """Every flight of tail ``index`` (aging along ``kind``, None: healthy) under ``root``."""
+    out = Path(root)
+    icd = load_icd(DEFAULT_ICD)
+    params = with_sample_rate(load_actuator(default_actuator_path()), RATE_HZ)
+    profile = steady_profile(RATE_HZ, spec.condition, duration_s=max(spec.flight_s, 1.0))
+    life = spec.life_flights or 1.5 * spec.flights
+    tail = spec.tail_name(index)
+    path: Trajectory | None = None
+    if kind is not None:
+        path = trajectory(params, kind, max(spec.flights, 2), seed=spec.seed * 1000 + index,
+                          mean_life_flights=life)
+    recordings = []
+    (out / tail).mkdir(exist_ok=True)
+    for flight in range(1, spec.flights + 1):
+        faults = FaultSet() if path is None else FaultSet.of([path.fault(flight - 1)])
+        bit = (flight - 1) % spec.bit_every == 0
+        name = recording_path(tail, flight)
+        start = FIRST_DAY + timedelta(days=flight - 1, minutes=index)
+        aircraft = Aircraft(icd, profile, params, faults,
+                            seed=spec.seed * 100_000 + index * 1000 + flight,
+                            bit_requests_s=(0.0,) if bit else ())
+        _fly(aircraft, out / name, spec.flight_s, start, seed=flight)
+        recordings.append({"path": name, "tail": tail, "flight": flight,
+                           "flight_hours": spec.flight_hours, "bit": bit,
+                           "start": start.isoformat()})
+    return TailArchive(tail, recordings, {} if path is None else
+                       {ASSET: _truth(path, spec.flights)})
 
 
 def _truth(path: Trajectory, flights: int) -> dict[str, Any]:
