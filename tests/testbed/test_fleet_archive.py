@@ -4,6 +4,7 @@ the truth in the manifest and absolute time in the recordings' time packets."""
 from __future__ import annotations
 
 import json
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 from drivers.chapter10.reader import Chapter10Reader
@@ -35,8 +36,9 @@ def test_archive_layout_manifest_and_recordings(tmp_path: Path) -> None:
 
 
 def test_same_seed_same_archive(tmp_path: Path) -> None:
-    spec = FleetSpec(tails=1, flights=2, seed=5, degrading=1.0, flight_s=0.2)
-    one, two = generate(tmp_path / "a", spec), generate(tmp_path / "b", spec)
+    spec = FleetSpec(tails=2, flights=2, seed=5, degrading=0.5, flight_s=0.2)
+    with ThreadPoolExecutor(2) as pool:   # tails written in parallel: the same archive
+        one, two = generate(tmp_path / "a", spec), generate(tmp_path / "b", spec, pool.map)
     assert one == two
-    for name in ("N101/flight-0001.ch10", "N101/flight-0002.ch10"):
+    for name in ("N101/flight-0001.ch10", "N101/flight-0002.ch10", "N102/flight-0002.ch10"):
         assert (tmp_path / "a" / name).read_bytes() == (tmp_path / "b" / name).read_bytes()
