@@ -78,6 +78,27 @@ def task_key(recording: Recording, config_digest: str) -> str:
     return f"mapr-fleet-{recording.digest[:24]}-{config_digest}"
 
 
+class FlightOrder:
+    """Holds finished recordings back until every earlier flight of their tail is out.
+
+    Built from the recordings to run (sorted by tail and flight); :meth:`ready` takes one
+    finished result and returns those that may be stored now, in flight order."""
+
+    def __init__(self, recordings: Sequence[Recording]) -> None:
+        self.queues: dict[str, list[str]] = {}
+        for recording in sorted(recordings, key=lambda r: (r.tail, r.flight, r.path)):
+            self.queues.setdefault(recording.tail, []).append(recording.digest)
+        self.waiting: dict[str, TaskResult] = {}
+
+    def ready(self, result: TaskResult) -> list[TaskResult]:
+        self.waiting[result.recording.digest] = result
+        queue = self.queues[result.recording.tail]
+        out = []
+        while queue and queue[0] in self.waiting:
+            out.append(self.waiting.pop(queue.pop(0)))
+        return out
+
+
 class FleetRun:
     """Submits the work and stores the results (see the module docstring)."""
 
@@ -107,10 +128,7 @@ class FleetRun:
 
         self.summary.total = len(recordings)
         todo = self.pending(recordings)
-        order: dict[str, list[str]] = {}
-        for recording in todo:   # sorted by tail and flight by archive.discover
-            order.setdefault(recording.tail, []).append(recording.digest)
-        waiting: dict[str, TaskResult] = {}
+        order = FlightOrder(todo)
         futures = []
         for recording in todo:
             config = self.configs.for_tail(recording.tail)
@@ -118,12 +136,8 @@ class FleetRun:
                                               key=task_key(recording, config.digest()),
                                               retries=1))
         for future in as_completed(futures):  # type: ignore[no-untyped-call]
-            result: TaskResult = future.result()
-            tail = result.recording.tail
-            waiting[result.recording.digest] = result
-            queue = order[tail]
-            while queue and queue[0] in waiting:
-                self._store(waiting.pop(queue.pop(0)))
+            for result in order.ready(future.result()):
+                self._store(result)
         return self.summary
 
     def _store(self, result: TaskResult) -> None:

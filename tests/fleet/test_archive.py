@@ -50,3 +50,25 @@ def test_a_pattern_without_the_groups_is_a_config_error() -> None:
         compile_pattern(r"(?P<tail>\w+)/\d+")
     with pytest.raises(ConfigError, match="regular expression"):
         compile_pattern(r"(?P<tail>")
+
+
+def test_later_flights_wait_for_the_earlier_ones_of_their_tail() -> None:
+    from mapr_daemon.fleet.archive import Recording
+    from mapr_daemon.fleet.runner import FlightOrder
+    from mapr_daemon.fleet.task import TaskResult
+
+    recordings = [Recording(f"{t}/{f}.ch10", t, f, f"{t}{f}") for t in ("A", "B")
+                  for f in (3, 1, 2)]
+    order = FlightOrder(recordings)
+
+    def done(tail: str, flight: int) -> list[tuple[str, int]]:
+        (recording,) = [r for r in recordings if (r.tail, r.flight) == (tail, flight)]
+        out = order.ready(TaskResult(recording, "cfg", True))
+        return [(r.recording.tail, r.recording.flight) for r in out]
+
+    assert done("A", 3) == []
+    assert done("B", 1) == [("B", 1)]   # another tail is not held back
+    assert done("A", 2) == []
+    assert done("A", 1) == [("A", 1), ("A", 2), ("A", 3)]
+    assert done("B", 3) == []
+    assert done("B", 2) == [("B", 2), ("B", 3)]
