@@ -11,8 +11,9 @@ Every recording (``*.ch10``/``*.c10`` under the folders given, or the files give
 Dask task that runs the daemon's records -> events path on it (as ``mapr replay
 --diagnose``); the client alone writes the catalog, one transaction per recording, each
 tail's flights in flight order. Tail and flight come from the path (``--pattern``, default
-``TAIL/...NNNN.ch10``); flight hours from the archive's ``fleet.json`` when it declares them,
-else the recorded time. Without ``--scheduler`` a local cluster starts (one single-threaded
+``TAIL/...NNNN.ch10``), the tail from a TMATS attribute first with ``--tail-tmats``;
+flight hours from the archive's ``fleet.json`` when it declares them, else the recorded
+time. Without ``--scheduler`` a local cluster starts (one single-threaded
 worker process per core, or ``--workers N``) and its dashboard address is printed on stderr.
 A recording already stored is skipped, so a run stopped anywhere is resumed by running it
 again. Progress on stderr (a bar on a terminal, plain lines otherwise), a summary on stdout.
@@ -51,6 +52,9 @@ def add_subparser(subparsers: Any) -> None:
                                                      "config's)")
     p.add_argument("--pattern", metavar="REGEX", help="tail and flight from the path: a regex "
                                                       "with groups (?P<tail>) and (?P<flight>)")
+    p.add_argument("--tail-tmats", metavar="CODE",
+                   help="take the tail from this TMATS attribute when the file has it "
+                        "(e.g. 'G\\TA'); the path otherwise")
     where = p.add_mutually_exclusive_group()
     where.add_argument("--workers", type=int, metavar="N",
                        help="local cluster workers (default: one per core)")
@@ -97,7 +101,8 @@ def run(args: argparse.Namespace) -> int:
     configs = _configs(args)
     for config in {c.digest(): c for c in (configs.default, *configs.tails.values())}.values():
         build_pipeline(config)   # every config error before any work: exit 78
-    recordings, unusable = discover(args.archive, args.pattern or DEFAULT_PATTERN)
+    recordings, unusable = discover(args.archive, args.pattern or DEFAULT_PATTERN,
+                                    args.tail_tmats)
     for bad in unusable:
         print(f"mapr fleet: {bad.path}: {bad.reason}", file=sys.stderr)
     path = args.catalog or configs.default.catalog.path

@@ -72,3 +72,16 @@ def test_later_flights_wait_for_the_earlier_ones_of_their_tail() -> None:
     assert done("A", 1) == [("A", 1), ("A", 2), ("A", 3)]
     assert done("B", 3) == []
     assert done("B", 2) == [("B", 2), ("B", 3)]
+
+
+def test_tail_from_tmats_when_the_recorder_writes_it(tmp_path: Path) -> None:
+    from drivers.chapter10.recording_packets import tmats_packet
+    from drivers.chapter10.tmats import TMATS_VERSION
+
+    text = "G\\PN:OTHER RECORDER;\r\nG\\TA:N900XY;\r\n"
+    with_tail = _touch(tmp_path / "box7" / "rec-0004.ch10",
+                       tmats_packet(0, text, TMATS_VERSION))
+    without = _touch(tmp_path / "box7" / "rec-0005.ch10",
+                     tmats_packet(0, "G\\PN:MAPR;\r\n", TMATS_VERSION))
+    found, bad = discover([with_tail, without], tail_tmats="G\\TA")
+    assert [(r.tail, r.flight) for r in found] == [("N900XY", 4), ("box7", 5)] and not bad
