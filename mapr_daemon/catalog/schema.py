@@ -29,6 +29,9 @@ History:
 6. ``rt_stats`` (:mod:`~mapr_daemon.catalog.rt_stats`): per interval, one row per RT /
    direction / subaddress or mode code: messages, errors by class, response-time sums and
    extremes, last bus time seen. Sessions before have none.
+7. ``recordings`` (:mod:`~mapr_daemon.catalog.recordings`): each archive recording a fleet
+   run stored, by content digest, with its tail, flight, flight hours, status and the config
+   it was processed with; what makes a fleet run idempotent and resumable.
 """
 
 from __future__ import annotations
@@ -184,6 +187,23 @@ MIGRATIONS: tuple[tuple[str, ...], ...] = (
             response_max_ns INTEGER,
             last_bus_ns INTEGER NOT NULL)""",
         "CREATE INDEX rt_stats_t ON rt_stats(start_ns)",
+    ),
+    (  # 7: the recordings a fleet run stored (catalog/recordings.py)
+        """CREATE TABLE recordings (
+            id INTEGER PRIMARY KEY,
+            digest TEXT NOT NULL UNIQUE,
+            path TEXT NOT NULL,
+            tail TEXT NOT NULL,
+            flight INTEGER NOT NULL,
+            flight_hours REAL,
+            status TEXT NOT NULL,
+            error TEXT,
+            bits INTEGER NOT NULL DEFAULT 0,
+            events INTEGER NOT NULL DEFAULT 0,
+            session_id INTEGER REFERENCES sessions(id),
+            processed_ns INTEGER NOT NULL,
+            config_digest TEXT NOT NULL)""",
+        "CREATE INDEX recordings_tail_flight ON recordings(tail, flight)",
     ),
 )
 

@@ -32,7 +32,7 @@ import math
 import os
 import sqlite3
 import time
-from collections.abc import Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from types import TracebackType
 from typing import Any, Protocol
 
@@ -196,27 +196,31 @@ class CatalogWriter:
         batch = list(events)
         return self._store(batch, [(e.asset, int(e.t_ns), detection_of(e)) for e in batch])
 
-    def add_bits(self, outcomes: Iterable[BitOutcome], flights: Iterable[Flight] = ()
-                 ) -> list[int]:
+    def add_bits(self, outcomes: Iterable[BitOutcome], flights: Iterable[Flight] = (), *,
+                 guard: Callable[[sqlite3.Connection], bool] | None = None) -> list[int]:
         """Store a batch of diagnosed BITs (in time order) in one transaction: each anomaly
         event, with the fault episode it opens or updates, and each BIT's effect on the
         actuator's open episodes (:mod:`.episodes`), each BIT's history row (:mod:`.history`)
         and the ``flights`` they were flown on. Returns the new event ids, in order, after
-        COMMIT."""
+        COMMIT.
+
+        ``guard(conn)``, when given, runs first inside that transaction (to write what must
+        be stored with the events, e.g. :mod:`.recordings`' row); when it returns False
+        nothing of the batch is stored and the result is empty."""
         bits = list(outcomes)
         return self._store([b.event for b in bits if b.event is not None],
                            [(b.asset, int(b.t_ns),
                              None if b.event is None else detection_of(b.event)) for b in bits],
-                           bits, list(flights))
+                           bits, list(flights), guard)
 
     def _store(self, events: list[Event], found: list[tuple[str, int, Detection | None]],
-               bits: list[BitOutcome] | None = None, flights: list[Flight] | None = None
-               ) -> list[int]:
+               bits: list[BitOutcome] | None = None, flights: list[Flight] | None = None,
+               guard: Callable[[sqlite3.Connection], bool] | None = None) -> list[int]:
         """``events`` are the detections of ``found`` (the batch's BITs), in order; ``bits``
         the same BITs as outcomes, for the BIT history (None: events alone), and the
         flights they were flown on."""
         sid = self._session()
-        if not found:
+        if not found and guard is None:
             return []
         rows = [(e.t_ns, e.asset, e.rt, e.fault, e.switch, _opt(e.severity),
                  _opt(e.severity_value), e.severity_unit, float(e.confidence),
@@ -225,7 +229,9 @@ class CatalogWriter:
                  _int(e.abs_ns)) for e in events]
         clear_after = self.clear_after
 
-        def work(conn: sqlite3.Connection) -> int:
+        def work(conn: sqlite3.Connection) -> int | None:
+            if guard is not None and not guard(conn):
+                return None
             # Under BEGIN IMMEDIATE we hold the write lock: ids max+1.. are ours to give.
             first = int(conn.execute("SELECT coalesce(max(id), 0) + 1 FROM events"
                                      ).fetchone()[0])
@@ -246,8 +252,8 @@ class CatalogWriter:
                 history.upsert_flights(conn, flights or [])
             return first
 
-        first = int(self._transaction(work))
-        return list(range(first, first + len(rows)))
+        first = self._transaction(work)
+        return [] if first is None else list(range(int(first), int(first) + len(rows)))
 
     def history(self, tail: str = "") -> tuple[list[BitRecord], list[Flight]]:
         """One aircraft's BIT history and flights, for the trend to continue from."""

@@ -48,6 +48,7 @@ SUBCOMMANDS: dict[str, str] = {
     "monitor": "watch a bus live (one line per message)",
     "record": "record the bus to a Chapter 10 file",
     "replay": "run a Chapter 10 recording through the reasoner into the catalog",
+    "fleet": "run a fleet's Chapter 10 archive through the reasoner on Dask, into one catalog",
     "encode": "write a bit-level capture from a JSON-lines word list",
     "icd": "check or draw an RT/SA message table (ICD YAML)",
     "simulate": "simulate fault-seeded EMA runs into an .npz",

@@ -28,7 +28,7 @@ def write_v1_file(path: Path) -> None:
 
 
 def test_v1_file_is_read_then_migrated_by_the_current_program(tmp_path: Path) -> None:
-    assert LATEST >= 6   # v5: BIT history and flights; v6: per-RT/SA statistics
+    assert LATEST >= 7   # v5: BIT history and flights; v6: per-RT/SA statistics
     path = tmp_path / "old.sqlite"
     write_v1_file(path)
     with CatalogReader(path) as reader:  # the CLI reads an old file as it is

@@ -1,0 +1,101 @@
+"""The recordings a fleet run stored: what makes ``mapr fleet`` idempotent and resumable.
+
+One row per archive recording (a Chapter 10 file of one flight of one tail), keyed by the
+SHA-256 of its content, so a file renamed or copied is still the same recording. A
+recording's row and its BITs (events, episode updates) are written in ONE transaction
+(:func:`store_recording`): after a crash either both are in the catalog or neither is, and a
+recording whose row says ``done`` is never stored again, whoever asks. A ``failed`` row (the
+file could not be read, the reasoner could not be built) holds the error and no events; the
+next run tries that recording again.
+
+Until the catalog has tail and flight columns of its own, a fleet's actuator is stored under
+the asset name ``TAIL/ASSET`` (:func:`fleet_asset`), so every per-asset view (episodes,
+``mapr catalog list --asset``) is per tail already; that choice lives in this one function.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import sqlite3
+from collections.abc import Sequence
+
+from mapr_daemon.catalog.model import BitOutcome
+from mapr_daemon.catalog.writer import CatalogWriter, now_ns
+from mapr_daemon.errors import CatalogError
+
+DONE = "done"
+FAILED = "failed"
+
+
+def fleet_asset(tail: str, asset: str) -> str:
+    """The catalog's asset name of ``asset`` on aircraft ``tail``."""
+    return f"{tail}/{asset}"
+
+
+@dataclasses.dataclass(frozen=True)
+class RecordingRow:
+    """One archive recording as the catalog keeps it."""
+
+    digest: str
+    """SHA-256 of the file's bytes (hex)."""
+    path: str
+    tail: str
+    flight: int
+    flight_hours: float | None
+    status: str
+    """:data:`DONE` or :data:`FAILED`."""
+    config_digest: str
+    """The digest of the configuration it was processed with (:meth:`Config.digest`)."""
+    error: str | None = None
+    bits: int = 0
+    events: int = 0
+    processed_ns: int = 0
+    """When it was stored (0: now)."""
+
+
+@dataclasses.dataclass(frozen=True)
+class Stored:
+    """A recording already in the catalog."""
+
+    status: str
+    config_digest: str
+    tail: str
+    flight: int
+
+
+def stored(writer: CatalogWriter) -> dict[str, Stored]:
+    """Every recording in the catalog, by digest."""
+    try:
+        rows = writer.conn.execute(
+            "SELECT digest, status, config_digest, tail, flight FROM recordings").fetchall()
+    except sqlite3.Error as error:
+        raise CatalogError(f"cannot read the recordings: {error}", path=writer.path) from error
+    return {str(d): Stored(str(s), str(c), str(t), int(f)) for d, s, c, t, f in rows}
+
+
+def store_recording(writer: CatalogWriter, row: RecordingRow,
+                    outcomes: Sequence[BitOutcome]) -> bool:
+    """Store one recording's row and its BITs in one transaction; False (nothing written) if
+    the catalog already holds it as done. A failed row is replaced."""
+    stamp = row.processed_ns or now_ns()
+    session = writer.session_id
+    written = False
+
+    def guard(conn: sqlite3.Connection) -> bool:
+        nonlocal written
+        done = conn.execute("SELECT 1 FROM recordings WHERE digest = ? AND status = ?",
+                            (row.digest, DONE)).fetchone()
+        if done is not None:
+            return False
+        conn.execute("DELETE FROM recordings WHERE digest = ?", (row.digest,))
+        conn.execute(
+            "INSERT INTO recordings (digest, path, tail, flight, flight_hours, status, error, "
+            "bits, events, session_id, processed_ns, config_digest) "
+            "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+            (row.digest, row.path, row.tail, int(row.flight), row.flight_hours, row.status,
+             row.error, int(row.bits), int(row.events), session, stamp, row.config_digest))
+        written = True
+        return True
+
+    writer.add_bits(outcomes, guard=guard)
+    return written

@@ -1,0 +1,159 @@
+"""``mapr fleet``: a fleet's Chapter 10 archive through the reasoner on Dask, into one catalog.
+
+::
+
+    mapr fleet ARCHIVE --dictionary dictionary.npz --catalog fleet.db       # local cluster
+    mapr fleet ARCHIVE --config fleet.yaml --workers 2
+    mapr fleet ARCHIVE --config fleet.yaml --scheduler tcp://10.0.0.5:8786  # existing cluster
+    mapr fleet N101/flight-0001.ch10 N101/flight-0002.ch10 --dictionary d.npz
+
+Every recording (``*.ch10``/``*.c10`` under the folders given, or the files given) is one
+Dask task that runs the daemon's records -> events path on it (as ``mapr replay
+--diagnose``); the client alone writes the catalog, one transaction per recording, each
+tail's flights in flight order. Tail and flight come from the path (``--pattern``, default
+``TAIL/...NNNN.ch10``), the tail from a TMATS attribute first with ``--tail-tmats``;
+flight hours from the archive's ``fleet.json`` when it declares them, else the recorded
+time. Without ``--scheduler`` a local cluster starts (one single-threaded
+worker process per core, or ``--workers N``) and its dashboard address is printed on stderr.
+A recording already stored is skipped, so a run stopped anywhere is resumed by running it
+again. Progress on stderr (a bar on a terminal, plain lines otherwise), a summary on stdout.
+
+Exit codes: 0 every recording stored; 65 some could not be processed (each named on stderr,
+the rest stored); 66 the catalog cannot be opened; 78 a config, ICD or dictionary error.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import statistics
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+from mapr_daemon.cli import exitcodes
+from mapr_daemon.errors import CatalogError, ConfigError
+
+
+def add_subparser(subparsers: Any) -> None:
+    p = subparsers.add_parser("fleet", help="run a fleet's Chapter 10 archive through the "
+                                            "reasoner on Dask, into one catalog",
+                              description=__doc__,
+                              formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("archive", nargs="+", help="archive folder(s) or Chapter 10 files")
+    p.add_argument("--config", metavar="FILE", help="fleet config: default: and tails: "
+                                                    "(docs/fleet.md)")
+    p.add_argument("--dictionary", metavar="FILE", help="fault dictionary for every tail "
+                                                        "(overrides the config's)")
+    p.add_argument("--icd", metavar="FILE", help="message table for every tail (overrides)")
+    p.add_argument("--threshold", type=float, help="anomaly threshold override")
+    p.add_argument("--catalog", metavar="PATH", help="fleet catalog (default: the default "
+                                                     "config's)")
+    p.add_argument("--pattern", metavar="REGEX", help="tail and flight from the path: a regex "
+                                                      "with groups (?P<tail>) and (?P<flight>)")
+    p.add_argument("--tail-tmats", metavar="CODE",
+                   help="take the tail from this TMATS attribute when the file has it "
+                        "(e.g. 'G\\TA'); the path otherwise")
+    where = p.add_mutually_exclusive_group()
+    where.add_argument("--workers", type=int, metavar="N",
+                       help="local cluster workers (default: one per core)")
+    where.add_argument("--scheduler", metavar="ADDRESS",
+                       help="an existing dask.distributed scheduler (tcp://host:8786)")
+    bar = p.add_mutually_exclusive_group()
+    bar.add_argument("--progress", action="store_true", default=None,
+                     help="the progress bar even when stderr is not a terminal")
+    bar.add_argument("--no-progress", action="store_false", dest="progress")
+    p.set_defaults(func=run)
+
+
+def _configs(args: argparse.Namespace) -> Any:
+    from mapr_daemon.daemon.config import Config, load_config
+    from mapr_daemon.fleet.config import FleetConfig, load_fleet_config
+
+    fleet = load_fleet_config(args.config) if args.config else FleetConfig(load_config(None))
+
+    def adjust(config: Config) -> Config:
+        reasoner = config.reasoner
+        if args.dictionary:
+            reasoner = dataclasses.replace(reasoner, dictionary=args.dictionary)
+        if args.threshold is not None:
+            reasoner = dataclasses.replace(reasoner, threshold=args.threshold)
+        if reasoner.dictionary is None:
+            raise ConfigError("fleet analysis needs a fault dictionary: --dictionary FILE "
+                              "(or reasoner.dictionary in --config)", path=config.source)
+        return dataclasses.replace(config, icd=args.icd or config.icd, reasoner=reasoner)
+
+    return FleetConfig(adjust(fleet.default),
+                       {tail: adjust(c) for tail, c in fleet.tails.items()})
+
+
+def run(args: argparse.Namespace) -> int:
+    from mapr_daemon.catalog import CatalogWriter
+    from mapr_daemon.daemon.pipeline import build_pipeline
+    from mapr_daemon.fleet.archive import DEFAULT_PATTERN, discover
+    from mapr_daemon.fleet.progress import FleetProgress
+    from mapr_daemon.fleet.runner import FleetRun, close_client, local_client
+
+    if args.workers is not None and args.workers < 1:
+        print(f"mapr fleet: --workers must be 1 or more, not {args.workers}", file=sys.stderr)
+        return exitcodes.USAGE
+    configs = _configs(args)
+    for config in {c.digest(): c for c in (configs.default, *configs.tails.values())}.values():
+        build_pipeline(config)   # every config error before any work: exit 78
+    recordings, unusable = discover(args.archive, args.pattern or DEFAULT_PATTERN,
+                                    args.tail_tmats)
+    for bad in unusable:
+        print(f"mapr fleet: {bad.path}: {bad.reason}", file=sys.stderr)
+    path = args.catalog or configs.default.catalog.path
+    try:
+        catalog = CatalogWriter(path, durability=configs.default.catalog.durability,
+                                clear_after=configs.default.catalog.episode_clear_bits)
+    except CatalogError as error:
+        print(f"mapr fleet: {error}", file=sys.stderr)
+        return exitcodes.NOINPUT
+    if args.scheduler:
+        from distributed import Client
+        client = Client(args.scheduler)  # type: ignore[no-untyped-call]
+    else:
+        client = local_client(args.workers)
+        print(f"mapr fleet: local Dask cluster, {len(client.scheduler_info()['workers'])} "
+              f"workers, dashboard {client.dashboard_link}", file=sys.stderr)
+    started = time.monotonic()
+    hours = sum(r.flight_hours or 0.0 for r in recordings)
+    progress = FleetProgress(sys.stderr, len(recordings), hours, tty=sys.stderr.isatty(),
+                             enabled=args.progress is not False)
+    if args.progress:
+        progress.tty = True
+    fleet = FleetRun(client, catalog, configs,
+                     on_stored=lambda r: progress.add(r.flight_hours, r.ok))
+    catalog.open_session(backend="fleet", config_hash=configs.default.digest())
+    try:
+        summary = fleet.run(recordings)
+        progress.done += summary.skipped
+        progress.show(final=True)
+    except KeyboardInterrupt:
+        catalog.close("interrupted")
+        return exitcodes.INTERRUPTED
+    finally:
+        close_client(client)
+    session = catalog.session_id
+    catalog.close("fleet run complete")
+    for failed in summary.failed:
+        print(f"mapr fleet: {failed.recording.path}: {failed.error}", file=sys.stderr)
+    wall = time.monotonic() - started
+    tails = len({r.tail for r in recordings})
+    tasks = summary.task_s
+    cost = (f", per task {statistics.fmean(tasks):.2f} s mean, {max(tasks):.2f} s worst"
+            if tasks else "")
+    print(f"fleet: {len(recordings)} recordings of {tails} tails: {summary.stored} stored, "
+          f"{summary.skipped} already in the catalog"
+          + (f" ({summary.stale} with another config)" if summary.stale else "")
+          + f", {len(summary.failed) + len(unusable)} failed\n"
+          f"diagnosis: {summary.bits} built-in tests, {summary.events} anomaly events, "
+          f"{summary.reasoner_failures} reasoner failures, {summary.damaged_packets} damaged "
+          f"packets skipped\n"
+          f"{summary.hours:.1f} flight hours in {wall:.1f} s "
+          f"({summary.hours / (wall / 3600.0) if wall > 0 else 0.0:.0f} flight h per wall h)"
+          f"{cost}\ncatalog {Path(path)}: session {session}")
+    return exitcodes.DATAERR if summary.failed or unusable else exitcodes.OK

@@ -1,0 +1,163 @@
+"""A fleet run: one Dask task per recording, the client alone writing the catalog in order.
+
+::
+
+    recordings (archive.discover) -> skip those the catalog holds as done
+      -> client.submit(process_recording, Job) per recording  (workers: read + reasoner)
+      -> as each finishes: buffered per tail until every earlier flight of that tail is
+         stored, then stored (catalog.recordings.store_recording: its row and its BITs in
+         one transaction), so per-actuator episodes and trends see flights in order.
+
+Idempotent: a recording stored as done is skipped by a later run, and refused by the store
+itself if two runs race. Resumable: a run stopped anywhere leaves whole recordings in the
+catalog, and the next does only the rest. A worker killed mid-task loses nothing: tasks
+write nothing, and the Dask scheduler runs a lost task again on another worker. A task's
+key is derived from the recording's digest and its configuration, so the scheduler never
+runs the same work twice at once.
+
+The cluster is the caller's (:func:`local_client` or ``distributed.Client(address)``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+from collections.abc import Callable, Sequence
+from typing import TYPE_CHECKING
+
+from mapr_daemon.catalog.recordings import DONE, FAILED, RecordingRow, store_recording, stored
+from mapr_daemon.catalog.writer import CatalogWriter
+from mapr_daemon.fleet.archive import Recording
+from mapr_daemon.fleet.config import FleetConfig
+from mapr_daemon.fleet.task import Job, TaskResult, process_recording
+
+if TYPE_CHECKING:
+    from distributed import Client
+
+
+@dataclasses.dataclass
+class RunSummary:
+    """What one run did."""
+
+    total: int = 0
+    """Recordings found."""
+    skipped: int = 0
+    """Already stored as done by an earlier run."""
+    stale: int = 0
+    """Among the skipped, those stored with another configuration (a fresh catalog re-runs
+    them)."""
+    stored: int = 0
+    failed: list[TaskResult] = dataclasses.field(default_factory=list)
+    events: int = 0
+    bits: int = 0
+    hours: float = 0.0
+    reasoner_failures: int = 0
+    damaged_packets: int = 0
+    task_s: list[float] = dataclasses.field(default_factory=list)
+
+
+def local_client(workers: int | None, *, dashboard: bool = True) -> Client:
+    """A local Dask cluster of ``workers`` single-threaded processes (None: one per core)."""
+    from distributed import Client, LocalCluster
+
+    cluster = LocalCluster(  # type: ignore[no-untyped-call]
+        n_workers=workers, threads_per_worker=1, processes=True,
+        dashboard_address=":0" if dashboard else None, silence_logs=logging.ERROR)
+    return Client(cluster)  # type: ignore[no-untyped-call]
+
+
+def close_client(client: Client) -> None:
+    """Disconnect; a local cluster started by :func:`local_client` is shut down too."""
+    cluster = getattr(client, "cluster", None)
+    client.close()  # type: ignore[no-untyped-call]
+    if cluster is not None:
+        cluster.close()
+
+
+def task_key(recording: Recording, config_digest: str) -> str:
+    return f"mapr-fleet-{recording.digest[:24]}-{config_digest}"
+
+
+class FlightOrder:
+    """Holds finished recordings back until every earlier flight of their tail is out.
+
+    Built from the recordings to run (sorted by tail and flight); :meth:`ready` takes one
+    finished result and returns those that may be stored now, in flight order."""
+
+    def __init__(self, recordings: Sequence[Recording]) -> None:
+        self.queues: dict[str, list[str]] = {}
+        for recording in sorted(recordings, key=lambda r: (r.tail, r.flight, r.path)):
+            self.queues.setdefault(recording.tail, []).append(recording.digest)
+        self.waiting: dict[str, TaskResult] = {}
+
+    def ready(self, result: TaskResult) -> list[TaskResult]:
+        self.waiting[result.recording.digest] = result
+        queue = self.queues[result.recording.tail]
+        out = []
+        while queue and queue[0] in self.waiting:
+            out.append(self.waiting.pop(queue.pop(0)))
+        return out
+
+
+class FleetRun:
+    """Submits the work and stores the results (see the module docstring)."""
+
+    def __init__(self, client: Client, catalog: CatalogWriter, configs: FleetConfig,
+                 on_stored: Callable[[TaskResult], None] | None = None) -> None:
+        self.client, self.catalog, self.configs = client, catalog, configs
+        self.on_stored = on_stored
+        self.summary = RunSummary()
+
+    def pending(self, recordings: Sequence[Recording]) -> list[Recording]:
+        """The recordings the catalog does not hold as done."""
+        known = stored(self.catalog)
+        out = []
+        for recording in recordings:
+            row = known.get(recording.digest)
+            if row is not None and row.status == DONE:
+                self.summary.skipped += 1
+                digest = self.configs.for_tail(recording.tail).digest()
+                self.summary.stale += row.config_digest != digest
+            else:
+                out.append(recording)
+        return out
+
+    def run(self, recordings: Sequence[Recording]) -> RunSummary:
+        """Process every recording not yet stored; returns the summary."""
+        from distributed import as_completed
+
+        self.summary.total = len(recordings)
+        todo = self.pending(recordings)
+        order = FlightOrder(todo)
+        futures = []
+        for recording in todo:
+            config = self.configs.for_tail(recording.tail)
+            futures.append(self.client.submit(process_recording, Job(recording, config),
+                                              key=task_key(recording, config.digest()),
+                                              retries=1))
+        for future in as_completed(futures):  # type: ignore[no-untyped-call]
+            for result in order.ready(future.result()):
+                self._store(result)
+        return self.summary
+
+    def _store(self, result: TaskResult) -> None:
+        recording, summary = result.recording, self.summary
+        row = RecordingRow(recording.digest, recording.path, recording.tail, recording.flight,
+                           result.flight_hours, DONE if result.ok else FAILED,
+                           result.config_digest, result.error, len(result.outcomes),
+                           result.events)
+        if store_recording(self.catalog, row, result.outcomes if result.ok else []):
+            if result.ok:
+                summary.stored += 1
+                summary.events += result.events
+                summary.bits += len(result.outcomes)
+                summary.hours += result.flight_hours
+            else:
+                summary.failed.append(result)
+            summary.reasoner_failures += len(result.failures)
+            summary.damaged_packets += len(result.issues)
+            summary.task_s.append(result.task_s)
+        else:
+            summary.skipped += 1
+        if self.on_stored is not None:
+            self.on_stored(result)

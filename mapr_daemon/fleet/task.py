@@ -1,0 +1,164 @@
+"""One recording through the daemon's records -> events path, on a worker: the fleet's task.
+
+:func:`process_recording` opens a Chapter 10 file with the ``chapter10`` backend, as
+``mapr replay`` does, hands its records in batches to :meth:`Pipeline.process` (the one path
+the daemon and the replay run, built by :func:`build_pipeline`), and returns everything the
+catalog needs as a picklable :class:`TaskResult`: every diagnosed BIT as a
+:class:`~mapr_daemon.catalog.BitOutcome` with its bus and absolute stamps, stored under the
+fleet asset name ``TAIL/ASSET``, the reasoner's failures and the damaged packets skipped.
+A task writes nothing: the client alone writes the catalog, so a worker killed mid-task
+loses nothing (the scheduler runs the task again elsewhere). Any error reading the file
+becomes a failed result naming it; the other recordings go on.
+
+A worker keeps the pipelines it built (the dictionary load is the expensive part), one per
+configuration; each recording starts from a fresh session (signal stream, BIT watch and
+reasoner unit state, :func:`_fresh`), as ``mapr replay`` of that one file would: what
+carries from flight to flight is the catalog's (episodes, trends), written in flight order.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+import traceback
+
+from drivers.errors import MaprError
+from drivers.mil1553.record import MonitorRecord
+from drivers.monitor import open_monitor
+from mapr_daemon.catalog import BitOutcome
+from mapr_daemon.catalog.recordings import fleet_asset
+from mapr_daemon.daemon.clock import BusClock
+from mapr_daemon.daemon.config import Config
+from mapr_daemon.daemon.pipeline import Pipeline, build_pipeline
+from mapr_daemon.fleet.archive import Recording
+
+BATCH = 1024
+"""Records handed to :meth:`Pipeline.process` at a time (as ``mapr replay``)."""
+
+
+@dataclasses.dataclass(frozen=True)
+class Job:
+    """What a task is given: the recording and its tail's configuration."""
+
+    recording: Recording
+    config: Config
+
+
+@dataclasses.dataclass(frozen=True)
+class TaskResult:
+    """What a task returns to the client (picklable; nothing is written by the task)."""
+
+    recording: Recording
+    config_digest: str
+    ok: bool
+    error: str | None = None
+    outcomes: list[BitOutcome] = dataclasses.field(default_factory=list)
+    """Every BIT diagnosed, in time order, as the catalog stores it (asset ``TAIL/ASSET``)."""
+    failures: list[str] = dataclasses.field(default_factory=list)
+    """BITs the reasoner failed on (their error), for the run's report."""
+    issues: list[str] = dataclasses.field(default_factory=list)
+    """Damaged packets skipped (with file offsets)."""
+    messages: int = 0
+    recorded_s: float = 0.0
+    """Bus time from the first record to the last."""
+    actuator_seen: bool = False
+    task_s: float = 0.0
+    """Wall time of the task on its worker."""
+
+    @property
+    def flight_hours(self) -> float:
+        """Declared flight hours, or the recorded time when none were declared."""
+        declared = self.recording.flight_hours
+        return self.recorded_s / 3600.0 if declared is None else declared
+
+    @property
+    def events(self) -> int:
+        return sum(o.event is not None for o in self.outcomes)
+
+
+_PIPELINES: dict[tuple[str, str | None], Pipeline] = {}
+"""This worker's pipelines by (config digest, config file)."""
+
+
+def _fresh(config: Config) -> Pipeline:
+    """A pipeline for ``config`` with no state from an earlier recording: the expensive parts
+    (ICD, dictionary) come from this worker's cache, the per-session parts are rebuilt."""
+    key = (config.digest(), config.source)
+    cached = _PIPELINES.get(key)
+    if cached is None:
+        cached = _PIPELINES[key] = build_pipeline(config, trend=False)
+    from mapr_daemon.daemon.bitwatch import BitWatch
+    from mapr_daemon.daemon.pipeline import Watched
+    from mapr_daemon.icd import SignalStream
+    from mapr_daemon.reasoner.events import Reasoner
+    watched = []
+    for w in cached.watched:
+        watch = w.watch
+        if watch is not None:  # the threshold override is already in the dictionary
+            old = watch.reasoner
+            unit = Reasoner(old.dictionary, old.params, prognostic=old.prognostic)
+            watch = BitWatch(unit, signals=w.asset.signals, bit=old.params.bit,
+                             paper=watch.paper)
+        watched.append(Watched(w.asset, watch))
+    return dataclasses.replace(cached, stream=SignalStream(cached.icd), watched=watched)
+
+
+def process_recording(job: Job) -> TaskResult:
+    """Run one recording through the pipeline (see the module docstring)."""
+    started = time.monotonic()
+    recording, config = job.recording, job.config
+    digest = config.digest()
+    try:
+        result = _run(recording, config, digest)
+    except (MaprError, OSError, ValueError) as error:
+        return TaskResult(recording, digest, False, f"{type(error).__name__}: {error}",
+                          task_s=time.monotonic() - started)
+    except Exception as error:  # a bug on one file must not stop the fleet: named, kept
+        where = traceback.format_exception(error)[-2].strip().splitlines()[0]
+        return TaskResult(recording, digest, False,
+                          f"{type(error).__name__}: {error} ({where})",
+                          task_s=time.monotonic() - started)
+    return dataclasses.replace(result, task_s=time.monotonic() - started)
+
+
+def _run(recording: Recording, config: Config, digest: str) -> TaskResult:
+    pipe = _fresh(config)
+    clock = BusClock("recording")
+    outcomes: list[BitOutcome] = []
+    failures: list[str] = []
+    messages, seen = 0, False
+    first: int | None = None
+    last = 0
+    tail, asset = recording.tail, pipe.asset.name
+    monitor = open_monitor("chapter10", path=recording.path)
+    with monitor:
+        batch: list[MonitorRecord] = []
+        while True:
+            record = monitor.recv(timeout=0.0)
+            if record is not None:
+                batch.append(record)
+            if batch and (record is None or len(batch) >= BATCH):
+                first = batch[0].t_ns if first is None else first
+                last = batch[-1].t_ns
+                messages += len(batch)
+                result = pipe.process(batch, clock)
+                seen |= result.actuator_seen
+                failures += [f.error for f in result.failures]
+                outcomes += [_in_fleet(o, tail, asset, recording) for o in result.outcomes]
+                batch = []
+            if record is None and monitor.ended:
+                break
+        issues = [str(issue) for issue in getattr(monitor, "issues", [])]
+    return TaskResult(recording, digest, True, None, outcomes, failures, issues, messages,
+                      0.0 if first is None else (last - first) / 1e9, seen)
+
+
+def _in_fleet(outcome: BitOutcome, tail: str, asset: str, recording: Recording) -> BitOutcome:
+    """The outcome under the fleet asset name, its event's evidence naming the recording."""
+    name = fleet_asset(tail, asset)
+    event = outcome.event
+    if event is not None:
+        event = dataclasses.replace(event, asset=name, evidence={
+            **event.evidence, "recording": recording.path, "tail": tail,
+            "flight": recording.flight})
+    return dataclasses.replace(outcome, asset=name, event=event)

@@ -1,0 +1,44 @@
+"""The synthetic fleet archive: one Chapter 10 file per tail and flight, in the path, with
+the truth in the manifest and absolute time in the recordings' time packets."""
+
+from __future__ import annotations
+
+import json
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
+from drivers.chapter10.reader import Chapter10Reader
+from mapr_daemon.testbed.fleet import MANIFEST, FleetSpec, generate
+
+
+def test_archive_layout_manifest_and_recordings(tmp_path: Path) -> None:
+    spec = FleetSpec(tails=2, flights=2, seed=3, degrading=0.5, flight_s=0.3, bit_every=2)
+    manifest = generate(tmp_path, spec)
+    assert json.loads((tmp_path / MANIFEST).read_text()) == manifest
+    paths = sorted(str(p.relative_to(tmp_path)) for p in tmp_path.rglob("*.ch10"))
+    assert paths == ["N101/flight-0001.ch10", "N101/flight-0002.ch10",
+                     "N102/flight-0001.ch10", "N102/flight-0002.ch10"]
+    assert [(r["tail"], r["flight"], r["bit"]) for r in manifest["recordings"]] == [
+        ("N101", 1, True), ("N101", 2, False), ("N102", 1, True), ("N102", 2, False)]
+    aging = {tail: t for tail, t in manifest["truth"].items() if t}
+    assert len(aging) == 1   # half of two tails
+    (truth,) = aging.values()
+    ema = truth["EMA1"]
+    assert ema["kind"] in ("esr", "friction") and len(ema["values"]) == 2
+    assert ema["values"][0] == ema["nominal"] and ema["values"][1] != ema["nominal"]
+    # each file holds the bus traffic, with the flight's start as absolute time
+    reader = Chapter10Reader(tmp_path / "N102" / "flight-0002.ch10")
+    records = [r for batch in reader for r in batch.records]
+    assert len(records) > 300   # 0.3 s of the schedule
+    first = records[0].extra["epoch_ns"]
+    assert isinstance(first, int)
+    assert first // 10**9 == 1767686460   # 2026-01-06 08:01 UTC: a day after the first
+
+
+def test_same_seed_same_archive(tmp_path: Path) -> None:
+    spec = FleetSpec(tails=2, flights=2, seed=5, degrading=0.5, flight_s=0.2)
+    with ThreadPoolExecutor(2) as pool:   # tails written in parallel: the same archive
+        one, two = generate(tmp_path / "a", spec), generate(tmp_path / "b", spec, pool.map)
+    assert one == two
+    for name in ("N101/flight-0001.ch10", "N101/flight-0002.ch10", "N102/flight-0002.ch10"):
+        assert (tmp_path / "a" / name).read_bytes() == (tmp_path / "b" / name).read_bytes()
