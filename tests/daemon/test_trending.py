@@ -1,0 +1,130 @@
+"""An actuator's trend after each BIT, as the daemon and a replay store it: flights told from
+the traffic (or declared), SoH and RUL from the per-kind degradation estimates, the BIT
+history in the catalog and a restart that continues it."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from mapr_daemon.catalog import BitOutcome, CatalogWriter, Event
+from mapr_daemon.catalog.model import BitRecord
+from mapr_daemon.daemon.trending import AssetHistory, FlightLog, Trending
+from mapr_daemon.ema.params import default_actuator_path, load_actuator
+from mapr_daemon.reasoner import trend
+from mapr_daemon.reasoner.wear_model import PrognosticModel, learn_prior
+
+T0 = 1_778_300_000_000_000_000
+HOUR = 3_600_000_000_000
+DAY = 24 * HOUR
+
+
+@pytest.fixture(scope="module")
+def model() -> PrognosticModel:
+    """ESR trended with a measured-looking noise (sd 0.05 of the threshold) and the fleet
+    prior of the aging model; the estimators are not needed: outcomes carry the estimates."""
+    params = load_actuator(default_actuator_path())
+    return PrognosticModel(params.name, {}, {"esr": trend.Noise(0.05)}, {},
+                           {"esr": learn_prior(params, "esr", 8)})
+
+
+def bit(flight: int, h: float, fault: str | None = None) -> BitOutcome:
+    t = T0 + flight * DAY + HOUR // 2
+    event = None if fault is None else Event(t_ns=t, asset="EMA1", fault=fault,
+                                             confidence=0.9)
+    return BitOutcome("EMA1", t, event, wear={"esr": h}, fault=fault)
+
+
+def fly(trending: Trending, flight: int) -> None:
+    """One flight of traffic, one hour long, seen every ten minutes; flights a day apart."""
+    for minute in range(0, 61, 10):
+        trending.observe(T0 + flight * DAY + minute * 60 * 10**9)
+
+
+def esr(n: float) -> float:
+    """ESR's degradation on its physical shape (1/ESR falls linearly), at 1 on flight 100."""
+    return 1.0 / (1.0 - 0.005 * n) - 1.0
+
+
+def test_a_healthy_actuator_is_soh_one_with_no_rul_and_says_why(model: PrognosticModel
+                                                                ) -> None:
+    trending = Trending("N101", 900.0, {"EMA1": model})
+    out = []
+    for n in range(1, 11):
+        fly(trending, n)
+        out += trending.annotate([bit(n, 0.01 * (-1) ** n)])
+    last = out[-1]
+    assert [o.flight for o in out] == list(range(1, 11))
+    assert last.health is not None and last.health.soh == 1.0 and last.health.mode is None
+    assert last.health.rul is None and "within its healthy scatter" in (last.health.note or "")
+
+
+def test_a_wearing_capacitor_leads_with_soh_and_a_rul_interval_that_holds_the_truth(
+        model: PrognosticModel) -> None:
+    trending = Trending("N101", 900.0, {"EMA1": model})
+    out = []
+    for n in range(2, 62, 2):           # a BIT every other flight, those flights recorded
+        trending.log.declare(n)
+        fly(trending, n)
+        out += trending.annotate([bit(n, esr(n))])
+    health = out[-1].health
+    assert health is not None and health.mode == "esr"
+    now = (esr(56) + esr(58) + esr(60)) / 3   # SoH: the mean of the last three BITs
+    assert health.soh == pytest.approx(1 - now, abs=1e-6)
+    assert health.rul is not None and health.rul_low is not None and health.rul_high is not None
+    assert health.rul_low <= 100 - 60 <= health.rul_high
+    assert health.rul_hours == pytest.approx(health.rul * 1.0, rel=1e-6)   # 1 h flights
+    assert out[-1].flight_hours == pytest.approx(59.5, abs=0.01)   # unseen flights: 1 h
+
+
+def test_a_terminal_fault_is_soh_zero_and_its_event_says_so(model: PrognosticModel) -> None:
+    trending = Trending("", 900.0, {"EMA1": model})
+    fly(trending, 1)
+    (o,) = trending.annotate([bit(1, 0.0, fault="short")])
+    assert o.health is not None and (o.health.soh, o.health.rul) == (0.0, 0.0)
+    assert o.event is not None and o.event.soh == 0.0
+
+
+def test_flights_are_told_from_gaps_in_the_traffic_or_declared() -> None:
+    log = FlightLog("N101", gap_s=900.0)
+    for minute in range(0, 71, 10):           # traffic every 10 min for 70 min: one flight
+        log.observe(T0 + minute * 60 * 10**9)
+    log.observe(T0 + 3 * HOUR)                # 1 h 50 min later: the next flight
+    for minute in range(10, 31, 10):          # half an hour of it
+        log.observe(T0 + 3 * HOUR + minute * 60 * 10**9)
+    assert log.number == 2
+    flights = log.pop_changed()
+    assert [(f.flight, round(f.hours, 3), f.source) for f in flights] == \
+        [(1, 1.167, "bus"), (2, 0.5, "bus")]
+    log.declare(40, hours=1.5)
+    log.observe(T0 + 30 * DAY)
+    assert log.number == 40
+    mean = (1.1667 + 0.5 + 1.5) / 3           # flights 3..39 not seen: counted at the mean
+    assert log.hours_at(T0 + 30 * DAY) == pytest.approx(1.1667 + 0.5 + 37 * mean, rel=1e-3)
+
+
+def test_the_history_is_stored_and_a_restart_continues_the_trend(
+        model: PrognosticModel, tmp_path: Path) -> None:
+    path = tmp_path / "c.sqlite"
+    first = Trending("N101", 900.0, {"EMA1": model})
+    with CatalogWriter(path) as writer:
+        writer.open_session(backend="chapter10", config_hash="x")
+        for n in range(2, 32, 2):
+            first.log.declare(n)
+            fly(first, n)
+            writer.add_bits(first.annotate([bit(n, esr(n))]), first.log.pop_changed())
+        bits, flights = writer.history("N101")
+    assert [b.flight for b in bits] == list(range(2, 32, 2))
+    assert bits[-1].health.mode == "esr" and bits[-1].wear == {"esr": esr(30)}
+    assert [f.flight for f in flights] == list(range(2, 32, 2))
+    resumed = Trending("N101", 900.0, {"EMA1": model},
+                       {"EMA1": _history(bits)}, flights)
+    fly(resumed, 40)
+    (o,) = resumed.annotate([bit(40, esr(40))])
+    assert o.flight == 31 and o.health is not None   # traffic after a gap: the next flight
+    assert o.health.mode == "esr" and o.health.rul is not None
+
+
+def _history(bits: list[BitRecord]) -> AssetHistory:
+    return AssetHistory([float(b.flight) for b in bits], [dict(b.wear) for b in bits])
