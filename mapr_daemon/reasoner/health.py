@@ -6,7 +6,9 @@ estimate of every aging kind (:meth:`~.wear_model.PrognosticModel.estimates`) â€
 * **which part is wearing**: a kind is *evidenced* when the mean of its last
   :data:`RECENT` calibrated estimates lies more than :data:`EVIDENCE_Z` standard errors above
   healthy (its measured noise, :class:`~.trend.Noise`), or when the classifier names it at
-  this BIT. The **leading mode** is the evidenced kind with the shortest median RUL;
+  this BIT. The **leading mode** is the kind the classifier names, if evidenced (the
+  estimators of two kinds can both respond to one fault; the classifier is what tells kinds
+  apart), else the evidenced kind with the shortest median RUL;
 * **SoH** ``= 1 - h`` of the leading mode, clipped to [0, 1]: 1.0 as commissioned, 0.0 at
   that mode's failure threshold (:data:`~mapr_daemon.ema.degradation.FAILURE`, e.g. ESR at
   twice nominal), ``h`` the mean of its last :data:`RECENT` calibrated estimates. With no
@@ -14,7 +16,8 @@ estimate of every aging kind (:meth:`~.wear_model.PrognosticModel.estimates`) â€
 * **RUL** of the leading mode in flights, the median and a 90 % interval (5 % and 95 %
   points of the trend's draws, :func:`~.trend.fit_rul`: the kind's aging shape with the
   fleet prior); in flight hours by the actuator's mean flight length so far. ``inf`` where
-  the trend does not reach the threshold within :data:`HORIZON` flights.
+  the trend does not reach the threshold within :data:`HORIZON` flights; 0 once the mode's
+  degradation is past its threshold. A trend needs BITs on three flights or more.
 
 A shorted or open switch (a terminal fault) is SoH 0 and RUL 0 at once.
 """
@@ -102,7 +105,10 @@ def assess(model: PrognosticModel, flights: Sequence[float],
         evidenced = z > EVIDENCE_Z or kind == diagnosed
         row: dict[str, Any] = {"h": round(h, 4), "z": round(z, 2), "evidenced": evidenced}
         rul = None
-        if evidenced and keep.sum() >= 3:
+        if evidenced and h >= 1.0:   # past its failure threshold: failed now, nothing to fit
+            rul = RulEstimate(0.0, 0.0, 0.0, np.zeros(1), HORIZON)
+            row.update(rul=0.0, low=0.0, high=0.0)
+        elif evidenced and np.unique(fl[keep]).size >= 3:
             rul = trend.fit_rul(fl[keep], est[keep], now, kind, noise, model.priors.get(kind),
                                 seed=seed, horizon=HORIZON)
             row.update(rul=_finite(rul.rul), low=_finite(rul.lower), high=_finite(rul.upper))
@@ -112,10 +118,12 @@ def assess(model: PrognosticModel, flights: Sequence[float],
     if not candidates:
         return Health(1.0, None, note="no part wears measurably: every trended part is within "
                                       "its healthy scatter", modes=modes)
-    _, neg_h, kind, rul = min(candidates, key=lambda c: (c[0], c[1]))
+    named = [c for c in candidates if c[2] == diagnosed]   # the classifier tells kinds apart
+    _, neg_h, kind, rul = named[0] if named else min(candidates, key=lambda c: (c[0], c[1]))
     soh = float(min(1.0, max(0.0, 1.0 + neg_h)))
     if rul is None:
-        return Health(soh, kind, note="fewer than three BITs: no trend yet", modes=modes)
+        return Health(soh, kind, note="BITs on fewer than three flights: no trend yet",
+                      modes=modes)
     return Health(soh, kind, rul.rul, rul.lower, rul.upper, modes=modes,
                   note=None if math.isfinite(rul.rul) else
                   f"the trend does not reach the failure threshold within {HORIZON:g} flights")
