@@ -121,3 +121,21 @@ def health_table(rows: Sequence[ActuatorHealth]) -> str:
     return _table(("ACTUATOR", "SOH", "MODE", "RUL (90% INTERVAL)", "RUL HOURS", "EPISODES",
                    "LAST BIT (UTC)", "FLIGHT", "IN SERVICE SINCE (UTC)", "NOTE"), body,
                   right={1, 7})
+
+
+def bit_json(r: BitRecord) -> dict[str, Any]:
+    """One BIT of the history with the health after it (``catalog trend --json``)."""
+    out = r.as_dict()
+    out["health"] = {**dataclasses.asdict(r.health), "modes": dict(r.health.modes)}
+    return out
+
+
+def bits_table(records: Sequence[BitRecord]) -> str:
+    """One line per BIT of one actuator: flight, hours, time, diagnosis, SoH, mode, RUL."""
+    body = [("-" if r.flight is None else str(r.flight),
+             "-" if r.flight_hours is None else f"{r.flight_hours:.1f}", fmt_time(r.t_ns),
+             r.fault or "nominal", fmt_soh(r.health), r.health.mode or "-",
+             fmt_rul(r.health) if r.health.rul is not None else "-", r.health.note or "")
+            for r in records]
+    return _table(("FLIGHT", "HOURS", "TIME (UTC)", "BIT", "SOH", "MODE", "RUL (90% INTERVAL)",
+                   "NOTE"), body, right={0, 1, 4})

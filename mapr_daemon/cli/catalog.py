@@ -3,7 +3,7 @@
     mapr catalog list --since 7d --asset EMA1 --min-severity 0.3
     mapr catalog show 42
     mapr catalog export --format csv -o faults.csv --since 2026-05-01
-    mapr catalog trend EMA1 --plot ema1.png
+    mapr catalog trend EMA1 --plot ema1.png            (--hours: x in flight hours)
     mapr catalog stats --since 2h
     mapr catalog episodes --open --actuator EMA1
     mapr catalog ack 3 --by "J. Smith" --note "capacitor replaced, WO 4711"
@@ -29,7 +29,15 @@ import time
 from contextlib import ExitStack
 from typing import IO, Any
 
-from mapr_daemon.catalog import CatalogReader, EventFilter, acknowledge, default_path, report
+from mapr_daemon.catalog import (
+    CatalogReader,
+    EventFilter,
+    acknowledge,
+    default_path,
+    health_view,
+    report,
+)
+from mapr_daemon.catalog.model import BitRecord
 from mapr_daemon.cli import exitcodes
 from mapr_daemon.errors import CatalogError, EpisodeError
 
@@ -103,7 +111,10 @@ def add_subparser(subparsers: Any) -> None:
     p = actions.add_parser("trend", parents=[common], help="SoH and RUL of one asset over time")
     p.add_argument("asset")
     _time_range(p)
+    p.add_argument("--tail", help="only this aircraft's actuator of that name")
     p.add_argument("--plot", metavar="PNG", help="also draw it into this PNG (matplotlib)")
+    p.add_argument("--hours", action="store_true",
+                   help="x in flight hours instead of flights (with --plot)")
     p.set_defaults(func=run, action_func=run_trend)
 
     p = actions.add_parser("stats", parents=[common], help="bus health per interval, and gaps")
@@ -203,9 +214,30 @@ def run_export(reader: CatalogReader, args: argparse.Namespace) -> int:
     return exitcodes.OK
 
 
+def _history(reader: CatalogReader, args: argparse.Namespace) -> tuple[str, list[BitRecord]]:
+    """The asset's BIT history in the time range, and its display name; ``TAIL/ASSET``
+    names one aircraft's actuator when no asset carries that whole name."""
+    asset, tail = args.asset, args.tail
+    records = reader.bits(asset, tail)
+    if not records and tail is None and "/" in asset:
+        tail, asset = asset.split("/", 1)
+        records = reader.bits(asset, tail)
+    records = [r for r in records if (args.since is None or r.t_ns >= args.since)
+               and (args.until is None or r.t_ns < args.until)]
+    tails = {r.tail for r in records}
+    name = f"{tails.pop()}/{asset}" if len(tails) == 1 and "" not in tails else asset
+    return name, records
+
+
 def run_trend(reader: CatalogReader, args: argparse.Namespace) -> int:
-    events = reader.trend(args.asset, args.since, args.until)
-    if _wants_json(args):
+    name, records = _history(reader, args)
+    events = [] if records else reader.trend(args.asset, args.since, args.until)
+    if records and _wants_json(args):
+        _print_json([{"time_utc": report.fmt_time(r.t_ns), **health_view.bit_json(r)}
+                     for r in records])
+    elif records:
+        print(health_view.bits_table(records))
+    elif _wants_json(args):
         _print_json([{"time_utc": report.fmt_time(e.t_ns), "t_ns": e.t_ns, "id": e.id,
                       "fault": e.fault, "severity": e.severity, "soh": e.soh, "rul": e.rul,
                       "rul_low": e.rul_low, "rul_high": e.rul_high, "rul_unit": e.rul_unit}
@@ -217,8 +249,8 @@ def run_trend(reader: CatalogReader, args: argparse.Namespace) -> int:
         print(report.trend_table(events))
     if args.plot:
         try:
-            from mapr_daemon.catalog.plot import plot_trend
-            plot_trend(events, args.asset, args.plot)
+            from mapr_daemon.catalog.plot import draw
+            draw(records, name, args.plot, hours=args.hours)
         except ImportError:
             print("mapr catalog trend: --plot needs matplotlib (pip install matplotlib)",
                   file=sys.stderr)
