@@ -3,6 +3,7 @@
     mapr catalog list --since 7d --asset EMA1 --min-severity 0.3
     mapr catalog show 42
     mapr catalog export --format csv -o faults.csv --since 2026-05-01
+    mapr catalog export --what bits --format csv -o bits.csv   (or episodes; --format jsonl)
     mapr catalog trend EMA1 --plot ema1.png            (--hours: x in flight hours)
     mapr catalog stats --since 2h
     mapr catalog episodes --open --actuator EMA1
@@ -26,6 +27,7 @@ import dataclasses
 import json
 import sys
 import time
+from collections.abc import Iterable
 from contextlib import ExitStack
 from typing import IO, Any
 
@@ -37,7 +39,7 @@ from mapr_daemon.catalog import (
     health_view,
     report,
 )
-from mapr_daemon.catalog.model import BitRecord
+from mapr_daemon.catalog.model import BitRecord, Event
 from mapr_daemon.cli import exitcodes
 from mapr_daemon.errors import CatalogError, EpisodeError
 
@@ -102,9 +104,16 @@ def add_subparser(subparsers: Any) -> None:
     p.add_argument("id", type=int)
     p.set_defaults(func=run, action_func=run_show)
 
-    p = actions.add_parser("export", parents=[common], help="events as CSV or JSON")
+    p = actions.add_parser("export", parents=[common],
+                           help="events, BIT history or episodes as CSV or JSON (lines)")
     _filters(p)
-    p.add_argument("--format", choices=["csv", "json"], default="csv")
+    p.add_argument("--what", choices=["events", "bits", "episodes"], default="events",
+                   help="events (default), bits (every BIT with its health and wear) or "
+                        "episodes; bits take --asset/--fault/--since/--until, episodes "
+                        "--asset")
+    p.add_argument("--format", choices=["csv", "json", "jsonl"], default="csv",
+                   help="csv (flat; events keep params/evidence as JSON text), jsonl (one "
+                        "record a line) or json (events: one array; else as jsonl)")
     p.add_argument("-o", "--output", metavar="FILE", help="write here (default stdout)")
     p.set_defaults(func=run, action_func=run_export)
 
@@ -207,11 +216,28 @@ def run_export(reader: CatalogReader, args: argparse.Namespace) -> int:
             except OSError as error:
                 print(f"mapr catalog export: {args.output}: {error.strerror}", file=sys.stderr)
                 return exitcodes.USAGE
-        write = report.write_csv if args.format == "csv" else report.write_json
-        n = write(events, out)
+        n = _export(reader, args, events, out)
     if args.output:
-        print(f"{n} events written to {args.output}", file=sys.stderr)
+        print(f"{n} {args.what} written to {args.output}", file=sys.stderr)
     return exitcodes.OK
+
+
+def _export(reader: CatalogReader, args: argparse.Namespace, events: Iterable[Event],
+            out: IO[str]) -> int:
+    from mapr_daemon.catalog import export
+
+    if args.what == "bits":
+        records = [r for r in reader.bits(args.asset)
+                   if (args.since is None or r.t_ns >= args.since)
+                   and (args.until is None or r.t_ns < args.until)
+                   and (args.fault is None or r.fault == args.fault)]
+        return export.write_bits(records, args.format, out)
+    if args.what == "episodes":
+        return export.write_episodes(reader.episodes(asset=args.asset), args.format, out)
+    if args.format == "jsonl":
+        return export.write_events_jsonl(events, out)
+    write = report.write_csv if args.format == "csv" else report.write_json
+    return write(events, out)
 
 
 def _history(reader: CatalogReader, args: argparse.Namespace) -> tuple[str, list[BitRecord]]:

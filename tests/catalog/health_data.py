@@ -16,7 +16,7 @@ TAIL = "N101"
 def _wearing(k: int) -> BitOutcome:
     """EMA1 after flight ``k``: ESR wearing, faulted from flight 9 on."""
     t = T0 + k * 3 * HOUR
-    h = 0.06 * k
+    h = round(0.06 * k, 4)
     rul = 3 * (FLIGHTS + 4 - k) if k >= 2 else None
     health = Health(round(1.0 - h, 3), "esr" if k >= 1 else None,
                     rul, None if rul is None else rul * 0.7, None if rul is None else rul * 1.4,
