@@ -27,6 +27,11 @@ _LATEST = (
     "coalesce(flight, 0) DESC, t_ns DESC, id DESC)) WHERE rn = 1 ORDER BY tail, asset")
 
 
+def display_name(tail: str, asset: str) -> str:
+    """How an actuator is named to a maintainer: ``TAIL/ASSET``."""
+    return f"{tail}/{asset}" if tail and not asset.startswith(f"{tail}/") else asset
+
+
 @dataclasses.dataclass(frozen=True)
 class ActuatorHealth:
     """One actuator's standing: its newest BIT with the health after it, and its episodes."""
@@ -44,8 +49,9 @@ class ActuatorHealth:
 
     @property
     def name(self) -> str:
-        """``tail/asset`` (just the asset when no tail is known)."""
-        return f"{self.tail}/{self.asset}" if self.tail else self.asset
+        """``tail/asset`` (just the asset when no tail is known, or when the asset already
+        carries its tail, as a fleet run's ``N101/EMA1`` does)."""
+        return display_name(self.tail, self.asset)
 
     @property
     def health(self) -> Health:

@@ -251,7 +251,7 @@ def _history(reader: CatalogReader, args: argparse.Namespace) -> tuple[str, list
     records = [r for r in records if (args.since is None or r.t_ns >= args.since)
                and (args.until is None or r.t_ns < args.until)]
     tails = {r.tail for r in records}
-    name = f"{tails.pop()}/{asset}" if len(tails) == 1 and "" not in tails else asset
+    name = health_view.display_name(tails.pop(), asset) if len(tails) == 1 else asset
     return name, records
 
 

@@ -50,3 +50,11 @@ def test_health_of_an_empty_catalog_and_a_missing_one(tmp_path: Path) -> None:
     missing = mapr("health", "--catalog", str(tmp_path / "nope.sqlite"))
     assert missing.returncode == 66 and "nope.sqlite" in missing.stderr
     assert len(missing.stderr.strip().splitlines()) == 1
+
+
+def test_a_fleet_asset_carrying_its_tail_is_not_named_twice() -> None:
+    from mapr_daemon.catalog.health_view import display_name
+
+    assert display_name("N101", "EMA1") == "N101/EMA1"
+    assert display_name("N101", "N101/EMA1") == "N101/EMA1"
+    assert display_name("", "N7/EMA2") == "N7/EMA2"
