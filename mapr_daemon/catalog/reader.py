@@ -22,10 +22,11 @@ from collections.abc import Iterator
 from types import TracebackType
 from typing import Any
 
-from mapr_daemon.catalog import episode_store, rt_stats
+from mapr_daemon.catalog import episode_store, health_view, history, rt_stats
 from mapr_daemon.catalog.connect import describe, open_reader
 from mapr_daemon.catalog.episodes import Episode
-from mapr_daemon.catalog.model import Event, EventFilter, Gap, Session, StatsRow
+from mapr_daemon.catalog.health_view import ActuatorHealth
+from mapr_daemon.catalog.model import BitRecord, Event, EventFilter, Flight, Gap, Session, StatsRow
 from mapr_daemon.errors import CatalogError
 
 _EVENT_COLUMNS = ("id, session_id, t_ns, asset, rt, fault, switch, severity, severity_value, "
@@ -33,6 +34,8 @@ _EVENT_COLUMNS = ("id, session_id, t_ns, asset, rt, fault, switch, severity, sev
                   "evidence")
 STAMPS_SINCE = 3
 """Schema version that added ``bus_ns`` and ``abs_ns`` (older files read them as None)."""
+BITS_SINCE = 5
+"""Schema version that added the ``bits`` history and ``flights``."""
 
 
 def _columns(version: int) -> str:
@@ -146,6 +149,36 @@ class CatalogReader:
 
     def assets(self) -> list[str]:
         return [r[0] for r in self._rows("SELECT DISTINCT asset FROM events ORDER BY asset")]
+
+    # --- BIT history and health (schema v5) ----------------------------------------------
+    def _read(self, work: Any, *args: Any) -> Any:
+        try:
+            return work(self._conn, *args)
+        except sqlite3.DatabaseError as error:
+            raise CatalogError(f"read failed: {describe(error)}", path=self.path) from error
+
+    def bits(self, asset: str | None = None, tail: str | None = None) -> list[BitRecord]:
+        """BIT history (all actuators or one), oldest first; empty before schema v5."""
+        if self.schema_version < BITS_SINCE:
+            return []
+        result: list[BitRecord] = self._read(history.load_bits, asset, tail)
+        return result
+
+    def flights(self, tail: str | None = None) -> list[Flight]:
+        """Flights of one aircraft (or all); empty before schema v5."""
+        if self.schema_version < BITS_SINCE:
+            return []
+        result: list[Flight] = self._read(history.load_flights, tail)
+        return result
+
+    def health(self) -> list[ActuatorHealth]:
+        """Every actuator's health after its newest BIT, with its open fault episodes
+        (``mapr health``); empty before schema v5."""
+        if self.schema_version < BITS_SINCE:
+            return []
+        result: list[ActuatorHealth] = self._read(
+            health_view.load, self.schema_version >= episode_store.EPISODES_SINCE)
+        return result
 
     # --- sessions, statistics, gaps ------------------------------------------------------
     def sessions(self) -> list[Session]:

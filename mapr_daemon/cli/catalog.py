@@ -3,7 +3,8 @@
     mapr catalog list --since 7d --asset EMA1 --min-severity 0.3
     mapr catalog show 42
     mapr catalog export --format csv -o faults.csv --since 2026-05-01
-    mapr catalog trend EMA1 --plot ema1.png
+    mapr catalog export --what bits --format csv -o bits.csv   (or episodes; --format jsonl)
+    mapr catalog trend EMA1 --plot ema1.png            (--hours: x in flight hours)
     mapr catalog stats --since 2h
     mapr catalog episodes --open --actuator EMA1
     mapr catalog ack 3 --by "J. Smith" --note "capacitor replaced, WO 4711"
@@ -26,10 +27,19 @@ import dataclasses
 import json
 import sys
 import time
+from collections.abc import Iterable
 from contextlib import ExitStack
 from typing import IO, Any
 
-from mapr_daemon.catalog import CatalogReader, EventFilter, acknowledge, default_path, report
+from mapr_daemon.catalog import (
+    CatalogReader,
+    EventFilter,
+    acknowledge,
+    default_path,
+    health_view,
+    report,
+)
+from mapr_daemon.catalog.model import BitRecord, Event
 from mapr_daemon.cli import exitcodes
 from mapr_daemon.errors import CatalogError, EpisodeError
 
@@ -94,16 +104,26 @@ def add_subparser(subparsers: Any) -> None:
     p.add_argument("id", type=int)
     p.set_defaults(func=run, action_func=run_show)
 
-    p = actions.add_parser("export", parents=[common], help="events as CSV or JSON")
+    p = actions.add_parser("export", parents=[common],
+                           help="events, BIT history or episodes as CSV or JSON (lines)")
     _filters(p)
-    p.add_argument("--format", choices=["csv", "json"], default="csv")
+    p.add_argument("--what", choices=["events", "bits", "episodes"], default="events",
+                   help="events (default), bits (every BIT with its health and wear) or "
+                        "episodes; bits take --asset/--fault/--since/--until, episodes "
+                        "--asset")
+    p.add_argument("--format", choices=["csv", "json", "jsonl"], default="csv",
+                   help="csv (flat; events keep params/evidence as JSON text), jsonl (one "
+                        "record a line) or json (events: one array; else as jsonl)")
     p.add_argument("-o", "--output", metavar="FILE", help="write here (default stdout)")
     p.set_defaults(func=run, action_func=run_export)
 
     p = actions.add_parser("trend", parents=[common], help="SoH and RUL of one asset over time")
     p.add_argument("asset")
     _time_range(p)
+    p.add_argument("--tail", help="only this aircraft's actuator of that name")
     p.add_argument("--plot", metavar="PNG", help="also draw it into this PNG (matplotlib)")
+    p.add_argument("--hours", action="store_true",
+                   help="x in flight hours instead of flights (with --plot)")
     p.set_defaults(func=run, action_func=run_trend)
 
     p = actions.add_parser("stats", parents=[common], help="bus health per interval, and gaps")
@@ -196,16 +216,54 @@ def run_export(reader: CatalogReader, args: argparse.Namespace) -> int:
             except OSError as error:
                 print(f"mapr catalog export: {args.output}: {error.strerror}", file=sys.stderr)
                 return exitcodes.USAGE
-        write = report.write_csv if args.format == "csv" else report.write_json
-        n = write(events, out)
+        n = _export(reader, args, events, out)
     if args.output:
-        print(f"{n} events written to {args.output}", file=sys.stderr)
+        print(f"{n} {args.what} written to {args.output}", file=sys.stderr)
     return exitcodes.OK
 
 
+def _export(reader: CatalogReader, args: argparse.Namespace, events: Iterable[Event],
+            out: IO[str]) -> int:
+    from mapr_daemon.catalog import export
+
+    if args.what == "bits":
+        records = [r for r in reader.bits(args.asset)
+                   if (args.since is None or r.t_ns >= args.since)
+                   and (args.until is None or r.t_ns < args.until)
+                   and (args.fault is None or r.fault == args.fault)]
+        return export.write_bits(records, args.format, out)
+    if args.what == "episodes":
+        return export.write_episodes(reader.episodes(asset=args.asset), args.format, out)
+    if args.format == "jsonl":
+        return export.write_events_jsonl(events, out)
+    write = report.write_csv if args.format == "csv" else report.write_json
+    return write(events, out)
+
+
+def _history(reader: CatalogReader, args: argparse.Namespace) -> tuple[str, list[BitRecord]]:
+    """The asset's BIT history in the time range, and its display name; ``TAIL/ASSET``
+    names one aircraft's actuator when no asset carries that whole name."""
+    asset, tail = args.asset, args.tail
+    records = reader.bits(asset, tail)
+    if not records and tail is None and "/" in asset:
+        tail, asset = asset.split("/", 1)
+        records = reader.bits(asset, tail)
+    records = [r for r in records if (args.since is None or r.t_ns >= args.since)
+               and (args.until is None or r.t_ns < args.until)]
+    tails = {r.tail for r in records}
+    name = health_view.display_name(tails.pop(), asset) if len(tails) == 1 else asset
+    return name, records
+
+
 def run_trend(reader: CatalogReader, args: argparse.Namespace) -> int:
-    events = reader.trend(args.asset, args.since, args.until)
-    if _wants_json(args):
+    name, records = _history(reader, args)
+    events = [] if records else reader.trend(args.asset, args.since, args.until)
+    if records and _wants_json(args):
+        _print_json([{"time_utc": report.fmt_time(r.t_ns), **health_view.bit_json(r)}
+                     for r in records])
+    elif records:
+        print(health_view.bits_table(records))
+    elif _wants_json(args):
         _print_json([{"time_utc": report.fmt_time(e.t_ns), "t_ns": e.t_ns, "id": e.id,
                       "fault": e.fault, "severity": e.severity, "soh": e.soh, "rul": e.rul,
                       "rul_low": e.rul_low, "rul_high": e.rul_high, "rul_unit": e.rul_unit}
@@ -217,8 +275,8 @@ def run_trend(reader: CatalogReader, args: argparse.Namespace) -> int:
         print(report.trend_table(events))
     if args.plot:
         try:
-            from mapr_daemon.catalog.plot import plot_trend
-            plot_trend(events, args.asset, args.plot)
+            from mapr_daemon.catalog.plot import draw
+            draw(records, name, args.plot, hours=args.hours)
         except ImportError:
             print("mapr catalog trend: --plot needs matplotlib (pip install matplotlib)",
                   file=sys.stderr)

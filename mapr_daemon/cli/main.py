@@ -57,6 +57,8 @@ SUBCOMMANDS: dict[str, str] = {
     "diagnose": "anomaly, fault, severity of BIT runs (JSON)",
     "prognose": "score RUL along a run-to-failure trajectory",
     "catalog": "query the fault catalog",
+    "health": "state of health and remaining useful life of every actuator",
+    "report": "write the actuators' health as one self-contained HTML file",
     "run": "run the daemon (monitor, reason, catalog)",
     "devices": "list attached interface cards",
     "completion": "print a bash or zsh completion script",

@@ -52,7 +52,10 @@ def test_commands_options_and_their_values(bash_script: Path) -> None:
 def test_nested_commands_and_positional_choices(bash_script: Path) -> None:
     assert "list" in complete(bash_script, "mapr", "catalog", "")
     assert "--min-severity" in complete(bash_script, "mapr", "catalog", "list", "--")
-    assert complete(bash_script, "mapr", "catalog", "export", "--format", "") == ["csv", "json"]
+    assert complete(bash_script, "mapr", "catalog", "export", "--format", "") == [
+        "csv", "json", "jsonl"]
+    assert complete(bash_script, "mapr", "catalog", "export", "--what", "") == [
+        "events", "bits", "episodes"]
     assert complete(bash_script, "mapr", "completion", "") == ["bash", "zsh"]
 
 

@@ -1,0 +1,108 @@
+"""``mapr catalog export --what bits|events|episodes``: catalog tables as JSON lines or CSV.
+
+JSON lines keep every record whole (one object per line, nested ``wear``/``modes`` as they
+are). CSV is flat, one value per cell, for a spreadsheet: a BIT's ``wear`` becomes one
+``wear_<kind>`` column per aging kind and its per-mode health one ``mode_<kind>_<figure>``
+column per kind and figure (``mode_esr_rul``, ``mode_esr_h``...); an episode's modes are
+joined with ``+``. The columns are the union over the rows exported, so every row has the
+same header; a cell a row has no value for is empty. Events keep their long-standing CSV
+(``params``/``evidence`` as JSON text) and JSON array; ``jsonl`` is added for them.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+from collections.abc import Iterable, Sequence
+from typing import IO, Any
+
+from mapr_daemon.catalog.episodes import Episode
+from mapr_daemon.catalog.health_view import bit_json
+from mapr_daemon.catalog.model import BitRecord, Event
+from mapr_daemon.catalog.report import episode_json, event_json, fmt_time
+
+BIT_COLUMNS = ("id", "session_id", "tail", "asset", "time_utc", "t_ns", "bus_ns", "abs_ns",
+               "flight", "flight_hours", "fault", "event_id", "soh", "mode", "rul", "rul_low",
+               "rul_high", "rul_hours", "rul_hours_low", "rul_hours_high", "interval", "note")
+EPISODE_COLUMNS = ("id", "asset", "part", "mode", "modes", "state", "opened_utc",
+                   "opened_ns", "last_bit_utc", "last_ns", "closed_utc", "closed_ns", "bits",
+                   "clear_bits", "sev_first", "sev_last", "sev_min", "sev_max",
+                   "slope_per_bit", "acked_by", "acked_utc", "acked_ns", "ack_note")
+
+
+def _cell(value: Any) -> Any:
+    if value is None:
+        return ""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    return value
+
+
+def flat_bit(r: BitRecord) -> dict[str, Any]:
+    """One BIT as a flat row: its fields, the health after it, ``wear_<kind>`` and
+    ``mode_<kind>_<figure>``."""
+    h = r.health
+    row: dict[str, Any] = {
+        "id": r.id, "session_id": r.session_id, "tail": r.tail, "asset": r.asset,
+        "time_utc": fmt_time(r.t_ns), "t_ns": r.t_ns, "bus_ns": r.bus_ns, "abs_ns": r.abs_ns,
+        "flight": r.flight, "flight_hours": r.flight_hours, "fault": r.fault,
+        "event_id": r.event_id, "soh": h.soh, "mode": h.mode, "rul": h.rul,
+        "rul_low": h.rul_low, "rul_high": h.rul_high, "rul_hours": h.rul_hours,
+        "rul_hours_low": h.rul_hours_low, "rul_hours_high": h.rul_hours_high,
+        "interval": h.interval, "note": h.note}
+    for kind, value in r.wear.items():
+        row[f"wear_{kind}"] = value
+    for kind, figures in h.modes.items():
+        if isinstance(figures, dict):
+            for key, value in figures.items():
+                if not isinstance(value, (dict, list)):
+                    row[f"mode_{kind}_{key}"] = value
+    return row
+
+
+def flat_episode(ep: Episode) -> dict[str, Any]:
+    """One fault episode as a flat row (its modes joined with ``+``)."""
+    row = episode_json(ep)
+    row["modes"] = "+".join(ep.modes)
+    return row
+
+
+def _columns(fixed: Sequence[str], rows: Sequence[dict[str, Any]]) -> list[str]:
+    extra = sorted({k for r in rows for k in r if k not in fixed})
+    return [*fixed, *extra]
+
+
+def _write_csv(rows: Sequence[dict[str, Any]], fixed: Sequence[str], out: IO[str]) -> int:
+    columns = _columns(fixed, rows)
+    writer = csv.writer(out, lineterminator="\n")
+    writer.writerow(columns)
+    for r in rows:
+        writer.writerow([_cell(r.get(c)) for c in columns])
+    return len(rows)
+
+
+def _write_jsonl(rows: Iterable[dict[str, Any]], out: IO[str]) -> int:
+    n = 0
+    for r in rows:
+        out.write(json.dumps(r, sort_keys=True, allow_nan=False) + "\n")
+        n += 1
+    return n
+
+
+def write_bits(records: Sequence[BitRecord], fmt: str, out: IO[str]) -> int:
+    """BIT history as ``csv`` (flat) or ``jsonl``/``json`` lines; returns the row count."""
+    if fmt == "csv":
+        return _write_csv([flat_bit(r) for r in records], BIT_COLUMNS, out)
+    return _write_jsonl(({"time_utc": fmt_time(r.t_ns), **bit_json(r)} for r in records), out)
+
+
+def write_episodes(episodes: Sequence[Episode], fmt: str, out: IO[str]) -> int:
+    """Fault episodes as ``csv`` (flat) or JSON lines; returns the row count."""
+    if fmt == "csv":
+        return _write_csv([flat_episode(ep) for ep in episodes], EPISODE_COLUMNS, out)
+    return _write_jsonl((episode_json(ep) for ep in episodes), out)
+
+
+def write_events_jsonl(events: Iterable[Event], out: IO[str]) -> int:
+    """Events as JSON lines (streamed)."""
+    return _write_jsonl((event_json(e) for e in events), out)
