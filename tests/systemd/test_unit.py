@@ -51,7 +51,8 @@ def test_service_settings_the_daemon_relies_on() -> None:
     assert u["Service.Type"] == ["notify"]
     assert u["Service.ExecStart"] == ["mapr run --config /etc/mapr/mapr.yaml"]
     assert u["Service.Restart"] == ["on-failure"]
-    assert u["Service.RestartPreventExitStatus"] == [str(exitcodes.CONFIG)]
+    # a broken config, and a backend that can never load here: restarting would not help
+    assert u["Service.RestartPreventExitStatus"] == [f"{exitcodes.CONFIG} {exitcodes.UNAVAILABLE}"]
     assert "Service.WatchdogSec" in u
     assert (u["Service.User"], u["Service.SupplementaryGroups"]) == (["mapr"], ["dialout"])
     assert "Service.DynamicUser" not in u and "Service.PrivateDevices" not in u
