@@ -11,7 +11,7 @@ the dictionary (``mapr dictionary build --prognosis FILE``, format :data:`FORMAT
   calibration BITs at known degradations with yet other seeds; a kind whose estimate does not
   follow its degradation gets no noise model and the reason, and is never trended;
 * per kind the fleet prior on its aging shape (:class:`~.trend.ShapePrior`), learned from the
-  aging model's run-to-failure paths (:func:`~mapr_daemon.ema.degradation.trajectory`).
+  aging model's run-to-failure paths (:func:`~.trajectory.learn_prior`).
 
 :meth:`PrognosticModel.estimates` reads one BIT's feature matrix as a degradation fraction
 per kind; :mod:`.health` fits the trend.
@@ -26,7 +26,6 @@ from typing import Any
 
 import numpy as np
 
-from mapr_daemon.ema.degradation import trajectory
 from mapr_daemon.ema.faults import Fault, FaultSet, nominal_value
 from mapr_daemon.ema.params import ActuatorParams
 from mapr_daemon.errors import ConfigError
@@ -35,20 +34,15 @@ from mapr_daemon.reasoner.build import stream_matrices
 from mapr_daemon.reasoner.corpus import BitRuns
 from mapr_daemon.reasoner.dictionary import Dictionary
 from mapr_daemon.reasoner.features import FloatArray
+from mapr_daemon.reasoner.trajectory import CALIBRATION_LEVELS, TRAINING_BIT_SEED, learn_prior
 
 FORMAT = "mapr-prognosis/1"
 AGING_KINDS: tuple[str, ...] = tuple(sorted(trend.SHAPES))
 """The kinds the aging model ages and the trend can follow."""
-TRAINING_SEED = 7_000_000
-"""First simulation seed of the estimators' training BITs."""
+TRAINING_SEED = TRAINING_BIT_SEED
+"""First simulation seed of the estimators' training BITs (as the RUL bench's)."""
 CALIBRATION_SEED = 8_000_000
 """First simulation seed of the noise-calibration BITs (disjoint from training)."""
-FLEET_SEED = 10_000
-"""First unit seed of the fleet-prior training units (run-to-failure paths)."""
-CALIBRATION_LEVELS: tuple[float, ...] = (0.0, 0.05, 0.1, 0.15, 0.2, 0.3, 0.5, 0.75, 1.0, 1.25)
-"""Degradations (fractions of the failure threshold) of the noise-calibration BITs."""
-MEAN_LIFE = 200.0
-"""Mean life (flights to the failure threshold) of the aging model's units."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -151,19 +145,6 @@ def conditions(params: ActuatorParams, n: int, rng: np.random.Generator, envelop
     amb = rng.uniform(params.envelope.ambient_min_c, params.envelope.ambient_max_c, n)
     bus = rng.uniform(params.bus.min_v, params.bus.max_v, n)
     return [float(v) for v in q], [float(v) for v in amb], [float(v) for v in bus]
-
-
-def learn_prior(params: ActuatorParams, kind: str, units: int,
-                mean_life: float = MEAN_LIFE) -> trend.ShapePrior:
-    """The fleet prior of a kind from ``units`` run-to-failure units' true paths."""
-    paths = []
-    for i in range(units):
-        t = trajectory(params, kind, int(mean_life * 2), FLEET_SEED + i, mean_life)
-        fl = np.arange(0, t.eol_flight + 1, dtype=np.float64)
-        h = np.array([prognosis.degradation(params, kind, float(t.values[int(f)]))
-                      for f in fl])
-        paths.append((fl, h))
-    return trend.ShapePrior.learn(kind, paths)
 
 
 def build_prognostic_model(d: Dictionary, params: ActuatorParams, spec: BuildSpec = BuildSpec(),

@@ -13,7 +13,8 @@ from mapr_daemon.catalog.model import BitRecord
 from mapr_daemon.daemon.trending import AssetHistory, FlightLog, Trending
 from mapr_daemon.ema.params import default_actuator_path, load_actuator
 from mapr_daemon.reasoner import trend
-from mapr_daemon.reasoner.wear_model import PrognosticModel, learn_prior
+from mapr_daemon.reasoner.trajectory import learn_prior
+from mapr_daemon.reasoner.wear_model import PrognosticModel
 
 T0 = 1_778_300_000_000_000_000
 HOUR = 3_600_000_000_000
