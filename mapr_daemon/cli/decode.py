@@ -98,15 +98,11 @@ def run(args: argparse.Namespace) -> int:
 
         return run_decode_stats(args)
 
-    # imported here, not at the top, so that `mapr decode --help` starts at once
-    from drivers.backends.capture import check_capture_file
-    from drivers.capturefile import open_capture
+    # imported here, not at the top, so that `mapr decode --help` starts at once; the
+    # bit-level decoder (numba kernels) only for a capture, not for a Chapter 10 file
     from drivers.chapter10.walker import looks_like_chapter10
-    from drivers.errors import CaptureFormatError
-    from drivers.pipeline import SamplePipeline
     from mapr_daemon.cli.decode_filter import FilterError, filter_from_args
     from mapr_daemon.cli.icdview import IcdView
-    from mapr_daemon.cli.render import record_json
 
     try:
         wanted = filter_from_args(args)
@@ -124,6 +120,11 @@ def run(args: argparse.Namespace) -> int:
     view = IcdView(args.icd)
     if args.capture != "-" and looks_like_chapter10(args.capture):
         return chapter10_decode.decode_chapter10(args, view, wanted)
+    from drivers.backends.capture import check_capture_file
+    from drivers.capturefile import open_capture
+    from drivers.errors import CaptureFormatError
+    from drivers.pipeline import SamplePipeline
+    from mapr_daemon.cli.render import record_json
     check_capture_file(args.capture, args.samplerate, rate_hint="--samplerate HZ")
     from mapr_daemon.cli.decode_text import HEADER, record_text
     source = open_capture(args.capture, args.samplerate, args.channels)
