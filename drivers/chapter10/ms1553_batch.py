@@ -2,8 +2,9 @@
 
 :mod:`drivers.chapter10.ms1553` builds one :class:`MonitorRecord` per message from
 pychapter10's parse, which is what costs when a recording is read at full speed. Here the
-packet's bytes are walked once by a compiled kernel (intra-packet headers and words as
-arrays), and the rest is numpy over all the messages of one or more packets:
+packet's intra-packet headers are followed once (:mod:`drivers.chapter10.ms1553_walk`: a
+short Python loop over offsets, then numpy gathers of stamps, status and words), and the
+rest is numpy over all the messages of one or more packets:
 
 * the split into command, data and status words depends on the command word(s), the word
   count and the time-out flag only, so :func:`~drivers.chapter10.layout.split_plan` runs
@@ -27,6 +28,7 @@ import numpy.typing as npt
 
 from drivers.chapter10.layout import split_plan
 from drivers.chapter10.ms1553 import TIME_TAG_COMMAND_END, TIME_TAG_LAST_BIT
+from drivers.chapter10.ms1553_walk import Parts, gather
 from drivers.chapter10.status import (
     BUS_B,
     FORMAT_ERROR,
@@ -37,8 +39,6 @@ from drivers.chapter10.status import (
     WORD_COUNT_ERROR,
 )
 from drivers.chapter10.timebase import RTC_NS, Timebase, TimeReference
-from drivers.chapter10.walker import HEADER_BYTES, SECONDARY_HEADER_BYTES, RawPacket, ReadIssue
-from drivers.jit import kernel
 from drivers.mil1553.record import MESSAGE_ERROR_NAMES, MonitorRecord, TransferFormat
 from drivers.mil1553.timing import CONTIGUOUS_GAP_NS, BusTiming
 from drivers.mil1553.wordbatch import WORD_TIME_NS
@@ -50,67 +50,14 @@ _FORMAT_CODE = {f: i for i, f in enumerate(FORMATS)}
 ERROR_BIT = {name: 1 << i for i, name in enumerate(MESSAGE_ERROR_NAMES)}
 """The bit of each error name in ``Ms1553Batch.errors``."""
 
-_IPH_BYTES = 14
 _RTC_MASK = (1 << 48) - 1
 _RTC_MOD = 1 << 48
 _RTC_HALF = 1 << 47
 _STATUS_RESERVED = 0x00E0
-_BLOCK_STATUS_BITS = 0x3E38
-"""The block status bits pychapter10 reads (and the per-message path keeps)."""
 _TIMING = BusTiming()
 _EPOCH = datetime(1970, 1, 1)
 NO_EPOCH = np.iinfo(np.int64).min
 """``Ms1553Batch.epoch_ns`` of a message whose time packets give no full date."""
-
-OK, CUT_SHORT, BAD_LENGTH = 0, 1, 2
-
-
-@kernel
-def _walk(body: npt.NDArray[np.uint8], count: int) -> tuple[I64, I64, I64, I64, I64, I64,
-                                                            npt.NDArray[np.uint16], int]:
-    """The messages of one packet body (after the channel-specific word), as pychapter10
-    reads them: at most ``count``, stopping at the end of the body or at a header cut
-    short. Per message: IPTS (48 bits), block status, gap word, length in bytes, where its
-    words start in the returned word array, and OK / CUT_SHORT / BAD_LENGTH."""
-    size = body.size
-    cap = min(count, size // _IPH_BYTES + 1)
-    ipts = np.zeros(cap, np.int64)
-    block = np.zeros(cap, np.int64)
-    gap = np.zeros(cap, np.int64)
-    length = np.zeros(cap, np.int64)
-    first = np.zeros(cap, np.int64)
-    state = np.zeros(cap, np.int64)
-    words = np.zeros(size // 2, np.uint16)
-    nwords = 0
-    pos = 0
-    m = 0
-    while m < count and pos < size:
-        if pos + _IPH_BYTES > size:
-            break
-        stamp = 0
-        for k in range(6):
-            stamp |= int(body[pos + k]) << (8 * k)
-        ipts[m] = stamp
-        block[m] = int(body[pos + 8]) | int(body[pos + 9]) << 8
-        gap[m] = int(body[pos + 10]) | int(body[pos + 11]) << 8
-        n_bytes = int(body[pos + 12]) | int(body[pos + 13]) << 8
-        length[m] = n_bytes
-        start = pos + _IPH_BYTES
-        held = min(n_bytes, size - start)
-        first[m] = nwords
-        if held < n_bytes:
-            state[m] = CUT_SHORT
-        elif n_bytes < 2 or n_bytes % 2:
-            state[m] = BAD_LENGTH
-        else:
-            for k in range(n_bytes // 2):
-                words[nwords + k] = int(body[start + 2 * k]) | int(body[start + 2 * k + 1]) << 8
-            nwords += n_bytes // 2
-        pos = start + n_bytes + (n_bytes & 1)
-        m += 1
-        if state[m - 1] == CUT_SHORT:
-            break
-    return ipts[:m], block[:m], gap[:m], length[:m], first[:m], state[:m], words, nwords
 
 
 @dataclass(frozen=True, slots=True)
@@ -256,104 +203,15 @@ def _plan(key: int) -> _Plan:
                  (owners[0], owners[1]), plan.expected_words, mask)
 
 
-@dataclass
-class _Parts:
-    """Per-packet kernel output gathered before the numpy pass."""
-
-    rtc: list[I64]
-    block: list[I64]
-    gap: list[I64]
-    first: list[I64]
-    n_words: list[I64]
-    stamp_bit: list[I64]
-    channel: list[I64]
-    offset: list[I64]
-    words: list[npt.NDArray[np.uint16]]
-    ref_id: list[I64]
-    refs: list[TimeReference | None]
-    word_total: int = 0
-
-
-def walk_packet(item: RawPacket, parts: _Parts, found: list[ReadIssue], timebase: Timebase
-                ) -> int:
-    """Add one packet's messages to ``parts`` and its problems to ``issues`` (the same
-    problems, in the same words, as :func:`~drivers.chapter10.ms1553.records_from_packet`).
-    Returns the number of messages added."""
-    header = item.header
-    start = HEADER_BYTES + (SECONDARY_HEADER_BYTES if header.secondary_header else 0)
-    csdw = int.from_bytes(item.raw[start:start + 4], "little")
-    count = csdw & 0xFFFFFF
-    body = np.frombuffer(item.raw, np.uint8, header.data_length - 4, start + 4)
-    ipts, block, gap, length, first, state, words, n_words_total = _walk(body, count)
-    issues: list[ReadIssue] = []
-    packet_stamps = header.ipts_source != 0
-    if packet_stamps:
-        issues.append(ReadIssue(header.offset, "message time stamps in secondary-header format "
-                                               "are not supported; the packet's time is used"))
-    problems = np.flatnonzero(state != OK)
-    for number in problems.tolist():
-        n_bytes = int(length[number])
-        if state[number] == CUT_SHORT:
-            held = body.size - int(_message_start(body, number, length))
-            issues.append(ReadIssue(header.offset, f"1553 message {number + 1} cut short "
-                                                   f"({max(held, 0)} of {n_bytes} "
-                                                   "bytes); rest of the packet skipped"))
-        else:
-            issues.append(ReadIssue(header.offset, f"1553 message {number + 1} has an "
-                                                   f"impossible length of {n_bytes} bytes; "
-                                                   "skipped"))
-    keep = state == OK
-    kept = int(np.count_nonzero(keep))
-    cut = problems.size and state[problems[-1]] == CUT_SHORT
-    if kept < count and not issues and not cut:
-        issues.append(ReadIssue(header.offset, f"1553 packet announces {count} messages "
-                                               f"but holds {kept}"))
-    found += issues
-    if not kept:
-        return 0
-    rtc = np.full(kept, header.rtc, np.int64) if packet_stamps else ipts[keep]
-    parts.rtc.append(rtc)
-    parts.block.append(block[keep] & _BLOCK_STATUS_BITS)
-    parts.gap.append(gap[keep])
-    parts.first.append(first[keep] + parts.word_total)
-    parts.n_words.append(length[keep] // 2)
-    parts.stamp_bit.append(np.full(kept, csdw >> 30, np.int64))
-    parts.channel.append(np.full(kept, header.channel_id, np.int64))
-    parts.offset.append(np.full(kept, header.offset, np.int64))
-    parts.words.append(words[:n_words_total])
-    if not parts.refs or parts.refs[-1] is not timebase.reference:
-        parts.refs.append(timebase.reference)
-    parts.ref_id.append(np.full(kept, len(parts.refs) - 1, np.int64))
-    parts.word_total += n_words_total
-    return kept
-
-
-def _message_start(body: npt.NDArray[np.uint8], number: int, length: I64) -> int:
-    """Where message ``number``'s words start in the body (for the cut-short text)."""
-    pos = 0
-    for k in range(number):
-        n = int(length[k])
-        pos += _IPH_BYTES + n + (n & 1)
-    return pos + _IPH_BYTES
-
-
-def new_parts() -> _Parts:
-    return _Parts([], [], [], [], [], [], [], [], [], [], [])
-
-
-def build_batch(parts: _Parts, timebase: Timebase, timing: BusTiming | None = None
+def build_batch(parts: Parts, timebase: Timebase, timing: BusTiming | None = None
                 ) -> Ms1553Batch | None:
     """The batch of the messages gathered in ``parts`` (None when there are none)."""
-    if not parts.rtc:
+    if not parts.bodies:
         return None
     timing = timing or _TIMING
-    rtc = np.concatenate(parts.rtc)
-    block = np.concatenate(parts.block)
-    gap = np.concatenate(parts.gap)
-    first = np.concatenate(parts.first)
-    n = np.concatenate(parts.n_words)
-    stamp_bit = np.concatenate(parts.stamp_bit)
-    words = np.concatenate(parts.words)
+    walked = gather(parts)
+    rtc, block, gap, first = walked.rtc, walked.block, walked.gap, walked.first
+    n, stamp_bit, words = walked.n_words, walked.stamp_bit, walked.words
     w = words.astype(np.int64)
     command = w[first]
     has2 = ((block & RT_TO_RT) != 0) & (n > 1)
@@ -402,11 +260,11 @@ def build_batch(parts: _Parts, timebase: Timebase, timing: BusTiming | None = No
     stamp = _signed_delta(rtc, origin) * RTC_NS
     start = np.where(stamp_bit == TIME_TAG_LAST_BIT, stamp - span,
                      np.where(stamp_bit == TIME_TAG_COMMAND_END, stamp - WORD_TIME_NS, stamp))
-    time_text, epoch = _times(parts, rtc, start - stamp)
+    time_text, epoch = _times(parts.refs, walked.ref_id, rtc, start - stamp)
     return Ms1553Batch(
         t_ns=start, end_ns=start + span, bus=((block & BUS_B) != 0).astype(np.uint8),
         format=fmt.astype(np.uint8), command=command, command2=command2, block_status=block,
-        channel=np.concatenate(parts.channel), offset=np.concatenate(parts.offset),
+        channel=walked.channel, offset=walked.offset,
         data_start=data_start, data_count=data_count, status=status, n_status=n_status,
         gaps_ns=gaps, errors=errors, words=words, time=time_text, epoch_ns=epoch)
 
@@ -416,16 +274,15 @@ def _signed_delta(rtc: I64, reference: int) -> I64:
     return np.where(delta >= _RTC_HALF, delta - _RTC_MOD, delta)
 
 
-def _times(parts: _Parts, rtc: I64, shift: I64
+def _times(refs: list[TimeReference | None], ref_id: I64, rtc: I64, shift: I64
            ) -> tuple[npt.NDArray[np.str_] | None, I64 | None]:
     """Absolute time text and epoch ns of every message, from the time reference in force
-    when its packet was read."""
-    if all(ref is None for ref in parts.refs):
+    when its packet was read (``refs[ref_id]``)."""
+    if all(ref is None for ref in refs):
         return None, None
-    ref_id = np.concatenate(parts.ref_id)
     text = np.full(rtc.size, "", "<U32")
     epoch = np.full(rtc.size, NO_EPOCH, np.int64)
-    for number, ref in enumerate(parts.refs):
+    for number, ref in enumerate(refs):
         if ref is None:
             continue
         rows = np.flatnonzero(ref_id == number)

@@ -26,7 +26,8 @@ from pathlib import Path
 
 from drivers.chapter10.arinc429 import Arinc429Words, words_from_packet
 from drivers.chapter10.ms1553 import records_from_packet
-from drivers.chapter10.ms1553_batch import Ms1553Batch, build_batch, new_parts, walk_packet
+from drivers.chapter10.ms1553_batch import Ms1553Batch, build_batch
+from drivers.chapter10.ms1553_walk import new_parts, walk_packet
 from drivers.chapter10.timebase import Timebase
 from drivers.chapter10.walker import (
     ARINC429_F0,
