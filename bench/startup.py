@@ -31,7 +31,7 @@ SAMPLE = ROOT.parent / "shared" / "data" / "chapter10" / "sample.c10"
 """Where the repository's tests look for the real recording (kept next to the repository)."""
 
 sys.path.insert(0, str(ROOT))
-from mapr_daemon.cli.main import SUBCOMMANDS  # noqa: E402  (this checkout, not an install)
+from mapr_daemon.cli.main import MODULES, SUBCOMMANDS  # noqa: E402  (this checkout, not an install)
 
 
 def _env() -> dict[str, str]:
@@ -79,8 +79,9 @@ def main() -> None:
     bare = [import_seconds("mapr_daemon") for _ in range(args.runs)]
     print(f"  {'(mapr_daemon package alone)':<36} {spread(bare)}")
     for name in SUBCOMMANDS:
-        times = [import_seconds(f"mapr_daemon.cli.{name}") for _ in range(args.runs)]
-        print(f"  {'mapr_daemon.cli.' + name:<36} {spread(times)}")
+        module = MODULES.get(name, f"mapr_daemon.cli.{name}")
+        times = [import_seconds(module) for _ in range(args.runs)]
+        print(f"  {module:<36} {spread(times)}")
     print()
     cases: list[tuple[str, list[str]]] = [("mapr --help", ["--help"]),
                                           ("mapr decode --help", ["decode", "--help"])]

@@ -58,7 +58,6 @@ def decode_chapter10(args: argparse.Namespace, view: IcdView,
     from drivers.chapter10.reader import Chapter10Reader
     from mapr_daemon.cli.decode_filter import DecodeFilter
     from mapr_daemon.cli.decode_text import HEADER, text_lines
-    from mapr_daemon.cli.icdview_batch import batch_values_json
     wanted = wanted or DecodeFilter()
     text = bool(getattr(args, "text", False))
     only_1553 = wanted.active or text
@@ -76,7 +75,11 @@ def decode_chapter10(args: argparse.Namespace, view: IcdView,
             if messages is not None and text:
                 lines = text_lines(messages)
             elif messages is not None:
-                values = None if view.icd is None else batch_values_json(view.icd, messages)
+                values = None
+                if view.icd is not None:   # the table code only when there is a table
+                    from mapr_daemon.cli.icdview_batch import batch_values_json
+
+                    values = batch_values_json(view.icd, messages)
                 lines = json_lines(messages, values)
             done = 0
             for place, words in batch.arinc429_at:   # in file order among the messages

@@ -1,22 +1,32 @@
-"""Engineering values next to raw words, for ``decode --icd`` and ``monitor --icd``."""
+"""Engineering values next to raw words, for ``decode --icd`` and ``monitor --icd``.
+
+The message-table code (and its YAML parser) is imported only when a table is given, so a
+plain ``mapr decode`` does not pay for it at start-up."""
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from drivers.mil1553.record import MonitorRecord
-from mapr_daemon.icd import Icd, format_decoded, load_icd
+if TYPE_CHECKING:
+    from drivers.mil1553.record import MonitorRecord
+    from mapr_daemon.icd import Icd
 
 
 class IcdView:
     """Decode records with a message table; records it does not describe give nothing."""
 
     def __init__(self, path: str | None) -> None:
-        self.icd: Icd | None = load_icd(path) if path else None
+        self.icd: Icd | None = None
+        if path:
+            from mapr_daemon.icd import load_icd
+
+            self.icd = load_icd(path)
 
     def text(self, record: MonitorRecord) -> str:
         if self.icd is None or record.command is None:
             return ""
+        from mapr_daemon.icd import format_decoded
+
         decoded = self.icd.decode(record)
         return "" if decoded is None else format_decoded(decoded)
 
