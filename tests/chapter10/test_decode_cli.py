@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import json
 import shutil
+import subprocess
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -75,3 +77,22 @@ def test_words_is_refused_for_a_recording(sample_c10: Path,
     code, lines, err = decode(capsys, str(sample_c10), "--words")
     assert code == exitcodes.USAGE and lines == []
     assert "--words applies to bit-level captures" in err
+
+
+DECODE_PROBE = """
+import contextlib, io, json, sys
+from mapr_daemon.cli.main import main
+with contextlib.redirect_stdout(io.StringIO()) as out:
+    code = main(["decode", {path!r}])
+loaded = sorted({{m.split(".")[0] for m in sys.modules}} & {{"numba", "llvmlite", "scipy", "yaml"}})
+print(json.dumps([code, out.getvalue().count(chr(10)), loaded]))
+"""
+
+
+def test_decoding_a_recording_loads_no_compiler_and_no_icd_code(sample_c10: Path) -> None:
+    """What makes ``mapr decode FILE.c10`` start slowly: numba (and the scipy its array
+    functions pull in) or the ICD's YAML parser when no ``--icd`` is given. Checked in a
+    fresh interpreter by what it imported, never by timing."""
+    done = subprocess.run([sys.executable, "-c", DECODE_PROBE.format(path=str(sample_c10))],
+                          capture_output=True, text=True, timeout=120, check=True)
+    assert json.loads(done.stdout) == [exitcodes.OK, 475 + 4861, []]
