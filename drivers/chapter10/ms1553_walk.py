@@ -60,20 +60,19 @@ def new_parts() -> Parts:
 
 
 def _chain(heads: memoryview, size: int, count: int) -> list[int]:
-    """Byte offsets of the intra-packet headers of one body (``heads``: its 16-bit words),
-    as pychapter10 follows them: at most ``count``, while a whole header fits; the last
-    one's message may run past the end (cut short)."""
+    """Offsets, in 16-bit words, of the intra-packet headers of one body (``heads``: its
+    16-bit words, ``size`` its length in bytes), as pychapter10 follows them: at most
+    ``count``, while a whole header fits; the last one's message may run past the end (cut
+    short). A header is 7 words; the message after it takes ``ceil(length / 2)``."""
     starts: list[int] = []
     append = starts.append
-    pos = 0
-    m = 0
-    last = size - IPH_BYTES
-    while m < count and pos <= last:
-        append(pos)
-        n = heads[(pos >> 1) + 6]
-        pos += IPH_BYTES + n + (n & 1)
-        m += 1
-    return starts
+    at = 0
+    last = (size - IPH_BYTES) >> 1
+    while at <= last:   # no count check per step: at most size / 14 steps, cut to count
+        append(at)
+        n = heads[at + 6]
+        at += 7 + ((n + 1) >> 1)
+    return starts[:count] if len(starts) > count else starts
 
 
 def walk_packet(item: RawPacket, parts: Parts, found: list[ReadIssue], timebase: Timebase
@@ -89,7 +88,8 @@ def walk_packet(item: RawPacket, parts: Parts, found: list[ReadIssue], timebase:
     size = body.size
     half = np.frombuffer(item.raw, "<u2", size // 2, start + 4).astype(np.uint16, copy=False)
     at = np.asarray(_chain(half.data, size, count), np.int64)
-    length = half[(at >> 1) + 6].astype(np.int64)
+    length = half[at + 6].astype(np.int64)
+    at <<= 1
     cut = np.zeros(at.size, np.bool_)
     if at.size:
         cut[-1] = at[-1] + IPH_BYTES + length[-1] > size
