@@ -9,7 +9,8 @@ Prints, over ``--runs`` fresh interpreters each (min / median / max):
   included);
 * wall and CPU time (user + system, from the child's resource usage) of ``mapr --help``,
   ``mapr decode --help`` and ``mapr decode SAMPLE > /dev/null`` on the real Chapter 10 sample
-  recording (skipped, with the reason, when the file is absent).
+  recording (skipped, with the reason, when the file is absent);
+* where the CPU time of that decode goes: importing numpy, importing the rest, decoding.
 
 Commands run as ``python -m mapr_daemon.cli.main`` from this checkout, which is what the
 ``mapr`` script runs. The load average is printed before and after: the machine may be shared,
@@ -61,6 +62,30 @@ def command_seconds(args: list[str]) -> tuple[float, float, int]:
     return wall, usage.ru_utime + usage.ru_stime, child.returncode
 
 
+SPLIT = """
+import contextlib, io, sys, time
+t0 = time.process_time()
+import numpy
+t1 = time.process_time()
+import drivers.chapter10.ms1553_json, drivers.chapter10.reader, mapr_daemon.cli.decode
+import mapr_daemon.cli.decode_filter, mapr_daemon.cli.decode_text, mapr_daemon.cli.icdview
+from mapr_daemon.cli.main import main
+t2 = time.process_time()
+with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+    main(["decode", sys.argv[1]])
+print(t1 - t0, t2 - t1, time.process_time() - t2)
+"""
+
+
+def decode_split(sample: Path) -> tuple[float, float, float]:
+    """CPU seconds, in one fresh interpreter, of importing numpy, of importing the rest of
+    what ``mapr decode FILE.c10`` imports, and of the decode itself (output discarded)."""
+    done = subprocess.run([sys.executable, "-c", SPLIT, str(sample)], capture_output=True,
+                          text=True, env=_env(), check=True)
+    numpy_s, rest_s, run_s = map(float, done.stdout.split())
+    return numpy_s, rest_s, run_s
+
+
 def spread(values: list[float]) -> str:
     return (f"{min(values):6.3f} {statistics.median(values):6.3f} {max(values):6.3f}")
 
@@ -100,6 +125,12 @@ def main() -> None:
             codes.add(code)
         print(f"{label:<40} {spread(walls):>24}   {spread(cpus):>23}"
               f"   exit {','.join(map(str, sorted(codes)))}")
+    if args.sample.is_file():
+        split = [decode_split(args.sample) for _ in range(args.runs)]
+        print()
+        print(f"mapr decode {args.sample.name}, CPU s in one process     min    med    max")
+        for k, label in enumerate(("import numpy", "import the rest", "decode (to memory)")):
+            print(f"  {label:<44} {spread([row[k] for row in split])}")
     print()
     print(f"load average after: {os.getloadavg()[0]:.2f} {os.getloadavg()[1]:.2f} (1, 5 min)")
 
