@@ -187,7 +187,7 @@ def main() -> None:
         icd_file = Path(folder) / "icd.c10"
         with Chapter10Writer(icd_file, start_time=datetime(2026, 1, 1)) as writer:
             writer.write(icd_traffic(args.seconds, seed))
-        mapr_batches(dense)   # loads the compiled kernel, imports
+        mapr_batches(dense)   # imports, warms the caches
         for name, path in files:
             size = path.stat().st_size / 2**20
             print(f"\n{name}: {size:.1f} MiB")
