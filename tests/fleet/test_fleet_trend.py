@@ -129,14 +129,19 @@ def test_a_run_resumed_halfway_continues_each_trend_exactly(
     assert sorted(bits(split)) == sorted(bits(whole))
 
 
-def test_mapr_health_lists_each_tails_actuator(
-        dask_client: Any, aging_source: Path, fleet_dictionary: Path, fleet_model: Path,
-        tmp_path: Path) -> None:
+def test_mapr_fleet_with_a_prognosis_then_mapr_health_lists_each_tails_actuator(
+        aging_source: Path, fleet_dictionary: Path, fleet_model: Path, tmp_path: Path) -> None:
     catalog = tmp_path / "fleet.db"
-    run(dask_client, [aging_source], catalog, fleet_dictionary, fleet_model)
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
-    health = [sys.executable, "-m", "mapr_daemon.cli.main", "health", "--catalog",
-              str(catalog)]
+    mapr = [sys.executable, "-m", "mapr_daemon.cli.main"]
+    fleet = subprocess.run([*mapr, "fleet", str(aging_source), "--dictionary",
+                            str(fleet_dictionary), "--prognosis", str(fleet_model),
+                            "--catalog", str(catalog), "--workers", "1", "--no-progress"],
+                           cwd=ROOT, env=env, capture_output=True, text=True, timeout=600)
+    assert fleet.returncode == 0, fleet.stderr
+    with_rul = sum(r[7] is not None for r in bits(catalog))
+    assert f"{2 * FLIGHTS} built-in tests ({with_rul} with a RUL)" in fleet.stdout
+    health = [*mapr, "health", "--catalog", str(catalog)]
     listed = json.loads(subprocess.run([*health, "--json"], cwd=ROOT, env=env, check=True,
                                        capture_output=True, text=True).stdout)
     assert [(a["tail"], a["asset"], a["last_flight"], a["bits"]) for a in listed] == \
