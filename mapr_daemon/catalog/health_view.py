@@ -32,6 +32,21 @@ def display_name(tail: str, asset: str) -> str:
     return f"{tail}/{asset}" if tail and not asset.startswith(f"{tail}/") else asset
 
 
+def episode_names(tail: str, asset: str) -> tuple[str, ...]:
+    """The asset names an actuator's fault episodes may be kept under: its own (the daemon's)
+    and ``TAIL/ASSET`` (a fleet run's, the episodes having no tail column)."""
+    name = display_name(tail, asset)
+    return (asset,) if name == asset else (asset, name)
+
+
+def episodes_of(conn: sqlite3.Connection, tail: str, asset: str, *, open_only: bool = False
+                ) -> list[Episode]:
+    """The actuator's episodes (:func:`episode_names`), most recently active first."""
+    found = [ep for name in episode_names(tail, asset)
+             for ep in episode_store.select(conn, open_only=open_only, asset=name)]
+    return sorted(found, key=lambda ep: (ep.last_ns, ep.id), reverse=True)
+
+
 @dataclasses.dataclass(frozen=True)
 class ActuatorHealth:
     """One actuator's standing: its newest BIT with the health after it, and its episodes."""
@@ -83,7 +98,7 @@ def load(conn: sqlite3.Connection, with_episodes: bool) -> list[ActuatorHealth]:
     for row in conn.execute(_LATEST):
         record = history._record(row[:-3])
         n, first_ns, first_flight = row[-3:]
-        episodes = tuple(episode_store.select(conn, open_only=True, asset=record.asset)
+        episodes = tuple(episodes_of(conn, record.tail, record.asset, open_only=True)
                          ) if with_episodes else ()
         out.append(ActuatorHealth(record.tail, record.asset, record, int(n), int(first_ns),
                                   first_flight, episodes))

@@ -16,7 +16,13 @@ import html
 from collections.abc import Iterable, Sequence
 from typing import Any
 
-from mapr_daemon.catalog.health_view import ActuatorHealth, fmt_episodes, fmt_rul, fmt_soh
+from mapr_daemon.catalog.health_view import (
+    ActuatorHealth,
+    episode_names,
+    fmt_episodes,
+    fmt_rul,
+    fmt_soh,
+)
 from mapr_daemon.catalog.reader import CatalogReader
 from mapr_daemon.catalog.report import fault_name, fmt_severity, fmt_time, fmt_trend
 
@@ -91,7 +97,9 @@ def _evidence(reader: CatalogReader, a: ActuatorHealth) -> str:
 
 
 def _episodes(reader: CatalogReader, a: ActuatorHealth) -> str:
-    episodes = reader.episodes(asset=a.asset)
+    episodes = sorted((ep for name in episode_names(a.tail, a.asset)
+                       for ep in reader.episodes(asset=name)),
+                      key=lambda ep: (ep.last_ns, ep.id), reverse=True)
     if not episodes:
         return '<p class="muted">No fault episodes.</p>'
     return _table(("id", "part", "modes", "opened (UTC)", "last BIT (UTC)", "BITs", "severity",

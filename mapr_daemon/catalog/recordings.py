@@ -8,9 +8,13 @@ recording whose row says ``done`` is never stored again, whoever asks. A ``faile
 file could not be read, the reasoner could not be built) holds the error and no events; the
 next run tries that recording again.
 
-Until the catalog has tail and flight columns of its own, a fleet's actuator is stored under
-the asset name ``TAIL/ASSET`` (:func:`fleet_asset`), so every per-asset view (episodes,
-``mapr catalog list --asset``) is per tail already; that choice lives in this one function.
+A fleet's BITs are stored as the daemon stores them: the ``bits`` row has the actuator's
+plain name (``EMA1``) in ``asset`` and the aircraft in ``tail``, with its ``flight`` (what
+the trend reloads, per tail, and ``mapr health`` reads). Events and fault episodes have no
+tail column, so a fleet's are named ``TAIL/ASSET`` (:func:`fleet_asset`, the name ``mapr
+health`` shows): the ``EMA1`` of two tails never share an episode, and ``mapr catalog list
+--asset N101/EMA1`` and ``mapr catalog episodes`` are per tail. That choice lives in
+:func:`store_recording`.
 """
 
 from __future__ import annotations
@@ -19,7 +23,7 @@ import dataclasses
 import sqlite3
 from collections.abc import Sequence
 
-from mapr_daemon.catalog.model import BitOutcome
+from mapr_daemon.catalog.model import BitOutcome, Flight
 from mapr_daemon.catalog.writer import CatalogWriter, now_ns
 from mapr_daemon.errors import CatalogError
 
@@ -73,10 +77,24 @@ def stored(writer: CatalogWriter) -> dict[str, Stored]:
     return {str(d): Stored(str(s), str(c), str(t), int(f)) for d, s, c, t, f in rows}
 
 
+def in_fleet(outcome: BitOutcome) -> BitOutcome:
+    """The outcome as a fleet catalog stores it: its event under :func:`fleet_asset`."""
+    event = outcome.event
+    if event is None or not outcome.tail:
+        return outcome
+    return dataclasses.replace(outcome, event=dataclasses.replace(
+        event, asset=fleet_asset(outcome.tail, outcome.asset)))
+
+
+def _episodes_as(outcome: BitOutcome) -> str:
+    return fleet_asset(outcome.tail, outcome.asset) if outcome.tail else outcome.asset
+
+
 def store_recording(writer: CatalogWriter, row: RecordingRow,
-                    outcomes: Sequence[BitOutcome]) -> bool:
-    """Store one recording's row and its BITs in one transaction; False (nothing written) if
-    the catalog already holds it as done. A failed row is replaced."""
+                    outcomes: Sequence[BitOutcome], flights: Sequence[Flight] = ()) -> bool:
+    """Store one recording's row, its BITs (plain asset and ``tail``; events and episodes
+    under ``TAIL/ASSET``) and the ``flights`` they were flown on in one transaction; False
+    (nothing written) if the catalog already holds it as done. A failed row is replaced."""
     stamp = row.processed_ns or now_ns()
     session = writer.session_id
     written = False
@@ -97,5 +115,6 @@ def store_recording(writer: CatalogWriter, row: RecordingRow,
         written = True
         return True
 
-    writer.add_bits(outcomes, guard=guard)
+    writer.add_bits([in_fleet(o) for o in outcomes], flights, guard=guard,
+                    episodes_as=_episodes_as)
     return written

@@ -197,7 +197,8 @@ class CatalogWriter:
         return self._store(batch, [(e.asset, int(e.t_ns), detection_of(e)) for e in batch])
 
     def add_bits(self, outcomes: Iterable[BitOutcome], flights: Iterable[Flight] = (), *,
-                 guard: Callable[[sqlite3.Connection], bool] | None = None) -> list[int]:
+                 guard: Callable[[sqlite3.Connection], bool] | None = None,
+                 episodes_as: Callable[[BitOutcome], str] | None = None) -> list[int]:
         """Store a batch of diagnosed BITs (in time order) in one transaction: each anomaly
         event, with the fault episode it opens or updates, and each BIT's effect on the
         actuator's open episodes (:mod:`.episodes`), each BIT's history row (:mod:`.history`)
@@ -206,10 +207,16 @@ class CatalogWriter:
 
         ``guard(conn)``, when given, runs first inside that transaction (to write what must
         be stored with the events, e.g. :mod:`.recordings`' row); when it returns False
-        nothing of the batch is stored and the result is empty."""
+        nothing of the batch is stored and the result is empty.
+
+        ``episodes_as(bit)``, when given, names the actuator a BIT's fault episodes are kept
+        under (default: its ``asset``); a fleet run keeps each tail's apart
+        (:mod:`.recordings`), the episodes having no tail of their own."""
         bits = list(outcomes)
+        name: Callable[[BitOutcome], str] = \
+            (lambda b: b.asset) if episodes_as is None else episodes_as
         return self._store([b.event for b in bits if b.event is not None],
-                           [(b.asset, int(b.t_ns),
+                           [(name(b), int(b.t_ns),
                              None if b.event is None else detection_of(b.event)) for b in bits],
                            bits, list(flights), guard)
 

@@ -10,7 +10,9 @@
 Every recording (``*.ch10``/``*.c10`` under the folders given, or the files given) is one
 Dask task that runs the daemon's records -> events path on it (as ``mapr replay
 --diagnose``); the client alone writes the catalog, one transaction per recording, each
-tail's flights in flight order. Tail and flight come from the path (``--pattern``, default
+tail's flights in flight order, each tail's actuators trended on the client from that
+tail's history (SoH and RUL need a prognostic model: ``--prognosis`` or the config's
+``assets[].prognosis``). Tail and flight come from the path (``--pattern``, default
 ``TAIL/...NNNN.ch10``), the tail from a TMATS attribute first with ``--tail-tmats``;
 flight hours from the archive's ``fleet.json`` when it declares them, else the recorded
 time. Without ``--scheduler`` a local cluster starts (one single-threaded
@@ -46,6 +48,9 @@ def add_subparser(subparsers: Any) -> None:
                                                     "(docs/fleet.md)")
     p.add_argument("--dictionary", metavar="FILE", help="fault dictionary for every tail "
                                                         "(overrides the config's)")
+    p.add_argument("--prognosis", metavar="FILE",
+                   help="prognostic model for every actuator of every tail (overrides the "
+                        "config's assets[].prognosis): SoH and RUL trends")
     p.add_argument("--icd", metavar="FILE", help="message table for every tail (overrides)")
     p.add_argument("--threshold", type=float, help="anomaly threshold override")
     p.add_argument("--catalog", metavar="PATH", help="fleet catalog (default: the default "
@@ -82,7 +87,10 @@ def _configs(args: argparse.Namespace) -> Any:
         if reasoner.dictionary is None:
             raise ConfigError("fleet analysis needs a fault dictionary: --dictionary FILE "
                               "(or reasoner.dictionary in --config)", path=config.source)
-        return dataclasses.replace(config, icd=args.icd or config.icd, reasoner=reasoner)
+        assets = config.assets if not args.prognosis else tuple(
+            dataclasses.replace(a, prognosis=args.prognosis) for a in config.assets)
+        return dataclasses.replace(config, icd=args.icd or config.icd, reasoner=reasoner,
+                                   assets=assets)
 
     return FleetConfig(adjust(fleet.default),
                        {tail: adjust(c) for tail, c in fleet.tails.items()})
@@ -150,7 +158,8 @@ def run(args: argparse.Namespace) -> int:
           f"{summary.skipped} already in the catalog"
           + (f" ({summary.stale} with another config)" if summary.stale else "")
           + f", {len(summary.failed) + len(unusable)} failed\n"
-          f"diagnosis: {summary.bits} built-in tests, {summary.events} anomaly events, "
+          f"diagnosis: {summary.bits} built-in tests ({summary.rul} with a RUL), "
+          f"{summary.events} anomaly events, "
           f"{summary.reasoner_failures} reasoner failures, {summary.damaged_packets} damaged "
           f"packets skipped\n"
           f"{summary.hours:.1f} flight hours in {wall:.1f} s "

@@ -5,8 +5,10 @@
     recordings (archive.discover) -> skip those the catalog holds as done
       -> client.submit(process_recording, Job) per recording  (workers: read + reasoner)
       -> as each finishes: buffered per tail until every earlier flight of that tail is
-         stored, then stored (catalog.recordings.store_recording: its row and its BITs in
-         one transaction), so per-actuator episodes and trends see flights in order.
+         stored, then trended on the client (:mod:`.trend`: the tail's flight declared, each
+         BIT's SoH and RUL from the tail's history) and stored
+         (catalog.recordings.store_recording: its row, its BITs and its flight in one
+         transaction), so per-actuator episodes and trends see flights in order.
 
 Idempotent: a recording stored as done is skipped by a later run, and refused by the store
 itself if two runs race. Resumable: a run stopped anywhere leaves whole recordings in the
@@ -25,11 +27,14 @@ import logging
 from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING
 
+from mapr_daemon.catalog import BitOutcome
+from mapr_daemon.catalog.model import Flight
 from mapr_daemon.catalog.recordings import DONE, FAILED, RecordingRow, store_recording, stored
 from mapr_daemon.catalog.writer import CatalogWriter
 from mapr_daemon.fleet.archive import Recording
 from mapr_daemon.fleet.config import FleetConfig
 from mapr_daemon.fleet.task import Job, TaskResult, process_recording
+from mapr_daemon.fleet.trend import FleetTrend
 
 if TYPE_CHECKING:
     from distributed import Client
@@ -50,6 +55,8 @@ class RunSummary:
     failed: list[TaskResult] = dataclasses.field(default_factory=list)
     events: int = 0
     bits: int = 0
+    rul: int = 0
+    """Stored BITs the trend gave a remaining useful life."""
     hours: float = 0.0
     reasoner_failures: int = 0
     damaged_packets: int = 0
@@ -107,6 +114,7 @@ class FleetRun:
         self.client, self.catalog, self.configs = client, catalog, configs
         self.on_stored = on_stored
         self.summary = RunSummary()
+        self.trend = FleetTrend(catalog, configs)
 
     def pending(self, recordings: Sequence[Recording]) -> list[Recording]:
         """The recordings the catalog does not hold as done."""
@@ -146,11 +154,18 @@ class FleetRun:
                            result.flight_hours, DONE if result.ok else FAILED,
                            result.config_digest, result.error, len(result.outcomes),
                            result.events)
-        if store_recording(self.catalog, row, result.outcomes if result.ok else []):
+        outcomes: list[BitOutcome] = []
+        flights: list[Flight] = []
+        if result.ok:
+            outcomes, flights = self.trend.flight(recording.tail, recording.flight,
+                                                  result.flight_hours, result.outcomes)
+        if store_recording(self.catalog, row, outcomes, flights):
             if result.ok:
                 summary.stored += 1
                 summary.events += result.events
-                summary.bits += len(result.outcomes)
+                summary.bits += len(outcomes)
+                summary.rul += sum(o.health is not None and o.health.rul is not None
+                                   for o in outcomes)
                 summary.hours += result.flight_hours
             else:
                 summary.failed.append(result)
@@ -159,5 +174,6 @@ class FleetRun:
             summary.task_s.append(result.task_s)
         else:
             summary.skipped += 1
+            self.trend.forget(recording.tail)   # its trend ran ahead of the catalog
         if self.on_stored is not None:
             self.on_stored(result)

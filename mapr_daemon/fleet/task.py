@@ -4,8 +4,9 @@
 ``mapr replay`` does, hands its records in batches to :meth:`Pipeline.process` (the one path
 the daemon and the replay run, built by :func:`build_pipeline`), and returns everything the
 catalog needs as a picklable :class:`TaskResult`: every diagnosed BIT as a
-:class:`~mapr_daemon.catalog.BitOutcome` with its bus and absolute stamps, stored under the
-fleet asset name ``TAIL/ASSET``, the reasoner's failures and the damaged packets skipped.
+:class:`~mapr_daemon.catalog.BitOutcome` with its bus and absolute stamps, its tail and its
+degradation estimates (the trend, which needs the tail's earlier flights, is the client's:
+:mod:`.trend`), the reasoner's failures and the damaged packets skipped.
 A task writes nothing: the client alone writes the catalog, so a worker killed mid-task
 loses nothing (the scheduler runs the task again elsewhere). Any error reading the file
 becomes a failed result naming it; the other recordings go on.
@@ -13,7 +14,8 @@ becomes a failed result naming it; the other recordings go on.
 A worker keeps the pipelines it built (the dictionary load is the expensive part), one per
 configuration; each recording starts from a fresh session (signal stream, BIT watch and
 reasoner unit state, :func:`_fresh`), as ``mapr replay`` of that one file would: what
-carries from flight to flight is the catalog's (episodes, trends), written in flight order.
+carries from flight to flight is the client's and the catalog's (trends, episodes), in
+flight order.
 """
 
 from __future__ import annotations
@@ -26,7 +28,6 @@ from drivers.errors import MaprError
 from drivers.mil1553.record import MonitorRecord
 from drivers.monitor import open_monitor
 from mapr_daemon.catalog import BitOutcome
-from mapr_daemon.catalog.recordings import fleet_asset
 from mapr_daemon.daemon.clock import BusClock
 from mapr_daemon.daemon.config import Config
 from mapr_daemon.daemon.pipeline import Pipeline, build_pipeline
@@ -53,7 +54,8 @@ class TaskResult:
     ok: bool
     error: str | None = None
     outcomes: list[BitOutcome] = dataclasses.field(default_factory=list)
-    """Every BIT diagnosed, in time order, as the catalog stores it (asset ``TAIL/ASSET``)."""
+    """Every BIT diagnosed, in time order: plain asset name, ``tail`` set, ``wear`` estimated;
+    no flight or health yet (the client trends them)."""
     failures: list[str] = dataclasses.field(default_factory=list)
     """BITs the reasoner failed on (their error), for the run's report."""
     issues: list[str] = dataclasses.field(default_factory=list)
@@ -129,7 +131,7 @@ def _run(recording: Recording, config: Config, digest: str) -> TaskResult:
     messages, seen = 0, False
     first: int | None = None
     last = 0
-    tail, asset = recording.tail, pipe.asset.name
+    tail = recording.tail
     monitor = open_monitor("chapter10", path=recording.path)
     with monitor:
         batch: list[MonitorRecord] = []
@@ -144,7 +146,7 @@ def _run(recording: Recording, config: Config, digest: str) -> TaskResult:
                 result = pipe.process(batch, clock)
                 seen |= result.actuator_seen
                 failures += [f.error for f in result.failures]
-                outcomes += [_in_fleet(o, tail, asset, recording) for o in result.outcomes]
+                outcomes += [_in_fleet(o, tail, recording) for o in result.outcomes]
                 batch = []
             if record is None and monitor.ended:
                 break
@@ -153,12 +155,11 @@ def _run(recording: Recording, config: Config, digest: str) -> TaskResult:
                       0.0 if first is None else (last - first) / 1e9, seen)
 
 
-def _in_fleet(outcome: BitOutcome, tail: str, asset: str, recording: Recording) -> BitOutcome:
-    """The outcome under the fleet asset name, its event's evidence naming the recording."""
-    name = fleet_asset(tail, asset)
+def _in_fleet(outcome: BitOutcome, tail: str, recording: Recording) -> BitOutcome:
+    """The outcome of ``tail``, its event's evidence naming the recording."""
     event = outcome.event
     if event is not None:
-        event = dataclasses.replace(event, asset=name, evidence={
+        event = dataclasses.replace(event, evidence={
             **event.evidence, "recording": recording.path, "tail": tail,
             "flight": recording.flight})
-    return dataclasses.replace(outcome, asset=name, event=event)
+    return dataclasses.replace(outcome, tail=tail, event=event)
