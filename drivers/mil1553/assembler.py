@@ -19,13 +19,18 @@ still waiting for a response or for more words at the horizon is kept for the ne
 from __future__ import annotations
 
 from collections.abc import Iterable
-from functools import cache
+from operator import attrgetter
 
 import numpy as np
 import numpy.typing as npt
 
 from drivers.mil1553.grammar import FORMATS, MESSAGE_COLUMNS, parse_bus, timing_array
-from drivers.mil1553.record import MESSAGE_ERROR_NAMES, MonitorRecord, TransferFormat
+from drivers.mil1553.record import (
+    MESSAGE_ERROR_NAMES,
+    MonitorRecord,
+    TransferFormat,
+    new_record,
+)
 from drivers.mil1553.timing import BusTiming
 from drivers.mil1553.wordbatch import (
     BUS_NAMES,
@@ -34,6 +39,7 @@ from drivers.mil1553.wordbatch import (
     empty_words,
 )
 
+_BY_TIME = attrgetter("t_ns")
 _UNKNOWN = FORMATS.index(TransferFormat.UNKNOWN)
 _WORD_ERROR = 1 << MESSAGE_ERROR_NAMES.index("word_error")
 
@@ -83,30 +89,30 @@ class MessageAssembler:
 
     def _mark_both_buses(self, records: list[MonitorRecord]) -> list[MonitorRecord]:
         """Flag messages overlapping in time with one on the other bus, this call's or a
-        recent one's (an earlier message already returned cannot be flagged afterwards)."""
-        records.sort(key=lambda r: r.t_ns)
-        spans = {bus: [*self._recent[bus], *((r.t_ns, r.end_ns) for r in records
-                                             if r.bus == bus)] for bus in BUS_NAMES}
-        out = records
-        if records:
-            # Each record against the other bus's last 64 spans, as one numpy comparison
-            # per bus (the same test as a loop over the spans, record by record).
-            t = np.array([r.t_ns for r in records], dtype=np.int64)
-            end = np.array([r.end_ns for r in records], dtype=np.int64)
-            on_a = np.array([r.bus == "A" for r in records], dtype=np.bool_)
-            hit = np.zeros(len(records), dtype=np.bool_)
-            for bus, mine in (("A", on_a), ("B", ~on_a)):
-                other = spans["B" if bus == "A" else "A"][-64:]
-                if not other or not mine.any():
-                    continue
-                window = np.array(other, dtype=np.int64)
+        recent one's (an earlier message already returned cannot be flagged afterwards).
+
+        Each record is tested against the other bus's last 64 spans (the recent ones, then
+        this call's), as one numpy comparison per bus."""
+        records.sort(key=_BY_TIME)
+        t = np.array([r.t_ns for r in records], dtype=np.int64)
+        end = np.array([r.end_ns for r in records], dtype=np.int64)
+        on_a = np.array([r.bus == "A" for r in records], dtype=np.bool_)
+        spans = {}
+        for bus, mine in (("A", on_a), ("B", ~on_a)):
+            recent = np.array(self._recent[bus], dtype=np.int64).reshape(-1, 2)
+            spans[bus] = np.concatenate([recent, np.stack([t[mine], end[mine]], axis=1)])
+        out = list(records)
+        hit = np.zeros(len(records), dtype=np.bool_)
+        for bus, mine in (("A", on_a), ("B", ~on_a)):
+            window = spans["B" if bus == "A" else "A"][-64:]
+            if window.size and mine.any():
                 overlap = (window[None, :, 0] < end[mine, None]) & \
                     (window[None, :, 1] > t[mine, None])
                 hit[mine] = overlap.any(axis=1)
-            out = [_with_error(rec, "both_buses_active") if flag else rec
-                   for rec, flag in zip(records, hit.tolist(), strict=True)]
+        for index in np.flatnonzero(hit).tolist():
+            out[index] = _with_error(out[index], "both_buses_active")
         for bus in BUS_NAMES:
-            self._recent[bus] = spans[bus][-8:]
+            self._recent[bus] = [(int(a), int(b)) for a, b in spans[bus][-8:].tolist()]
         return out
 
     def assemble(self, words: WordBatch) -> list[MonitorRecord]:
@@ -143,6 +149,9 @@ def _records(rows: list[list[int]], t: list[int], end: list[int], value: list[in
              word_errors: npt.NDArray[np.int64], bus: str) -> list[MonitorRecord]:
     """MonitorRecords from :func:`parse_bus`'s rows (the only per-message Python)."""
     records = []
+    names = _ERROR_NAMES
+    formats = FORMATS
+    new = new_record
     for start, after, fmt, command2, statuses, s0, s1, g0, g1, errors, bits in rows:
         if fmt == _UNKNOWN:
             command = None
@@ -164,11 +173,9 @@ def _records(rows: list[list[int]], t: list[int], end: list[int], value: list[in
         named: tuple[tuple[int, tuple[str, ...]], ...] = ()
         if bits:
             named, errors = _word_errors(word_errors[start:after].tolist(), errors)
-        records.append(MonitorRecord(
-            t_ns=t[start], bus=bus, format=FORMATS[fmt], command=command, data=data,
-            status=status, gaps_ns=gaps, errors=_error_names(errors),
-            command2=None if command2 < 0 else command2, word_errors=named,
-            end_ns=end[after - 1]))
+        records.append(new(t[start], bus, formats[fmt], command, data, status, gaps,
+                           names[errors], None if command2 < 0 else command2, named,
+                           end[after - 1]))
     return records
 
 
@@ -186,10 +193,17 @@ def _word_errors(bits: list[int], errors: int
     return tuple(named), errors | _WORD_ERROR
 
 
-@cache
-def _error_names(errors: int) -> tuple[str, ...]:
-    """The sorted names of a message error bit set."""
-    return tuple(sorted(name for i, name in enumerate(MESSAGE_ERROR_NAMES) if errors >> i & 1))
+class _ErrorNames(dict[int, tuple[str, ...]]):
+    """Message error bit set -> sorted names, each set worked out once."""
+
+    def __missing__(self, errors: int) -> tuple[str, ...]:
+        names = tuple(sorted(name for i, name in enumerate(MESSAGE_ERROR_NAMES)
+                             if errors >> i & 1))
+        self[errors] = names
+        return names
+
+
+_ERROR_NAMES = _ErrorNames()
 
 
 def _with_error(rec: MonitorRecord, name: str) -> MonitorRecord:

@@ -6,7 +6,7 @@ public API of the monitor, the CLI's JSON output and what the Chapter 10 reader 
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from enum import StrEnum
 from typing import Any
 
@@ -144,3 +144,33 @@ class MonitorRecord:
         if self.word_errors:
             out["word_errors"] = {str(i): list(e) for i, e in self.word_errors}
         return out
+
+
+_SETTERS = tuple(getattr(MonitorRecord, f.name).__set__ for f in fields(MonitorRecord))
+assert tuple(f.name for f in fields(MonitorRecord)) == MonitorRecord.__slots__
+
+
+def new_record(t_ns: int, bus: str, format: TransferFormat, command: int | None,
+               data: tuple[int, ...], status: tuple[int, ...], gaps_ns: tuple[int, ...],
+               errors: tuple[str, ...], command2: int | None,
+               word_errors: tuple[tuple[int, tuple[str, ...]], ...], end_ns: int
+               ) -> MonitorRecord:
+    """The record ``MonitorRecord(...)`` builds from the same fields (``extra`` empty),
+    about twice as fast: the slots are set directly instead of through the frozen
+    dataclass's ``object.__setattr__`` per field. The assembler builds thousands a second.
+    """
+    record: MonitorRecord = object.__new__(MonitorRecord)
+    (t, b, f, c, d, s, g, e, c2, w, n, x) = _SETTERS
+    t(record, t_ns)
+    b(record, bus)
+    f(record, format)
+    c(record, command)
+    d(record, data)
+    s(record, status)
+    g(record, gaps_ns)
+    e(record, errors)
+    c2(record, command2)
+    w(record, word_errors)
+    n(record, end_ns)
+    x(record, {})
+    return record
