@@ -21,6 +21,7 @@ from __future__ import annotations
 import gc
 from collections.abc import Iterable, Iterator
 from contextlib import contextmanager
+from itertools import chain
 from operator import attrgetter
 
 import numpy as np
@@ -57,6 +58,7 @@ from drivers.mil1553.wordbatch import (
     empty_words,
 )
 
+_SPAN = attrgetter("t_ns", "end_ns")
 _BY_TIME = attrgetter("t_ns")
 _UNKNOWN = FORMATS.index(TransferFormat.UNKNOWN)
 _WORD_ERROR = 1 << MESSAGE_ERROR_NAMES.index("word_error")
@@ -87,34 +89,50 @@ class MessageAssembler:
         records: list[MonitorRecord] = []
         if horizon_ns is None and words.size:
             horizon_ns = int(words["end_ns"].max())
-        for bus in (0, 1):
-            mine = words[words["bus"] == bus] if words.size else words
-            batch = np.concatenate([self._pending[bus], mine]) if self._pending[bus].size \
-                else mine
-            done, used = self._assemble(batch, bus, horizon_ns)
-            self._pending[bus] = batch[used:]
-            records += done
-        return self._mark_both_buses(records)
+        first_b = 0
+        with _collector_paused():
+            for bus in (0, 1):
+                mine = words[words["bus"] == bus] if words.size else words
+                batch = np.concatenate([self._pending[bus], mine]) if self._pending[bus].size \
+                    else mine
+                done, used = self._assemble(batch, bus, horizon_ns)
+                self._pending[bus] = batch[used:]
+                records += done
+                first_b = len(records) if bus == 0 else first_b
+            return self._mark_both_buses(records, first_b)
 
     def flush(self) -> list[MonitorRecord]:
         """End of stream: close every message still open."""
         records: list[MonitorRecord] = []
-        for bus in (0, 1):
-            done, _ = self._assemble(self._pending[bus], bus, None, final=True)
-            self._pending[bus] = empty_words()
-            records += done
-        return self._mark_both_buses(records)
+        first_b = 0
+        with _collector_paused():
+            for bus in (0, 1):
+                done, _ = self._assemble(self._pending[bus], bus, None, final=True)
+                self._pending[bus] = empty_words()
+                records += done
+                first_b = len(records) if bus == 0 else first_b
+            return self._mark_both_buses(records, first_b)
 
-    def _mark_both_buses(self, records: list[MonitorRecord]) -> list[MonitorRecord]:
+    def _mark_both_buses(self, records: list[MonitorRecord], first_b: int | None = None
+                         ) -> list[MonitorRecord]:
         """Flag messages overlapping in time with one on the other bus, this call's or a
         recent one's (an earlier message already returned cannot be flagged afterwards).
+        ``records`` come out sorted by time (stable); ``first_b``, when given, says they are
+        bus A's then, from that index, bus B's.
 
         Each record is tested against the other bus's last 64 spans (the recent ones, then
         this call's), as one numpy comparison per bus."""
-        records.sort(key=_BY_TIME)
-        t = np.array([r.t_ns for r in records], dtype=np.int64)
-        end = np.array([r.end_ns for r in records], dtype=np.int64)
-        on_a = np.array([r.bus == "A" for r in records], dtype=np.bool_)
+        span = np.fromiter(chain.from_iterable(map(_SPAN, records)), dtype=np.int64,
+                           count=2 * len(records)).reshape(-1, 2)
+        if first_b is None:
+            on_a = np.array([r.bus == "A" for r in records], dtype=np.bool_)
+        else:
+            on_a = np.arange(len(records)) < first_b
+        order = np.argsort(span[:, 0], kind="stable")
+        if (order[1:] < order[:-1]).any():
+            records.sort(key=_BY_TIME)  # the same stable order, merged in C
+            span, on_a = span[order], on_a[order]
+        t, end = span[:, 0], span[:, 1]
         spans = {}
         for bus, mine in (("A", on_a), ("B", ~on_a)):
             recent = np.array(self._recent[bus], dtype=np.int64).reshape(-1, 2)
@@ -159,14 +177,12 @@ class MessageAssembler:
         self._superseded[bus] = bool(superseded)
         if count == 0:
             return [], int(used)
-        with _collector_paused():
-            return _records(out[:count], t, end, value, word_errors, BUS_NAMES[bus]), \
-                int(used)
+        return _records(out[:count], t, end, value, word_errors, BUS_NAMES[bus]), int(used)
 
 
 @contextmanager
 def _collector_paused() -> Iterator[None]:
-    """Pause Python's cyclic garbage collector while a batch's records are built.
+    """Pause Python's cyclic garbage collector while a call's records are built.
 
     Run every 700 new objects, it moves the records under construction (alive, in their
     lists) to its older generations, whose growth then sets off full collections of every
