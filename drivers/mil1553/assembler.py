@@ -145,9 +145,13 @@ class MessageAssembler:
         for bus, mine in (("A", on_a), ("B", ~on_a)):
             window = spans["B" if bus == "A" else "A"][-64:]
             if window.size and mine.any():
-                overlap = (window[None, :, 0] < end[mine, None]) & \
-                    (window[None, :, 1] > t[mine, None])
-                hit[mine] = overlap.any(axis=1)
+                # Some span (start, stop) of the window has start < end and stop > t: with
+                # the window sorted by start, the spans starting before ``end`` are a prefix,
+                # and one of them stops after ``t`` when the prefix's latest stop does.
+                window = window[np.argsort(window[:, 0], kind="stable")]
+                latest = np.maximum.accumulate(window[:, 1])
+                before = np.searchsorted(window[:, 0], end[mine], side="left")
+                hit[mine] = (before > 0) & (latest[np.maximum(before - 1, 0)] > t[mine])
         for index in np.flatnonzero(hit).tolist():
             out[index] = _with_error(out[index], "both_buses_active")
         for bus in BUS_NAMES:
