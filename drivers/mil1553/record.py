@@ -151,16 +151,6 @@ _SETTERS = tuple(getattr(MonitorRecord, f.name).__set__ for f in fields(MonitorR
 assert tuple(f.name for f in fields(MonitorRecord)) == MonitorRecord.__slots__
 
 
-def new_record(t_ns: int, bus: str, format: TransferFormat, command: int | None,
-               data: tuple[int, ...], status: tuple[int, ...], gaps_ns: tuple[int, ...],
-               errors: tuple[str, ...], command2: int | None,
-               word_errors: tuple[tuple[int, tuple[str, ...]], ...], end_ns: int
-               ) -> MonitorRecord:
-    """The record ``MonitorRecord(...)`` builds from the same fields (``extra`` empty)."""
-    return new_records([t_ns], bus, [format], [command], [data], [status], [gaps_ns],
-                       [errors], [command2], [word_errors], [end_ns])[0]
-
-
 def new_records(t_ns: Sequence[int], bus: str, format: Sequence[TransferFormat],
                 command: Sequence[int | None], data: Sequence[tuple[int, ...]],
                 status: Sequence[tuple[int, ...]], gaps_ns: Sequence[tuple[int, ...]],

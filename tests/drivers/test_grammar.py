@@ -123,17 +123,20 @@ def test_kernel_matches_the_reference_on_adversarial_streams() -> None:
     assert run(MessageAssembler(), empty_words(), [], []) == []
 
 
-def test_new_record_builds_the_constructors_record() -> None:
-    """The assembler's fast constructor: equal, frozen, each record its own ``extra``."""
+def test_new_records_build_the_constructors_records() -> None:
+    """The assembler's bulk constructor: equal records, frozen, each its own ``extra``."""
     import dataclasses
 
     import pytest
 
-    from drivers.mil1553.record import TransferFormat, new_record
+    from drivers.mil1553.record import TransferFormat, new_records
 
     fields = (7, "B", TransferFormat.RT_RT, 0x3043, (1, 2), (0x2800, 0x3000), (8_000, 9_000),
               ("late_response",), 0x2C22, ((3, ("parity",)),), 99)
-    fast, slow, other = new_record(*fields), MonitorRecord(*fields), new_record(*fields)
+    columns = [[field] * 2 for field in fields]
+    columns[1] = "B"  # one bus per call
+    fast, other = new_records(*columns)  # type: ignore[arg-type]
+    slow = MonitorRecord(*fields)
     assert fast == slow and repr(fast) == repr(slow) and fast.to_json() == slow.to_json()
     assert fast.extra == {} and fast.extra is not other.extra
     with pytest.raises(dataclasses.FrozenInstanceError):
