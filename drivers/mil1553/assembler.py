@@ -1,10 +1,13 @@
 """Message assembler: decoded words in, :class:`MonitorRecord` messages out.
 
-Segmentation follows the bus as a monitor sees it. numpy first splits each bus's word stream
-into *transmissions* (runs of contiguous words, 2 µs apart mid-crossing to mid-crossing) and
-measures every gap; then one pass per transmission applies the grammar of the ten transfer
-formats: a command (two for RT-RT) with the BC's data, then, within the no-response time-out,
-each expected RT response (status word, data). Everything found wrong is named in the record's
+Segmentation follows the bus as a monitor sees it. Each bus's word stream is split into
+*transmissions* (runs of contiguous words, 2 µs apart mid-crossing to mid-crossing), every gap
+is measured, and one pass applies the grammar of the ten transfer formats: a command (two for
+RT-RT) with the BC's data, then, within the no-response time-out, each expected RT response
+(status word, data). That pass is a compiled kernel (:mod:`drivers.mil1553.grammar`) that
+returns message boundaries as numbers; Python only builds the records from them.
+:mod:`drivers.mil1553.assembler_reference` keeps the same grammar in plain Python as its
+specification. Everything found wrong is named in the record's
 ``errors``; nothing is dropped: words that fit no message become a record of their own
 (``UNKNOWN``, ``orphan_words``).
 
@@ -15,59 +18,52 @@ still waiting for a response or for more words at the horizon is kept for the ne
 
 from __future__ import annotations
 
-from collections.abc import Iterable
-from dataclasses import dataclass, field
+import gc
+from collections.abc import Iterable, Iterator
+from contextlib import contextmanager
+from itertools import chain
+from operator import attrgetter
 
 import numpy as np
+import numpy.typing as npt
 
-from drivers.mil1553.modecodes import MODE_CODES, direction_legal
-from drivers.mil1553.record import MonitorRecord, TransferFormat
-from drivers.mil1553.timing import SYNC_MID_NS, BusTiming
+from drivers.mil1553.grammar import (
+    CMD2,
+    ERR,
+    FMT,
+    FORMATS,
+    G0,
+    G1,
+    MESSAGE_COLUMNS,
+    NEXT,
+    NSTATUS,
+    S0,
+    S1,
+    START,
+    WBITS,
+    parse_bus,
+    timing_array,
+)
+from drivers.mil1553.record import (
+    MESSAGE_ERROR_NAMES,
+    MonitorRecord,
+    TransferFormat,
+    new_records,
+)
+from drivers.mil1553.timing import BusTiming
 from drivers.mil1553.wordbatch import (
     BUS_NAMES,
     WORD_ERROR_NAMES,
     WordBatch,
+    concat_words,
     empty_words,
+    take_words,
 )
 
-_STATUS_RESERVED = 0x00E0
-_STATUS_BUSY = 0x0008
-_STATUS_ME = 0x0400
-_BIG_GAP = 1 << 60
-_ERROR_TEXT = {bit: name for bit, name in WORD_ERROR_NAMES}
-
-
-@dataclass
-class _Words:
-    """One bus's words as Python lists, for the per-transmission pass."""
-
-    t: list[int]
-    end: list[int]
-    sync: list[int]
-    value: list[int]
-    errors: list[int]
-    gap: list[int]
-    """Gap before each word, mid-crossing to mid-crossing (huge for the first)."""
-    stop: list[int]
-    """Index one past the last word of each word's transmission."""
-    syncs_before: list[int]
-    """Command/status-sync words before each index (prefix sum), to test slices at once."""
-    errors_before: list[int]
-    """Words with errors before each index (prefix sum)."""
-
-
-@dataclass
-class _Message:
-    start: int
-    fmt: TransferFormat
-    command: int
-    command2: int | None = None
-    data: list[int] = field(default_factory=list)
-    status: list[int] = field(default_factory=list)
-    gaps: list[int] = field(default_factory=list)
-    errors: set[str] = field(default_factory=set)
-    positions: list[int] = field(default_factory=list)
-    """Word indices in bus order (for word errors)."""
+_SPAN = attrgetter("t_ns", "end_ns")
+_BY_TIME = attrgetter("t_ns")
+_UNKNOWN = FORMATS.index(TransferFormat.UNKNOWN)
+_WORD_ERROR = 1 << MESSAGE_ERROR_NAMES.index("word_error")
 
 
 class MessageAssembler:
@@ -88,56 +84,78 @@ class MessageAssembler:
         self._previous_end: dict[int, int | None] = {0: None, 1: None}
         self._superseded = {0: False, 1: False}
         self._recent: dict[str, list[tuple[int, int]]] = {bus: [] for bus in BUS_NAMES}
+        self._timing_array = timing_array(self.timing)
 
     def feed(self, words: WordBatch, horizon_ns: int | None = None) -> list[MonitorRecord]:
         """Add words (sorted by time); return the messages completed, sorted by time."""
         records: list[MonitorRecord] = []
         if horizon_ns is None and words.size:
             horizon_ns = int(words["end_ns"].max())
-        for bus in (0, 1):
-            mine = words[words["bus"] == bus] if words.size else words
-            batch = np.concatenate([self._pending[bus], mine]) if self._pending[bus].size \
-                else mine
-            done, used = self._assemble(batch, bus, horizon_ns)
-            self._pending[bus] = batch[used:]
-            records += done
-        return self._mark_both_buses(records)
+        first_b = 0
+        with _collector_paused():
+            for bus in (0, 1):
+                # Rows copied as bytes (take_words, concat_words): numpy copies structured
+                # rows field by field, several times slower.
+                mine = take_words(words, np.flatnonzero(words["bus"] == bus))
+                batch = concat_words([self._pending[bus], mine])
+                done, used = self._assemble(batch, bus, horizon_ns)
+                self._pending[bus] = batch[used:]
+                records += done
+                first_b = len(records) if bus == 0 else first_b
+            return self._mark_both_buses(records, first_b)
 
     def flush(self) -> list[MonitorRecord]:
         """End of stream: close every message still open."""
         records: list[MonitorRecord] = []
-        for bus in (0, 1):
-            done, _ = self._assemble(self._pending[bus], bus, None, final=True)
-            self._pending[bus] = empty_words()
-            records += done
-        return self._mark_both_buses(records)
+        first_b = 0
+        with _collector_paused():
+            for bus in (0, 1):
+                done, _ = self._assemble(self._pending[bus], bus, None, final=True)
+                self._pending[bus] = empty_words()
+                records += done
+                first_b = len(records) if bus == 0 else first_b
+            return self._mark_both_buses(records, first_b)
 
-    def _mark_both_buses(self, records: list[MonitorRecord]) -> list[MonitorRecord]:
+    def _mark_both_buses(self, records: list[MonitorRecord], first_b: int | None = None
+                         ) -> list[MonitorRecord]:
         """Flag messages overlapping in time with one on the other bus, this call's or a
-        recent one's (an earlier message already returned cannot be flagged afterwards)."""
-        records.sort(key=lambda r: r.t_ns)
-        spans = {bus: [*self._recent[bus], *((r.t_ns, r.end_ns) for r in records
-                                             if r.bus == bus)] for bus in BUS_NAMES}
-        out = records
-        if records:
-            # Each record against the other bus's last 64 spans, as one numpy comparison
-            # per bus (the same test as a loop over the spans, record by record).
-            t = np.array([r.t_ns for r in records], dtype=np.int64)
-            end = np.array([r.end_ns for r in records], dtype=np.int64)
+        recent one's (an earlier message already returned cannot be flagged afterwards).
+        ``records`` come out sorted by time (stable); ``first_b``, when given, says they are
+        bus A's then, from that index, bus B's.
+
+        Each record is tested against the other bus's last 64 spans (the recent ones, then
+        this call's), as one numpy comparison per bus."""
+        span = np.fromiter(chain.from_iterable(map(_SPAN, records)), dtype=np.int64,
+                           count=2 * len(records)).reshape(-1, 2)
+        if first_b is None:
             on_a = np.array([r.bus == "A" for r in records], dtype=np.bool_)
-            hit = np.zeros(len(records), dtype=np.bool_)
-            for bus, mine in (("A", on_a), ("B", ~on_a)):
-                other = spans["B" if bus == "A" else "A"][-64:]
-                if not other or not mine.any():
-                    continue
-                window = np.array(other, dtype=np.int64)
-                overlap = (window[None, :, 0] < end[mine, None]) & \
-                    (window[None, :, 1] > t[mine, None])
-                hit[mine] = overlap.any(axis=1)
-            out = [_with_error(rec, "both_buses_active") if flag else rec
-                   for rec, flag in zip(records, hit.tolist(), strict=True)]
+        else:
+            on_a = np.arange(len(records)) < first_b
+        order = np.argsort(span[:, 0], kind="stable")
+        if (order[1:] < order[:-1]).any():
+            records.sort(key=_BY_TIME)  # the same stable order, merged in C
+            span, on_a = span[order], on_a[order]
+        t, end = span[:, 0], span[:, 1]
+        spans = {}
+        for bus, mine in (("A", on_a), ("B", ~on_a)):
+            recent = np.array(self._recent[bus], dtype=np.int64).reshape(-1, 2)
+            spans[bus] = np.concatenate([recent, np.stack([t[mine], end[mine]], axis=1)])
+        out = list(records)
+        hit = np.zeros(len(records), dtype=np.bool_)
+        for bus, mine in (("A", on_a), ("B", ~on_a)):
+            window = spans["B" if bus == "A" else "A"][-64:]
+            if window.size and mine.any():
+                # Some span (start, stop) of the window has start < end and stop > t: with
+                # the window sorted by start, the spans starting before ``end`` are a prefix,
+                # and one of them stops after ``t`` when the prefix's latest stop does.
+                window = window[np.argsort(window[:, 0], kind="stable")]
+                latest = np.maximum.accumulate(window[:, 1])
+                before = np.searchsorted(window[:, 0], end[mine], side="left")
+                hit[mine] = (before > 0) & (latest[np.maximum(before - 1, 0)] > t[mine])
+        for index in np.flatnonzero(hit).tolist():
+            out[index] = _with_error(out[index], "both_buses_active")
         for bus in BUS_NAMES:
-            self._recent[bus] = spans[bus][-8:]
+            self._recent[bus] = [(int(a), int(b)) for a, b in spans[bus][-8:].tolist()]
         return out
 
     def assemble(self, words: WordBatch) -> list[MonitorRecord]:
@@ -148,260 +166,113 @@ class MessageAssembler:
     # --- one bus ---------------------------------------------------------------------------
     def _assemble(self, batch: WordBatch, bus: int, horizon_ns: int | None,
                   final: bool = False) -> tuple[list[MonitorRecord], int]:
+        """The complete messages of one bus's words and how many words they used."""
         if batch.size == 0:
             return [], 0
-        w = _prepare(batch, self.timing.break_ns, self._previous_end[bus])
-        n = len(w.t)
-        records: list[MonitorRecord] = []
-        i = 0
-        while i < n:
-            msg, j, complete = self._message(w, i, n, horizon_ns, final)
-            if not complete:
-                break
-            previous = self._previous_end[bus]
-            if self._superseded[bus]:
-                previous = None  # a superseding command follows its victim without a gap
-            self._superseded[bus] = "superseded" in msg.errors
-            if previous is not None and msg.fmt is not TransferFormat.UNKNOWN and \
-                    w.t[i] + SYNC_MID_NS - previous < self.timing.intermessage_min_ns and \
-                    self.time_tags:
-                msg.errors.add("intermessage_gap_short")
-            self._previous_end[bus] = w.end[j - 1]
-            records.append(_record(msg, w, bus, j))
-            i = j
-        return records, i
-
-    def _message(self, w: _Words, i: int, n: int, horizon: int | None, final: bool
-                 ) -> tuple[_Message, int, bool]:
-        """Parse the message starting at word ``i``: (message, next index, complete?)."""
-        timing = self.timing
-        stop = w.stop[i]
-        if not w.sync[i]:
-            # Data words where a command belongs: they fit no message.
-            msg = _Message(i, TransferFormat.UNKNOWN, -1, errors={"orphan_words"})
-            msg.data = w.value[i:stop]
-            msg.positions = list(range(i, stop))
-            return msg, stop, final or _closed(w, stop, wait_ns=timing.break_ns, horizon=horizon)
-        cmd = w.value[i]
-        msg = _Message(i, TransferFormat.UNKNOWN, cmd, positions=[i])
-        k = i + 1
-        rt, tx, sa, count = cmd >> 11, bool(cmd >> 10 & 1), cmd >> 5 & 31, cmd & 31
-        broadcast = rt == 31
-        responses: list[tuple[int, int]] = []  # (expected RT, data words it sends)
-        bc_data = 0
-        if (not tx and sa not in (0, 31) and k < stop and w.sync[k]
-                and w.value[k] >> 10 & 1):
-            # RT to RT: receive command, then transmit command, back to back.
-            cmd2 = w.value[k]
-            msg.command2 = cmd2
-            msg.positions.append(k)
-            k += 1
-            rt2, sa2, count2 = cmd2 >> 11, cmd2 >> 5 & 31, cmd2 & 31
-            msg.fmt = TransferFormat.BCAST_RT_RT if broadcast else TransferFormat.RT_RT
-            if rt2 == 31 or rt2 == rt or sa2 in (0, 31) or count2 != count:
-                msg.errors.add("illegal_format")
-            responses.append((rt2, count2 or 32))
-            if not broadcast:
-                responses.append((rt, 0))
-        elif sa in (0, 31):
-            mode = MODE_CODES[count]
-            if mode.reserved:
-                msg.errors.add("reserved_mode_code")
-            if not direction_legal(count, tx) or (broadcast and not mode.broadcast_allowed):
-                msg.errors.add("illegal_format")
-            bc_data = 1 if mode.has_data and not tx else 0
-            if broadcast:
-                msg.fmt = TransferFormat.BCAST_MODE_RX_DATA if mode.has_data else \
-                    TransferFormat.BCAST_MODE
-            else:
-                msg.fmt = (TransferFormat.MODE_TX_DATA if tx else TransferFormat.MODE_RX_DATA) \
-                    if mode.has_data else TransferFormat.MODE
-                responses.append((rt, 1 if mode.has_data and tx else 0))
-        else:
-            words = count or 32
-            if broadcast:
-                msg.fmt = TransferFormat.BCAST_BC_RT
-                if tx:
-                    msg.errors.add("illegal_format")  # no terminal may answer a broadcast
-                bc_data = 0 if tx else words
-            elif tx:
-                msg.fmt = TransferFormat.RT_BC
-                responses.append((rt, words))
-            else:
-                msg.fmt = TransferFormat.BC_RT
-                bc_data = words
-                responses.append((rt, 0))
-        # The BC's data words, which may continue past a break (non-contiguous data).
-        k, stop, ok = self._take_data(w, msg, k, stop, bc_data, n, horizon, final, from_bc=True)
-        if not ok:
-            return msg, k, False
-        if "superseded" in msg.errors:
-            return msg, k, True
-        if k < stop and bc_data == len(msg.data):
-            # The BC went on sending after the words its command calls for.
-            msg.errors.add("word_count_high")
-            msg.data += w.value[k:stop]
-            msg.positions += range(k, stop)
-            k = stop
-        for expected_rt, data_words in responses:
-            if k >= n:
-                if not final and not _closed(w, k, wait_ns=timing.no_response_ns,
-                                             horizon=horizon):
-                    return msg, k, False
-                msg.errors.add("no_response")
-                break
-            gap = w.gap[k]
-            if gap > timing.no_response_ns:
-                msg.errors.add("no_response")
-                break
-            if self.time_tags:
-                if gap < timing.response_min_ns:
-                    msg.errors.add("early_response")
-                elif gap > timing.response_max_ns:
-                    msg.errors.add("late_response")
-            msg.gaps.append(gap)
-            status = w.value[k]
-            msg.status.append(status)
-            msg.positions.append(k)
-            if not w.sync[k]:
-                msg.errors.add("sync")
-            if status >> 11 != expected_rt:
-                msg.errors.add("wrong_rt_address")
-            if status & _STATUS_RESERVED:
-                msg.errors.add("reserved_status_bits")
-            stop = w.stop[k]
-            if status & (_STATUS_BUSY | _STATUS_ME) and data_words:
-                data_words = 0 if stop == k + 1 else data_words  # busy/ME: status only
-            start_rt = k
-            k, stop, ok = self._take_data(w, msg, k + 1, stop, data_words, n, horizon, final)
-            if not ok:
-                return msg, k, False
-            if k < stop:
-                # The terminal went on after the words it owed: they are its, not the next
-                # terminal's status (which, having received too many, will not come).
-                if stop >= n and not final and not _closed(w, stop, wait_ns=timing.break_ns,
-                                                           horizon=horizon):
-                    return msg, stop, False
-                msg.errors.add("word_count_high")
-                msg.data += w.value[k:stop]
-                msg.positions += range(k, stop)
-                k = stop
-            if w.end[k - 1] - w.t[start_rt] > timing.babble_ns:
-                msg.errors.add("babbling")
-        # Words still in the last transmission belong to it: too many words.
-        if k < stop:
-            msg.errors.add("word_count_high")
-            msg.data += w.value[k:stop]
-            msg.positions += range(k, stop)
-            if w.end[stop - 1] - w.t[k] > timing.babble_ns:
-                msg.errors.add("babbling")
-            k = stop
-        if k >= n and not final and not _closed(w, k, wait_ns=timing.break_ns, horizon=horizon):
-            return msg, k, False
-        return msg, k, True
-
-    def _take_data(self, w: _Words, msg: _Message, k: int, stop: int, wanted: int, n: int,
-                   horizon: int | None, final: bool, from_bc: bool = False
-                   ) -> tuple[int, int, bool]:
-        """Append up to ``wanted`` data words from ``k``; returns (next, stop, complete).
-
-        In the BC's data, a command word that the rest of the transmission fits exactly
-        (the data words it calls for, no more, no less) is a new command superseding this
-        message (the standard: a new valid command supersedes one in progress); any other
-        command-sync word there is a data word with the wrong sync.
-        """
-        if k + wanted <= stop and w.syncs_before[k + wanted] == w.syncs_before[k]:
-            # The common case: all the words are there, contiguous, with data syncs.
-            msg.data += w.value[k:k + wanted]
-            msg.positions += range(k, k + wanted)
-            return k + wanted, stop, True
-        taken = 0
-        while taken < wanted:
-            if from_bc and k < stop and w.sync[k] and _fits_as_command(w, k, stop):
-                msg.errors.update(("superseded", "word_count_low"))
-                return k, stop, True
-            if k >= stop:
-                # The transmission broke off: data continuing within the time-out is
-                # non-contiguous; anything else means words are missing.
-                if k >= n:
-                    if not final and not _closed(w, k, wait_ns=self.timing.no_response_ns,
-                                                 horizon=horizon):
-                        return k, stop, False
-                    msg.errors.add("word_count_low")
-                    return k, stop, True
-                if w.sync[k] or w.gap[k] > self.timing.no_response_ns:
-                    msg.errors.add("word_count_low")
-                    return k, stop, True
-                msg.errors.add("non_contiguous_data")
-                stop = w.stop[k]
-            if w.sync[k]:
-                msg.errors.add("sync")  # a command/status sync where a data word belongs
-            msg.data.append(w.value[k])
-            msg.positions.append(k)
-            taken += 1
-            k += 1
-        return k, stop, True
+        t = batch["t_ns"].astype(np.int64)
+        end = batch["end_ns"].astype(np.int64)
+        value = batch["value"].astype(np.int64)
+        word_errors = batch["errors"].astype(np.int64)
+        out = np.empty((batch.size, len(MESSAGE_COLUMNS)), dtype=np.int64)
+        previous = self._previous_end[bus]
+        count, used, last_end, has_last, superseded = parse_bus(
+            t, end, batch["sync"].astype(np.int64), value, word_errors,
+            0 if horizon_ns is None else horizon_ns, horizon_ns is not None, final,
+            self._timing_array, self.time_tags, 0 if previous is None else previous,
+            previous is not None, self._superseded[bus], out)
+        self._previous_end[bus] = int(last_end) if has_last else None
+        self._superseded[bus] = bool(superseded)
+        if count == 0:
+            return [], int(used)
+        return _records(out[:count], t, end, value, word_errors, BUS_NAMES[bus]), int(used)
 
 
-def _fits_as_command(w: _Words, k: int, stop: int) -> bool:
-    """Whether word ``k`` read as a command is followed by exactly its BC data words."""
-    cmd = w.value[k]
-    tx, sa, count = cmd >> 10 & 1, cmd >> 5 & 31, cmd & 31
-    if sa in (0, 31):
-        follows = 1 if MODE_CODES[count].has_data and not tx else 0
-    else:
-        follows = 0 if tx else (count or 32)
-    rest = stop - k - 1
-    if rest == 1 and not tx and follows != 1 and w.sync[k + 1] and w.value[k + 1] >> 10 & 1:
-        return True  # an RT-RT pair: receive command then transmit command
-    return rest == follows
+@contextmanager
+def _collector_paused() -> Iterator[None]:
+    """Pause Python's cyclic garbage collector while a call's records are built.
+
+    Run every 700 new objects, it moves the records under construction (alive, in their
+    lists) to its older generations, whose growth then sets off full collections of every
+    object the process holds: measured, about as much CPU as building the records. Records
+    and their tuples hold no reference cycles, so nothing is left for it to find; it resumes
+    (if it was running) as soon as the batch is built.
+    """
+    running = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        if running:
+            gc.enable()
 
 
-def _closed(w: _Words, k: int, *, wait_ns: int, horizon: int | None) -> bool:
-    """True when the stream is known to hold nothing more within ``wait_ns`` after word
-    ``k - 1`` (the horizon is past that point)."""
-    if horizon is None:
-        return False
-    return horizon >= w.end[k - 1] + wait_ns
+def _records(out: npt.NDArray[np.int64], t: npt.NDArray[np.int64],
+             end: npt.NDArray[np.int64], value: npt.NDArray[np.int64],
+             word_errors: npt.NDArray[np.int64], bus: str) -> list[MonitorRecord]:
+    """MonitorRecords from :func:`parse_bus`'s rows, built column by column: numpy finds
+    each message's data, status words and gaps as runs of three flat lists, so the only
+    per-message Python is a slice per field and the record itself."""
+    start, after, fmt, command2 = out[:, START], out[:, NEXT], out[:, FMT], out[:, CMD2]
+    statuses, errors, bits = out[:, NSTATUS], out[:, ERR], out[:, WBITS]
+    known = fmt != _UNKNOWN
+    # Every word of a message is a command, a status word or a data word.
+    is_data = np.ones(int(after[-1]), dtype=np.bool_)
+    is_data[start[known]] = False
+    is_data[start[command2 >= 0] + 1] = False
+    has0, has1 = statuses > 0, statuses > 1
+    is_data[out[has0, S0]] = False
+    is_data[out[has1, S1]] = False
+    data_values = value[:is_data.size][is_data].tolist()
+    data_end = np.cumsum(after - start - known - (command2 >= 0) - statuses).tolist()
+    data_start = [0, *data_end[:-1]]
+    status_index = np.stack([out[:, S0], out[:, S1]], axis=1)[np.stack([has0, has1], axis=1)]
+    status_values = value[status_index].tolist()
+    gap_values = np.stack([out[:, G0], out[:, G1]], axis=1)[np.stack([has0, has1], axis=1)
+                                                            ].tolist()
+    status_end = np.cumsum(statuses).tolist()
+    status_start = [0, *status_end[:-1]]
+    commands = value[start].tolist()
+    error_names = [_ERROR_NAMES[e] for e in errors.tolist()]
+    named: list[tuple[tuple[int, tuple[str, ...]], ...]] = [()] * start.size
+    for m in np.flatnonzero(bits).tolist():
+        first, last = int(start[m]), int(after[m])
+        named[m], with_words = _word_errors(word_errors[first:last].tolist(), int(errors[m]))
+        error_names[m] = _ERROR_NAMES[with_words]
+    return new_records(
+        t[start].tolist(), bus, [FORMATS[f] for f in fmt.tolist()],
+        [c if k else None for c, k in zip(commands, known.tolist(), strict=True)],
+        [tuple(data_values[a:b]) for a, b in zip(data_start, data_end, strict=True)],
+        [tuple(status_values[a:b]) for a, b in zip(status_start, status_end, strict=True)],
+        [tuple(gap_values[a:b]) for a, b in zip(status_start, status_end, strict=True)],
+        error_names, [None if c < 0 else c for c in command2.tolist()], named,
+        end[after - 1].tolist())
 
 
-def _prepare(batch: WordBatch, break_ns: int, previous_end: int | None) -> _Words:
-    """Gaps and transmission boundaries, computed with numpy, handed over as lists."""
-    t = batch["t_ns"].astype(np.int64)
-    end = batch["end_ns"].astype(np.int64)
-    gap = np.empty(t.size, dtype=np.int64)
-    gap[0] = _BIG_GAP if previous_end is None else t[0] + SYNC_MID_NS - previous_end
-    gap[1:] = t[1:] + SYNC_MID_NS - end[:-1]
-    starts = np.flatnonzero(gap > break_ns)
-    if starts.size == 0 or starts[0] != 0:
-        starts = np.r_[0, starts]
-    bounds = np.r_[starts[1:], t.size]
-    stop = np.repeat(bounds, np.diff(np.r_[starts, t.size]))
-    sync = batch["sync"]
-    syncs_before = np.concatenate([[0], np.cumsum(sync != 0)])
-    errors_before = np.concatenate([[0], np.cumsum(batch["errors"] != 0)])
-    return _Words(t.tolist(), end.tolist(), sync.tolist(), batch["value"].tolist(),
-                  batch["errors"].tolist(), gap.tolist(), stop.tolist(),
-                  syncs_before.tolist(), errors_before.tolist())
+def _word_errors(bits: list[int], errors: int
+                 ) -> tuple[tuple[tuple[int, tuple[str, ...]], ...], int]:
+    """Each erroneous word's position in the message and error names; the message's error
+    bits with those names and ``word_error`` added."""
+    named = []
+    for position, word in enumerate(bits):
+        if word:
+            names = tuple(name for bit, name in WORD_ERROR_NAMES if word & bit)
+            named.append((position, names))
+            for name in names:
+                errors |= 1 << MESSAGE_ERROR_NAMES.index(name)
+    return tuple(named), errors | _WORD_ERROR
 
 
-def _record(msg: _Message, w: _Words, bus: int, j: int) -> MonitorRecord:
-    word_errors = []
-    errors = msg.errors
-    clean = w.errors_before[j] == w.errors_before[msg.start]
-    for position, index in enumerate(() if clean else msg.positions):
-        bits = w.errors[index]
-        if bits:
-            names = tuple(name for bit, name in _ERROR_TEXT.items() if bits & bit)
-            word_errors.append((position, names))
-            errors.update(names)
-    if word_errors:
-        errors.add("word_error")
-    return MonitorRecord(
-        t_ns=w.t[msg.start], bus=BUS_NAMES[bus], format=msg.fmt,
-        command=None if msg.command < 0 else msg.command, data=tuple(msg.data),
-        status=tuple(msg.status), gaps_ns=tuple(msg.gaps), errors=tuple(sorted(errors)),
-        command2=msg.command2, word_errors=tuple(word_errors), end_ns=w.end[j - 1])
+class _ErrorNames(dict[int, tuple[str, ...]]):
+    """Message error bit set -> sorted names, each set worked out once."""
+
+    def __missing__(self, errors: int) -> tuple[str, ...]:
+        names = tuple(sorted(name for i, name in enumerate(MESSAGE_ERROR_NAMES)
+                             if errors >> i & 1))
+        self[errors] = names
+        return names
+
+
+_ERROR_NAMES = _ErrorNames()
 
 
 def _with_error(rec: MonitorRecord, name: str) -> MonitorRecord:

@@ -6,7 +6,8 @@ public API of the monitor, the CLI's JSON output and what the Chapter 10 reader 
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from collections.abc import Sequence
+from dataclasses import dataclass, field, fields
 from enum import StrEnum
 from typing import Any
 
@@ -144,3 +145,55 @@ class MonitorRecord:
         if self.word_errors:
             out["word_errors"] = {str(i): list(e) for i, e in self.word_errors}
         return out
+
+
+_SETTERS = tuple(getattr(MonitorRecord, f.name).__set__ for f in fields(MonitorRecord))
+assert tuple(f.name for f in fields(MonitorRecord)) == MonitorRecord.__slots__
+
+
+def new_records(t_ns: Sequence[int], bus: str, format: Sequence[TransferFormat],
+                command: Sequence[int | None], data: Sequence[tuple[int, ...]],
+                status: Sequence[tuple[int, ...]], gaps_ns: Sequence[tuple[int, ...]],
+                errors: Sequence[tuple[str, ...]], command2: Sequence[int | None],
+                word_errors: Sequence[tuple[tuple[int, tuple[str, ...]], ...]],
+                end_ns: Sequence[int]) -> list[MonitorRecord]:
+    """Records of one bus from their fields as columns (one sequence per field, ``extra``
+    each its own empty dict): the records ``MonitorRecord(...)`` builds, about twice as fast.
+    The slots are set directly, not through the frozen dataclass's ``object.__setattr__``
+    per field; the assembler builds thousands a second.
+    """
+    records: list[MonitorRecord] = []
+    _fill(records, bus, t_ns, format, command, data, status, gaps_ns, errors, command2,
+          word_errors, end_ns)
+    return records
+
+
+def _fill(records: list[MonitorRecord], bus: str, t_ns: Sequence[int],
+          format: Sequence[TransferFormat], command: Sequence[int | None],
+          data: Sequence[tuple[int, ...]], status: Sequence[tuple[int, ...]],
+          gaps_ns: Sequence[tuple[int, ...]], errors: Sequence[tuple[str, ...]],
+          command2: Sequence[int | None],
+          word_errors: Sequence[tuple[tuple[int, tuple[str, ...]], ...]],
+          end_ns: Sequence[int]) -> None:
+    """Append the records of :func:`new_records` to ``records``."""
+    new = object.__new__
+    cls = MonitorRecord
+    (set_t, set_bus, set_format, set_command, set_data, set_status, set_gaps, set_errors,
+     set_command2, set_word_errors, set_end, set_extra) = _SETTERS
+    for t, f, c, d, s, g, e, c2, w, n in zip(t_ns, format, command, data, status, gaps_ns,
+                                             errors, command2, word_errors, end_ns,
+                                             strict=True):
+        record: MonitorRecord = new(cls)
+        set_t(record, t)
+        set_bus(record, bus)
+        set_format(record, f)
+        set_command(record, c)
+        set_data(record, d)
+        set_status(record, s)
+        set_gaps(record, g)
+        set_errors(record, e)
+        set_command2(record, c2)
+        set_word_errors(record, w)
+        set_end(record, n)
+        set_extra(record, {})
+        records.append(record)
