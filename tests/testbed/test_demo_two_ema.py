@@ -13,18 +13,8 @@ from pathlib import Path
 import pytest
 
 from mapr_daemon.catalog import CatalogReader
-from mapr_daemon.ema.params import load_actuator, with_sample_rate
-from mapr_daemon.reasoner import build
-from mapr_daemon.reasoner.dictionary import DictionarySpec
-from mapr_daemon.reasoner.wear_model import BuildSpec, build_prognostic_model
 
 ROOT = Path(__file__).resolve().parents[2]
-ACTUATORS = ROOT / "configs" / "actuators"
-SPEC = DictionarySpec(pressures_pa=(0.0, 1600.0), nominal_per_pressure=2, severities=(0.5, 1.0),
-                      kinds=("esr",), shorts=(), opens=(), healthy_runs=48,
-                      calibration_runs=12, envelope=True, ground_share=0.2,
-                      threshold_margin=1.5)
-"""Small: healthy and ESR only, enough to tell a seeded ESR from a healthy EMA."""
 
 
 def mapr(*args: str, env: dict[str, str] | None = None) -> subprocess.CompletedProcess[str]:
@@ -34,22 +24,11 @@ def mapr(*args: str, env: dict[str, str] | None = None) -> subprocess.CompletedP
 
 
 @pytest.fixture(scope="module")
-def models(tmp_path_factory: pytest.TempPathFactory) -> list[str]:
+def models(small_models: Path) -> list[str]:
     """``--dictionary D --prognosis P`` for the aileron (2 kHz) and the elevator (1 kHz)."""
-    where = tmp_path_factory.mktemp("models")
-    out: list[str] = []
-    for surface, file, rate in (("", "aileron-uav.yaml", 2000.0),
-                                ("elevator-", "elevator-uav.yaml", 1000.0)):
-        params = with_sample_rate(load_actuator(ACTUATORS / file), rate)
-        d = build.build(params, SPEC)
-        d.save(where / f"{surface}d.npz")
-        model = build_prognostic_model(d, params, BuildSpec(training_bits=60,
-                                                            calibration_reps=2,
-                                                            fleet_units=8), kinds=("esr",))
-        model.save(where / f"{surface}p.npz")
-        out += [f"--{surface}dictionary", str(where / f"{surface}d.npz"),
-                f"--{surface}prognosis", str(where / f"{surface}p.npz")]
-    return out
+    return [arg for surface, option in (("aileron", ""), ("elevator", "elevator-"))
+            for kind in ("dictionary", "prognosis")
+            for arg in (f"--{option}{kind}", str(small_models / f"{surface}-{kind}.npz"))]
 
 
 def test_the_demo_diagnoses_and_trends_both_emas(tmp_path: Path, models: list[str]) -> None:
