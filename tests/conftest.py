@@ -36,6 +36,8 @@ SLOW = frozenset({
     "tests/catalog/test_catalog_cli.py::test_bad_arguments_are_usage_errors",
     "tests/catalog/test_durability.py::test_kill_9_loses_nothing_reported_and_leaves_a_sound_file",
     "tests/daemon/test_service.py::test_sighup_reloads_a_valid_config_and_keeps_the_old_on_an_invalid_one",
+    "tests/testbed/test_demo_two_ema.py::test_the_demo_diagnoses_and_trends_both_emas",
+    "tests/testbed/test_demo_two_ema.py::test_a_table_without_the_elevator_flies_the_aileron_alone",
 })
 """Test ids (without parameters: every parameter set of a listed test is slow)."""
 

@@ -4,9 +4,11 @@
 ``--dictionary`` is given it builds one from the shipped spec
 (``configs/reasoner/dictionary.yaml``) and keeps it in the user's cache directory
 (``$MAPR_CACHE``, else ``$XDG_CACHE_HOME/mapr``, else ``~/.cache/mapr``). The cache key
-is a hash of the spec, the actuator file and the source of every module the dictionary's
-content depends on (the plant, the profiles, the reasoner), so a changed model is never
-diagnosed with a stale dictionary.
+is a hash of the spec, the actuator file, the sample rate it is built at and the source of
+every module the dictionary's content depends on (the plant, the profiles, the reasoner), so
+a changed model is never diagnosed with a stale dictionary. The actuator's prognostic model
+(what SoH trends and RUL need, :mod:`mapr_daemon.reasoner.wear_model`) is built from that
+dictionary and cached beside it under the same key.
 """
 
 from __future__ import annotations
@@ -24,7 +26,7 @@ from mapr_daemon.cli.dictionary import default_spec_path, peak_rss_mb
 from mapr_daemon.daemon.clock import BusClock
 from mapr_daemon.daemon.config import Config, ReasonerConfig
 from mapr_daemon.daemon.pipeline import Batch, build_pipeline
-from mapr_daemon.ema.params import ActuatorParams
+from mapr_daemon.ema.params import ActuatorParams, load_actuator
 from mapr_daemon.reasoner.build import build
 from mapr_daemon.reasoner.dictionary import DictionarySpec
 
@@ -41,9 +43,13 @@ def cache_dir() -> Path:
     return Path(base) / "mapr"
 
 
-def dictionary_key(spec_path: Path, actuator_path: Path) -> str:
-    """A digest of everything a built dictionary depends on."""
+def dictionary_key(spec_path: Path, actuator_path: Path, sample_rate_hz: float | None = None
+                   ) -> str:
+    """A digest of everything a built dictionary depends on (``sample_rate_hz``: the rate it
+    is built at, when not the actuator file's)."""
     digest = hashlib.sha256()
+    if sample_rate_hz is not None:
+        digest.update(f"rate={sample_rate_hz:.6g}".encode())
     sources = [spec_path, actuator_path]
     for package in MODEL_SOURCES:
         sources += sorted((PACKAGE / package).rglob("*.py"))
@@ -57,11 +63,12 @@ def cached_dictionary(params: ActuatorParams, actuator_path: Path,
                       spec_path: Path | None = None) -> Path:
     """The cached dictionary for this model, built (with progress on stderr) if missing."""
     spec_path = spec_path or default_spec_path()
-    path = cache_dir() / f"dictionary-{dictionary_key(spec_path, actuator_path)}.npz"
+    path = cache_dir() / f"dictionary-{cache_key(params, actuator_path, spec_path)}.npz"
     if path.exists():
         return path
     spec = DictionarySpec.load(spec_path)
-    print(f"Building the fault dictionary once ({spec_path.name}; under a minute); "
+    print(f"Building the {params.name} fault dictionary at "
+          f"{params.sensors.sample_rate_hz:g} Hz once ({spec_path.name}; under a minute); "
           f"it is cached in {path.parent}", file=sys.stderr)
     started = time.monotonic()
 
@@ -85,6 +92,37 @@ def cached_dictionary(params: ActuatorParams, actuator_path: Path,
     dictionary.save(partial)
     partial.replace(path)   # atomic: a killed build never leaves a half file under the key
     return path
+
+
+def cache_key(params: ActuatorParams, actuator_path: Path, spec_path: Path) -> str:
+    """The cache key of this actuator type's dictionary and model at ``params``' rate; the
+    file's own rate keeps the key it always had."""
+    rate = params.sensors.sample_rate_hz
+    own = load_actuator(actuator_path).sensors.sample_rate_hz
+    return dictionary_key(spec_path, actuator_path, None if rate == own else rate)
+
+
+def cached_models(params: ActuatorParams, actuator_path: Path,
+                  spec_path: Path | None = None) -> tuple[Path, Path]:
+    """The cached dictionary and prognostic model of this actuator type at ``params``'
+    sample rate, each built (progress on stderr) if missing."""
+    spec_path = spec_path or default_spec_path()
+    dictionary = cached_dictionary(params, actuator_path, spec_path)
+    path = cache_dir() / f"prognosis-{cache_key(params, actuator_path, spec_path)}.npz"
+    if path.exists():
+        return dictionary, path
+    from mapr_daemon.reasoner.dictionary import Dictionary
+    from mapr_daemon.reasoner.wear_model import build_prognostic_model
+    print(f"Building the {params.name} prognostic model once (degradation estimators, their "
+          f"noise, fleet priors; about a minute); it is cached in {path.parent}",
+          file=sys.stderr)
+    started = time.monotonic()
+    model = build_prognostic_model(Dictionary.load(dictionary), params)
+    print(f"  built in {time.monotonic() - started:.0f} s", file=sys.stderr)
+    partial = path.with_suffix(".partial.npz")
+    model.save(partial)
+    partial.replace(path)
+    return dictionary, path
 
 
 def diagnose_bits(icd_path: str | Path, records: Sequence[MonitorRecord],

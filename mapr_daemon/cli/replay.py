@@ -131,11 +131,13 @@ def run(args: argparse.Namespace) -> int:
         reasoner = dataclasses.replace(reasoner, dictionary=args.dictionary)
     if args.threshold is not None:
         reasoner = dataclasses.replace(reasoner, threshold=args.threshold)
-    if not args.diagnose:
+    if not args.diagnose:   # no reasoner at all: neither the one for all nor an asset's
         reasoner = dataclasses.replace(reasoner, dictionary=None)
-    elif reasoner.dictionary is None:
+        config = dataclasses.replace(config, assets=tuple(
+            dataclasses.replace(a, dictionary=None) for a in config.assets))
+    elif reasoner.dictionary is None and not any(a.dictionary for a in config.assets):
         raise ConfigError("--diagnose needs a fault dictionary: --dictionary FILE (or "
-                          "reasoner.dictionary in --config)")
+                          "reasoner.dictionary or assets[].dictionary in --config)")
     options = {"path": str(path), "channels": args.c10_channels, "speed": args.speed,
                "year": args.year}
     aircraft = config.aircraft if args.tail is None else \

@@ -121,9 +121,11 @@ class Service:
         try:
             self.catalog.open_session(backend=cfg.backend.name, config_hash=cfg.digest())
             self.pipe.resume(*self.catalog.history(cfg.aircraft.tail))  # trends continue
+            reasoners = ", ".join(f"{w.asset.name} {w.asset.dictionary or cfg.reasoner.dictionary}"
+                                  for w in self.pipe.watched if w.watch is not None)
             log.info("mapr %s: session %s, backend %s, ICD %s, catalog %s, reasoner %s",
                      __version__, self.catalog.session_id, cfg.backend.name, cfg.icd,
-                     cfg.catalog.path, cfg.reasoner.dictionary or "off (no dictionary)")
+                     cfg.catalog.path, reasoners or "off (no dictionary)")
             if cfg.record.path is not None:
                 self.recorder = SessionRecorder(cfg.record.path, self.catalog.session_id or 0,
                                                 channel_id=cfg.record.channel_id,

@@ -20,11 +20,13 @@ def mapr(*args: str, env: dict[str, str] | None = None) -> subprocess.CompletedP
 def test_the_demo_diagnoses_its_bit_and_writes_the_catalog(tmp_path: Path,
                                                            dictionary: Path) -> None:
     catalog = tmp_path / "demo.sqlite"
+    # the single-EMA table: the aileron alone (both EMAs: tests/testbed/test_demo_two_ema.py)
     result = mapr("demo", "--word-level", "--show", "0", "--fault", "open=A_high",
+                  "--icd", str(ROOT / "configs" / "icd" / "ema-testbed.yaml"),
                   "--dictionary", str(dictionary), "--catalog", str(catalog))
     assert result.returncode == 0, result.stderr
     assert "ANOMALY open/A_high" in result.stdout, result.stdout
-    assert f"Fault catalog {catalog}: event 1 written" in result.stdout
+    assert f"Fault catalog {catalog}: 1 BITs stored, event 1 written" in result.stdout
     listed = mapr("catalog", "list", "--catalog", str(catalog))
     assert listed.returncode == 0, listed.stderr
     assert "EMA1" in listed.stdout and "open/A_high" in listed.stdout
