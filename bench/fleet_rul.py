@@ -69,6 +69,8 @@ from mapr_daemon.ema.degradation import Trajectory, trajectory
 from mapr_daemon.ema.faults import FaultSet
 from mapr_daemon.ema.params import default_actuator_path, load_actuator
 from mapr_daemon.ema.profile import CONDITIONS
+from mapr_daemon.reasoner.features import FloatArray
+from mapr_daemon.reasoner.prognosis import degradation
 from mapr_daemon.reasoner.trajectory import bit_flights, observe_units, score
 from mapr_daemon.reasoner.wear_model import PrognosticModel
 from mapr_daemon.testbed.fleet import FIRST_DAY, fly_flight
@@ -195,6 +197,44 @@ def catalog_points(conn: sqlite3.Connection, u: Unit) -> tuple[list[Point], list
     return mode_pts, head_pts
 
 
+def estimate_errors(conn: sqlite3.Connection, u: Unit, model: PrognosticModel
+                    ) -> tuple[FloatArray, FloatArray]:
+    """The unit's stored per-BIT estimates of its true kind, calibrated by the model's
+    :class:`~mapr_daemon.reasoner.trend.Noise` (``(est - offset) / gain``), minus the true
+    degradation; and the sd the model states for them (on the same scale)."""
+    noise = model.noise.get(u.kind)
+    if noise is None:
+        return np.zeros(0), np.zeros(0)
+    params = load_actuator(default_actuator_path())
+    err, sd = [], []
+    for b in load_bits(conn, tail=u.tail):
+        est = b.wear.get(u.kind)
+        if b.flight is None or est is None:
+            continue
+        h = degradation(params, u.kind, float(u.path.values[b.flight - 1]))
+        err.append((est - noise.offset) / noise.gain - h)
+        sd.append(float(noise.sd(np.array(max(h, 0.0)))) / noise.gain)
+    return np.array(err), np.array(sd)
+
+
+def print_errors(conn: sqlite3.Connection, units: Sequence[Unit], model: PrognosticModel,
+                 kinds: Sequence[str]) -> None:
+    """What limits the trend: the fleet's per-BIT estimate error against the stated noise."""
+    print("\nper-BIT estimate of the true kind on the fleet's BITs (calibrated, in units of "
+          "the threshold) against the model's stated noise:")
+    for k in kinds:
+        parts = [estimate_errors(conn, u, model) for u in units if u.kind == k]
+        err = np.concatenate([e for e, _ in parts]) if parts else np.zeros(0)
+        sd = np.concatenate([s for _, s in parts]) if parts else np.zeros(0)
+        if err.size == 0:
+            print(f"  {k:>14}: no estimates")
+            continue
+        z = err / np.maximum(sd, 1e-9)
+        print(f"  {k:>14}: {err.size} BITs, error mean {err.mean():+.3f} sd {err.std():.3f}; "
+              f"stated sd mean {sd.mean():.3f}; |error| > 1.645 stated sd in "
+              f"{100 * np.mean(np.abs(z) > 1.645):.0f} % (10 % if calibrated)")
+
+
 def print_table(title: str, scores: Sequence[UnitScore], kinds: Sequence[str]) -> None:
     print(f"\n== {title} ==")
     print(f"{'unit':>10} {'kind':>14} {'EoL':>6} {'pts':>4} {'none':>4} {'al@0.5':>7} "
@@ -218,6 +258,9 @@ def main() -> int:
     ap.add_argument("--out", type=Path, help="run directory (default: a temporary one)")
     ap.add_argument("--no-memory", action="store_true", help="skip the in-memory path")
     ap.add_argument("--keep-recordings", action="store_true")
+    ap.add_argument("--readback", action="store_true",
+                    help="score the catalog an earlier run (same --seed, --out and sizes) "
+                         "left in --out, without flying again")
     args = ap.parse_args()
     kinds = [k.strip() for k in args.kinds.split(",") if k.strip()]
     seed = fresh(args.seed)
@@ -248,10 +291,11 @@ def main() -> int:
                           f"  - name: EMA1\n    rt: 5\n    prognosis: "
                           f"{args.prognosis.resolve()}\n", encoding="utf-8")
         catalog = out / "fleet.db"
-        catalog.unlink(missing_ok=True)
-        failed = fly_and_replay(units, out, config, catalog, max(args.jobs, 1), rng,
-                                args.keep_recordings)
-        print(f"flown and replayed in {time.monotonic() - started:.0f} s; failed: {failed}")
+        if not args.readback:
+            catalog.unlink(missing_ok=True)
+            failed = fly_and_replay(units, out, config, catalog, max(args.jobs, 1), rng,
+                                    args.keep_recordings)
+            print(f"flown and replayed in {time.monotonic() - started:.0f} s; failed: {failed}")
         conn = sqlite3.connect(catalog)
         mode_scores, head_scores = [], []
         for u in units:
@@ -260,6 +304,7 @@ def main() -> int:
                                             LAMBDAS, ALPHA))
             head_scores.append(score_points(u.tail, u.kind, u.path.eol_flight, head_pts,
                                             LAMBDAS, ALPHA))
+        print_errors(conn, units, model, kinds)
         conn.close()
         print_table("from the catalog: the TRUE kind's mode (health.modes[kind])", mode_scores,
                     kinds)
