@@ -52,6 +52,7 @@ import sqlite3
 import sys
 import tempfile
 import time
+from collections import Counter
 from collections.abc import Sequence
 from concurrent.futures import Future, ProcessPoolExecutor
 from datetime import timedelta
@@ -230,6 +231,11 @@ def print_errors(conn: sqlite3.Connection, units: Sequence[Unit], model: Prognos
             print(f"  {k:>14}: no estimates")
             continue
         z = err / np.maximum(sd, 1e-9)
+        leads = Counter(b.health.mode or "none" for u in units if u.kind == k
+                        for b in load_bits(conn, tail=u.tail)
+                        if b.flight is not None and b.flight - 1 >= 0.25 * u.path.eol_flight)
+        print(f"  {k:>14}: leading mode from a quarter of life on: "
+              + ", ".join(f"{m} {n}" for m, n in leads.most_common()))
         print(f"  {k:>14}: {err.size} BITs, error mean {err.mean():+.3f} sd {err.std():.3f}; "
               f"stated sd mean {sd.mean():.3f}; |error| > 1.645 stated sd in "
               f"{100 * np.mean(np.abs(z) > 1.645):.0f} % (10 % if calibrated)")

@@ -111,13 +111,16 @@ def kind_summary(name: str, scores: Sequence[UnitScore]) -> str:
     covs = [s.coverage for s in scores if s.points]
     unit_al = [_share(list(s.alpha_lambda.values())) for s in scores]
     cover = _share([p.covered for p in pts])
+    said = [p for p in pts if p.est is not None]
     worst = min(covs, default=math.nan)
     lead = _share([p.lead == s.kind for s in scores for p in s.points if s.leads])
     return (f"{name:>14}: alpha-lambda {_pct(_share(al))} ({sum(al)}/{len(al)}, worst unit "
             f"{_pct(min(unit_al))}); coverage of the 90 % interval {_pct(cover)} of "
             f"{len(pts)} points (unit mean {_pct(_mean(covs))}, worst {_pct(worst)}); within "
             f"+-20 % {_pct(_share([p.within for p in pts]))}; leading mode = true kind "
-            f"{_pct(lead)}; no prediction {sum(p.est is None for p in pts)}")
+            f"{_pct(lead)}; no prediction {sum(p.est is None for p in pts)} (coverage of "
+            f"the points with one {_pct(_share([p.covered for p in said]))}, within +-20 % "
+            f"{_pct(_share([p.within for p in said]))})")
 
 
 def _share(flags: Sequence[bool]) -> float:
