@@ -152,6 +152,22 @@ def generate_tail(root: str, spec: FleetSpec, index: int, kind: str | None) -> T
                        {ASSET: _truth(path, spec.flights)})
 
 
+def fly_flight(path: str | Path, faults: FaultSet, *, seed: int, start: datetime,
+               bit: bool = True, flight_s: float = 2.0, condition: str = "cruise") -> None:
+    """One flight of the testbed aircraft, ``faults`` seeded in its EMA, recorded to ``path``.
+
+    The flight the archive above is made of, one at a time: ``flight_s`` seconds of bus
+    traffic at the named flight ``condition``, the flight control computer asking for a BIT at
+    its start when ``bit``. For benches that choose each flight's fault and condition
+    themselves (a run-to-failure unit's BIT flights, flown in parallel one task per flight).
+    ``seed`` seeds the aircraft; the bus's own noise is seeded from it too."""
+    params = with_sample_rate(load_actuator(default_actuator_path()), RATE_HZ)
+    profile = steady_profile(RATE_HZ, condition, duration_s=max(flight_s, 1.0))
+    aircraft = Aircraft(load_icd(DEFAULT_ICD), profile, params, faults, seed=seed,
+                        bit_requests_s=(0.0,) if bit else ())
+    _fly(aircraft, Path(path), flight_s, start, seed=seed)
+
+
 def _truth(path: Trajectory, flights: int) -> dict[str, Any]:
     return {"kind": path.kind, "values": [float(v) for v in path.values[:flights]],
             "nominal": path.nominal, "threshold": path.threshold,

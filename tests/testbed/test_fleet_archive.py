@@ -42,3 +42,22 @@ def test_same_seed_same_archive(tmp_path: Path) -> None:
     assert one == two
     for name in ("N101/flight-0001.ch10", "N101/flight-0002.ch10", "N102/flight-0002.ch10"):
         assert (tmp_path / "a" / name).read_bytes() == (tmp_path / "b" / name).read_bytes()
+
+
+def test_fly_flight_records_the_seeded_fault(tmp_path: Path) -> None:
+    from datetime import UTC, datetime
+
+    from mapr_daemon.ema.faults import Fault, FaultSet
+    from mapr_daemon.testbed.fleet import fly_flight
+
+    start = datetime(2026, 3, 1, 9, 0, tzinfo=UTC)
+    worn = FaultSet.of([Fault("esr", 0.5)])
+    for name, faults in (("a", worn), ("b", worn), ("healthy", FaultSet())):
+        fly_flight(tmp_path / f"{name}.ch10", faults, seed=11, start=start, flight_s=0.3,
+                   condition="climb")
+    a = (tmp_path / "a.ch10").read_bytes()
+    assert a == (tmp_path / "b.ch10").read_bytes()   # one seed, one recording
+    assert a != (tmp_path / "healthy.ch10").read_bytes()   # the fault is in the traffic
+    records = [r for batch in Chapter10Reader(tmp_path / "a.ch10") for r in batch.records]
+    assert len(records) > 300
+    assert records[0].extra["epoch_ns"] // 10**9 == int(start.timestamp())
