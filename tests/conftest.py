@@ -10,6 +10,8 @@ the cost to the next.
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pytest
 
 SLOW = frozenset({
@@ -47,3 +49,21 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
     for item in items:
         if item.nodeid.split("[", 1)[0] in SLOW:
             item.add_marker(pytest.mark.slow)
+
+
+@pytest.fixture(scope="session")
+def dictionary(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A small fault dictionary (ESR and friction, two pressures, over the envelope), built
+    once per session for every test that diagnoses (~30 s)."""
+    from mapr_daemon.ema.params import default_actuator_path, load_actuator
+    from mapr_daemon.reasoner import build
+    from mapr_daemon.reasoner.dictionary import DictionarySpec
+
+    spec = DictionarySpec(pressures_pa=(0.0, 1600.0), nominal_per_pressure=4,
+                          severities=(0.25, 0.5, 0.75, 1.0), kinds=("esr", "friction"),
+                          shorts=("A_high",), opens=("A_high",), healthy_runs=120,
+                          calibration_runs=20, envelope=True, ground_share=0.2,
+                          threshold_margin=1.5)
+    path = tmp_path_factory.mktemp("dictionary") / "dictionary.npz"
+    build.build(load_actuator(default_actuator_path()), spec).save(path)
+    return path

@@ -114,19 +114,3 @@ def start_daemon(tmp_path: Path) -> Iterator[Callable[..., Daemon]]:
     yield start
     for daemon in started:
         daemon.close()
-
-
-@pytest.fixture(scope="session")
-def dictionary(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    from mapr_daemon.ema.params import default_actuator_path, load_actuator
-    from mapr_daemon.reasoner import build
-    from mapr_daemon.reasoner.dictionary import DictionarySpec
-
-    spec = DictionarySpec(pressures_pa=(0.0, 1600.0), nominal_per_pressure=4,
-                          severities=(0.25, 0.5, 0.75, 1.0), kinds=("esr", "friction"),
-                          shorts=("A_high",), opens=("A_high",), healthy_runs=120,
-                          calibration_runs=20, envelope=True, ground_share=0.2,
-                          threshold_margin=1.5)
-    path = tmp_path_factory.mktemp("dictionary") / "dictionary.npz"
-    build.build(load_actuator(default_actuator_path()), spec).save(path)
-    return path

@@ -14,19 +14,9 @@ from mapr_daemon.testbed.fleet import FleetSpec, generate
 
 
 @pytest.fixture(scope="session")
-def fleet_dictionary(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    from mapr_daemon.ema.params import default_actuator_path, load_actuator
-    from mapr_daemon.reasoner import build
-    from mapr_daemon.reasoner.dictionary import DictionarySpec
-
-    spec = DictionarySpec(pressures_pa=(0.0, 1600.0), nominal_per_pressure=4,
-                          severities=(0.25, 0.5, 0.75, 1.0), kinds=("esr", "friction"),
-                          shorts=("A_high",), opens=("A_high",), healthy_runs=120,
-                          calibration_runs=20, envelope=True, ground_share=0.2,
-                          threshold_margin=1.5)
-    path = tmp_path_factory.mktemp("dictionary") / "dictionary.npz"
-    build.build(load_actuator(default_actuator_path()), spec).save(path)
-    return path
+def fleet_dictionary(dictionary: Path) -> Path:
+    """The session's small dictionary (tests/conftest.py)."""
+    return dictionary
 
 
 @pytest.fixture(scope="session")
