@@ -100,7 +100,7 @@ def run(args: argparse.Namespace) -> int:
     from drivers.rtstats import TrafficStatistics
     from mapr_daemon.cli.icdview import IcdView
     from mapr_daemon.cli.render import record_json, record_line
-    from mapr_daemon.cli.traffic_source import print_stats
+    from mapr_daemon.cli.traffic_source import bounded, print_stats
 
     view = IcdView(args.icd)
     options = dict(args.option)
@@ -110,20 +110,10 @@ def run(args: argparse.Namespace) -> int:
     monitor = open_monitor(args.backend, filters=filters, **options)
     if args.stats or args.stats_every:
         monitor.traffic = TrafficStatistics(window_ns=round(args.stats_window * 1e9))
-    shown = 0
-    start = last_stats = time.monotonic()
+    last_stats = time.monotonic()
     out = sys.stdout
     with monitor:
-        while args.count is None or shown < args.count:
-            left = None if args.duration is None else args.duration - (time.monotonic() - start)
-            if left is not None and left <= 0:
-                break
-            record = monitor.recv(timeout=0.5 if left is None else min(left, 0.5))
-            if record is None:
-                if monitor.ended:
-                    break
-                continue
-            shown += 1
+        for record in bounded(monitor, count=args.count, duration=args.duration):
             if args.json:
                 out.write(record_json(record, view.values(record)) + "\n")
             else:

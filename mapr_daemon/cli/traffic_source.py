@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING, Any, TextIO
 
 if TYPE_CHECKING:   # imported where used: registering the subcommands stays light
     from drivers.mil1553.record import MonitorRecord
+    from drivers.monitor import BusMonitor
     from drivers.rtstats import TrafficStatistics
 
 BATCH = 4096
@@ -72,26 +73,34 @@ def backend_batches(backend: str, options: dict[str, Any], *, count: int | None,
     """Records from a live backend until ``count`` messages, ``duration`` s or its end."""
     from drivers.monitor import open_monitor
 
-    start = time.monotonic()
-    taken = 0
     batch: list[MonitorRecord] = []
     with open_monitor(backend, **options) as monitor:
-        while count is None or taken < count:
-            left = None if duration is None else duration - (time.monotonic() - start)
-            if left is not None and left <= 0:
-                break
-            record = monitor.recv(timeout=0.5 if left is None else min(left, 0.5))
-            if record is None:
-                if monitor.ended:
-                    break
-                continue
+        for record in bounded(monitor, count=count, duration=duration):
             batch.append(record)
-            taken += 1
             if len(batch) >= BATCH:
                 yield batch
                 batch = []
     if batch:
         yield batch
+
+
+def bounded(monitor: BusMonitor, *, count: int | None, duration: float | None
+            ) -> Iterator[MonitorRecord]:
+    """An open monitor's records until ``count`` messages, ``duration`` s or its end (shared
+    by ``monitor`` and the live ``--stats``/``discover`` sources)."""
+    start = time.monotonic()
+    taken = 0
+    while count is None or taken < count:
+        left = None if duration is None else duration - (time.monotonic() - start)
+        if left is not None and left <= 0:
+            break
+        record = monitor.recv(timeout=0.5 if left is None else min(left, 0.5))
+        if record is None:
+            if monitor.ended:
+                break
+            continue
+        taken += 1
+        yield record
 
 
 def print_stats(stats: TrafficStatistics, *, as_json: bool, out: TextIO) -> None:
