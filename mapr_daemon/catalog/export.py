@@ -1,8 +1,9 @@
 """``mapr catalog export --what bits|events|episodes``: catalog tables as JSON lines or CSV.
 
-JSON lines keep every record whole (one object per line, nested ``wear``/``modes`` as they
-are). CSV is flat, one value per cell, for a spreadsheet: a BIT's ``wear`` becomes one
-``wear_<kind>`` column per aging kind and its per-mode health one ``mode_<kind>_<figure>``
+JSON lines keep every record whole (one object per line, nested ``wear``, ``conditions``
+and ``modes`` as they are). CSV is flat, one value per cell, for a spreadsheet: a BIT's
+``wear`` becomes one ``wear_<kind>`` column per aging kind, its flight condition one
+``condition_<name>`` column per figure and its per-mode health one ``mode_<kind>_<figure>``
 column per kind and figure (``mode_esr_rul``, ``mode_esr_h``...); an episode's modes are
 joined with ``+``. The columns are the union over the rows exported, so every row has the
 same header; a cell a row has no value for is empty. Events keep their long-standing CSV
@@ -39,8 +40,8 @@ def _cell(value: Any) -> Any:
 
 
 def flat_bit(r: BitRecord) -> dict[str, Any]:
-    """One BIT as a flat row: its fields, the health after it, ``wear_<kind>`` and
-    ``mode_<kind>_<figure>``."""
+    """One BIT as a flat row: its fields, the health after it, ``wear_<kind>``,
+    ``condition_<name>`` (the flight condition it was flown at) and ``mode_<kind>_<figure>``."""
     h = r.health
     row: dict[str, Any] = {
         "id": r.id, "session_id": r.session_id, "tail": r.tail, "asset": r.asset,
@@ -52,6 +53,8 @@ def flat_bit(r: BitRecord) -> dict[str, Any]:
         "interval": h.interval, "note": h.note}
     for kind, value in r.wear.items():
         row[f"wear_{kind}"] = value
+    for name, value in r.conditions.items():
+        row[f"condition_{name}"] = value
     for kind, figures in h.modes.items():
         if isinstance(figures, dict):
             for key, value in figures.items():

@@ -1,7 +1,8 @@
-"""Each actuator's BIT history and each aircraft's flights, in the catalog (schema v5).
+"""Each actuator's BIT history and each aircraft's flights, in the catalog (schema v5, v8).
 
 Every diagnosed BIT is a ``bits`` row, nominal ones too: its flight, the degradation estimate
-of every aging kind and the health the trend gave after it. That history is what the trend
+of every aging kind, the flight condition it was flown at and the health the trend gave
+after it. That history is what the trend
 is refitted on after each BIT (the daemon reloads it at start, so a restart continues the
 trend), what ``mapr health`` and the trend plot read, and what ``catalog export --what bits``
 writes. ``flights`` holds each aircraft's flights: measured from the bus (the span of the
@@ -23,7 +24,7 @@ from mapr_daemon.catalog.model import BitOutcome, BitRecord, Flight, Health
 
 _COLUMNS = ("id, session_id, tail, asset, t_ns, bus_ns, abs_ns, flight, flight_hours, fault, "
             "event_id, wear, mode, soh, rul, rul_low, rul_high, rul_hours, rul_hours_low, "
-            "rul_hours_high, note, modes")
+            "rul_hours_high, note, modes, conditions")
 
 
 def _num(value: float | None) -> float | None:
@@ -57,12 +58,13 @@ def insert_bits(conn: sqlite3.Connection, session_id: int | None,
             *((None,) * 6 if h is None else (
                 _num(h.rul), _num(h.rul_low), _num(h.rul_high), _num(h.rul_hours),
                 _num(h.rul_hours_low), _num(h.rul_hours_high))),
-            None if h is None else h.note, _json({} if h is None else dict(h.modes))))
+            None if h is None else h.note, _json({} if h is None else dict(h.modes)),
+            _json({k: float(v) for k, v in b.conditions.items()})))
     conn.executemany(
         "INSERT INTO bits (session_id, tail, asset, t_ns, bus_ns, abs_ns, flight, flight_hours,"
         " fault, event_id, wear, mode, soh, rul, rul_low, rul_high, rul_hours, rul_hours_low,"
-        " rul_hours_high, note, modes) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?,"
-        " ?, ?, ?, ?, ?)", rows)
+        " rul_hours_high, note, modes, conditions) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?,"
+        " ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)", rows)
     if flights:
         conn.executemany("UPDATE events SET flight = ? WHERE id = ?", flights)
 
@@ -79,10 +81,11 @@ def upsert_flights(conn: sqlite3.Connection, flights: Sequence[Flight]) -> None:
 
 def _record(row: Sequence[Any]) -> BitRecord:
     (rid, sid, tail, asset, t_ns, bus_ns, abs_ns, flight, hours, fault, event_id, wear, mode,
-     soh, rul, low, high, rh, rhl, rhh, note, modes) = row
+     soh, rul, low, high, rh, rhl, rhh, note, modes, conditions) = row
     return BitRecord(rid, sid, tail, asset, t_ns, bus_ns, abs_ns, flight, hours, fault,
                      event_id, json.loads(wear),
-                     Health(soh, mode, rul, low, high, rh, rhl, rhh, note, json.loads(modes)))
+                     Health(soh, mode, rul, low, high, rh, rhl, rhh, note, json.loads(modes)),
+                     json.loads(conditions))
 
 
 def load_bits(conn: sqlite3.Connection, asset: str | None = None, tail: str | None = None,

@@ -164,6 +164,9 @@ class BitOutcome:
     """The aircraft's flight hours at the BIT (flights not seen counted at the mean)."""
     wear: Mapping[str, float] = dataclasses.field(default_factory=dict)
     """Degradation estimate per aging kind (0 healthy, 1 at the failure threshold)."""
+    conditions: Mapping[str, float] = dataclasses.field(default_factory=dict)
+    """The flight condition the BIT was flown at (``dynamic_pressure_pa``, ``supply_v``,
+    ``ambient_c``); empty when not known."""
     health: Health | None = None
     bus_ns: int | None = None
     abs_ns: int | None = None
@@ -188,10 +191,13 @@ class BitRecord:
     event_id: int | None
     wear: Mapping[str, float]
     health: Health
+    conditions: Mapping[str, float] = dataclasses.field(default_factory=dict)
+    """The flight condition the BIT was flown at; empty when not stored."""
 
     def as_dict(self) -> dict[str, Any]:
         out = dataclasses.asdict(self)
         out["wear"] = dict(self.wear)
+        out["conditions"] = dict(self.conditions)
         return out
 
 

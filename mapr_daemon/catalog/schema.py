@@ -32,6 +32,10 @@ History:
 7. ``recordings`` (:mod:`~mapr_daemon.catalog.recordings`): each archive recording a fleet
    run stored, by content digest, with its tail, flight, flight hours, status and the config
    it was processed with; what makes a fleet run idempotent and resumable.
+8. ``bits.conditions``: the flight condition each BIT was flown at (dynamic pressure,
+   aircraft-bus voltage, ambient temperature), which the trend weighs its estimates by
+   (:mod:`~mapr_daemon.reasoner.estimate_noise`). BITs stored before keep ``{}`` and are
+   weighed by the envelope-wide noise.
 """
 
 from __future__ import annotations
@@ -204,6 +208,9 @@ MIGRATIONS: tuple[tuple[str, ...], ...] = (
             processed_ns INTEGER NOT NULL,
             config_digest TEXT NOT NULL)""",
         "CREATE INDEX recordings_tail_flight ON recordings(tail, flight)",
+    ),
+    (  # 8: each BIT's flight condition (reasoner/estimate_noise.py)
+        "ALTER TABLE bits ADD COLUMN conditions TEXT NOT NULL DEFAULT '{}'",
     ),
 )
 

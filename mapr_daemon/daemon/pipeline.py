@@ -116,8 +116,7 @@ class Pipeline:
             if b.flight is None or not b.wear:
                 continue
             h = history.setdefault(b.asset, AssetHistory())
-            h.flights.append(float(b.flight))
-            h.wear.append(dict(b.wear))
+            h.add(b.flight, b.wear, b.conditions)
         self.trending = Trending(self.trending.tail, self.config.aircraft.flight_gap_s,
                                  self.trending.models, history, flights)
 
@@ -174,14 +173,15 @@ class Pipeline:
         bus = stamp(bit.request_ns)
         absolute = clock.absolute(bus)
         wear = dict(bit.decision.get("wear") or {})
+        cond = dict(bit.decision.get("conditions") or {})
         if bit.decision.get("anomaly"):
             event = event_from_reasoner(bit.decision, asset=asset.name, rt=asset.rt,
                                         t_ns=time.time_ns() if absolute is None else absolute,
                                         bus_ns=bus, abs_ns=absolute)
-            return BitOutcome(event.asset, event.t_ns, event, wear=wear, bus_ns=bus,
-                              abs_ns=absolute, fault=event.fault)
+            return BitOutcome(event.asset, event.t_ns, event, wear=wear, conditions=cond,
+                              bus_ns=bus, abs_ns=absolute, fault=event.fault)
         return BitOutcome(asset.name, time.time_ns() if absolute is None else absolute,
-                          wear=wear, bus_ns=bus, abs_ns=absolute)
+                          wear=wear, conditions=cond, bus_ns=bus, abs_ns=absolute)
 
 
 def build_pipeline(config: Config, *, trend: bool = True) -> Pipeline:

@@ -130,6 +130,17 @@ class AssetHistory:
 
     flights: list[float] = dataclasses.field(default_factory=list)
     wear: list[Mapping[str, float]] = dataclasses.field(default_factory=list)
+    conditions: list[Mapping[str, float] | None] = dataclasses.field(default_factory=list)
+    """Each BIT's flight condition (None where not stored)."""
+
+    def add(self, flight: float, wear: Mapping[str, float],
+            conditions: Mapping[str, float] | None) -> None:
+        """One more BIT; the conditions stay aligned with the flights (a history loaded
+        without them is padded with None)."""
+        self.conditions.extend([None] * (len(self.flights) - len(self.conditions)))
+        self.flights.append(float(flight))
+        self.wear.append(dict(wear))
+        self.conditions.append(dict(conditions) if conditions else None)
 
 
 class Trending:
@@ -175,10 +186,10 @@ class Trending:
         if not o.wear or flight is None:
             return Health(None, note="this BIT gave no degradation estimates")
         hist = self.history.setdefault(o.asset, AssetHistory())
-        hist.flights.append(float(flight))
-        hist.wear.append(dict(o.wear))
+        hist.add(flight, o.wear, o.conditions)
         fault = None if o.event is None else o.event.fault
-        h = assess(model, hist.flights, hist.wear, diagnosed=fault, seed=len(hist.flights))
+        h = assess(model, hist.flights, hist.wear, diagnosed=fault, seed=len(hist.flights),
+                   conditions=hist.conditions)
         mean = self.log.mean_hours()
         rh, rhl, rhh = h.in_hours(mean)
         return Health(h.soh, h.mode, h.rul, h.rul_low, h.rul_high, rh, rhl, rhh, h.note,

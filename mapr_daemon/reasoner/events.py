@@ -140,6 +140,8 @@ class Reasoner:
             self._adapt(est, event["evidence"])
         if self.prognostic is not None:
             event["wear"] = self.prognostic.estimates(self.dictionary, m, dynamic_pressure_pa)
+            event["conditions"] = self.prognostic.bit_conditions(self.dictionary, m,
+                                                                 dynamic_pressure_pa)
         return event
 
     def diagnose_or_flag(self, channels: Mapping[str, FloatArray], command_deg: FloatArray,

@@ -5,10 +5,11 @@ estimate of every aging kind (:meth:`~.wear_model.PrognosticModel.estimates`) â€
 
 * **which part is wearing**: a kind is *evidenced* when the mean of its last
   :data:`RECENT` calibrated estimates lies more than :data:`EVIDENCE_Z` standard errors above
-  healthy (its measured noise, :class:`~.trend.Noise`), or when the classifier names it at
-  this BIT. The **leading mode** is the kind the classifier names, if evidenced (the
-  estimators of two kinds can both respond to one fault; the classifier is what tells kinds
-  apart), else the evidenced kind with the shortest median RUL;
+  healthy (its measured noise, :class:`~.estimate_noise.Noise`, at each BIT's stored flight
+  condition), or when the classifier names it at this BIT. The **leading mode** is the kind
+  the classifier names, if evidenced (the estimators of two kinds can both respond to one
+  fault; the classifier is what tells kinds apart), else the evidenced kind with the
+  shortest median RUL;
 * **SoH** ``= 1 - h`` of the leading mode, clipped to [0, 1]: 1.0 as commissioned, 0.0 at
   that mode's failure threshold (:data:`~mapr_daemon.ema.degradation.FAILURE`, e.g. ESR at
   twice nominal), ``h`` the mean of its last :data:`RECENT` calibrated estimates. With no
@@ -32,6 +33,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from mapr_daemon.reasoner import trend
+from mapr_daemon.reasoner.estimate_noise import scaled_rows
 from mapr_daemon.reasoner.features import FloatArray
 from mapr_daemon.reasoner.prognosis import RulEstimate
 
@@ -81,15 +83,19 @@ def _calibrated(noise: trend.Noise, est: FloatArray) -> FloatArray:
 
 def assess(model: PrognosticModel, flights: Sequence[float],
            estimates: Sequence[Mapping[str, float]], diagnosed: str | None = None,
-           seed: int = 0) -> Health:
+           seed: int = 0, conditions: Sequence[Mapping[str, float] | None] = ()) -> Health:
     """Health after the last BIT of ``flights``/``estimates`` (oldest first); ``diagnosed``
-    is the classifier's fault at that BIT (None when nominal)."""
+    is the classifier's fault at that BIT (None when nominal); ``conditions``: each BIT's
+    flight condition (:meth:`~.wear_model.PrognosticModel.bit_conditions`; missing or None
+    where not stored)."""
     if diagnosed in TERMINAL:
         return Health(0.0, diagnosed, 0.0, 0.0, 0.0, note="terminal fault: the part has failed")
     if not flights:
         return Health(1.0, None, note="no BIT yet")
     fl = np.asarray(flights, dtype=np.float64)
     now = float(fl[-1])
+    cond = scaled_rows([model.scaled(conditions[i]) if i < len(conditions) else None
+                        for i in range(fl.size)], fl.size)
     modes: dict[str, dict[str, Any]] = {}
     candidates: list[tuple[float, float, str, RulEstimate | None]] = []
     for kind in model.kinds:
@@ -100,7 +106,8 @@ def assess(model: PrognosticModel, flights: Sequence[float],
             continue
         recent = _calibrated(noise, est[keep][-RECENT:])
         h = float(np.mean(recent))
-        se = float(noise.sd(np.array([max(h, 0.0)]))[0] / noise.gain) / math.sqrt(recent.size)
+        sd = noise.sd(np.full(recent.size, max(h, 0.0)), cond[keep][-RECENT:]) / noise.gain
+        se = float(np.sqrt(np.sum(sd * sd))) / recent.size
         z = h / se if se > 0 else math.inf
         evidenced = z > EVIDENCE_Z or kind == diagnosed
         row: dict[str, Any] = {"h": round(h, 4), "z": round(z, 2), "evidenced": evidenced}
@@ -110,7 +117,7 @@ def assess(model: PrognosticModel, flights: Sequence[float],
             row.update(rul=0.0, low=0.0, high=0.0)
         elif evidenced and np.unique(fl[keep]).size >= 3:
             rul = trend.fit_rul(fl[keep], est[keep], now, kind, noise, model.priors.get(kind),
-                                seed=seed, horizon=HORIZON)
+                                seed=seed, horizon=HORIZON, conditions=cond[keep])
             row.update(rul=_finite(rul.rul), low=_finite(rul.lower), high=_finite(rul.upper))
         modes[kind] = row
         if evidenced:

@@ -38,11 +38,11 @@ import dataclasses
 import math
 
 import numpy as np
-import numpy.typing as npt
 from scipy.special import ndtr
 
 from mapr_daemon.ema.degradation import FAILURE
 from mapr_daemon.errors import ConfigError
+from mapr_daemon.reasoner.estimate_noise import Noise as Noise
 from mapr_daemon.reasoner.features import FloatArray
 from mapr_daemon.reasoner.prognosis import RulEstimate, quantiles
 
@@ -53,8 +53,6 @@ SHAPES: dict[str, str] = {
 }
 """The shape family each aging kind is fitted with."""
 
-FLOOR_TOLERANCE = 1e-6
-"""Estimates within this of the lowest calibration estimate count as at the floor."""
 FIXED_AMPLITUDE: dict[str, float] = {"esr": 1.0 / (FAILURE["esr"] - 1.0)}
 """Kinds whose amplitude the physics fixes (the rest fit ``A``)."""
 
@@ -103,91 +101,6 @@ def crossing(shape: str, theta: FloatArray, amp: FloatArray) -> FloatArray:
         raise ConfigError(f"unknown trend shape {shape!r}", field="shape")
     out: FloatArray = np.where(pos, n, np.inf)
     return out
-
-
-def _transition(h: FloatArray, at_floor: npt.NDArray[np.bool_]) -> tuple[float, float]:
-    """Where (and how sharply) the estimate leaves its floor as the degradation grows: the
-    degradation where the share of floored estimates, per calibration level, crosses one
-    half (interpolated), and as its sd a quarter of the span from the last all-floored to the
-    first never-floored level (the span taken as +/- 2 sd), at least 0.02."""
-    levels = np.unique(h)
-    share = np.array([at_floor[h == v].mean() for v in levels])
-    below = np.nonzero(share >= 0.5)[0]
-    if below.size == 0:
-        return float(levels[0]), 0.02
-    i = int(below.max())
-    if i + 1 >= levels.size:
-        mid = float(levels[-1])
-    else:
-        f0, f1 = share[i], share[i + 1]
-        mid = float(levels[i] + (f0 - 0.5) / max(f0 - f1, 1e-9) * (levels[i + 1] - levels[i]))
-    full = levels[share >= 1.0]
-    none = levels[share <= 0.0]
-    lo = float(full.max()) if full.size else float(levels[0])
-    hi = float(none[none > lo].min()) if (none > lo).any() else float(levels[-1])
-    return mid, max(0.25 * (hi - lo), 0.02)
-
-
-@dataclasses.dataclass(frozen=True)
-class Noise:
-    """The per-BIT degradation estimate as measured against known degradations.
-
-    ``estimate = offset + gain*h + e`` with ``sd(e) = sd0 + sd1*h``: measured on BITs flown at
-    known degradation (:meth:`measure`), so the trend is fitted on the estimate's own scale
-    error and scatter, not on an assumed one. ``floor``: the estimator's dead zone — a value it
-    reports for every degradation too small to tell from healthy scatter (the classifier's
-    healthy band). An estimate at the floor says only "at most this much" and is treated as
-    censored, not as a measurement of zero.
-    """
-
-    sd0: float
-    sd1: float = 0.0
-    offset: float = 0.0
-    gain: float = 1.0
-    floor: float | None = None
-    detection: float = 0.0
-    """Degradation at which half the estimates leave the floor (measured)."""
-    detection_sd: float = 0.02
-    """Width of that transition (measured; at least 0.02)."""
-
-    @classmethod
-    def measure(cls, h_true: FloatArray, h_est: FloatArray) -> Noise:
-        """Linear calibration of the estimate on the truth (above its floor), its scatter."""
-        x = np.asarray(h_true, dtype=np.float64)
-        y = np.asarray(h_est, dtype=np.float64)
-        low = float(y.min())
-        at_floor = y <= low + FLOOR_TOLERANCE
-        floor = low if at_floor.sum() >= 2 else None
-        detection, detection_sd = 0.0, 0.02
-        if floor is not None:
-            detection, detection_sd = _transition(x, at_floor)
-            x, y = x[~at_floor], y[~at_floor]
-        if x.size < 4 or np.ptp(x) <= 0.0:
-            raise ConfigError("need at least four estimates above the floor at two or more "
-                              "degradations", field="noise")
-        gain, offset = np.polyfit(x, y, 1)
-        if gain <= 0.05:
-            raise ConfigError(f"the estimate does not follow the degradation (gain {gain:.3g})",
-                              field="noise")
-        resid = np.abs(y - (offset + gain * x)) * math.sqrt(math.pi / 2.0)  # E|e| -> sd
-        s1, s0 = np.polyfit(x, resid, 1)
-        if s0 <= 0.0 or s1 < 0.0:  # keep the growth non-negative and the floor positive
-            s1 = max(s1, 0.0)
-            s0 = max(float(np.mean(resid - s1 * x)), 1e-3)
-        return cls(float(s0), float(s1), float(offset), float(gain), floor, detection,
-                   detection_sd)
-
-    def sd(self, h: FloatArray) -> FloatArray:
-        out: FloatArray = self.sd0 + self.sd1 * np.clip(h, 0.0, 1.5)
-        return out
-
-    def censored(self, h_est: FloatArray) -> npt.NDArray[np.bool_]:
-        """Which estimates sit at the floor."""
-        y = np.asarray(h_est, dtype=np.float64)
-        if self.floor is None:
-            return np.zeros(y.shape, dtype=bool)
-        out: npt.NDArray[np.bool_] = y <= self.floor + FLOOR_TOLERANCE
-        return out
 
 
 @dataclasses.dataclass(frozen=True)
@@ -317,8 +230,10 @@ def _grid_fit(shape: str, n: FloatArray, y: FloatArray, w: FloatArray,
 
 def fit_rul(flights: FloatArray, h_est: FloatArray, now: float, kind: str, noise: Noise,
             prior: ShapePrior | None = None, n_draws: int = 2000, seed: int = 0,
-            horizon: float = 2000.0) -> RulEstimate:
-    """RUL at flight ``now`` of a component of ``kind`` from per-BIT degradation estimates."""
+            horizon: float = 2000.0, conditions: FloatArray | None = None) -> RulEstimate:
+    """RUL at flight ``now`` of a component of ``kind`` from per-BIT degradation estimates;
+    ``conditions (n, 3)``: each BIT's scaled flight condition (NaN rows unknown), which the
+    noise model weighs its estimate by (:meth:`Noise.sd`)."""
     if kind not in SHAPES:
         raise ConfigError(f"no aging shape for {kind!r}", field="kind")
     shape = SHAPES[kind]
@@ -332,7 +247,8 @@ def fit_rul(flights: FloatArray, h_est: FloatArray, now: float, kind: str, noise
                            horizon=horizon)
     n = n_all[~cens]
     y = (est[~cens] - noise.offset) / noise.gain
-    var = (noise.sd(y) / noise.gain) ** 2
+    c = None if conditions is None else np.asarray(conditions, dtype=np.float64)[~cens]
+    var = (noise.sd(y, c) / noise.gain) ** 2
     if prior is not None:
         var = var + prior.scatter(y) ** 2
     w = 1.0 / var

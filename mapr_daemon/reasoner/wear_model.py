@@ -7,20 +7,26 @@ the dictionary (``mapr dictionary build --prognosis FILE``, format :data:`FORMAT
 * per aging kind a degradation estimator (:class:`~.wear.WearModel`), trained on BITs flown
   at known degradations over the flight envelope (pressures, ambient temperatures and
   aircraft-bus voltages drawn like the dictionary's, seeds of their own);
-* per kind the estimate's measured scale error and scatter (:class:`~.trend.Noise`), from
-  calibration BITs at known degradations with yet other seeds; a kind whose estimate does not
+* per kind the estimate's measured scale error and scatter (:class:`~.estimate_noise.Noise`),
+  from calibration BITs at known degradations over the same envelope with yet other seeds,
+  the scatter as a function of the degradation and the BIT's flight condition (the error
+  of one estimate differs several-fold across the envelope); a kind whose estimate does not
   follow its degradation gets no noise model and the reason, and is never trended;
 * per kind the fleet prior on its aging shape (:class:`~.trend.ShapePrior`), learned from the
   aging model's run-to-failure paths (:func:`~.trajectory.learn_prior`).
 
 :meth:`PrognosticModel.estimates` reads one BIT's feature matrix as a degradation fraction
-per kind; :mod:`.health` fits the trend.
+per kind and :meth:`PrognosticModel.bit_conditions` the flight condition it was flown at
+(stored with it: the trend weighs each estimate by its noise at that condition);
+:mod:`.health` fits the trend.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import json
+import math
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -29,30 +35,38 @@ import numpy as np
 from mapr_daemon.ema.faults import Fault, FaultSet, nominal_value
 from mapr_daemon.ema.params import ActuatorParams
 from mapr_daemon.errors import ConfigError
-from mapr_daemon.reasoner import prognosis, trend, wear
+from mapr_daemon.reasoner import healthy, prognosis, trend, wear
 from mapr_daemon.reasoner.build import stream_matrices
 from mapr_daemon.reasoner.corpus import BitRuns
 from mapr_daemon.reasoner.dictionary import Dictionary
 from mapr_daemon.reasoner.features import FloatArray
 from mapr_daemon.reasoner.trajectory import CALIBRATION_LEVELS, TRAINING_BIT_SEED, learn_prior
 
-FORMAT = "mapr-prognosis/1"
+FORMAT = "mapr-prognosis/2"
 AGING_KINDS: tuple[str, ...] = tuple(sorted(trend.SHAPES))
 """The kinds the aging model ages and the trend can follow."""
 TRAINING_SEED = TRAINING_BIT_SEED
 """First simulation seed of the estimators' training BITs (as the RUL bench's)."""
 CALIBRATION_SEED = 8_000_000
 """First simulation seed of the noise-calibration BITs (disjoint from training)."""
+RESOLVE_SD = 0.5
+"""A kind is trended only if one BIT's estimate at the failure threshold scatters by less than
+this (sd, in units of the threshold; median over the calibration BITs' conditions): at 0.5 a
+single BIT cannot tell new from failed at two sd. The aileron's SMPS low-side Ron (sd ~1.4-2.3)
+and inverter phase-A Ron (~0.8) fail it; with them trended, healthy units over the envelope
+showed a wearing mode at 16 of 480 BITs, almost all of it the low side's scatter."""
 
 
 @dataclasses.dataclass(frozen=True)
 class BuildSpec:
     """How many BITs and units the model is learned from."""
 
-    training_bits: int = 300
-    """Training BITs per kind for its estimator."""
-    calibration_reps: int = 6
-    """Calibration BITs per level and kind."""
+    training_bits: int = 800
+    """Training BITs per kind for its estimator (its forward model has 25 terms per
+    coordinate, :func:`~.wear.regressors`)."""
+    calibration_reps: int = 30
+    """Calibration BITs per level and kind (300 per kind: enough to fit the noise's
+    dependence on the flight condition, :data:`~.estimate_noise.LOG_SD_TERMS`)."""
     fleet_units: int = 30
     """Run-to-failure units per kind behind the fleet prior."""
     envelope: bool = True
@@ -72,6 +86,8 @@ class PrognosticModel:
     unobservable: dict[str, str]
     """The kinds that cannot be trended, and why (measured on the calibration BITs)."""
     priors: dict[str, trend.ShapePrior]
+    supply_nominal_v: float = math.nan
+    """The healthy model's nominal aircraft-bus voltage (what conditions are scaled by)."""
 
     @property
     def kinds(self) -> tuple[str, ...]:
@@ -85,15 +101,38 @@ class PrognosticModel:
         y, c = wear.observations(dictionary, m[None], [dynamic_pressure_pa])
         return {k: round(self.estimators[k].estimate(y[0], c[0]), 5) for k in self.kinds}
 
+    @staticmethod
+    def bit_conditions(dictionary: Dictionary, m: FloatArray,
+                       dynamic_pressure_pa: float) -> dict[str, float]:
+        """The flight condition one BIT was flown at, as the estimators read it from its
+        feature matrix: dynamic pressure (Pa), mean aircraft-bus voltage (V), ambient
+        temperature (deg C)."""
+        c = healthy.conditions(m, dictionary.columns, dynamic_pressure_pa)
+        return {"dynamic_pressure_pa": round(c.pressure_pa, 1), "supply_v": round(c.supply_v, 3),
+                "ambient_c": round(c.temperature_c, 2)}
+
+    def scaled(self, condition: Mapping[str, float] | None) -> tuple[float, float, float] | None:
+        """A stored :meth:`bit_conditions` as the noise model takes it; None if unknown."""
+        if condition is None or not math.isfinite(self.supply_nominal_v):
+            return None
+        try:
+            c = healthy.Conditions(float(condition["dynamic_pressure_pa"]),
+                                   float(condition["supply_v"]), math.nan,
+                                   float(condition["ambient_c"]))
+        except (TypeError, KeyError, ValueError):
+            return None
+        return healthy.scaled(c, self.supply_nominal_v)
+
     # --- persistence -----------------------------------------------------------------------
     def save(self, path: str | Path) -> None:
         arrays: dict[str, np.ndarray] = {}
-        meta: dict[str, Any] = {"format": FORMAT, "actuator": self.actuator, "kinds": {}}
+        meta: dict[str, Any] = {"format": FORMAT, "actuator": self.actuator,
+                                "supply_nominal_v": self.supply_nominal_v, "kinds": {}}
         for k, est in self.estimators.items():
             arrays[f"{k}_coef"], arrays[f"{k}_precision"] = est.coef, est.precision
             meta["kinds"][k] = {
                 "shrinkage": est.shrinkage, "runs": est.runs,
-                "noise": dataclasses.asdict(self.noise[k]) if k in self.noise else None,
+                "noise": _noise_json(self.noise[k]) if k in self.noise else None,
                 "unobservable": self.unobservable.get(k),
                 "prior": dataclasses.asdict(self.priors[k]) if k in self.priors else None}
         arrays["meta_json"] = np.array(json.dumps(meta))
@@ -119,12 +158,20 @@ class PrognosticModel:
             estimators[k] = wear.WearModel(k, a[f"{k}_coef"], a[f"{k}_precision"],
                                            float(km["shrinkage"]), int(km["runs"]))
             if km["noise"] is not None:
-                noise[k] = trend.Noise(**km["noise"])
+                noise[k] = trend.Noise(**{**km["noise"],
+                                          "log_sd": tuple(km["noise"].get("log_sd", ()))})
             if km["unobservable"] is not None:
                 why[k] = str(km["unobservable"])
             if km["prior"] is not None:
                 priors[k] = trend.ShapePrior(**km["prior"])
-        return cls(str(meta["actuator"]), estimators, noise, why, priors)
+        return cls(str(meta["actuator"]), estimators, noise, why, priors,
+                   float(meta.get("supply_nominal_v", math.nan)))
+
+
+def _noise_json(noise: trend.Noise) -> dict[str, Any]:
+    out = dataclasses.asdict(noise)
+    out["log_sd"] = list(noise.log_sd)
+    return out
 
 
 def fault_at(params: ActuatorParams, kind: str, h: float) -> FaultSet:
@@ -174,8 +221,18 @@ def build_prognostic_model(d: Dictionary, params: ActuatorParams, spec: BuildSpe
         truth = np.array([todo[r][1] for r in rows])
         est = np.array([estimators[k].estimate(y[r], c[r]) for r in rows])
         try:
-            noise[k] = trend.Noise.measure(truth, est)
+            measured = trend.Noise.measure(truth, est, c[rows])
         except ConfigError as error:
             why[k] = error.detail
+            continue
+        at_threshold = float(np.median(measured.sd(np.ones(len(rows)), c[rows]))) / measured.gain
+        if at_threshold > RESOLVE_SD:
+            why[k] = (f"one BIT's estimate scatters by sd {at_threshold:.2f} of the failure "
+                      f"threshold at the threshold (median over the envelope), above "
+                      f"{RESOLVE_SD}: a trend cannot place the crossing and its evidence of wear "
+                      "would be noise")
+            continue
+        noise[k] = measured
     priors = {k: learn_prior(params, k, spec.fleet_units) for k in kinds}
-    return PrognosticModel(params.name, estimators, noise, why, priors)
+    supply = d.healthy.supply_nominal_v if d.healthy is not None else math.nan
+    return PrognosticModel(params.name, estimators, noise, why, priors, supply)

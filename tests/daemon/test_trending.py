@@ -4,8 +4,10 @@ history in the catalog and a restart that continues it."""
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from mapr_daemon.catalog import BitOutcome, CatalogWriter, Event
@@ -129,3 +131,57 @@ def test_the_history_is_stored_and_a_restart_continues_the_trend(
 
 def _history(bits: list[BitRecord]) -> AssetHistory:
     return AssetHistory([float(b.flight) for b in bits], [dict(b.wear) for b in bits])
+
+
+NOMINAL = {"dynamic_pressure_pa": 1000.0, "supply_v": 28.0, "ambient_c": 25.0}
+LOW_BUS = {"dynamic_pressure_pa": 1000.0, "supply_v": 23.0, "ambient_c": 25.0}
+
+
+@pytest.fixture(scope="module")
+def condition_model(model: PrognosticModel) -> PrognosticModel:
+    """ESR whose estimate scatters by sd 0.02 at the nominal 28 V bus and 0.1 at 23 V (the
+    log-sd model: 0.02 * exp(-0.322 * (V - 28)))."""
+    noise = trend.Noise(0.05, log_sd=(float(np.log(0.02)), 0.0, -0.322, 0.0, 0.0, 0.0, 0.0))
+    return PrognosticModel(model.actuator, {}, {"esr": noise}, {}, dict(model.priors),
+                           supply_nominal_v=28.0)
+
+
+def test_a_small_wear_is_evidenced_on_bits_flown_at_nominal_supply_only(
+        condition_model: PrognosticModel) -> None:
+    """The same three estimates (0.08 of the threshold): flown at the nominal bus they are
+    wear (3 SE above healthy); flown at the bus's low limit, where the estimate is five times
+    noisier, they are within the healthy scatter."""
+    health = {}
+    for name, cond in (("nominal", NOMINAL), ("low bus", LOW_BUS)):
+        trending = Trending("N101", 900.0, {"EMA1": condition_model})
+        for n in (1, 2, 3):
+            trending.log.declare(n)
+            fly(trending, n)
+            (o,) = trending.annotate([dataclasses.replace(bit(n, 0.08), conditions=cond)])
+        health[name] = o.health
+    assert health["nominal"] is not None and health["nominal"].mode == "esr"
+    assert health["low bus"] is not None and health["low bus"].mode is None
+
+
+def test_the_conditions_are_stored_and_reloaded_with_the_history(
+        condition_model: PrognosticModel, tmp_path: Path) -> None:
+    path = tmp_path / "c.sqlite"
+    first = Trending("N101", 900.0, {"EMA1": condition_model})
+    with CatalogWriter(path) as writer:
+        writer.open_session(backend="chapter10", config_hash="x")
+        for n in (1, 2):
+            first.log.declare(n)
+            fly(first, n)
+            writer.add_bits(first.annotate([dataclasses.replace(bit(n, 0.08),
+                                                                conditions=NOMINAL)]),
+                            first.log.pop_changed())
+        bits, flights = writer.history("N101")
+    assert [dict(b.conditions) for b in bits] == [NOMINAL, NOMINAL]
+    history = AssetHistory()
+    for b in bits:
+        history.add(float(b.flight or 0), b.wear, b.conditions)
+    resumed = Trending("N101", 900.0, {"EMA1": condition_model}, {"EMA1": history}, flights)
+    resumed.log.declare(3)
+    fly(resumed, 3)
+    (o,) = resumed.annotate([dataclasses.replace(bit(3, 0.08), conditions=NOMINAL)])
+    assert o.health is not None and o.health.mode == "esr"   # three nominal BITs: evidenced

@@ -35,7 +35,7 @@ def fleet_model(fleet_dictionary: Path, tmp_path_factory: pytest.TempPathFactory
 
     model = build_prognostic_model(
         Dictionary.load(fleet_dictionary), load_actuator(default_actuator_path()),
-        BuildSpec(training_bits=30, calibration_reps=2, fleet_units=4),
+        BuildSpec(training_bits=60, calibration_reps=2, fleet_units=4),
         kinds=("esr", "friction"))
     path = tmp_path_factory.mktemp("prognosis") / "prognosis.npz"
     model.save(path)
@@ -102,6 +102,11 @@ def test_each_tails_bits_are_trended_in_flight_order_and_a_rerun_adds_nothing(
         named = {r[0] for r in conn.execute(
             "SELECT asset FROM events UNION SELECT asset FROM episodes")}
     assert named <= {"N101/EMA1", "N102/EMA1"}   # two tails' episodes never merge
+    with sqlite3.connect(f"file:{catalog}?mode=ro", uri=True) as conn:
+        stored = [json.loads(c) for (c,) in conn.execute("SELECT conditions FROM bits")]
+    # each BIT's flight condition, as read from its record, is kept for the trend
+    assert all(set(c) == {"dynamic_pressure_pa", "supply_v", "ambient_c"} for c in stored)
+    assert all(20.0 < c["supply_v"] < 32.0 and -60.0 < c["ambient_c"] < 90.0 for c in stored)
 
     again = run(dask_client, [aging_source], catalog, fleet_dictionary, fleet_model)
     assert (again.stored, again.skipped) == (0, 2 * FLIGHTS)

@@ -16,11 +16,12 @@ from .conftest import Bench
 
 
 def test_inverts_a_known_forward_model() -> None:
-    """Coordinates made by a known cubic-in-h model plus small noise: the estimate recovers h
+    """Coordinates made by a known forward model (cubic in h, second order in the conditions)
+    plus small noise: the estimate recovers h
     across and beyond the threshold, and runs at other conditions do not bias it."""
     rng = np.random.default_rng(3)
-    coef = rng.standard_normal((12, 6))
-    coef[5:10] *= 3.0  # a clear signature
+    coef = rng.standard_normal((25, 6))
+    coef[10:20] *= 3.0  # a clear signature: the h-terms
 
     def draw(n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         h = rng.uniform(0.0, 1.5, n)

@@ -1,0 +1,178 @@
+"""How good one BIT's degradation estimate is: its scale error and its scatter, measured.
+
+A degradation estimator (:mod:`.wear`) reads a BIT as a fraction ``h`` of the failure
+threshold. Against BITs flown at known degradations (calibration BITs, seeds of their own)
+it reads ``estimate = offset + gain*h + e``. The trend (:func:`.trend.fit_rul`) and the
+evidence test (:mod:`.health`) weigh each estimate by the sd of ``e``, so that sd has to be
+the one the BIT really has:
+
+* **over the envelope** it depends on the flight condition as much as on ``h``: on the aileron
+  the capacitance estimate errs by sd ~0.43 of the threshold with the aircraft bus near its
+  low limit and ~0.15 near nominal (the ripple the estimator reads shrinks as the converter
+  nears drop-out). One envelope-wide figure overstates the noise of a BIT flown at nominal
+  conditions two- to four-fold (which holds a real trend back from the evidence gate) and
+  understates it at the edges (which makes the intervals there too narrow);
+* so the sd is a **log-linear function of the degradation and the condition**:
+  ``log sd = b . (1, h, v, v^2, t, t^2, q)`` with ``q, v, t`` the scaled dynamic pressure,
+  supply voltage above nominal and ambient temperature (:func:`log_sd_terms`), fitted to
+  ``log|e|`` on the calibration BITs (``E log|z| = -0.635`` for a normal ``z``) and rescaled so
+  the standardised residuals have unit variance. Where a BIT's condition is not known (a
+  catalog written before conditions were stored) the envelope-wide ``sd0 + sd1*h`` is used.
+
+``floor``: an estimator's dead zone, a value it reports for every degradation too small to
+tell from healthy scatter; an estimate there says only "at most this much" and the trend
+treats it as censored (:attr:`Noise.detection`: where half the estimates leave it).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Sequence
+
+import numpy as np
+import numpy.typing as npt
+
+from mapr_daemon.errors import ConfigError
+from mapr_daemon.reasoner.features import FloatArray
+
+FLOOR_TOLERANCE = 1e-6
+"""Estimates within this of the lowest calibration estimate count as at the floor."""
+LOG_ABS_NORMAL = -0.5 * (0.5772156649015329 + math.log(2.0))
+"""``E log|z|`` of a standard normal ``z`` (-0.635): ``log|e|`` sits this far below ``log sd``."""
+CONDITION_TERMS = ("1", "h", "v", "v^2", "t", "t^2", "q")
+"""The terms of the log-sd model, in order."""
+MIN_PER_TERM = 8
+"""Calibration BITs per term below which the condition model is not fitted (sd0 + sd1*h)."""
+
+
+def log_sd_terms(h: FloatArray, c: FloatArray) -> FloatArray:
+    """``(n, 7)`` terms of the log-sd model: 1, ``h`` (clipped to 0-1.5), ``v``, ``v^2``,
+    ``t``, ``t^2``, ``q`` of the scaled conditions ``c (n, 3)`` = (q, v, t)."""
+    hh = np.clip(np.atleast_1d(np.asarray(h, dtype=np.float64)), 0.0, 1.5)
+    cc = np.broadcast_to(np.asarray(c, dtype=np.float64), (hh.size, 3))
+    q, v, t = cc[:, 0], cc[:, 1], cc[:, 2]
+    return np.stack([np.ones_like(hh), hh, v, v * v, t, t * t, q], axis=1)
+
+
+def _transition(h: FloatArray, at_floor: npt.NDArray[np.bool_]) -> tuple[float, float]:
+    """Where (and how sharply) the estimate leaves its floor as the degradation grows: the
+    degradation where the share of floored estimates, per calibration level, crosses one
+    half (interpolated), and as its sd a quarter of the span from the last all-floored to the
+    first never-floored level (the span taken as +/- 2 sd), at least 0.02."""
+    levels = np.unique(h)
+    share = np.array([at_floor[h == v].mean() for v in levels])
+    below = np.nonzero(share >= 0.5)[0]
+    if below.size == 0:
+        return float(levels[0]), 0.02
+    i = int(below.max())
+    if i + 1 >= levels.size:
+        mid = float(levels[-1])
+    else:
+        f0, f1 = share[i], share[i + 1]
+        mid = float(levels[i] + (f0 - 0.5) / max(f0 - f1, 1e-9) * (levels[i + 1] - levels[i]))
+    full = levels[share >= 1.0]
+    none = levels[share <= 0.0]
+    lo = float(full.max()) if full.size else float(levels[0])
+    hi = float(none[none > lo].min()) if (none > lo).any() else float(levels[-1])
+    return mid, max(0.25 * (hi - lo), 0.02)
+
+
+@dataclasses.dataclass(frozen=True)
+class Noise:
+    """The per-BIT degradation estimate as measured against known degradations.
+
+    ``estimate = offset + gain*h + e``; ``sd(e)`` is ``exp(log_sd . terms(h, c))`` at a
+    known condition ``c`` (:meth:`sd`), else ``sd0 + sd1*h``. Both in the estimate's units
+    (divide by ``gain`` for units of the threshold).
+    """
+
+    sd0: float
+    sd1: float = 0.0
+    offset: float = 0.0
+    gain: float = 1.0
+    floor: float | None = None
+    detection: float = 0.0
+    """Degradation at which half the estimates leave the floor (measured)."""
+    detection_sd: float = 0.02
+    """Width of that transition (measured; at least 0.02)."""
+    log_sd: tuple[float, ...] = ()
+    """Coefficients of the log-sd model on :data:`CONDITION_TERMS`; empty: none fitted."""
+
+    @classmethod
+    def measure(cls, h_true: FloatArray, h_est: FloatArray,
+                conditions: FloatArray | None = None) -> Noise:
+        """Linear calibration of the estimate on the truth (above its floor), its scatter;
+        with the calibration BITs' scaled ``conditions (n, 3)``, the log-sd model too."""
+        x = np.asarray(h_true, dtype=np.float64)
+        y = np.asarray(h_est, dtype=np.float64)
+        c = None if conditions is None else np.asarray(conditions, dtype=np.float64)
+        low = float(y.min())
+        at_floor = y <= low + FLOOR_TOLERANCE
+        floor = low if at_floor.sum() >= 2 else None
+        detection, detection_sd = 0.0, 0.02
+        if floor is not None:
+            detection, detection_sd = _transition(x, at_floor)
+            x, y = x[~at_floor], y[~at_floor]
+            c = None if c is None else c[~at_floor]
+        if x.size < 4 or np.ptp(x) <= 0.0:
+            raise ConfigError("need at least four estimates above the floor at two or more "
+                              "degradations", field="noise")
+        gain, offset = np.polyfit(x, y, 1)
+        if gain <= 0.05:
+            raise ConfigError(f"the estimate does not follow the degradation (gain {gain:.3g})",
+                              field="noise")
+        e = y - (offset + gain * x)
+        resid = np.abs(e) * math.sqrt(math.pi / 2.0)  # E|e| -> sd
+        s1, s0 = np.polyfit(x, resid, 1)
+        if s0 <= 0.0 or s1 < 0.0:  # keep the growth non-negative and the floor positive
+            s1 = max(s1, 0.0)
+            s0 = max(float(np.mean(resid - s1 * x)), 1e-3)
+        log_sd: tuple[float, ...] = ()
+        if c is not None and x.size >= MIN_PER_TERM * len(CONDITION_TERMS):
+            log_sd = _fit_log_sd(x, e, c)
+        return cls(float(s0), float(s1), float(offset), float(gain), floor, detection,
+                   detection_sd, log_sd)
+
+    def sd(self, h: FloatArray, conditions: FloatArray | None = None) -> FloatArray:
+        """The estimate's sd at degradation ``h``; at the scaled ``conditions`` (one row per
+        ``h``, or one for all; a row with a NaN falls back to ``sd0 + sd1*h``) when known."""
+        hh = np.asarray(h, dtype=np.float64)
+        flat: FloatArray = self.sd0 + self.sd1 * np.clip(hh, 0.0, 1.5)
+        if conditions is None or not self.log_sd:
+            return flat
+        c = np.asarray(conditions, dtype=np.float64)
+        terms = log_sd_terms(hh.ravel(), c)
+        known: npt.NDArray[np.bool_] = np.asarray(np.isfinite(terms).all(axis=1))
+        cond = np.exp(np.where(known[:, None], terms, 0.0) @ np.asarray(self.log_sd))
+        out: FloatArray = np.where(known, cond, np.broadcast_to(flat, hh.shape).ravel())
+        return out.reshape(hh.shape)
+
+    def censored(self, h_est: FloatArray) -> npt.NDArray[np.bool_]:
+        """Which estimates sit at the floor."""
+        y = np.asarray(h_est, dtype=np.float64)
+        if self.floor is None:
+            return np.zeros(y.shape, dtype=bool)
+        out: npt.NDArray[np.bool_] = y <= self.floor + FLOOR_TOLERANCE
+        return out
+
+
+def _fit_log_sd(h: FloatArray, e: FloatArray, c: FloatArray) -> tuple[float, ...]:
+    """Least squares of ``log|e|`` on the terms, shifted by ``E log|z|``, then rescaled so the
+    standardised residuals ``e/sd`` have unit mean square (what the trend's weights assume)."""
+    terms = log_sd_terms(h, c)
+    keep = np.isfinite(terms).all(axis=1) & (np.abs(e) > 0.0)
+    coef = np.linalg.lstsq(terms[keep], np.log(np.abs(e[keep])), rcond=None)[0]
+    coef[0] -= LOG_ABS_NORMAL
+    z = e[keep] / np.exp(terms[keep] @ coef)
+    coef[0] += 0.5 * math.log(float(np.mean(z * z)))
+    return tuple(float(b) for b in coef)
+
+
+def scaled_rows(conditions: Sequence[Sequence[float] | None], n: int) -> FloatArray:
+    """``(n, 3)`` scaled conditions, NaN rows where a BIT's condition is unknown."""
+    out = np.full((n, 3), np.nan)
+    for i, c in enumerate(conditions[:n]):
+        if c is not None and len(c) == 3:
+            out[i] = c
+    return out
