@@ -1,6 +1,7 @@
 """RUL in the product, measured: a run-to-failure fleet flown, recorded, replayed, read back.
 
-    python3 bench/fleet_rul.py [--units-per-kind 2] [--bit-every 4] [--seed N] [--jobs 2]
+    python3 bench/fleet_rul.py [--units-per-kind 2] [--healthy-units 2] [--bit-every 4]
+                               [--seed N] [--jobs 2]
                                [--kinds esr,capacitance,friction,smps_ron_high]
                                [--dictionary D.npz --prognosis P.npz] [--out DIR]
                                [--no-memory] [--keep-recordings]
@@ -28,7 +29,9 @@ headline (leading-mode) RUL. Scored:
   in-memory bench's beta = 0.5 criterion (half the draws inside the band) cannot be applied;
   the point criterion is what is scored here;
 * coverage: the share of points whose stored 90 % interval holds the true RUL (target 85-95 %);
-* the share of points where the leading mode is the true kind.
+* the share of points where the leading mode is the true kind;
+* units that do not age (``--healthy-units``, 40 BITs each at the default BIT spacing): BITs
+  whose health names a wearing mode (false wear), and how many carry a RUL.
 
 Per kind and overall, with the worst unit beside the average. Then the same units' paths
 (same trajectory seeds) through the in-memory path (:func:`mapr_daemon.reasoner.trajectory
@@ -82,6 +85,9 @@ FLIGHT_HOURS = 1.5
 FLIGHT_S = 2.0
 LAMBDAS = (0.5, 0.75)
 ALPHA = 0.2
+HEALTHY = "healthy"
+HEALTHY_FLIGHTS = 160
+"""Flights of a healthy unit (a BIT every ``--bit-every``: 40 BITs at 4)."""
 SEED_BASE = 1_000_000_000
 """Unit and flight seeds are drawn above this: clear of the dictionary's seeds (from 0), the
 prognostic model's (7,000,000 and 8,000,000 up) and the fleet prior's units (10,000 up)."""
@@ -99,16 +105,21 @@ def build_models(out: Path) -> tuple[Path, Path]:
 
 
 class Unit:
-    """One run-to-failure unit: its tail, kind, path and BIT flights (trajectory indices)."""
+    """One run-to-failure unit: its tail, kind, path and BIT flights (trajectory indices);
+    or, with ``kind`` :data:`HEALTHY`, a unit that does not age (its BITs every
+    ``bit_every`` flights up to :data:`HEALTHY_FLIGHTS`)."""
 
     def __init__(self, tail: str, kind: str, seed: int, bit_every: int) -> None:
         self.tail, self.kind, self.seed = tail, kind, seed
-        self.path: Trajectory = trajectory(load_actuator(default_actuator_path()), kind,
+        self.path: Trajectory = trajectory(load_actuator(default_actuator_path()),
+                                           "esr" if kind == HEALTHY else kind,
                                            int(MEAN_LIFE * 2), seed, MEAN_LIFE)
-        self.flights = [int(f) for f in bit_flights(self.path, bit_every)]
+        self.flights = list(range(0, HEALTHY_FLIGHTS, bit_every)) if kind == HEALTHY else \
+            [int(f) for f in bit_flights(self.path, bit_every)]
 
     def faults(self, f: int) -> FaultSet:
-        return FaultSet.of([self.path.fault(f)]) if f > 0 else FaultSet()
+        return FaultSet.of([self.path.fault(f)]) if f > 0 and self.kind != HEALTHY else \
+            FaultSet()
 
 
 def _fly(path: str, unit: Unit, f: int, seed: int, condition: str, index: int) -> str:
@@ -202,7 +213,8 @@ def estimate_errors(conn: sqlite3.Connection, u: Unit, model: PrognosticModel
                     ) -> tuple[FloatArray, FloatArray]:
     """The unit's stored per-BIT estimates of its true kind, calibrated by the model's
     :class:`~mapr_daemon.reasoner.trend.Noise` (``(est - offset) / gain``), minus the true
-    degradation; and the sd the model states for them (on the same scale)."""
+    degradation; and the sd the model states for them (on the same scale, at each BIT's
+    stored flight condition)."""
     noise = model.noise.get(u.kind)
     if noise is None:
         return np.zeros(0), np.zeros(0)
@@ -214,7 +226,9 @@ def estimate_errors(conn: sqlite3.Connection, u: Unit, model: PrognosticModel
             continue
         h = degradation(params, u.kind, float(u.path.values[b.flight - 1]))
         err.append((est - noise.offset) / noise.gain - h)
-        sd.append(float(noise.sd(np.array(max(h, 0.0)))) / noise.gain)
+        cond = model.scaled(b.conditions)   # the noise at the BIT's stored flight condition
+        sd.append(float(noise.sd(np.array([max(h, 0.0)]),
+                                 None if cond is None else np.array([cond]))[0]) / noise.gain)
     return np.array(err), np.array(sd)
 
 
@@ -241,6 +255,23 @@ def print_errors(conn: sqlite3.Connection, units: Sequence[Unit], model: Prognos
               f"{100 * np.mean(np.abs(z) > 1.645):.0f} % (10 % if calibrated)")
 
 
+def print_healthy(conn: sqlite3.Connection, units: Sequence[Unit]) -> None:
+    """False wear: BITs of units that do not age whose health names a wearing mode."""
+    healthy = [u for u in units if u.kind == HEALTHY]
+    if not healthy:
+        return
+    bits = {u.tail: load_bits(conn, tail=u.tail) for u in healthy}
+    total = sum(len(b) for b in bits.values())
+    worn = Counter(b.health.mode for bs in bits.values() for b in bs if b.health.mode)
+    ever = sum(any(b.health.mode for b in bs) for bs in bits.values())
+    ruls = sum(b.health.rul is not None for bs in bits.values() for b in bs)
+    worst = max((sum(b.health.mode is not None for b in bs) for bs in bits.values()),
+                default=0)
+    print(f"\nunits that do not age ({len(healthy)}): a wearing mode at {sum(worn.values())} "
+          f"of {total} BITs (worst unit {worst}), {ruls} with a RUL, {ever} units ever; "
+          f"modes {dict(worn) or 'none'}")
+
+
 def print_table(title: str, scores: Sequence[UnitScore], kinds: Sequence[str]) -> None:
     print(f"\n== {title} ==")
     print(f"{'unit':>10} {'kind':>14} {'EoL':>6} {'pts':>4} {'none':>4} {'al@0.5':>7} "
@@ -257,6 +288,8 @@ def main() -> int:
     ap.add_argument("--units-per-kind", type=int, default=2)
     ap.add_argument("--bit-every", type=int, default=4, help="flights between BITs")
     ap.add_argument("--kinds", default=",".join(KINDS))
+    ap.add_argument("--healthy-units", type=int, default=2,
+                    help="units that do not age, scored for false wear")
     ap.add_argument("--seed", type=int)
     ap.add_argument("--jobs", type=int, default=2, help="processes flying recordings")
     ap.add_argument("--dictionary", type=Path)
@@ -283,13 +316,20 @@ def main() -> int:
         for k in kinds:
             n = model.noise.get(k)
             if n is not None:
+                nominal = model.scaled({"dynamic_pressure_pa": 1000.0, "ambient_c": 25.0,
+                                        "supply_v": model.supply_nominal_v})
+                at_nominal = float(n.sd(np.array([1.0]), None if nominal is None else
+                                        np.array([nominal]))[0]) / n.gain
                 print(f"  {k:>20}: estimate = {n.offset:.3f} + {n.gain:.3f} h, noise sd "
-                      f"{n.sd0:.3f} + {n.sd1:.3f} h (sd at h = 1: "
-                      f"{float(n.sd(np.array(1.0))) / n.gain:.3f} of the threshold)")
+                      f"{n.sd0:.3f} + {n.sd1:.3f} h over the envelope (sd at h = 1: "
+                      f"{float(n.sd(np.array(1.0))) / n.gain:.3f} of the threshold; "
+                      f"{at_nominal:.3f} at nominal supply and 25 C, 1 kPa)")
         units = [Unit(f"U{i + 1:02d}", k, int(rng.integers(SEED_BASE, 2 * SEED_BASE)),
                      args.bit_every)
-                 for i, k in enumerate(k for k in kinds for _ in range(args.units_per_kind))]
-        print(f"{len(units)} units ({args.units_per_kind} per kind of {', '.join(kinds)}), "
+                 for i, k in enumerate([*(k for k in kinds for _ in range(args.units_per_kind)),
+                                        *[HEALTHY] * args.healthy_units])]
+        print(f"{len(units)} units ({args.units_per_kind} per kind of {', '.join(kinds)}, "
+              f"{args.healthy_units} that do not age), "
               f"BIT every {args.bit_every} flights: {sum(len(u.flights) for u in units)} "
               f"recordings; unit seeds " + ", ".join(f"{u.tail}={u.seed}" for u in units))
         config = out / "mapr.yaml"
@@ -304,19 +344,21 @@ def main() -> int:
             print(f"flown and replayed in {time.monotonic() - started:.0f} s; failed: {failed}")
         conn = sqlite3.connect(catalog)
         mode_scores, head_scores = [], []
-        for u in units:
+        for u in (u for u in units if u.kind != HEALTHY):
             mode_pts, head_pts = catalog_points(conn, u)
             mode_scores.append(score_points(u.tail, u.kind, u.path.eol_flight, mode_pts,
                                             LAMBDAS, ALPHA))
             head_scores.append(score_points(u.tail, u.kind, u.path.eol_flight, head_pts,
                                             LAMBDAS, ALPHA))
         print_errors(conn, units, model, kinds)
+        print_healthy(conn, units)
         conn.close()
         print_table("from the catalog: the TRUE kind's mode (health.modes[kind])", mode_scores,
                     kinds)
         print_table("from the catalog: the headline (leading mode's RUL)", head_scores, kinds)
         if not args.no_memory:
-            in_memory(args.dictionary, units, args.bit_every, kinds)
+            in_memory(args.dictionary, [u for u in units if u.kind != HEALTHY],
+                      args.bit_every, kinds)
     print(f"\ntotal runtime {time.monotonic() - started:.0f} s, load average "
           f"{os.getloadavg()[0]:.2f}")
     return 0
