@@ -6,16 +6,18 @@ rest of the decode; assembling each line from per-value strings costs as much ag
 table of rows is written into one byte buffer by a compiled kernel (:mod:`drivers.jit`),
 each row a line, from a pool of fixed texts (keys, labels, flag lists) and numbers.
 
-*Numbers.* ``repr`` gives the shortest decimal that reads back as the same float, positional
-for magnitudes in [1e-4, 1e16). For such a value, the shortest one is found by trying 0, 1,
-2... digits after the point: with ``m = rint(|x| * 10**d)``, the text of ``m / 10**d`` reads
-back as ``x`` exactly when the (correctly rounded) division ``m / 10**d`` equals ``x``, which
-is how reading the text rounds. The first ``d`` that reads back is ``repr``'s text: while
-``|x| * 10**d < 2**48`` two decimals ``10**-d`` apart cannot both round to ``x`` (its spacing
-is 16 times finer), so the shortest is unique, and the product is close enough to ``m`` for
-``rint`` to find it. Values outside that range (NaN, infinities, -0.0, tiny or huge
-magnitudes, float32 values needing 17 digits) are left to the caller (``repr``), as pool
-texts. :func:`shortest_decimals` does the search; :func:`write_rows` the writing.
+*Numbers.* ``repr`` gives the shortest decimal that reads back as the same float (the
+closest such if several), positional for magnitudes in [1e-4, 1e16). For such a value, the
+shortest one is found by trying 0, 1, 2... digits after the point: with
+``m = rint(|x| * 10**d)``, the text of ``m / 10**d`` reads back as ``x`` exactly when the
+(correctly rounded) division ``m / 10**d`` equals ``x``, which is how reading the text
+rounds. The first ``d`` that reads back is ``repr``'s text: while ``|x| * 10**d < 2**48``
+two decimals ``10**-d`` apart cannot both round to ``x`` (its spacing is 16 times finer), so
+the shortest is unique, and the product is close enough to ``m`` for ``rint`` to find it.
+From there (15 significant digits and more: ``0.1 * 3``, most scaled values of an ICD) the
+product is taken exactly (:func:`_long_decimal`). Values outside all this (NaN,
+infinities, -0.0, tiny or huge magnitudes, exact ties) are left to the caller (``repr``),
+as pool texts. :func:`shortest_decimals` does the search; :func:`write_rows` the writing.
 """
 
 from __future__ import annotations
@@ -28,10 +30,13 @@ from drivers.jit import kernel
 IntArray = npt.NDArray[np.int64]
 FloatArray = npt.NDArray[np.float64]
 
-_POWERS = np.array([10.0 ** d for d in range(18)])
+_POWERS = np.array([10.0 ** d for d in range(21)])
 """Exact powers of ten (all below 2**53)."""
 _LIMIT = 2.0 ** 48
 _SMALLEST = 1e-4
+_EXACT_INT = 2 ** 53
+"""Integers up to this are exact as floats."""
+_SEVENTEEN_DIGITS = 10 ** 16
 """``repr`` turns to an exponent below this magnitude."""
 
 
@@ -53,7 +58,11 @@ def shortest_decimals(values: FloatArray) -> tuple[IntArray, IntArray]:
             continue
         for d in range(_POWERS.size):
             scaled = size * _POWERS[d]
-            if scaled >= _LIMIT:
+            if scaled >= _LIMIT:   # 15 digits or more: exact products from here
+                places, exact = _long_decimal(size, d)
+                if places >= 0:
+                    digits[i] = places
+                    mantissa[i] = exact if x > 0 else -exact
                 break
             m = np.rint(scaled)
             if m / _POWERS[d] == size:
@@ -61,6 +70,56 @@ def shortest_decimals(values: FloatArray) -> tuple[IntArray, IntArray]:
                 mantissa[i] = np.int64(m) if x > 0 else -np.int64(m)
                 break
     return digits, mantissa
+@kernel
+def _long_decimal(size: float, first: int) -> tuple[int, int]:
+    """The shortest decimal of ``size`` with ``first`` or more digits after the point
+    (where ``size * 10**first >= 2**48``): digits after the point and the decimal's integer,
+    or (-1, -1) where only ``repr`` can tell (an exact tie, 16 digits above 2**53).
+
+    ``size * 10**d`` is taken exactly, as the sum of two floats (Dekker's product), and
+    rounded to the nearest integer ``n``. Up to 2**53, ``n`` is exact as a float and reads
+    back as ``size`` exactly when ``n / 10**d == size``, as in :func:`shortest_decimals`.
+    Past it, ``n`` has 17 significant digits: a double always reads back from its nearest
+    17-digit decimal, which is then ``repr``'s (the closest of the shortest).
+    """
+    for d in range(first, _POWERS.size):
+        hi, lo = _product(size, _POWERS[d])
+        whole = np.floor(hi)
+        frac = hi - whole          # exact; a multiple of hi's spacing (>= 1/16 here)
+        n = int(whole)
+        if frac == 0.0:            # lo may be more than a half (hi >= 2**52)
+            step = np.rint(lo)
+            if abs(lo - step) == 0.5:
+                return -1, -1
+            n += int(step)
+        elif frac == 0.5:          # lo (at most half of hi's spacing) decides
+            if lo == 0.0:
+                return -1, -1
+            n += int(lo > 0.0)
+        else:                      # at least one spacing from a half: lo cannot tip it
+            n += int(frac > 0.5)
+        if n > _EXACT_INT:
+            if n >= _SEVENTEEN_DIGITS:
+                return d, n
+            return -1, -1
+        if float(n) / _POWERS[d] == size:
+            return d, n
+    return -1, -1
+
+
+@kernel
+def _product(a: float, b: float) -> tuple[float, float]:
+    """``a * b`` exactly, as ``hi + lo`` (Dekker: each factor split into two halves of 26
+    bits, whose products are exact)."""
+    hi = a * b
+    big = 134217729.0 * a   # 2**27 + 1
+    a_hi = big - (big - a)
+    a_lo = a - a_hi
+    big = 134217729.0 * b
+    b_hi = big - (big - b)
+    b_lo = b - b_hi
+    lo = ((a_hi * b_hi - hi) + a_hi * b_lo + a_lo * b_hi) + a_lo * b_lo
+    return hi, lo
 
 
 @kernel

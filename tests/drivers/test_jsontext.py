@@ -35,14 +35,15 @@ def test_numbers_are_written_as_json_dumps_writes_them() -> None:
     scaled = [rng.integers(-(1 << 31), 1 << 31, 20_000) * lsb
               for lsb in (1.0, 0.1, 0.01, 0.001, 0.0001, 0.00025, 2.0 ** -9, 2.0 ** -17, 1e-7)]
     bits = rng.integers(0, 1 << 63, 20_000, dtype=np.int64).view(np.float64)
-    special = np.array([0.0, -0.0, 0.1 * 3, 1e-4, np.nextafter(1e-4, 0), 9.9999e-5, 1e15,
-                        2.0 ** 48, np.nextafter(2.0 ** 48, 0), 1e16, 123456789012.345,
+    special = np.array([0.0, -0.0, 0.1 * 3, 1932 * 0.1, 2.0 ** -17 * 3, 1e-4,
+                        np.nextafter(1e-4, 0), 9.9999e-5, 1e15, 2.0 ** 48,
+                        np.nextafter(2.0 ** 48, 0), 1e16, 123456789012.345,
                         0.5, -2.5, 1e-3, 7.0, np.nan, np.inf, -np.inf])
     values = np.concatenate([*scaled, bits, rng.normal(0, 1e3, 20_000), special])
     written = numbers_as_written(values)
     fast = [(text, value) for text, value in zip(written, values.tolist(), strict=True)
             if text is not None]
-    assert len(fast) > 0.5 * values.size   # the scaled integers take the fast path
+    assert len(fast) > 0.6 * values.size   # all but the random bit patterns
     assert [text for text, _ in fast] == [json.dumps(value) for _, value in fast]
     left = {repr(v) for t, v in zip(written, values.tolist(), strict=True) if t is None}
     assert {"-0.0", "nan", "inf", "-inf", "1e+16", "9.9999e-05"} <= left
