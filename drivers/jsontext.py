@@ -231,6 +231,10 @@ class TextPool:
             self._texts.append(text)
         return entry
 
+    def add_all(self, texts: list[str]) -> IntArray:
+        """The entry numbers of ``texts`` (each added if new)."""
+        return np.array([self.add(text) for text in texts], dtype=np.int64)
+
     def extend(self, texts: list[str]) -> IntArray:
         """Add ``texts`` as new entries, without looking for equal ones (many texts once
         each: numbers); their entry numbers."""

@@ -76,35 +76,30 @@ def _message_json(icd: Icd, message: Message, batch: Ms1553Batch,
     group = {c.name for c in message.group.channels} if message.group else set()
     count = members.size
     pool = TextPool()
-    prefix: list[int] = []
-    suffix: list[int] = []
+    before: list[str] = []   # the fixed text before each cell (after the one before it)
+    after = head
     values: list[npt.NDArray[np.float64]] = []
     labels: list[npt.NDArray[np.int64]] = []
-    marks: list[npt.NDArray[np.int64]] = []
-    mark_key: list[int] = []
+    unions: list[npt.NDArray[np.uint8]] = []   # per parameter, each message's flags
+    keys: list[str] = []
     for name, s in series.items():
         key = json.dumps(name)
         width = len(s) // count
         if name in group:   # an array, of one cell of no text when empty
-            cells = max(width, 1)
-            prefix += [pool.add(f", {key}: [")] + [pool.add(", ")] * (cells - 1)
-            suffix += [-1] * (cells - 1) + [pool.add("]")]
+            before += [f"{after}, {key}: ["] + [", "] * (max(width, 1) - 1)
+            after = "]"
         else:   # a scalar
-            prefix.append(pool.add(f", {key}: "))
-            suffix.append(-1)
+            before.append(f"{after}, {key}: ")
+            after = ""
         if width:
             values.append(s.value.reshape(count, width))
             labels.append(_label_cells(pool, s.parameter, s.raw.reshape(count, width)))
         else:
             values.append(np.zeros((count, 1)))
             labels.append(np.full((count, 1), pool.add(""), np.int64))
-        union = np.bitwise_or.reduce(s.flags.reshape(count, width), axis=1)
-        if union.any():
-            codes, inverse = np.unique(union, return_inverse=True)
-            entries = np.array([pool.add(_flag_list(int(c))) if c else -1
-                                for c in codes.tolist()], np.int64)
-            marks.append(entries[inverse])
-            mark_key.append(pool.add(f"{key}: "))
+        unions.append(s.flags if width == 1 else
+                      np.bitwise_or.reduce(s.flags.reshape(count, width), axis=1))
+        keys.append(f"{key}: ")
     if not values:
         return [head + "}"] * count
     value = np.concatenate(values, axis=1) if len(values) > 1 else values[0]
@@ -120,36 +115,43 @@ def _message_json(icd: Icd, message: Message, batch: Ms1553Batch,
                                        np.where(rest[~finite] > 0, pool.add("Infinity"),
                                                 pool.add("-Infinity")))
         text = flat.reshape(text.shape)
-    mark_table = np.stack(marks, axis=1) if marks else np.full((count, 0), -1, np.int64)
-    head_entry, tail = pool.add(head), pool.add("}")
-    marks_open, marks_close = pool.add(', "flags": {'), pool.add("}")
-    prefix_a, suffix_a = np.array(prefix, np.int64), np.array(suffix, np.int64)
-    fixed = pool.length(head_entry) + pool.length(tail) + 1 + \
-        sum(map(pool.length, prefix)) + sum(map(pool.length, suffix)) + \
-        pool.length(marks_open) + pool.length(marks_close) + \
-        sum(pool.length(k) + 2 for k in mark_key)
+    flags = np.stack(unions, axis=1)
+    entries = np.full(256, -1, np.int64)   # per flag byte seen, its list's pool entry
+    for code in np.flatnonzero(np.bincount(flags.ravel(), minlength=256)[1:]).tolist():
+        entries[code + 1] = pool.add(_flag_list(code + 1))
+    mark_table = entries[flags]
+    mark_key = pool.add_all(keys)
+    prefix = pool.add_all(before)
+    suffix = np.full(prefix.size, -1, np.int64)
+    suffix[-1] = pool.add(after)
+    tail, marks_open, marks_close = pool.add("}"), pool.add(', "flags": {'), pool.add("}")
+    fixed = sum(map(len, before)) + len(after) + 1 + 1 + len(', "flags": {') + 1 + \
+        sum(map(len, keys)) + 2 * len(keys)
     per_cell = max(NUMBER_BYTES, pool.longest())
-    size = count * (fixed + per_cell * (value.shape[1] + len(mark_key)))
+    size = count * (fixed + per_cell * (value.shape[1] + len(keys)))
     buffer = np.empty(size, np.uint8)
     data_bytes, starts = pool.arrays()
-    written = write_rows(data_bytes, starts, head_entry, prefix_a, suffix_a,
+    written = write_rows(data_bytes, starts, -1, prefix, suffix,
                          digits.reshape(value.shape), mantissa.reshape(value.shape),
                          np.ascontiguousarray(text), np.ascontiguousarray(mark_table),
-                         np.array(mark_key, np.int64), marks_open, marks_close, tail, buffer)
-    return buffer[:written].tobytes().decode("ascii").split("\n")[:-1]
+                         mark_key, marks_open, marks_close, tail, buffer)
+    return str(memoryview(buffer[:written]), "ascii").split("\n")[:-1]
 
 
 def _label_cells(pool: TextPool, parameter: Parameter,
                  raw: npt.NDArray[np.int64]) -> npt.NDArray[np.int64]:
     """Per cell, the pool entry of its code's label (as JSON), or -1 where it has none."""
-    if not parameter.labels:
-        return np.full(raw.shape, -1, np.int64)
-    codes, inverse = np.unique(raw, return_inverse=True)
-    entries = []
-    for code in codes.tolist():
-        label = parameter.label(code)
-        entries.append(pool.add(json.dumps(label)) if label else -1)
-    return np.array(entries, np.int64)[inverse].reshape(raw.shape)
+    cells = np.full(raw.shape, -1, np.int64)
+    named = {code: label for code, label in parameter.labels.items() if label}
+    if not named:
+        return cells
+    low, high = min(named), max(named)
+    table = np.full(high - low + 1, -1, np.int64)   # code - low -> the label's entry
+    for code, label in named.items():
+        table[code - low] = pool.add(json.dumps(label))
+    inside = (raw >= low) & (raw <= high)
+    cells[inside] = table[raw[inside] - low]
+    return cells
 
 
 @lru_cache(maxsize=256)
