@@ -135,7 +135,7 @@ def _message_json(icd: Icd, message: Message, batch: Ms1553Batch,
                          digits.reshape(value.shape), mantissa.reshape(value.shape),
                          np.ascontiguousarray(text), np.ascontiguousarray(mark_table),
                          mark_key, marks_open, marks_close, tail, buffer)
-    return str(memoryview(buffer[:written]), "ascii").split("\n")[:-1]
+    return str(buffer[:written].data, "ascii").split("\n")[:-1]
 
 
 def _label_cells(pool: TextPool, parameter: Parameter,
