@@ -30,6 +30,7 @@ if TYPE_CHECKING:
     from drivers.chapter10.reader import Chapter10Reader
     from mapr_daemon.cli.decode_filter import DecodeFilter
     from mapr_daemon.cli.icdview import IcdView
+    from mapr_daemon.cli.icdview_batch import BatchValues
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -64,6 +65,7 @@ def decode_chapter10(args: argparse.Namespace, view: IcdView,
     reader = Chapter10Reader(args.capture, channels=args.c10_channels, year=args.year,
                              arinc429=not only_1553)
     reported = 0
+    batch_values: BatchValues | None = None
     if text:
         out.write(HEADER)
     try:
@@ -77,9 +79,11 @@ def decode_chapter10(args: argparse.Namespace, view: IcdView,
             elif messages is not None:
                 values = None
                 if view.icd is not None:   # the table code only when there is a table
-                    from mapr_daemon.cli.icdview_batch import batch_values_json
+                    if batch_values is None:
+                        from mapr_daemon.cli.icdview_batch import BatchValues
 
-                    values = batch_values_json(view.icd, messages)
+                        batch_values = BatchValues(view.icd)
+                    values = batch_values(messages)
                 lines = json_lines(messages, values)
             done = 0
             for place, words in batch.arinc429_at:   # in file order among the messages
