@@ -22,8 +22,10 @@ each rate is the best of three runs, measured side by side in one run:
   ``mapr decode`` needs); MAPR records: each message made a MonitorRecord;
   per-message: ``batched=False`` (pychapter10's parse, one record at a time: the old path);
 * JSON writer: :func:`json_lines` per batch against ``json.dumps`` per record;
-* ``mapr decode`` and ``mapr decode --icd`` on the icd file (in process, to /dev/null),
-  and the per-record ICD path ``decode --icd`` used before (one run).
+* ``mapr decode`` and ``mapr decode --icd`` on the icd file (in process, to /dev/null), the
+  values written by each writer (``repr``, and the compiled one a long decode turns to);
+  the same two commands in fresh interpreters, start-up included (CPU of the child); and
+  the per-record ICD path ``decode --icd`` used before (one run).
 """
 
 from __future__ import annotations
@@ -33,10 +35,11 @@ import contextlib
 import io
 import json
 import os
+import subprocess
 import sys
 import tempfile
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from datetime import datetime
 from pathlib import Path
 
@@ -136,6 +139,32 @@ def decode(*argv: str) -> int:
     return 1
 
 
+@contextlib.contextmanager
+def values_writer(after: int) -> Iterator[None]:
+    """``decode --icd`` in this process with the compiled values writer from ``after``
+    messages with values on (0: always; huge: never), whether numba is loaded or not."""
+    import mapr_daemon.cli.icdview_batch as batch_module
+
+    saved = batch_module.COMPILED_AFTER, batch_module._numba_loaded
+    batch_module.COMPILED_AFTER, batch_module._numba_loaded = after, lambda: False
+    try:
+        yield
+    finally:
+        batch_module.COMPILED_AFTER, batch_module._numba_loaded = saved
+
+
+def fresh_decode(*argv: str) -> float:
+    """CPU s (user + system) of ``mapr decode ARGV`` in a fresh interpreter, start-up
+    included, output discarded."""
+    before = os.times()
+    subprocess.run([sys.executable, "-m", "mapr_daemon.cli.main", "decode", *argv],
+                   stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, check=True, cwd=ROOT,
+                   env={**os.environ, "PYTHONPATH": str(ROOT)})
+    after = os.times()
+    return (after.children_user - before.children_user +
+            after.children_system - before.children_system)
+
+
 def sample_repeated(target: Path, times: int) -> bool:
     if not SAMPLE.is_file():
         return False
@@ -211,13 +240,21 @@ def main() -> None:
         print(f"\nicd: {icd_file.stat().st_size / 2**20:.1f} MiB, "
               f"{int(args.seconds * 1000):,} messages")
         plain, plain_wall, _ = best(lambda: decode(str(icd_file)))
-        with_icd, icd_wall, _ = best(lambda: decode("--icd", str(ICD), str(icd_file)))
         print(f"  mapr decode        {plain:.2f} s CPU ({plain_wall:.2f} s wall)")
-        print(f"  mapr decode --icd  {with_icd:.2f} s CPU ({icd_wall:.2f} s wall): "
-              f"{with_icd / plain:.2f}x decode")
+        for label, after in (("repr writer", 10**12), ("compiled writer", 0)):
+            with values_writer(after):
+                with_icd, icd_wall, _ = best(lambda: decode("--icd", str(ICD), str(icd_file)))
+            print(f"  mapr decode --icd, {label:<15} {with_icd:.2f} s CPU ({icd_wall:.2f} s "
+                  f"wall): {with_icd / plain:.2f}x decode")
+        cold = {label: min(fresh_decode(*argv, str(icd_file)) for _ in range(3))
+                for label, argv in (("decode", ()), ("decode --icd", ("--icd", str(ICD))))}
+        print(f"  fresh interpreters (start-up included; {int(args.seconds * 500):,} messages "
+              f"with values: the repr writer): decode {cold['decode']:.2f} s CPU, "
+              f"decode --icd {cold['decode --icd']:.2f} s CPU "
+              f"({cold['decode --icd'] / cold['decode']:.2f}x)")
         old, old_wall, _ = best(lambda: decode_icd_per_record(icd_file), times=1)
-        print(f"  the per-record --icd path it replaces: {old:.2f} s CPU ({old_wall:.2f} s "
-              f"wall, one run): {old / with_icd:.1f}x slower than decode --icd now")
+        print(f"  the per-record --icd path: {old:.2f} s CPU ({old_wall:.2f} s wall, one "
+              f"run)")
     print(f"\nload average at end: {os.getloadavg()[0]:.2f}")
 
 

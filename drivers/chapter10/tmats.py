@@ -42,6 +42,13 @@ class RecordingSetup:
     """Recorder model/version (``R-1\\RI2``), when known."""
     bus_name: str = "BUS1553-A/B"
     """The bus's name (``B-1\\BNA-1``): one dual-redundant bus, A and B in the block status."""
+    tail: str = ""
+    """The aircraft's tail number, as the test article (``G\\TA``; not written when empty):
+    where ``mapr fleet --tail-tmats 'G\\TA'`` reads it."""
+
+
+TAIL_ATTRIBUTE = "G\\TA"
+"""The TMATS code the tail number is written under (the test article)."""
 
 
 def tmats_attributes(setup: RecordingSetup) -> list[tuple[str, str]]:
@@ -51,6 +58,7 @@ def tmats_attributes(setup: RecordingSetup) -> list[tuple[str, str]]:
         ("G\\PN", rec),
         ("G\\106", IRIG106_RELEASE),
         ("G\\OD", setup.created.strftime("%m-%d-%Y")),
+        *([(TAIL_ATTRIBUTE, setup.tail)] if setup.tail else []),
         ("G\\DSI\\N", "1"),
         ("G\\DSI-1", rec),
         ("G\\DST-1", "STO"),

@@ -83,13 +83,17 @@ class Chapter10Writer:
     """
 
     def __init__(self, path: str | os.PathLike[str], *, channel_id: int = 1,
-                 start_time: datetime | None = None) -> None:
+                 start_time: datetime | None = None, tail: str = "") -> None:
         if not 1 <= channel_id <= 0xFFFE:
             raise ValueError(f"channel_id must be 1-65534, not {channel_id}")
+        start = _time_packet_instant(start_time or datetime.now(UTC))
+        setup = RecordingSetup(bus_channel_id=channel_id, time_channel_id=channel_id + 1,
+                               created=start, recorder_version=_recorder_version(), tail=tail)
+        tmats = tmats_text(setup)   # a tail holding a TMATS separator fails before the file
         self.path = os.fspath(path)
         self.channel_id = channel_id
         self.time_channel_id = channel_id + 1
-        self.start_time = _time_packet_instant(start_time or datetime.now(UTC))
+        self.start_time = start
         # created FILE_MODE whatever the umask (it can only make the file stricter)
         fd = os.open(self.path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, FILE_MODE)
         self._file = os.fdopen(fd, "wb")
@@ -105,10 +109,7 @@ class Chapter10Writer:
         self._closed = False
         self._skipped = 0
         self._last_second = (LAST_TIME - self.start_time) // timedelta(seconds=1)
-        setup = RecordingSetup(bus_channel_id=channel_id, time_channel_id=self.time_channel_id,
-                               created=self.start_time, recorder_version=_recorder_version())
-        self._put(tmats_packet(self._next_sequence(TMATS_CHANNEL), tmats_text(setup),
-                               TMATS_VERSION))
+        self._put(tmats_packet(self._next_sequence(TMATS_CHANNEL), tmats, TMATS_VERSION))
         self._time_packets_through(0)
         self._file.flush()
 

@@ -59,7 +59,8 @@ def add_subparser(subparsers: Any) -> None:
                                                       "with groups (?P<tail>) and (?P<flight>)")
     p.add_argument("--tail-tmats", metavar="CODE",
                    help="take the tail from this TMATS attribute when the file has it "
-                        "(e.g. 'G\\TA'); the path otherwise")
+                        "(e.g. 'G\\TA', where 'mapr record --tail' writes it); the path "
+                        "otherwise")
     where = p.add_mutually_exclusive_group()
     where.add_argument("--workers", type=int, metavar="N",
                        help="local cluster workers (default: one per core)")

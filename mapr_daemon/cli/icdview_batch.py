@@ -5,11 +5,16 @@ time (one numpy pass per message: fine for a live monitor, 7x the cost of readin
 recording). Here the messages of a batch are grouped by ICD message, their data words
 stacked straight from the batch's word array, and each group decoded in one call; the result
 per message is the same dict, key for key.
+
+The text is written with one ``repr`` per number here, or by a compiled writer
+(:mod:`mapr_daemon.cli.icdview_rows`, 2-3x faster on the values) once a decode has written
+enough values for loading it to pay (:class:`BatchValues`); both write the same bytes.
 """
 
 from __future__ import annotations
 
 import json
+import sys
 from functools import lru_cache
 
 import numpy as np
@@ -20,6 +25,7 @@ from drivers.mil1553.record import TransferFormat
 from mapr_daemon.icd import Icd
 from mapr_daemon.icd.flags import flag_names
 from mapr_daemon.icd.model import Message
+from mapr_daemon.icd.values import Series
 
 _DECODABLE = np.zeros(len(FORMATS), np.bool_)
 for _code, _fmt in enumerate(FORMATS):
@@ -28,9 +34,43 @@ for _code, _fmt in enumerate(FORMATS):
                                  TransferFormat.BCAST_RT_RT)
 
 
-def batch_values_json(icd: Icd, batch: Ms1553Batch) -> list[str | None]:
+COMPILED_AFTER = 150_000
+"""Messages with values a decode writes with ``repr`` before it turns to the compiled
+writer, unless numba is already loaded: loading it costs about 0.6 s of CPU once, and the
+compiled writer saves about 4 µs per such message (bench/chapter10_speed.py's ICD traffic),
+so it pays from about this many on (minutes of a busy bus)."""
+
+
+class BatchValues:
+    """:func:`batch_values_json` for the batches of one decode, in order, each written the
+    cheaper way given what the decode has written so far (see :data:`COMPILED_AFTER`)."""
+
+    def __init__(self, icd: Icd) -> None:
+        self.icd = icd
+        self.described = 0
+        """Messages given values so far."""
+
+    def __call__(self, batch: Ms1553Batch) -> list[str | None]:
+        compiled = self.described >= COMPILED_AFTER or _numba_loaded()
+        out = batch_values_json(self.icd, batch, compiled=compiled)
+        self.described += len(out) - out.count(None)
+        return out
+
+
+def _numba_loaded() -> bool:
+    """Whether this process has loaded numba already (the compiled writer is then cheap)."""
+    return "numba" in sys.modules
+
+
+def batch_values_json(icd: Icd, batch: Ms1553Batch, compiled: bool = False
+                      ) -> list[str | None]:
     """Per message: the JSON text of ``{"message": name, parameter: value..., "flags":
-    {...}}`` (what ``json.dumps`` of :meth:`IcdView.values` gives), or None."""
+    {...}}`` (what ``json.dumps`` of :meth:`IcdView.values` gives), or None; written by
+    the compiled writer (:mod:`mapr_daemon.cli.icdview_rows`) if ``compiled``."""
+    rows = _python_rows
+    if compiled:
+        from mapr_daemon.cli.icdview_rows import compiled_rows
+        rows = compiled_rows
     n = len(batch)
     out: list[str | None] = [None] * n
     decodable = _DECODABLE[batch.format]
@@ -54,25 +94,18 @@ def batch_values_json(icd: Icd, batch: Ms1553Batch) -> list[str | None]:
             out[i] = head + "}"
         members = members[batch.data_count[members] > 0]
         if members.size:
-            for i, text in zip(members.tolist(), _message_json(icd, message, batch, members),
-                               strict=True):
-                out[i] = head + text
+            series = _series(icd, message, batch, members)
+            texts = rows(message, series, members.size, head)
+            for i, text in zip(members.tolist(), texts, strict=True):
+                out[i] = text
     return out
 
 
-def _message_json(icd: Icd, message: Message, batch: Ms1553Batch,
-                  members: npt.NDArray[np.intp]) -> list[str]:
-    """The text after ``"message": name`` for each of ``members`` (all of ``message``)."""
-    wc = message.word_count
-    length = np.minimum(batch.data_count[members], wc)
-    columns = np.arange(wc)
-    present = columns[None, :] < length[:, None]
-    at = np.where(present, batch.data_start[members, None] + columns[None, :], 0)
-    data = np.where(present, batch.words[at], 0).astype(np.uint16)
-    series = icd.decode_block(message.name, data, length.astype(np.intp),
-                              batch.t_ns[members], batch.errors[members] != 0)
+def _python_rows(message: Message, series: dict[str, Series], count: int,
+                 head: str) -> list[str]:
+    """The whole text of each of ``count`` messages of ``message`` from ``head`` on, given
+    their decoded ``series`` (record-major), with one ``repr`` per number."""
     group = {c.name for c in message.group.channels} if message.group else set()
-    count = members.size
     cells: list[list[str]] = []
     marks: list[list[str]] = [[] for _ in range(count)]
     for name, s in series.items():
@@ -91,9 +124,11 @@ def _message_json(icd: Icd, message: Message, batch: Ms1553Batch,
             cells.append([f"{key}: {t}" for t in text[::width]])
         union = np.bitwise_or.reduce(s.flags.reshape(count, width), axis=1)
         for j in np.flatnonzero(union).tolist():
-            marks[j].append(f"{key}: {_flag_list(int(union[j]))}")
-    return [", " + ", ".join(row) + (", \"flags\": {" + ", ".join(m) + "}" if m else "") + "}"
-            for row, m in zip(zip(*cells, strict=True), marks, strict=True)]
+            marks[j].append(f"{key}: {flag_list(int(union[j]))}")
+    if not cells:
+        return [head + "}"] * count
+    return [head + ", " + ", ".join(row) + (", \"flags\": {" + ", ".join(m) + "}" if m else "")
+            + "}" for row, m in zip(zip(*cells, strict=True), marks, strict=True)]
 
 
 def _numbers(values: npt.NDArray[np.float64]) -> list[str]:
@@ -105,6 +140,20 @@ def _numbers(values: npt.NDArray[np.float64]) -> list[str]:
     return text
 
 
+def _series(icd: Icd, message: Message, batch: Ms1553Batch,
+            members: npt.NDArray[np.intp]) -> dict[str, Series]:
+    """The decoded parameters of ``members`` (all of ``message``), their words stacked
+    straight from the batch's word array."""
+    wc = message.word_count
+    length = np.minimum(batch.data_count[members], wc)
+    columns = np.arange(wc)
+    present = columns[None, :] < length[:, None]
+    at = np.where(present, batch.data_start[members, None] + columns[None, :], 0)
+    data = np.where(present, batch.words[at], 0).astype(np.uint16)
+    return icd.decode_block(message.name, data, length.astype(np.intp),
+                            batch.t_ns[members], batch.errors[members] != 0)
+
+
 @lru_cache(maxsize=256)
-def _flag_list(bits: int) -> str:
+def flag_list(bits: int) -> str:
     return json.dumps(sorted(flag_names(bits)))

@@ -50,6 +50,9 @@ def add_subparser(subparsers: Any) -> None:
     parser.add_argument("--channel", type=_channel_id, default=1, metavar="ID",
                         help="Chapter 10 channel id of the 1553 bus, 1-65534 (default 1; "
                              "time packets use ID+1)")
+    parser.add_argument("--tail", default="", metavar="TAIL",
+                        help="the aircraft's tail number, written into the TMATS record "
+                             "(G\\TA: read by 'mapr fleet --tail-tmats G\\TA')")
     parser.set_defaults(func=run)
 
 
@@ -60,10 +63,13 @@ def run(args: argparse.Namespace) -> int:
     monitor = open_monitor(args.backend, **dict(args.option))
     with monitor:
         try:
-            writer = Chapter10Writer(args.output, channel_id=args.channel)
+            writer = Chapter10Writer(args.output, channel_id=args.channel, tail=args.tail)
         except OSError as error:
             print(f"mapr record: cannot write {args.output}: {error.strerror or error}",
                   file=sys.stderr)
+            return exitcodes.USAGE
+        except ValueError as error:   # a tail TMATS cannot hold
+            print(f"mapr record: --tail: {error}", file=sys.stderr)
             return exitcodes.USAGE
         stop = _StopSignals()
         try:

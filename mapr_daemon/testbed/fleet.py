@@ -17,8 +17,8 @@ Layout::
     ARCHIVE/fleet.json                 the manifest: tails, flights, truth
     ARCHIVE/TAIL/flight-NNNN.ch10      one recording per flight (NNNN from 0001)
 
-The writer's TMATS record carries no tail number, so tail and flight are in the path and the
-manifest. The manifest is JSON::
+Tail and flight are in the path and the manifest; the tail is also in each file's TMATS
+record (``G\\TA``, what ``mapr fleet --tail-tmats 'G\\TA'`` reads). The manifest is JSON::
 
     {"seed": 7, "flight_hours": 1.5, "flight_s": 2.0, "bit_every": 1,
      "recordings": [{"path": "N101/flight-0001.ch10", "tail": "N101", "flight": 1,
@@ -144,7 +144,7 @@ def generate_tail(root: str, spec: FleetSpec, index: int, kind: str | None) -> T
         aircraft = Aircraft(icd, profile, params, faults,
                             seed=spec.seed * 100_000 + index * 1000 + flight,
                             bit_requests_s=(0.0,) if bit else ())
-        _fly(aircraft, out / name, spec.flight_s, start, seed=flight)
+        _fly(aircraft, out / name, spec.flight_s, start, seed=flight, tail=tail)
         recordings.append({"path": name, "tail": tail, "flight": flight,
                            "flight_hours": spec.flight_hours, "bit": bit,
                            "start": start.isoformat()})
@@ -174,13 +174,15 @@ def _truth(path: Trajectory, flights: int) -> dict[str, Any]:
             "eol_flight": None if math.isinf(path.eol_flight) else path.eol_flight}
 
 
-def _fly(aircraft: Aircraft, path: Path, seconds: float, start: datetime, seed: int) -> None:
-    """One flight's traffic, word level and unpaced, into a Chapter 10 file."""
+def _fly(aircraft: Aircraft, path: Path, seconds: float, start: datetime, seed: int,
+         tail: str = "") -> None:
+    """One flight's traffic, word level and unpaced, into a Chapter 10 file (the tail number
+    in its TMATS record when given)."""
     schedule = aircraft.schedule()
     frames = round(seconds * 1e9 / schedule.frame_ns)
     monitor = open_monitor("loopback", terminals=aircraft.terminals(), schedule=schedule,
                            frames=frames, realtime=False, bit_level=False, seed=seed)
-    with monitor, Chapter10Writer(path, start_time=start) as writer:
+    with monitor, Chapter10Writer(path, start_time=start, tail=tail) as writer:
         while True:
             record = monitor.recv(timeout=0.0)
             if record is not None:

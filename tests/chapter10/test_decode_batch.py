@@ -98,3 +98,49 @@ def test_the_sample_decodes_byte_identically() -> None:
         pytest.skip(f"the sample Chapter 10 recording is not at {SAMPLE}")
     assert decode(str(SAMPLE)) == reference_lines(SAMPLE)
     assert decode("--icd", str(ICD), str(SAMPLE)) == reference_lines(SAMPLE, str(ICD))
+
+
+@pytest.mark.parametrize("compiled", [False, True], ids=["repr", "compiled"])
+def test_both_values_writers_write_what_json_dumps_writes(traffic: Path, compiled: bool) -> None:
+    """The Python writer and the compiled one (used once a decode has written many values)
+    give each message the text of ``json.dumps`` of :meth:`IcdView.values`."""
+    from mapr_daemon.cli.icdview_batch import batch_values_json
+
+    view = IcdView(str(ICD))
+    assert view.icd is not None
+    written: list[str | None] = []
+    expected: list[str | None] = []
+    for batch in Chapter10Reader(traffic).batches():
+        if batch.ms1553 is None:
+            continue
+        written += batch_values_json(view.icd, batch.ms1553, compiled=compiled)
+        for record in batch.records:
+            values = view.values(record)
+            expected.append(None if values is None else json.dumps(values))
+    assert sum(text is not None for text in expected) > 1500
+    assert written == expected
+
+
+def test_a_long_decode_turns_to_the_compiled_writer(traffic: Path,
+                                                    monkeypatch: pytest.MonkeyPatch) -> None:
+    """A process without numba writes with ``repr`` until COMPILED_AFTER messages have
+    values, then with the compiled writer; the text is the same either way."""
+    import mapr_daemon.cli.icdview_batch as batch_module
+
+    calls: list[bool] = []
+    write = batch_module.batch_values_json
+
+    def spy(icd: Any, batch: Any, compiled: bool = False) -> list[str | None]:
+        calls.append(compiled)
+        return write(icd, batch, compiled=compiled)
+
+    monkeypatch.setattr(batch_module, "COMPILED_AFTER", 100)
+    monkeypatch.setattr(batch_module, "batch_values_json", spy)
+    monkeypatch.setattr(batch_module, "_numba_loaded", lambda: False)
+    view = IcdView(str(ICD))
+    assert view.icd is not None
+    values = batch_module.BatchValues(view.icd)
+    batch = next(b.ms1553 for b in Chapter10Reader(traffic).batches() if b.ms1553 is not None)
+    first, second = values(batch), values(batch)
+    assert calls == [False, True] and first == second
+    assert sum(text is not None for text in first) > 100

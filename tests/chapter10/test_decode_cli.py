@@ -83,7 +83,7 @@ DECODE_PROBE = """
 import contextlib, io, json, sys
 from mapr_daemon.cli.main import main
 with contextlib.redirect_stdout(io.StringIO()) as out:
-    code = main(["decode", {path!r}])
+    code = main(["decode", *{args!r}, {path!r}])
 loaded = sorted({{m.split(".")[0] for m in sys.modules}} & {{"numba", "llvmlite", "scipy", "yaml"}})
 print(json.dumps([code, out.getvalue().count(chr(10)), loaded]))
 """
@@ -93,6 +93,17 @@ def test_decoding_a_recording_loads_no_compiler_and_no_icd_code(sample_c10: Path
     """What makes ``mapr decode FILE.c10`` start slowly: numba (and the scipy its array
     functions pull in) or the ICD's YAML parser when no ``--icd`` is given. Checked in a
     fresh interpreter by what it imported, never by timing."""
-    done = subprocess.run([sys.executable, "-c", DECODE_PROBE.format(path=str(sample_c10))],
+    probe = DECODE_PROBE.format(args=[], path=str(sample_c10))
+    done = subprocess.run([sys.executable, "-c", probe],
                           capture_output=True, text=True, timeout=120, check=True)
     assert json.loads(done.stdout) == [exitcodes.OK, 475 + 4861, []]
+
+
+def test_a_short_decode_with_an_icd_loads_no_compiler(sample_c10: Path) -> None:
+    """``decode --icd`` of a short recording writes its values without numba (loading it
+    would cost more than it saves, see COMPILED_AFTER); checked by what a fresh interpreter
+    imported."""
+    done = subprocess.run([sys.executable, "-c", DECODE_PROBE.format(
+        args=["--icd", str(ICD)], path=str(sample_c10))],
+        capture_output=True, text=True, timeout=120, check=True)
+    assert json.loads(done.stdout) == [exitcodes.OK, 475 + 4861, ["yaml"]]

@@ -140,3 +140,30 @@ def test_a_signal_stops_recording_with_every_message_in_the_file(tmp_path: Path,
 
 def _has_1553(path: Path) -> bool:
     return any(isinstance(p, MS1553F1) for p in C10(str(path)))
+
+
+def test_a_recording_made_with_a_tail_is_read_back_with_that_tail(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """``mapr record --tail`` writes the tail number into TMATS, where ``mapr fleet
+    --tail-tmats 'G\\TA'`` finds each recording's tail (the file's folder says otherwise)."""
+    from drivers.chapter10.tmats import TAIL_ATTRIBUTE
+    from mapr_daemon.fleet.archive import discover
+
+    out = tmp_path / "box7" / "rec-0003.c10"
+    out.parent.mkdir()
+    assert main(["record", "--backend", "loopback", "-o", "bit_level=false", "--count", "25",
+                 "--tail", "N777AB", str(out)]) == exitcodes.OK
+    plain = tmp_path / "box7" / "rec-0004.c10"
+    assert main(["record", "--backend", "loopback", "-o", "bit_level=false", "--count", "25",
+                 str(plain)]) == exitcodes.OK
+    found, bad = discover([tmp_path], tail_tmats=TAIL_ATTRIBUTE)
+    assert [(r.tail, r.flight) for r in found] == [("N777AB", 3), ("box7", 4)] and not bad
+    assert [r.tail for r in discover([tmp_path])[0]] == ["box7", "box7"]
+
+
+def test_a_tail_tmats_cannot_hold_is_refused_before_the_file(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "bad.c10"
+    assert main(["record", "--backend", "loopback", "-o", "bit_level=false", "--count", "5",
+                 "--tail", "N1;G\\PN:X", str(out)]) == exitcodes.USAGE
+    assert "--tail" in capsys.readouterr().err and not out.exists()
