@@ -9,13 +9,13 @@ drawn fresh from the printed run seed, clear of the model's training (7,000,000 
 calibration (8,000,000 up) seeds; two sets: **envelope** (pressure up to the envelope's
 maximum with a fifth on the ground, ambient temperature and aircraft-bus voltage uniform over
 their ranges, as the model was built) and **nominal** (the five named flight conditions'
-pressures, nominal temperature and bus). Each BIT's estimate is calibrated by the model
-(``(estimate - offset) / gain``) and compared with the truth. Printed per kind and part of
-the envelope (bus below nominal - 2 V, the rest, nominal): the error's mean and sd, the sd the
-model states for those BITs — envelope-wide (``sd0 + sd1*h``, what the product used before)
-and at each BIT's condition (:meth:`~mapr_daemon.reasoner.estimate_noise.Noise.sd`) — and how
-often the true degradation lies inside the 90 % band each gives (90 % if calibrated). The
-worst part is printed beside the whole.
+pressures, nominal temperature and bus). Each BIT's estimate is read by the model two ways:
+envelope-wide (one line ``(estimate - offset) / gain``, sd ``sd0 + sd1*h``: what the product
+did before) and at the BIT's condition (:meth:`~mapr_daemon.reasoner.estimate_noise.Noise
+.calibrate` and ``h_sd``: what it does now). Printed per kind and part of the envelope (bus
+below nominal - 2 V, the rest, nominal), per reading: the error's mean and sd against the
+truth, the median stated sd and how often the truth lies inside the 90 % band (90 % if
+calibrated). The part furthest from 90 % is printed beside the range.
 """
 
 from __future__ import annotations
@@ -45,7 +45,7 @@ SEED_BASE = 2_000_000_000
 
 def fly(d: Dictionary, model: PrognosticModel, kinds: list[str], n: int, envelope: bool,
         rng: np.random.Generator) -> dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]:
-    """Per kind: (truth h, calibrated estimate, scaled condition rows) of ``n`` fresh BITs."""
+    """Per kind: (truth h, raw estimate, scaled condition rows) of ``n`` fresh BITs."""
     params = load_actuator(default_actuator_path())
     todo = [(k, float(h)) for k in kinds for h in rng.uniform(0.0, 1.2, n)]
     q, amb, bus = conditions(params, len(todo), rng, envelope)
@@ -58,23 +58,24 @@ def fly(d: Dictionary, model: PrognosticModel, kinds: list[str], n: int, envelop
     out = {}
     for k in kinds:
         rows = [i for i, (kk, _) in enumerate(todo) if kk == k]
-        noise = model.noise[k]
         est = np.array([model.estimators[k].estimate(y[i], c[i]) for i in rows])
-        out[k] = (np.array([todo[i][1] for i in rows]), (est - noise.offset) / noise.gain,
-                  c[rows])
+        out[k] = (np.array([todo[i][1] for i in rows]), est, c[rows])
     return out
 
 
-def line(label: str, h: np.ndarray, est: np.ndarray, flat: np.ndarray, cond: np.ndarray
-         ) -> str:
-    err = est - h
-    if err.size == 0:
+def line(label: str, h: np.ndarray, flat: tuple[np.ndarray, np.ndarray],
+         cond: tuple[np.ndarray, np.ndarray]) -> str:
+    """One part: per reading (envelope-wide line and sd; at the BIT's condition) the error's
+    mean and sd, the stated sd and the share of BITs inside the 90 % band."""
+    if h.size == 0:
         return f"    {label:<22} no BITs"
-    return (f"    {label:<22} {err.size:>4} BITs  error {err.mean():+.3f} sd {err.std():.3f}  |"
-            f" envelope-wide: stated {flat.mean():.3f}, in 90 % band "
-            f"{100 * np.mean(np.abs(err) <= Z90 * flat):>3.0f} %  |  at the BIT's condition: "
-            f"stated {cond.mean():.3f}, in 90 % band "
-            f"{100 * np.mean(np.abs(err) <= Z90 * cond):>3.0f} %")
+    parts = []
+    for name, (reading, sd) in (("envelope-wide", flat), ("at the BIT's condition", cond)):
+        err = reading - h
+        parts.append(f"{name}: error {err.mean():+.3f} sd {err.std():.3f}, stated "
+                     f"{np.median(sd):.3f}, in 90 % band "
+                     f"{100 * np.mean(np.abs(err) <= Z90 * sd):>3.0f} %")
+    return f"    {label:<22} {h.size:>4} BITs  " + "  |  ".join(parts)
 
 
 def main() -> int:
@@ -100,19 +101,20 @@ def main() -> int:
         for k in kinds:
             h, est, c = sets[k]
             noise = model.noise[k]
-            flat = noise.sd(np.clip(h, 0.0, None)) / noise.gain
-            cond = noise.sd(np.clip(h, 0.0, None), c) / noise.gain
+            truth = np.clip(h, 0.0, None)
+            flat = (noise.calibrate(est), noise.h_sd(truth))
+            cond = (noise.calibrate(est, c), noise.h_sd(truth, c))
             print(f"  {k}")
             parts = [("all", np.ones(h.size, dtype=bool))]
             if envelope:
                 parts += [("bus below nominal-2 V", c[:, 1] < -2.0),
                           ("bus within 2 V", c[:, 1] >= -2.0)]
             for label, sel in parts:
-                print(line(label, h[sel], est[sel], flat[sel], cond[sel]))
+                print(line(label, h[sel], (flat[0][sel], flat[1][sel]),
+                           (cond[0][sel], cond[1][sel])))
                 if sel.any():
-                    inside = 100 * float(np.mean(np.abs(est[sel] - h[sel]) <= Z90 * cond[sel]))
-                    key = f"{k}, {name}, {label}"
-                    worst[key] = inside
+                    worst[f"{k}, {name}, {label}"] = 100 * float(np.mean(
+                        np.abs(cond[0][sel] - h[sel]) <= Z90 * cond[1][sel]))
     far = max(worst.items(), key=lambda kv: abs(kv[1] - 90.0))
     print(f"\nat the BIT's condition, 90 % bands cover {min(worst.values()):.0f}-"
           f"{max(worst.values()):.0f} % over the {len(worst)} parts above; furthest from 90 %: "

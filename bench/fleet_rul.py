@@ -225,10 +225,10 @@ def estimate_errors(conn: sqlite3.Connection, u: Unit, model: PrognosticModel
         if b.flight is None or est is None:
             continue
         h = degradation(params, u.kind, float(u.path.values[b.flight - 1]))
-        err.append((est - noise.offset) / noise.gain - h)
-        cond = model.scaled(b.conditions)   # the noise at the BIT's stored flight condition
-        sd.append(float(noise.sd(np.array([max(h, 0.0)]),
-                                 None if cond is None else np.array([cond]))[0]) / noise.gain)
+        cond = model.scaled(b.conditions)   # read at the BIT's stored flight condition
+        rows = None if cond is None else np.array([cond])
+        err.append(float(noise.calibrate(np.array([est]), rows)[0]) - h)
+        sd.append(float(noise.h_sd(np.array([max(h, 0.0)]), rows)[0]))
     return np.array(err), np.array(sd)
 
 
@@ -318,8 +318,8 @@ def main() -> int:
             if n is not None:
                 nominal = model.scaled({"dynamic_pressure_pa": 1000.0, "ambient_c": 25.0,
                                         "supply_v": model.supply_nominal_v})
-                at_nominal = float(n.sd(np.array([1.0]), None if nominal is None else
-                                        np.array([nominal]))[0]) / n.gain
+                at_nominal = float(n.h_sd(np.array([1.0]), None if nominal is None else
+                                          np.array([nominal]))[0])
                 print(f"  {k:>20}: estimate = {n.offset:.3f} + {n.gain:.3f} h, noise sd "
                       f"{n.sd0:.3f} + {n.sd1:.3f} h over the envelope (sd at h = 1: "
                       f"{float(n.sd(np.array(1.0))) / n.gain:.3f} of the threshold; "

@@ -12,12 +12,22 @@ the one the BIT really has:
   nears drop-out). One envelope-wide figure overstates the noise of a BIT flown at nominal
   conditions two- to four-fold (which holds a real trend back from the evidence gate) and
   understates it at the edges (which makes the intervals there too narrow);
-* so the sd is a **log-linear function of the degradation and the condition**:
-  ``log sd = b . (1, h, v, v^2, t, t^2, q)`` with ``q, v, t`` the scaled dynamic pressure,
-  supply voltage above nominal and ambient temperature (:func:`log_sd_terms`), fitted to
-  ``log|e|`` on the calibration BITs (``E log|z| = -0.635`` for a normal ``z``) and rescaled so
-  the standardised residuals have unit variance. Where a BIT's condition is not known (a
-  catalog written before conditions were stored) the envelope-wide ``sd0 + sd1*h`` is used.
+* the scale error depends on the condition too: near the bus's low limit the estimates are
+  compressed (ESR reads ~0.3 + 0.5h there, ~h at nominal), so one envelope-wide line
+  ``offset + gain*h`` (ESR: 0.15 + 0.75h) biases every nominal BIT low (ESR: by -0.09 of
+  the threshold on the run-to-failure bench, with an error sd of 0.07) and the trend
+  places the crossing late;
+* so the calibration is **linear in the condition**: ``estimate = a . k(c) + (g . k(c)) h + e``
+  with ``k(c) = (1, v, v^2, t, t^2, q)`` — ``q, v, t`` the scaled dynamic pressure, supply
+  voltage above nominal and ambient temperature — least squares on the calibration BITs; a
+  BIT is read as ``h = (estimate - a . k(c)) / (g . k(c))``, the gain floored at
+  :data:`MIN_GAIN` (a condition where the estimate barely follows the degradation says
+  little, and its sd in units of the threshold says so);
+* and the sd is a **log-linear function of the degradation and the condition**:
+  ``log sd(e) = b . (1, h, v, v^2, t, t^2, q)`` (:func:`log_sd_terms`), fitted to ``log|e|``
+  (``E log|z| = -0.635`` for a normal ``z``) and rescaled so the standardised residuals have
+  unit variance. Where a BIT's condition is not known (a catalog written before conditions
+  were stored) the envelope-wide line and ``sd0 + sd1*h`` are used.
 
 ``floor``: an estimator's dead zone, a value it reports for every degradation too small to
 tell from healthy scatter; an estimate there says only "at most this much" and the trend
@@ -44,6 +54,8 @@ CONDITION_TERMS = ("1", "h", "v", "v^2", "t", "t^2", "q")
 """The terms of the log-sd model, in order."""
 MIN_PER_TERM = 8
 """Calibration BITs per term below which the condition model is not fitted (sd0 + sd1*h)."""
+MIN_GAIN = 0.1
+"""Floor of the condition's gain ``g . k(c)`` (a BIT there is read with a sd to match)."""
 
 
 def log_sd_terms(h: FloatArray, c: FloatArray) -> FloatArray:
@@ -53,6 +65,13 @@ def log_sd_terms(h: FloatArray, c: FloatArray) -> FloatArray:
     cc = np.broadcast_to(np.asarray(c, dtype=np.float64), (hh.size, 3))
     q, v, t = cc[:, 0], cc[:, 1], cc[:, 2]
     return np.stack([np.ones_like(hh), hh, v, v * v, t, t * t, q], axis=1)
+
+
+def gain_terms(c: FloatArray) -> FloatArray:
+    """``(n, 6)`` terms ``k(c)`` of the condition's offset and gain: 1, v, v^2, t, t^2, q."""
+    cc = np.atleast_2d(np.asarray(c, dtype=np.float64))
+    q, v, t = cc[:, 0], cc[:, 1], cc[:, 2]
+    return np.stack([np.ones_like(q), v, v * v, t, t * t, q], axis=1)
 
 
 def _transition(h: FloatArray, at_floor: npt.NDArray[np.bool_]) -> tuple[float, float]:
@@ -98,6 +117,10 @@ class Noise:
     """Width of that transition (measured; at least 0.02)."""
     log_sd: tuple[float, ...] = ()
     """Coefficients of the log-sd model on :data:`CONDITION_TERMS`; empty: none fitted."""
+    offset_c: tuple[float, ...] = ()
+    gain_c: tuple[float, ...] = ()
+    """Coefficients ``a`` and ``g`` of the calibration at a condition, on :func:`gain_terms`
+    (empty with ``log_sd``)."""
 
     @classmethod
     def measure(cls, h_true: FloatArray, h_est: FloatArray,
@@ -129,10 +152,52 @@ class Noise:
             s1 = max(s1, 0.0)
             s0 = max(float(np.mean(resid - s1 * x)), 1e-3)
         log_sd: tuple[float, ...] = ()
+        offset_c: tuple[float, ...] = ()
+        gain_c: tuple[float, ...] = ()
         if c is not None and x.size >= MIN_PER_TERM * len(CONDITION_TERMS):
-            log_sd = _fit_log_sd(x, e, c)
+            k = gain_terms(c)
+            coef = np.linalg.lstsq(np.concatenate([k, k * x[:, None]], axis=1), y,
+                                   rcond=None)[0]
+            offset_c = tuple(float(v) for v in coef[:6])
+            gain_c = tuple(float(v) for v in coef[6:])
+            g = np.maximum(k @ coef[6:], MIN_GAIN)
+            log_sd = _fit_log_sd(x, y - (k @ coef[:6] + g * x), c)
         return cls(float(s0), float(s1), float(offset), float(gain), floor, detection,
-                   detection_sd, log_sd)
+                   detection_sd, log_sd, offset_c, gain_c)
+
+    def calibrate(self, h_est: FloatArray, conditions: FloatArray | None = None
+                  ) -> FloatArray:
+        """Estimates read as degradations (units of the threshold): at each BIT's scaled
+        condition (rows; NaN rows unknown) where the model has one, else on the line."""
+        y = np.asarray(h_est, dtype=np.float64)
+        flat: FloatArray = (y - self.offset) / self.gain
+        if conditions is None or not self.gain_c:
+            return flat
+        k, known = self._known(conditions, y.size)
+        g = np.maximum(k @ np.asarray(self.gain_c), MIN_GAIN)
+        out: FloatArray = np.where(known, (y.ravel() - k @ np.asarray(self.offset_c)) / g,
+                                   flat.ravel())
+        return out.reshape(y.shape)
+
+    def h_sd(self, h: FloatArray, conditions: FloatArray | None = None) -> FloatArray:
+        """The sd of :meth:`calibrate`'s reading at degradation ``h`` (units of the
+        threshold)."""
+        hh = np.asarray(h, dtype=np.float64)
+        if conditions is None:
+            flat: FloatArray = self.sd(hh) / self.gain
+            return flat
+        k, known = self._known(conditions, hh.size)
+        g = np.maximum(k @ np.asarray(self.gain_c), MIN_GAIN) if self.gain_c else \
+            np.full(hh.size, self.gain)
+        out: FloatArray = np.where(known, self.sd(hh, conditions).ravel() / g,
+                                   self.sd(hh).ravel() / self.gain)
+        return out.reshape(hh.shape)
+
+    @staticmethod
+    def _known(conditions: FloatArray, n: int) -> tuple[FloatArray, npt.NDArray[np.bool_]]:
+        c = np.broadcast_to(np.asarray(conditions, dtype=np.float64), (n, 3))
+        known: npt.NDArray[np.bool_] = np.asarray(np.isfinite(c).all(axis=1))
+        return gain_terms(np.where(known[:, None], c, 0.0)), known
 
     def sd(self, h: FloatArray, conditions: FloatArray | None = None) -> FloatArray:
         """The estimate's sd at degradation ``h``; at the scaled ``conditions`` (one row per

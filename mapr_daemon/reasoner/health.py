@@ -34,7 +34,6 @@ import numpy as np
 
 from mapr_daemon.reasoner import trend
 from mapr_daemon.reasoner.estimate_noise import scaled_rows
-from mapr_daemon.reasoner.features import FloatArray
 from mapr_daemon.reasoner.prognosis import RulEstimate
 
 if TYPE_CHECKING:
@@ -76,11 +75,6 @@ class Health:
                      for v in (self.rul, self.rul_low, self.rul_high))
 
 
-def _calibrated(noise: trend.Noise, est: FloatArray) -> FloatArray:
-    out: FloatArray = (est - noise.offset) / noise.gain
-    return out
-
-
 def assess(model: PrognosticModel, flights: Sequence[float],
            estimates: Sequence[Mapping[str, float]], diagnosed: str | None = None,
            seed: int = 0, conditions: Sequence[Mapping[str, float] | None] = ()) -> Health:
@@ -104,9 +98,9 @@ def assess(model: PrognosticModel, flights: Sequence[float],
         keep = np.isfinite(est)
         if not keep.any():
             continue
-        recent = _calibrated(noise, est[keep][-RECENT:])
+        recent = noise.calibrate(est[keep][-RECENT:], cond[keep][-RECENT:])
         h = float(np.mean(recent))
-        sd = noise.sd(np.full(recent.size, max(h, 0.0)), cond[keep][-RECENT:]) / noise.gain
+        sd = noise.h_sd(np.full(recent.size, max(h, 0.0)), cond[keep][-RECENT:])
         se = float(np.sqrt(np.sum(sd * sd))) / recent.size
         z = h / se if se > 0 else math.inf
         evidenced = z > EVIDENCE_Z or kind == diagnosed

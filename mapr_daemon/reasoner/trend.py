@@ -246,9 +246,9 @@ def fit_rul(flights: FloatArray, h_est: FloatArray, now: float, kind: str, noise
         return RulEstimate(math.inf, math.inf, math.inf, np.full(n_draws, math.inf),
                            horizon=horizon)
     n = n_all[~cens]
-    y = (est[~cens] - noise.offset) / noise.gain
     c = None if conditions is None else np.asarray(conditions, dtype=np.float64)[~cens]
-    var = (noise.sd(y, c) / noise.gain) ** 2
+    y = noise.calibrate(est[~cens], c)
+    var = noise.h_sd(y, c) ** 2
     if prior is not None:
         var = var + prior.scatter(y) ** 2
     w = 1.0 / var

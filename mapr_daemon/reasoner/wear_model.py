@@ -225,7 +225,7 @@ def build_prognostic_model(d: Dictionary, params: ActuatorParams, spec: BuildSpe
         except ConfigError as error:
             why[k] = error.detail
             continue
-        at_threshold = float(np.median(measured.sd(np.ones(len(rows)), c[rows]))) / measured.gain
+        at_threshold = float(np.median(measured.h_sd(np.ones(len(rows)), c[rows])))
         if at_threshold > RESOLVE_SD:
             why[k] = (f"one BIT's estimate scatters by sd {at_threshold:.2f} of the failure "
                       f"threshold at the threshold (median over the envelope), above "

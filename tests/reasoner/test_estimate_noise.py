@@ -67,7 +67,7 @@ def test_the_trend_is_tighter_on_bits_flown_at_nominal_conditions() -> None:
     h, est, c = _calibration(600, 5)
     noise = Noise.measure(h, est, c)
     n = np.arange(0.0, 120.0, 4.0)
-    truth = 0.4 * np.expm1(0.012 * n)
+    truth = 0.2 * np.expm1(0.012 * n)   # 0.6 of the threshold by the last BIT
     reading = noise.offset + noise.gain * truth + 0.03 * np.random.default_rng(6).standard_normal(
         n.size)
     width = {}
@@ -76,3 +76,25 @@ def test_the_trend_is_tighter_on_bits_flown_at_nominal_conditions() -> None:
         r = trend.fit_rul(n, reading, float(n[-1]), "capacitance", noise, conditions=cond)
         width[v] = r.upper - r.lower
     assert width[0.0] < 0.7 * width[-5.0]
+
+
+def test_estimates_compressed_near_the_bus_limit_are_read_at_their_condition() -> None:
+    """Estimates that follow the degradation fully at nominal supply and with 0.6 of the gain
+    and an offset near the bus's low limit (as ESR's do): read at each BIT's condition they
+    are unbiased at both; the envelope-wide line reads a new part at nominal supply low."""
+    rng = np.random.default_rng(7)
+    n = 800
+    h = rng.uniform(0.0, 1.25, n)
+    c = np.c_[rng.uniform(0.0, 1.0, n), rng.uniform(-5.5, 1.5, n), rng.uniform(-6.0, 4.5, n)]
+    gain, offset = 1.0 + 0.08 * c[:, 1], -0.05 * c[:, 1]
+    est = offset + gain * h + 0.03 * rng.standard_normal(n)
+    noise = Noise.measure(h, est, c)
+    for v in (0.0, -5.0):
+        cond = np.tile([0.5, v, 0.0], (50, 1))
+        truth = np.linspace(0.0, 1.0, 50)
+        reading = -0.05 * v + (1.0 + 0.08 * v) * truth
+        assert np.abs(noise.calibrate(reading, cond) - truth).max() < 0.03
+        sd = noise.h_sd(truth, cond)
+        assert float(np.median(sd)) == pytest.approx(0.03 / (1.0 + 0.08 * v), rel=0.3)
+    line_error = noise.calibrate(np.linspace(0.0, 1.0, 50)) - np.linspace(0.0, 1.0, 50)
+    assert line_error[0] < -0.08   # one line for the envelope: a new part read 0.1 low
