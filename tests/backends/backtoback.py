@@ -143,9 +143,12 @@ def check_filters_and_statistics(factory: MonitorFactory) -> None:
 
 
 def check_close(factory: MonitorFactory) -> None:
-    """close() is idempotent; recv() after it raises MonitorClosed."""
+    """close() is idempotent; recv() after it raises MonitorClosed.
+
+    The first record is awaited without a time-out (the traffic holds ten messages, so it
+    comes, or the stream ends and the assertion names that), however slowly the host runs."""
     monitor = factory(Setup(one_per_frame(FORMATS), reference_terminals(), 10))
-    first = monitor.recv(timeout=5.0)
+    first = monitor.recv()
     assert first is not None
     monitor.close()
     monitor.close()

@@ -11,7 +11,7 @@ never from when lines arrive, so the emulator's timing is free. A real card's li
 back-to-back while the bus is busy (its FIFO drains at line rate), so each stretch of busy bus is
 written in one write, and an empty link only ever means an idle bus, as on the card. Between
 stretches (bus idle longer than the no-response time-out) the emulator waits until the monitor
-has read every line written (a condition it polls, with a generous time-out) and then keeps the
+has read every line written (a condition it polls, without a time-out) and then keeps the
 link quiet for ``pause_s`` (0: no pause at all).
 """
 
@@ -104,11 +104,16 @@ class SerialCard:
             last_any = max(last_any or 0, self._last_stop[word.bus])
         return [c for c in chunks if c]
 
-    def wait(self, condition: Callable[[], bool], timeout_s: float = 20.0) -> bool:
-        """Poll ``condition`` until true or the time-out (a condition, not a race)."""
-        deadline = time.monotonic() + timeout_s
+    def wait(self, condition: Callable[[], bool], timeout_s: float | None = 20.0) -> bool:
+        """Poll ``condition`` until true or the time-out (a condition, not a race).
+
+        ``timeout_s=None`` waits as long as it takes: the player waits so for the monitor to
+        read what was written (it reads in its own threads, or is closed), so a host slow
+        enough to pass any fixed time-out cannot make the player give up half way and leave
+        the stream open for ever."""
+        deadline = None if timeout_s is None else time.monotonic() + timeout_s
         while not condition():
-            if time.monotonic() > deadline:
+            if deadline is not None and time.monotonic() > deadline:
                 return False
             time.sleep(0.001)
         return True
@@ -120,7 +125,7 @@ class SerialCard:
             for chunk in self.write_traffic(traffic):
                 for bus in sorted({bus for bus, _ in chunk}):
                     self.write(bus, b"".join(line for b, line in chunk if b == bus))
-                if not self.wait(lambda: drained() or stopped()) or stopped():
+                if not self.wait(lambda: drained() or stopped(), timeout_s=None) or stopped():
                     return
                 if self.pause_s:
                     time.sleep(self.pause_s)  # a quiet link: the backend may read idle bus

@@ -98,7 +98,7 @@ def test_stats_from_the_monitors_bus_statistics(catalog_path: Path) -> None:
     stats = BusStatistics()
     with open_monitor("loopback") as monitor:
         for _ in range(50):
-            record = monitor.recv(timeout=5.0)
+            record = monitor.recv()   # an endless bus: a record comes, however slow the host
             assert record is not None
             stats.add(record)
     with CatalogWriter(catalog_path) as writer:

@@ -69,7 +69,7 @@ def test_paced_replay_waits_for_recorded_time(c10: Any, tmp_path: Path) -> None:
     path.write_bytes(c10.ms1553([c10.Message(RT_BC, ipts=0)]) +
                      c10.ms1553([c10.Message(RT_BC, ipts=500_000_000)]))
     with open_monitor("chapter10", path=str(path), speed=1.0) as monitor:
-        assert monitor.recv(timeout=1.0) is not None
+        assert monitor.recv() is not None   # the first is due at once
         assert monitor.recv(timeout=0.05) is None  # the second is 50 s away
         assert not monitor.ended
     with open_monitor("chapter10", path=str(path), speed=1000.0) as monitor:

@@ -3,10 +3,14 @@ queue drops work and the daemon says so â€” a log line, STATUS, a catalog gap â€
 growing without bound.
 
 A real ``mapr run`` monitors the unpaced loopback bus (as fast as the host simulates it, with
-filler traffic) through a queue of one batch. The test then holds the catalog's write lock
-for 4 s, as a busy or slow disk would: the main loop's next write waits on it, while the bus
-reader keeps reading (thousands of messages in that time) into the full queue. Memory is
-bounded by the queue: its peak (in STATUS) never exceeds its size.
+filler traffic) through a queue of one batch. The test then stops reading the daemon's notify
+socket, as a stuck service manager would: once the socket's queue is full, the main loop's
+next STATUS waits in ``sendto``, while the bus reader keeps reading into the full queue. The
+stall is held for a counted amount of work, not for a time: the test sees the main thread
+asleep on the full socket (its ``/proc`` wait channel) and then waits until the daemon's other
+threads (the reader) have used ``READER_TICKS`` clock ticks of CPU. However slowly the host
+runs, the reader has then read thousands of messages past the full queue. Memory is bounded
+by the queue: its peak (in STATUS) never exceeds its size.
 """
 
 from __future__ import annotations
@@ -25,6 +29,52 @@ ROOT = Path(__file__).resolve().parents[2]
 ICD = ROOT / "configs" / "icd" / "ema-testbed.yaml"
 DROPPED = re.compile(r"the reasoner is behind the bus: (\d+) messages dropped")
 PEAK = re.compile(r"queue peak (\d+)/(\d+)")
+READER_TICKS = 50
+"""CPU the reader must spend while the main loop is stalled (clock ticks, 10 ms each)."""
+HANG_POLLS = 200_000
+"""Polls of /proc before the stall is declared never reached (a hang guard, not a timing)."""
+
+
+def cpu_ticks(pid: int) -> tuple[int, int]:
+    """User + system clock ticks of the process's main thread, and of all its other threads."""
+    main = others = 0
+    for task in Path(f"/proc/{pid}/task").iterdir():
+        try:
+            fields = (task / "stat").read_text().rsplit(")", 1)[1].split()
+        except (FileNotFoundError, ProcessLookupError):
+            continue   # a thread that has just ended
+        ticks = int(fields[11]) + int(fields[12])
+        if task.name == str(pid):
+            main = ticks
+        else:
+            others += ticks
+    return main, others
+
+
+def main_thread_waits_on_peer(pid: int) -> bool:
+    """True while the main thread sleeps in ``sendto`` on a full unix datagram socket."""
+    try:
+        return Path(f"/proc/{pid}/task/{pid}/wchan").read_text() == "unix_wait_for_peer"
+    except OSError:
+        return False
+
+
+def hold_until_reader_worked_alone(daemon: Daemon) -> None:
+    """Return once the daemon's main thread is stuck sending STATUS to the unread notify
+    socket (it cannot move on until the test reads) and, since then, its other threads
+    have spent ``READER_TICKS`` of CPU."""
+    pid = daemon.proc.pid
+    others0: int | None = None
+    for _ in range(HANG_POLLS):
+        assert daemon.proc.poll() is None, daemon.log
+        if others0 is None:
+            if main_thread_waits_on_peer(pid):
+                others0 = cpu_ticks(pid)[1]
+        elif cpu_ticks(pid)[1] - others0 >= READER_TICKS:
+            assert main_thread_waits_on_peer(pid)
+            return
+        time.sleep(0.001)   # a poll interval: the outcome rests on the states, not on it
+    raise AssertionError(f"the main loop never stalled on the notify socket:\n{daemon.log}")
 
 
 def test_a_stalled_main_loop_drops_reports_and_stays_bounded(
@@ -36,10 +86,7 @@ def test_a_stalled_main_loop_drops_reports_and_stays_bounded(
         "queue_batches: 1\nqueue_wait_s: 0\nstatus_interval_s: 0.1\n")
     daemon.wait_notify("READY=1", timeout=60)
     daemon.wait_notify("STATUS=", count=5, timeout=30)
-    with sqlite3.connect(catalog, isolation_level=None) as lock:
-        lock.execute("BEGIN IMMEDIATE")      # the daemon's writes now wait (busy timeout 5 s)
-        time.sleep(4.0)
-        lock.execute("ROLLBACK")
+    hold_until_reader_worked_alone(daemon)   # the notify socket is not read meanwhile
     daemon.wait_log("the reasoner is behind the bus", timeout=30)
     daemon.wait_for(lambda: any(s.startswith("STATUS=reasoner behind:")
                                 for s in daemon.lines("STATUS=")), 10, "STATUS behind")
