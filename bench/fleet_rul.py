@@ -211,10 +211,9 @@ def catalog_points(conn: sqlite3.Connection, u: Unit) -> tuple[list[Point], list
 
 def estimate_errors(conn: sqlite3.Connection, u: Unit, model: PrognosticModel
                     ) -> tuple[FloatArray, FloatArray]:
-    """The unit's stored per-BIT estimates of its true kind, calibrated by the model's
-    :class:`~mapr_daemon.reasoner.trend.Noise` (``(est - offset) / gain``), minus the true
-    degradation; and the sd the model states for them (on the same scale, at each BIT's
-    stored flight condition)."""
+    """The unit's stored per-BIT estimates of its true kind, read by the model's
+    :class:`~mapr_daemon.reasoner.estimate_noise.Noise` at each BIT's stored flight condition,
+    minus the true degradation; and the sd the model states for them (same scale)."""
     noise = model.noise.get(u.kind)
     if noise is None:
         return np.zeros(0), np.zeros(0)

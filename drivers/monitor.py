@@ -152,16 +152,18 @@ class BusMonitor(ABC):
 
     # --- the API ----------------------------------------------------------------------------
     def recv(self, timeout: float | None = None) -> MonitorRecord | None:
-        """The next record that passes the filters, or None on time-out or end of stream."""
+        """The next record that passes the filters, or None on time-out or end of stream;
+        :class:`~drivers.errors.MonitorClosed` once :meth:`close` was called, whatever the
+        backend had already delivered (close means stop, as reading a closed file does)."""
         deadline = None if timeout is None else time.monotonic() + timeout
         while True:
+            if self._closed:
+                raise MonitorClosed("the monitor is closed")
             while self._queue:
                 record = self._queue.popleft()
                 self.stats.add(record)   # counted as taken, filtered or not: the stats are the
                 if self._wanted(record):  # bus's, up to the last record handed out
                     return record
-            if self._closed:
-                raise MonitorClosed("the monitor is closed")
             if self._ended:
                 return None
             remaining = None if deadline is None else max(0.0, deadline - time.monotonic())

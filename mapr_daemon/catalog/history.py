@@ -24,7 +24,9 @@ from mapr_daemon.catalog.model import BitOutcome, BitRecord, Flight, Health
 
 _COLUMNS = ("id, session_id, tail, asset, t_ns, bus_ns, abs_ns, flight, flight_hours, fault, "
             "event_id, wear, mode, soh, rul, rul_low, rul_high, rul_hours, rul_hours_low, "
-            "rul_hours_high, note, modes, conditions")
+            "rul_hours_high, note, modes")
+CONDITIONS_SINCE = 8
+"""Schema version that added ``bits.conditions`` (older files read it as ``{}``)."""
 
 
 def _num(value: float | None) -> float | None:
@@ -79,9 +81,11 @@ def upsert_flights(conn: sqlite3.Connection, flights: Sequence[Flight]) -> None:
         [(f.tail, f.flight, f.start_ns, f.end_ns, float(f.hours), f.source) for f in flights])
 
 
-def _record(row: Sequence[Any]) -> BitRecord:
+def _record(row: Sequence[Any], conditions: str = "{}") -> BitRecord:
+    """A BIT from its :data:`_COLUMNS` and its stored conditions (``{}``: none, or not
+    selected: the health view does not need them)."""
     (rid, sid, tail, asset, t_ns, bus_ns, abs_ns, flight, hours, fault, event_id, wear, mode,
-     soh, rul, low, high, rh, rhl, rhh, note, modes, conditions) = row
+     soh, rul, low, high, rh, rhl, rhh, note, modes) = row
     return BitRecord(rid, sid, tail, asset, t_ns, bus_ns, abs_ns, flight, hours, fault,
                      event_id, json.loads(wear),
                      Health(soh, mode, rul, low, high, rh, rhl, rhh, note, json.loads(modes)),
@@ -89,8 +93,10 @@ def _record(row: Sequence[Any]) -> BitRecord:
 
 
 def load_bits(conn: sqlite3.Connection, asset: str | None = None, tail: str | None = None,
-              last: int | None = None) -> list[BitRecord]:
-    """BIT history (all assets, or one), oldest first; ``last``: only the newest N per call."""
+              last: int | None = None, version: int | None = None) -> list[BitRecord]:
+    """BIT history (all assets, or one), oldest first; ``last``: only the newest N per call;
+    ``version``: the file's schema version when it may predate :data:`CONDITIONS_SINCE` (a
+    reader does not migrate), None for a file at the latest."""
     where, args = [], []
     if asset is not None:
         where.append("asset = ?")
@@ -98,11 +104,12 @@ def load_bits(conn: sqlite3.Connection, asset: str | None = None, tail: str | No
     if tail is not None:
         where.append("tail = ?")
         args.append(tail)
-    sql = f"SELECT {_COLUMNS} FROM bits"
+    conditions = "conditions" if version is None or version >= CONDITIONS_SINCE else "'{}'"
+    sql = f"SELECT {_COLUMNS}, {conditions} FROM bits"
     if where:
         sql += " WHERE " + " AND ".join(where)
     sql += " ORDER BY coalesce(flight, 0), t_ns, id"
-    rows = [_record(r) for r in conn.execute(sql, args)]
+    rows = [_record(r[:-1], r[-1]) for r in conn.execute(sql, args)]
     return rows if last is None else rows[-last:]
 
 

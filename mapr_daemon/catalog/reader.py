@@ -161,7 +161,8 @@ class CatalogReader:
         """BIT history (all actuators or one), oldest first; empty before schema v5."""
         if self.schema_version < BITS_SINCE:
             return []
-        result: list[BitRecord] = self._read(history.load_bits, asset, tail)
+        result: list[BitRecord] = self._read(history.load_bits, asset, tail, None,
+                                             self.schema_version)
         return result
 
     def flights(self, tail: str | None = None) -> list[Flight]:

@@ -110,15 +110,9 @@ class Pipeline:
         """Continue the trend from the catalog's history (this aircraft's rows)."""
         if self.trending is None:
             return
-        from mapr_daemon.daemon.trending import AssetHistory, Trending
-        history: dict[str, AssetHistory] = {}
-        for b in bits:
-            if b.flight is None or not b.wear:
-                continue
-            h = history.setdefault(b.asset, AssetHistory())
-            h.add(b.flight, b.wear, b.conditions)
+        from mapr_daemon.daemon.trending import Trending, history_from_bits
         self.trending = Trending(self.trending.tail, self.config.aircraft.flight_gap_s,
-                                 self.trending.models, history, flights)
+                                 self.trending.models, history_from_bits(bits), flights)
 
     def declare_flight(self, number: int, hours: float | None = None) -> None:
         """The traffic from now on is this flight (a replay's or fleet run's, known from its

@@ -24,7 +24,7 @@ import math
 from collections.abc import Mapping, Sequence
 
 from mapr_daemon.catalog import BitOutcome, Event
-from mapr_daemon.catalog.model import Flight, Health
+from mapr_daemon.catalog.model import BitRecord, Flight, Health
 from mapr_daemon.reasoner.health import INTERVAL, assess
 from mapr_daemon.reasoner.wear_model import PrognosticModel
 
@@ -141,6 +141,16 @@ class AssetHistory:
         self.flights.append(float(flight))
         self.wear.append(dict(wear))
         self.conditions.append(dict(conditions) if conditions else None)
+
+
+def history_from_bits(bits: Sequence[BitRecord]) -> dict[str, AssetHistory]:
+    """Each actuator's trend history from its stored BITs (oldest first): the BITs with a
+    flight and estimates, with their flight conditions where stored."""
+    history: dict[str, AssetHistory] = {}
+    for b in bits:
+        if b.flight is not None and b.wear:
+            history.setdefault(b.asset, AssetHistory()).add(b.flight, b.wear, b.conditions)
+    return history
 
 
 class Trending:

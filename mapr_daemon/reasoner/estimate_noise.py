@@ -101,9 +101,11 @@ def _transition(h: FloatArray, at_floor: npt.NDArray[np.bool_]) -> tuple[float, 
 class Noise:
     """The per-BIT degradation estimate as measured against known degradations.
 
-    ``estimate = offset + gain*h + e``; ``sd(e)`` is ``exp(log_sd . terms(h, c))`` at a
-    known condition ``c`` (:meth:`sd`), else ``sd0 + sd1*h``. Both in the estimate's units
-    (divide by ``gain`` for units of the threshold).
+    ``estimate = offset + gain*h + e`` over the envelope, ``a . k(c) + (g . k(c)) h + e`` at a
+    known condition ``c``; ``sd(e)`` is ``exp(log_sd . terms(h, c))`` there (:meth:`sd`), else
+    ``sd0 + sd1*h``, both in the estimate's units. :meth:`calibrate` and :meth:`h_sd` give
+    the reading and its sd in units of the threshold (divided by the gain at ``c``, floored
+    at :data:`MIN_GAIN`, or by ``gain``).
     """
 
     sd0: float
@@ -121,6 +123,10 @@ class Noise:
     gain_c: tuple[float, ...] = ()
     """Coefficients ``a`` and ``g`` of the calibration at a condition, on :func:`gain_terms`
     (empty with ``log_sd``)."""
+    c_low: tuple[float, ...] = ()
+    c_high: tuple[float, ...] = ()
+    """The scaled conditions the calibration BITs spanned: a BIT outside them is read at the
+    nearest edge (the quadratic terms are not extrapolated)."""
 
     @classmethod
     def measure(cls, h_true: FloatArray, h_est: FloatArray,
@@ -154,7 +160,11 @@ class Noise:
         log_sd: tuple[float, ...] = ()
         offset_c: tuple[float, ...] = ()
         gain_c: tuple[float, ...] = ()
+        c_low: tuple[float, ...] = ()
+        c_high: tuple[float, ...] = ()
         if c is not None and x.size >= MIN_PER_TERM * len(CONDITION_TERMS):
+            c_low = tuple(float(v) for v in np.nanmin(c, axis=0))
+            c_high = tuple(float(v) for v in np.nanmax(c, axis=0))
             k = gain_terms(c)
             coef = np.linalg.lstsq(np.concatenate([k, k * x[:, None]], axis=1), y,
                                    rcond=None)[0]
@@ -163,7 +173,7 @@ class Noise:
             g = np.maximum(k @ coef[6:], MIN_GAIN)
             log_sd = _fit_log_sd(x, y - (k @ coef[:6] + g * x), c)
         return cls(float(s0), float(s1), float(offset), float(gain), floor, detection,
-                   detection_sd, log_sd, offset_c, gain_c)
+                   detection_sd, log_sd, offset_c, gain_c, c_low, c_high)
 
     def calibrate(self, h_est: FloatArray, conditions: FloatArray | None = None
                   ) -> FloatArray:
@@ -193,11 +203,18 @@ class Noise:
                                    self.sd(hh).ravel() / self.gain)
         return out.reshape(hh.shape)
 
-    @staticmethod
-    def _known(conditions: FloatArray, n: int) -> tuple[FloatArray, npt.NDArray[np.bool_]]:
-        c = np.broadcast_to(np.asarray(conditions, dtype=np.float64), (n, 3))
+    def _known(self, conditions: FloatArray, n: int
+               ) -> tuple[FloatArray, npt.NDArray[np.bool_]]:
+        c = np.broadcast_to(self._clip(np.asarray(conditions, dtype=np.float64)), (n, 3))
         known: npt.NDArray[np.bool_] = np.asarray(np.isfinite(c).all(axis=1))
         return gain_terms(np.where(known[:, None], c, 0.0)), known
+
+    def _clip(self, c: FloatArray) -> FloatArray:
+        """Conditions clipped to the calibrated span (NaN stays NaN: unknown)."""
+        if not self.c_low:
+            return c
+        out: FloatArray = np.clip(c, np.asarray(self.c_low), np.asarray(self.c_high))
+        return out
 
     def sd(self, h: FloatArray, conditions: FloatArray | None = None) -> FloatArray:
         """The estimate's sd at degradation ``h``; at the scaled ``conditions`` (one row per
@@ -206,7 +223,7 @@ class Noise:
         flat: FloatArray = self.sd0 + self.sd1 * np.clip(hh, 0.0, 1.5)
         if conditions is None or not self.log_sd:
             return flat
-        c = np.asarray(conditions, dtype=np.float64)
+        c = self._clip(np.asarray(conditions, dtype=np.float64))
         terms = log_sd_terms(hh.ravel(), c)
         known: npt.NDArray[np.bool_] = np.asarray(np.isfinite(terms).all(axis=1))
         cond = np.exp(np.where(known[:, None], terms, 0.0) @ np.asarray(self.log_sd))

@@ -102,7 +102,7 @@ def assess(model: PrognosticModel, flights: Sequence[float],
         h = float(np.mean(recent))
         sd = noise.h_sd(np.full(recent.size, max(h, 0.0)), cond[keep][-RECENT:])
         se = float(np.sqrt(np.sum(sd * sd))) / recent.size
-        z = h / se if se > 0 else math.inf
+        z = h / max(se, 1e-9)   # finite: the catalog stores it as JSON
         evidenced = z > EVIDENCE_Z or kind == diagnosed
         row: dict[str, Any] = {"h": round(h, 4), "z": round(z, 2), "evidenced": evidenced}
         rul = None

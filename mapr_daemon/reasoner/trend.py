@@ -232,8 +232,9 @@ def fit_rul(flights: FloatArray, h_est: FloatArray, now: float, kind: str, noise
             prior: ShapePrior | None = None, n_draws: int = 2000, seed: int = 0,
             horizon: float = 2000.0, conditions: FloatArray | None = None) -> RulEstimate:
     """RUL at flight ``now`` of a component of ``kind`` from per-BIT degradation estimates;
-    ``conditions (n, 3)``: each BIT's scaled flight condition (NaN rows unknown), which the
-    noise model weighs its estimate by (:meth:`Noise.sd`)."""
+    ``conditions (n, 3)``: each BIT's scaled flight condition (NaN rows unknown), at which
+    the noise model reads its estimate and weighs it (:meth:`Noise.calibrate`,
+    :meth:`Noise.h_sd`)."""
     if kind not in SHAPES:
         raise ConfigError(f"no aging shape for {kind!r}", field="kind")
     shape = SHAPES[kind]

@@ -66,7 +66,7 @@ class BuildSpec:
     coordinate, :func:`~.wear.regressors`)."""
     calibration_reps: int = 30
     """Calibration BITs per level and kind (300 per kind: enough to fit the noise's
-    dependence on the flight condition, :data:`~.estimate_noise.LOG_SD_TERMS`)."""
+    dependence on the flight condition, :data:`~.estimate_noise.CONDITION_TERMS`)."""
     fleet_units: int = 30
     """Run-to-failure units per kind behind the fleet prior."""
     envelope: bool = True
@@ -106,10 +106,11 @@ class PrognosticModel:
                        dynamic_pressure_pa: float) -> dict[str, float]:
         """The flight condition one BIT was flown at, as the estimators read it from its
         feature matrix: dynamic pressure (Pa), mean aircraft-bus voltage (V), ambient
-        temperature (deg C)."""
+        temperature (deg C); empty if any is not finite (a damaged record)."""
         c = healthy.conditions(m, dictionary.columns, dynamic_pressure_pa)
-        return {"dynamic_pressure_pa": round(c.pressure_pa, 1), "supply_v": round(c.supply_v, 3),
-                "ambient_c": round(c.temperature_c, 2)}
+        out = {"dynamic_pressure_pa": round(c.pressure_pa, 1), "supply_v": round(c.supply_v, 3),
+               "ambient_c": round(c.temperature_c, 2)}
+        return out if all(math.isfinite(v) for v in out.values()) else {}
 
     def scaled(self, condition: Mapping[str, float] | None) -> tuple[float, float, float] | None:
         """A stored :meth:`bit_conditions` as the noise model takes it; None if unknown."""
@@ -158,8 +159,8 @@ class PrognosticModel:
             estimators[k] = wear.WearModel(k, a[f"{k}_coef"], a[f"{k}_precision"],
                                            float(km["shrinkage"]), int(km["runs"]))
             if km["noise"] is not None:
-                noise[k] = trend.Noise(**{**km["noise"],
-                                          "log_sd": tuple(km["noise"].get("log_sd", ()))})
+                noise[k] = trend.Noise(**{**km["noise"], **{
+                    f: tuple(km["noise"].get(f, ())) for f in TUPLE_FIELDS}})
             if km["unobservable"] is not None:
                 why[k] = str(km["unobservable"])
             if km["prior"] is not None:
@@ -168,9 +169,14 @@ class PrognosticModel:
                    float(meta.get("supply_nominal_v", math.nan)))
 
 
+TUPLE_FIELDS = ("log_sd", "offset_c", "gain_c", "c_low", "c_high")
+"""The :class:`~.estimate_noise.Noise` fields stored as JSON lists, read back as tuples."""
+
+
 def _noise_json(noise: trend.Noise) -> dict[str, Any]:
     out = dataclasses.asdict(noise)
-    out["log_sd"] = list(noise.log_sd)
+    for f in TUPLE_FIELDS:
+        out[f] = list(getattr(noise, f))
     return out
 
 

@@ -106,3 +106,23 @@ def test_v2_file_gains_the_event_stamps_and_keeps_its_events(tmp_path: Path) -> 
         assert (new.fault, new.bus_ns, new.abs_ns) == ("friction", 2_000_012_300,
                                                        T0 + 5 * 10**9)
         assert reader.event(new.id or 0) == new
+
+
+def test_a_v7_files_bit_history_is_read_as_it_is_then_migrated(tmp_path: Path) -> None:
+    """A v7 catalog (BIT history without flight conditions), read by the CLI without
+    migrating it: its BITs come back with empty conditions; the daemon then migrates it and
+    the same BITs keep {} while new ones carry theirs."""
+    path = tmp_path / "v7.sqlite"
+    conn = sqlite3.connect(path, isolation_level=None)
+    migrate(conn, str(path), steps=MIGRATIONS[:7])
+    conn.execute("INSERT INTO bits (tail, asset, t_ns, flight, wear, modes) VALUES "
+                 "('N101', 'EMA1', ?, 3, '{\"esr\": 0.2}', '{}')", (T0,))
+    conn.close()
+    with CatalogReader(path) as reader:
+        assert reader.schema_version == 7
+        (b,) = reader.bits()
+        assert (b.flight, dict(b.wear), dict(b.conditions)) == (3, {"esr": 0.2}, {})
+    CatalogWriter(path).close()
+    with CatalogReader(path) as reader:
+        assert reader.schema_version == LATEST >= 8
+        assert [dict(b.conditions) for b in reader.bits()] == [{}]

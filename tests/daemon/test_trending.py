@@ -12,7 +12,7 @@ import pytest
 
 from mapr_daemon.catalog import BitOutcome, CatalogWriter, Event
 from mapr_daemon.catalog.model import BitRecord
-from mapr_daemon.daemon.trending import AssetHistory, FlightLog, Trending
+from mapr_daemon.daemon.trending import AssetHistory, FlightLog, Trending, history_from_bits
 from mapr_daemon.ema.params import default_actuator_path, load_actuator
 from mapr_daemon.reasoner import trend
 from mapr_daemon.reasoner.trajectory import learn_prior
@@ -165,23 +165,32 @@ def test_a_small_wear_is_evidenced_on_bits_flown_at_nominal_supply_only(
 
 def test_the_conditions_are_stored_and_reloaded_with_the_history(
         condition_model: PrognosticModel, tmp_path: Path) -> None:
+    """Two BITs flown at the bus's low limit (sd 0.1 there) are stored; resumed from the
+    catalog as the daemon resumes (history_from_bits), a third at nominal supply still finds
+    no wear.
+    Had the conditions been lost, the two would be weighed by the envelope-wide sd (0.01 in
+    this model) and the same readings would count as wear."""
     path = tmp_path / "c.sqlite"
-    first = Trending("N101", 900.0, {"EMA1": condition_model})
+    model = dataclasses.replace(condition_model, noise={"esr": dataclasses.replace(
+        condition_model.noise["esr"], sd0=0.01)})
+    first = Trending("N101", 900.0, {"EMA1": model})
     with CatalogWriter(path) as writer:
         writer.open_session(backend="chapter10", config_hash="x")
         for n in (1, 2):
             first.log.declare(n)
             fly(first, n)
             writer.add_bits(first.annotate([dataclasses.replace(bit(n, 0.08),
-                                                                conditions=NOMINAL)]),
+                                                                conditions=LOW_BUS)]),
                             first.log.pop_changed())
         bits, flights = writer.history("N101")
-    assert [dict(b.conditions) for b in bits] == [NOMINAL, NOMINAL]
-    history = AssetHistory()
-    for b in bits:
-        history.add(float(b.flight or 0), b.wear, b.conditions)
-    resumed = Trending("N101", 900.0, {"EMA1": condition_model}, {"EMA1": history}, flights)
+    assert [dict(b.conditions) for b in bits] == [LOW_BUS, LOW_BUS]
+    resumed = Trending("N101", 900.0, {"EMA1": model}, history_from_bits(bits), flights)
     resumed.log.declare(3)
     fly(resumed, 3)
     (o,) = resumed.annotate([dataclasses.replace(bit(3, 0.08), conditions=NOMINAL)])
-    assert o.health is not None and o.health.mode == "esr"   # three nominal BITs: evidenced
+    assert o.health is not None and o.health.mode is None
+    lost = Trending("N101", 900.0, {"EMA1": model}, {"EMA1": _history(bits)}, flights)
+    lost.log.declare(3)
+    fly(lost, 3)
+    (o,) = lost.annotate([dataclasses.replace(bit(3, 0.08), conditions=NOMINAL)])
+    assert o.health is not None and o.health.mode == "esr"   # conditions dropped: "wear"

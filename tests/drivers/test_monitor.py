@@ -131,3 +131,14 @@ def test_capture_backend_replays_a_file_like_the_bus() -> None:
     assert str(records[1].format) == "RT_BC" and records[1].bus == "B"
     flagged = {e for r in records for e in r.errors}
     assert {"parity", "manchester", "bit_count_low", "bit_count_high"} <= flagged
+
+
+def test_recv_after_close_raises_even_with_records_queued() -> None:
+    """A backend that delivers several records in one batch (a serial card read while the
+    host was busy): after close(), recv() raises at once rather than handing out the rest of
+    that batch, however the records were batched."""
+    monitor = ScriptedMonitor([[rec(1), rec(2), rec(3)]])
+    assert monitor.recv().t_ns == 1  # type: ignore[union-attr]
+    monitor.close()
+    with pytest.raises(MonitorClosed):
+        monitor.recv()

@@ -3,6 +3,8 @@ the trend."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -98,3 +100,37 @@ def test_estimates_compressed_near_the_bus_limit_are_read_at_their_condition() -
         assert float(np.median(sd)) == pytest.approx(0.03 / (1.0 + 0.08 * v), rel=0.3)
     line_error = noise.calibrate(np.linspace(0.0, 1.0, 50)) - np.linspace(0.0, 1.0, 50)
     assert line_error[0] < -0.08   # one line for the envelope: a new part read 0.1 low
+
+
+def test_a_bit_outside_the_calibrated_envelope_is_read_at_its_edge() -> None:
+    """A bus voltage below any calibration BIT's is read as at the lowest one: the quadratic
+    terms are not extrapolated into a vanishing or exploding sd."""
+    h, est, c = _calibration(600, 8)
+    noise = Noise.measure(h, est, c)
+    edge = np.array([[0.5, min(noise.c_low[1], -5.4), 0.0]])
+    beyond = np.array([[0.5, -40.0, 0.0]])
+    assert noise.h_sd(np.array([0.5]), beyond)[0] == pytest.approx(
+        noise.h_sd(np.array([0.5]), np.array([[0.5, noise.c_low[1], 0.0]]))[0])
+    assert np.isfinite(noise.calibrate(np.array([0.5]), beyond)).all()
+    assert noise.h_sd(np.array([0.5]), edge)[0] > 0.0
+
+
+def test_the_model_file_keeps_the_noise_model(tmp_path: Path) -> None:
+    """A prognostic model saved and loaded has the same noise (tuples, not lists) and the
+    nominal supply it scales conditions by."""
+    from mapr_daemon.reasoner.wear import WearModel
+    from mapr_daemon.reasoner.wear_model import PrognosticModel
+
+    h, est, c = _calibration(600, 9)
+    noise = Noise.measure(h, est, c)
+    estimators = {k: WearModel(k, np.zeros((25, 2)), np.eye(2), 0.1, 50)
+                  for k in ("esr", "friction")}
+    model = PrognosticModel("EMA", estimators, {"esr": noise}, {"friction": "why"}, {},
+                            supply_nominal_v=28.0)
+    path = tmp_path / "p.npz"
+    model.save(path)
+    back = PrognosticModel.load(path)
+    assert back.noise == model.noise and hash(back.noise["esr"]) == hash(noise)
+    assert back.supply_nominal_v == 28.0 and back.unobservable == {"friction": "why"}
+    assert back.scaled({"dynamic_pressure_pa": 2500.0, "supply_v": 27.0, "ambient_c": 35.0}) \
+        == pytest.approx((1.0, -1.0, 1.0))
