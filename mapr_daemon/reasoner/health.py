@@ -4,15 +4,16 @@ After each BIT the actuator's history — per BIT its flight number and the degr
 estimate of every aging kind (:meth:`~.wear_model.PrognosticModel.estimates`) — is read as:
 
 * **which part is wearing**: a kind is *evidenced* when the mean of its last
-  :data:`RECENT` calibrated estimates lies more than :data:`EVIDENCE_Z` standard errors above
-  healthy (its measured noise, :class:`~.estimate_noise.Noise`, at each BIT's stored flight
-  condition), or when the classifier names it at this BIT. The **leading mode** is the kind
+  :data:`RECENT` readings, each weighted by the inverse of its variance (its measured noise,
+  :class:`~.estimate_noise.Noise`, at that BIT's stored flight condition: a BIT flown near
+  the bus's low limit weighs little), lies more than :data:`EVIDENCE_Z` standard errors above
+  healthy, or when the classifier names it at this BIT. The **leading mode** is the kind
   the classifier names, if evidenced (the estimators of two kinds can both respond to one
   fault; the classifier is what tells kinds apart), else the evidenced kind with the
   shortest median RUL;
 * **SoH** ``= 1 - h`` of the leading mode, clipped to [0, 1]: 1.0 as commissioned, 0.0 at
   that mode's failure threshold (:data:`~mapr_daemon.ema.degradation.FAILURE`, e.g. ESR at
-  twice nominal), ``h`` the mean of its last :data:`RECENT` calibrated estimates. With no
+  twice nominal), ``h`` that weighted mean of its last :data:`RECENT` readings. With no
   evidenced kind SoH is 1.0 and there is no RUL: nothing is wearing measurably;
 * **RUL** of the leading mode in flights, the median and a 90 % interval (5 % and 95 %
   points of the trend's draws, :func:`~.trend.fit_rul`: the kind's aging shape with the
@@ -99,9 +100,11 @@ def assess(model: PrognosticModel, flights: Sequence[float],
         if not keep.any():
             continue
         recent = noise.calibrate(est[keep][-RECENT:], cond[keep][-RECENT:])
-        h = float(np.mean(recent))
-        sd = noise.h_sd(np.full(recent.size, max(h, 0.0)), cond[keep][-RECENT:])
-        se = float(np.sqrt(np.sum(sd * sd))) / recent.size
+        sd = noise.h_sd(np.full(recent.size, max(float(np.mean(recent)), 0.0)),
+                        cond[keep][-RECENT:])
+        w = 1.0 / np.maximum(sd, 1e-9) ** 2   # a BIT flown where it reads poorly weighs little
+        h = float(np.sum(w * recent) / np.sum(w))
+        se = float(1.0 / np.sqrt(np.sum(w)))
         z = h / max(se, 1e-9)   # finite: the catalog stores it as JSON
         evidenced = z > EVIDENCE_Z or kind == diagnosed
         row: dict[str, Any] = {"h": round(h, 4), "z": round(z, 2), "evidenced": evidenced}

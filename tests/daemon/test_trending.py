@@ -179,7 +179,7 @@ def test_the_conditions_are_stored_and_reloaded_with_the_history(
         for n in (1, 2):
             first.log.declare(n)
             fly(first, n)
-            writer.add_bits(first.annotate([dataclasses.replace(bit(n, 0.08),
+            writer.add_bits(first.annotate([dataclasses.replace(bit(n, 0.05),
                                                                 conditions=LOW_BUS)]),
                             first.log.pop_changed())
         bits, flights = writer.history("N101")
@@ -187,10 +187,24 @@ def test_the_conditions_are_stored_and_reloaded_with_the_history(
     resumed = Trending("N101", 900.0, {"EMA1": model}, history_from_bits(bits), flights)
     resumed.log.declare(3)
     fly(resumed, 3)
-    (o,) = resumed.annotate([dataclasses.replace(bit(3, 0.08), conditions=NOMINAL)])
+    (o,) = resumed.annotate([dataclasses.replace(bit(3, 0.05), conditions=NOMINAL)])
     assert o.health is not None and o.health.mode is None
     lost = Trending("N101", 900.0, {"EMA1": model}, {"EMA1": _history(bits)}, flights)
     lost.log.declare(3)
     fly(lost, 3)
-    (o,) = lost.annotate([dataclasses.replace(bit(3, 0.08), conditions=NOMINAL)])
+    (o,) = lost.annotate([dataclasses.replace(bit(3, 0.05), conditions=NOMINAL)])
     assert o.health is not None and o.health.mode == "esr"   # conditions dropped: "wear"
+
+
+def test_a_reading_flown_where_the_estimate_is_poor_does_not_set_the_soh(
+        condition_model: PrognosticModel) -> None:
+    """Two BITs at the nominal bus read 0.3 of the threshold, a third at the bus's low limit
+    (five times noisier there) reads 0.9: SoH follows the good readings (0.69), not their
+    plain mean (0.5)."""
+    trending = Trending("N101", 900.0, {"EMA1": condition_model})
+    for n, (h, cond) in enumerate(((0.3, NOMINAL), (0.3, NOMINAL), (0.9, LOW_BUS)), start=1):
+        trending.log.declare(n)
+        fly(trending, n)
+        (o,) = trending.annotate([dataclasses.replace(bit(n, h), conditions=cond)])
+    assert o.health is not None and o.health.mode == "esr"
+    assert o.health.soh == pytest.approx(1.0 - (2 * 2500 * 0.3 + 100 * 0.9) / 5100, abs=0.01)
