@@ -58,20 +58,20 @@ MIN_GAIN = 0.1
 """Floor of the condition's gain ``g . k(c)`` (a BIT there is read with a sd to match)."""
 
 
-def log_sd_terms(h: FloatArray, c: FloatArray) -> FloatArray:
-    """``(n, 7)`` terms of the log-sd model: 1, ``h`` (clipped to 0-1.5), ``v``, ``v^2``,
-    ``t``, ``t^2``, ``q`` of the scaled conditions ``c (n, 3)`` = (q, v, t)."""
-    hh = np.clip(np.atleast_1d(np.asarray(h, dtype=np.float64)), 0.0, 1.5)
-    cc = np.broadcast_to(np.asarray(c, dtype=np.float64), (hh.size, 3))
-    q, v, t = cc[:, 0], cc[:, 1], cc[:, 2]
-    return np.stack([np.ones_like(hh), hh, v, v * v, t, t * t, q], axis=1)
-
-
 def gain_terms(c: FloatArray) -> FloatArray:
     """``(n, 6)`` terms ``k(c)`` of the condition's offset and gain: 1, v, v^2, t, t^2, q."""
     cc = np.atleast_2d(np.asarray(c, dtype=np.float64))
     q, v, t = cc[:, 0], cc[:, 1], cc[:, 2]
     return np.stack([np.ones_like(q), v, v * v, t, t * t, q], axis=1)
+
+
+def log_sd_terms(h: FloatArray, c: FloatArray) -> FloatArray:
+    """``(n, 7)`` terms of the log-sd model: :func:`gain_terms` with ``h`` (clipped to 0-1.5)
+    after the constant, as :data:`CONDITION_TERMS` names them."""
+    hh = np.clip(np.atleast_1d(np.asarray(h, dtype=np.float64)), 0.0, 1.5)
+    k = gain_terms(np.broadcast_to(np.asarray(c, dtype=np.float64), (hh.size, 3)))
+    out: FloatArray = np.insert(k, 1, hh, axis=1)
+    return out
 
 
 def _transition(h: FloatArray, at_floor: npt.NDArray[np.bool_]) -> tuple[float, float]:
@@ -170,8 +170,7 @@ class Noise:
                                    rcond=None)[0]
             offset_c = tuple(float(v) for v in coef[:6])
             gain_c = tuple(float(v) for v in coef[6:])
-            g = np.maximum(k @ coef[6:], MIN_GAIN)
-            log_sd = _fit_log_sd(x, y - (k @ coef[:6] + g * x), c)
+            log_sd = _fit_log_sd(x, y - (k @ coef[:6] + _floored(k @ coef[6:]) * x), c)
         return cls(float(s0), float(s1), float(offset), float(gain), floor, detection,
                    detection_sd, log_sd, offset_c, gain_c, c_low, c_high)
 
@@ -184,7 +183,7 @@ class Noise:
         if conditions is None or not self.gain_c:
             return flat
         k, known = self._known(conditions, y.size)
-        g = np.maximum(k @ np.asarray(self.gain_c), MIN_GAIN)
+        g = _floored(k @ np.asarray(self.gain_c))
         out: FloatArray = np.where(known, (y.ravel() - k @ np.asarray(self.offset_c)) / g,
                                    flat.ravel())
         return out.reshape(y.shape)
@@ -197,8 +196,7 @@ class Noise:
             flat: FloatArray = self.sd(hh) / self.gain
             return flat
         k, known = self._known(conditions, hh.size)
-        g = np.maximum(k @ np.asarray(self.gain_c), MIN_GAIN) if self.gain_c else \
-            np.full(hh.size, self.gain)
+        g = _floored(k @ np.asarray(self.gain_c)) if self.gain_c else np.full(hh.size, self.gain)
         out: FloatArray = np.where(known, self.sd(hh, conditions).ravel() / g,
                                    self.sd(hh).ravel() / self.gain)
         return out.reshape(hh.shape)
@@ -237,6 +235,12 @@ class Noise:
             return np.zeros(y.shape, dtype=bool)
         out: npt.NDArray[np.bool_] = y <= self.floor + FLOOR_TOLERANCE
         return out
+
+
+def _floored(gain: FloatArray) -> FloatArray:
+    """The gain at a condition, floored at :data:`MIN_GAIN`."""
+    out: FloatArray = np.maximum(gain, MIN_GAIN)
+    return out
 
 
 def _fit_log_sd(h: FloatArray, e: FloatArray, c: FloatArray) -> tuple[float, ...]:
