@@ -7,7 +7,9 @@
                                [--no-memory] [--keep-recordings]
 
 Each unit is an actuator aging along :func:`mapr_daemon.ema.degradation.trajectory` (mean life
-200 flights, +/-30 %, as :mod:`mapr_daemon.reasoner.trajectory`), one tail per unit. Every
+200 flights, +/-30 %, as :mod:`mapr_daemon.reasoner.trajectory` and the fleet prior of the
+prognostic model; ``--mean-life`` flies units the prior does not describe), one tail per
+unit. Every
 ``--bit-every``-th flight from flight 0 to its end of life is flown by the testbed
 (:func:`mapr_daemon.testbed.fleet.fly_flight`: 2 s of bus traffic, a BIT at its start, the
 unit's true parameter at that flight seeded, a flight condition drawn per flight from the five
@@ -20,8 +22,9 @@ in this process) into one catalog for the run. Trajectory index ``f`` is declare
 Read back from the catalog (``bits`` table), per unit, at each BIT from a quarter of its life
 on (true RUL > 0): the RUL of the unit's TRUE kind's mode (``health.modes[kind]``: median and
 the 90 % interval, in flights; ``rul`` null there means beyond the horizon; no ``rul`` key
-means the kind was not evidenced: no prediction, counted as a miss) and, separately, the
-headline (leading-mode) RUL. Scored:
+means no trend yet (BITs on fewer than three flights): no prediction, counted as a miss;
+every trended kind states one from then on, evidenced or not) and, separately, the
+headline (leading-mode) RUL, stated only for an evidenced kind. Scored:
 
 * alpha-lambda (alpha 0.2, lambda 0.5 and 0.75, t0 = flight 0): at the BIT nearest
   ``lambda * eol`` the stored point estimate (the median) lies within +-20 % of the true RUL.
@@ -109,11 +112,12 @@ class Unit:
     or, with ``kind`` :data:`HEALTHY`, a unit that does not age (its BITs every
     ``bit_every`` flights up to :data:`HEALTHY_FLIGHTS`)."""
 
-    def __init__(self, tail: str, kind: str, seed: int, bit_every: int) -> None:
+    def __init__(self, tail: str, kind: str, seed: int, bit_every: int,
+                 mean_life: float = MEAN_LIFE) -> None:
         self.tail, self.kind, self.seed = tail, kind, seed
         self.path: Trajectory = trajectory(load_actuator(default_actuator_path()),
                                            "esr" if kind == HEALTHY else kind,
-                                           int(MEAN_LIFE * 2), seed, MEAN_LIFE)
+                                           int(mean_life * 2), seed, mean_life)
         self.flights = list(range(0, HEALTHY_FLIGHTS, bit_every)) if kind == HEALTHY else \
             [int(f) for f in bit_flights(self.path, bit_every)]
 
@@ -290,6 +294,10 @@ def main() -> int:
     ap.add_argument("--healthy-units", type=int, default=2,
                     help="units that do not age, scored for false wear")
     ap.add_argument("--seed", type=int)
+    ap.add_argument("--mean-life", type=float, default=MEAN_LIFE,
+                    help="mean life of the units, in flights (the fleet prior the prognostic "
+                         f"model is built with assumes {MEAN_LIFE:g}: another value measures "
+                         "the RUL on units the prior does not describe)")
     ap.add_argument("--jobs", type=int, default=2, help="processes flying recordings")
     ap.add_argument("--dictionary", type=Path)
     ap.add_argument("--prognosis", type=Path)
@@ -324,11 +332,12 @@ def main() -> int:
                       f"{float(n.sd(np.array(1.0))) / n.gain:.3f} of the threshold; "
                       f"{at_nominal:.3f} at nominal supply and 25 C, 1 kPa)")
         units = [Unit(f"U{i + 1:02d}", k, int(rng.integers(SEED_BASE, 2 * SEED_BASE)),
-                     args.bit_every)
+                     args.bit_every, args.mean_life)
                  for i, k in enumerate([*(k for k in kinds for _ in range(args.units_per_kind)),
                                         *[HEALTHY] * args.healthy_units])]
         print(f"{len(units)} units ({args.units_per_kind} per kind of {', '.join(kinds)}, "
-              f"{args.healthy_units} that do not age), "
+              f"{args.healthy_units} that do not age; mean life {args.mean_life:g} flights, "
+              f"the fleet prior's {MEAN_LIFE:g}), "
               f"BIT every {args.bit_every} flights: {sum(len(u.flights) for u in units)} "
               f"recordings; unit seeds " + ", ".join(f"{u.tail}={u.seed}" for u in units))
         config = out / "mapr.yaml"
@@ -357,21 +366,22 @@ def main() -> int:
         print_table("from the catalog: the headline (leading mode's RUL)", head_scores, kinds)
         if not args.no_memory:
             in_memory(args.dictionary, [u for u in units if u.kind != HEALTHY],
-                      args.bit_every, kinds)
+                      args.bit_every, kinds, args.mean_life)
     print(f"\ntotal runtime {time.monotonic() - started:.0f} s, load average "
           f"{os.getloadavg()[0]:.2f}")
     return 0
 
 
 def in_memory(dictionary: Path, units: Sequence[Unit], bit_every: int,
-              kinds: Sequence[str]) -> None:
+              kinds: Sequence[str], mean_life: float = MEAN_LIFE) -> None:
     """The same units' paths through reasoner/trajectory.py (its own BITs and estimators)."""
     from mapr_daemon.reasoner.dictionary import Dictionary
 
     params = load_actuator(default_actuator_path())
     started = time.monotonic()
     observed = observe_units(Dictionary.load(dictionary), params,
-                             [(u.kind, u.seed) for u in units], bit_every=bit_every)
+                             [(u.kind, u.seed) for u in units], bit_every=bit_every,
+                             mean_life=mean_life)
     scored = score(observed, params, use_prior=True, lambdas=LAMBDAS, alpha=ALPHA)
     scores = []
     for u, s in zip(units, scored, strict=True):

@@ -20,6 +20,14 @@ estimate of every aging kind (:meth:`~.wear_model.PrognosticModel.estimates`) â€
   fleet prior); in flight hours by the actuator's mean flight length so far. ``inf`` where
   the trend does not reach the threshold within :data:`HORIZON` flights; 0 once the mode's
   degradation is past its threshold. A trend needs BITs on three flights or more.
+* **per mode** (:attr:`Health.modes`), every trended kind states its own RUL once there are
+  BITs on three flights, evidenced or not: for a kind whose readings are still within their
+  healthy scatter it is the same trend, where the readings say "little wear so far" and the
+  fleet prior says how parts of that kind age from there (the prior is learned from parts
+  that do age; a part that never ages is outside it). Only an evidenced kind can lead, so
+  the headline RUL, SoH and episodes are unchanged by it; withholding the RUL until a kind
+  is evidenced left a third of a part's life with no statement at all, when a capacitor's
+  or a switch's early wear is still inside one reading's scatter.
 
 A shorted or open switch (a terminal fault) is SoH 0 and RUL 0 at once.
 """
@@ -66,7 +74,9 @@ class Health:
     note: str | None = None
     """Why there is no RUL, in words."""
     modes: Mapping[str, Mapping[str, Any]] = dataclasses.field(default_factory=dict)
-    """Per trended kind: current degradation ``h``, its z, evidenced, and its RUL."""
+    """Per trended kind: current degradation ``h``, its z, evidenced, and its RUL (``rul``,
+    ``low``, ``high`` in flights, None beyond the horizon; absent with BITs on fewer than
+    three flights), stated whether or not the kind is evidenced."""
 
     def in_hours(self, hours_per_flight: float | None) -> tuple[float | None, ...]:
         """(rul, low, high) in flight hours, None where unknown."""
@@ -112,7 +122,7 @@ def assess(model: PrognosticModel, flights: Sequence[float],
         if evidenced and h >= 1.0:   # past its failure threshold: failed now, nothing to fit
             rul = RulEstimate(0.0, 0.0, 0.0, np.zeros(1), HORIZON)
             row.update(rul=0.0, low=0.0, high=0.0)
-        elif evidenced and np.unique(fl[keep]).size >= 3:
+        elif np.unique(fl[keep]).size >= 3:
             rul = trend.fit_rul(fl[keep], est[keep], now, kind, noise, model.priors.get(kind),
                                 seed=seed, horizon=HORIZON, conditions=cond[keep])
             row.update(rul=_finite(rul.rul), low=_finite(rul.lower), high=_finite(rul.upper))

@@ -63,6 +63,28 @@ def test_a_healthy_actuator_is_soh_one_with_no_rul_and_says_why(model: Prognosti
     assert last.health.rul is None and "within its healthy scatter" in (last.health.note or "")
 
 
+def test_a_mode_not_yet_evidenced_still_states_its_rul_from_the_trend_and_the_fleet(
+        model: PrognosticModel) -> None:
+    """Early wear inside one reading's scatter: the mode does not lead (no headline RUL, SoH
+    1.0) but states its RUL, which brackets this unit's true end of life (flight 200, a life
+    the fleet prior knows)."""
+    trending = Trending("N101", 900.0, {"EMA1": model})
+    out = []
+    for n in range(2, 26, 2):
+        trending.log.declare(n)
+        fly(trending, n)
+        out += trending.annotate([bit(n, esr(n / 2) + 0.02 * (-1) ** (n // 2))])
+    health = out[-1].health
+    assert health is not None and health.mode is None and health.rul is None
+    row = health.modes["esr"]
+    assert row["evidenced"] is False
+    assert row["low"] is not None and row["high"] is not None
+    assert row["low"] <= row["rul"] <= row["high"]
+    assert row["low"] <= 200 - 24 <= row["high"]
+    first = out[1].health   # BITs on two flights: no trend, no RUL of any mode
+    assert first is not None and "rul" not in first.modes["esr"]
+
+
 def test_a_wearing_capacitor_leads_with_soh_and_a_rul_interval_that_holds_the_truth(
         model: PrognosticModel) -> None:
     trending = Trending("N101", 900.0, {"EMA1": model})
