@@ -105,6 +105,10 @@ class AssetConfig:
     prognosis: str | None = None
     """Its prognostic model (``mapr dictionary build --prognosis``; None: no SoH trend or
     RUL, the events say why)."""
+    expected_life_flights: dict[str, float] = dataclasses.field(default_factory=dict)
+    """Per aging kind, the life the fleet's parts are expected to reach, in flights (the
+    user's reliability figure; the trend holds it loosely). Absent: the prognostic model's
+    own, which is the aging model's assumption (200 flights)."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -323,6 +327,9 @@ def _assets(r: _Reader, root: Node, value: Any) -> tuple[AssetConfig, ...]:
         for key in ("dictionary", "prognosis"):
             if key in raw:
                 extra[key] = r.value(item, key, prefix, raw[key], "path", optional=True)
+        if "expected_life_flights" in raw:
+            extra["expected_life_flights"] = _lives(r, item, prefix,
+                                                    raw["expected_life_flights"])
         out.append(AssetConfig(name=name, rt=rt, **extra))
     return tuple(out)
 
@@ -368,6 +375,23 @@ def _signals(r: _Reader, item: Node, prefix: str, value: Any) -> dict[str, str]:
         if signal is None:
             raise r.error(item, "signals", prefix, problem)
         raise r.error(value, signal, f"{prefix}signals.", problem)
+    return out
+
+
+def _lives(r: _Reader, item: Node, prefix: str, value: Any) -> dict[str, float]:
+    """``assets[i].expected_life_flights``: aging kind -> expected life in flights (> 0)."""
+    from mapr_daemon.ema.degradation import FAILURE  # the aging kinds; numpy only when used
+
+    if not isinstance(value, Node):
+        raise r.error(item, "expected_life_flights", prefix,
+                      "expected a mapping of aging kind -> flights")
+    out: dict[str, float] = {}
+    for kind, flights in value.items():
+        if str(kind) not in FAILURE:
+            raise r.error(value, str(kind), f"{prefix}expected_life_flights.",
+                          f"not an aging kind (known: {', '.join(sorted(FAILURE))})")
+        out[str(kind)] = r.value(value, str(kind), f"{prefix}expected_life_flights.", flights,
+                                 "float", minimum=1.0)
     return out
 
 

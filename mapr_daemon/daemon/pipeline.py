@@ -229,7 +229,11 @@ def _reasoner(config: Config, asset: AssetConfig, i: int, path: str, loaded: dic
     if asset.prognosis is not None:
         if asset.prognosis not in loaded:
             loaded[asset.prognosis] = PrognosticModel.load(asset.prognosis)
-        model = loaded[asset.prognosis]
+        try:
+            model = loaded[asset.prognosis].with_lives(asset.expected_life_flights)
+        except ConfigError as error:
+            raise ConfigError(error.detail, path=config.source,
+                              field=f"assets[{i}].expected_life_flights") from None
     params = load_actuator(asset.actuator)
     reasoner = Reasoner(loaded[path], params, prognostic=model)
     watch = BitWatch(reasoner, signals=asset.signals, bit=params.bit,

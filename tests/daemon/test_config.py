@@ -46,11 +46,21 @@ def test_check_accepts_the_shipped_config() -> None:
      ":4: assets[0].signals.phase_current_a: 'phase_current' is not a reasoner channel"),
     ("assets:\n  - name: EMA1\n    signals: {phase_current_a: phase_a_current_a}\n",
      ":3: assets[0].signals: no signal for dc_link_current_a, phase_b_current_a"),
+    ("assets:\n  - name: EMA1\n    expected_life_flights:\n      esr: 900\n"
+     "      bearing: 300\n", ":5: assets[0].expected_life_flights.bearing: not an aging kind"),
+    ("assets:\n  - name: EMA1\n    expected_life_flights: {esr: 0}\n",
+     ":3: assets[0].expected_life_flights.esr: must be >= 1"),
 ])
 def test_errors_name_file_line_and_field(text: str, where: str) -> None:
     with pytest.raises(ConfigError) as caught:
         parse(load_text(text, "x.yaml"), "x.yaml")
     assert f"x.yaml{where}" in str(caught.value)
+
+
+def test_an_expected_life_per_aging_kind_is_read_in_flights() -> None:
+    config = parse(load_text("assets:\n  - name: EMA1\n    expected_life_flights:\n"
+                             "      esr: 900\n      capacitance: 1200.5\n", "x.yaml"), "x.yaml")
+    assert config.assets[0].expected_life_flights == {"esr": 900.0, "capacitance": 1200.5}
 
 
 def test_relative_paths_follow_the_file(tmp_path: Path) -> None:
