@@ -17,7 +17,8 @@ the shortest is unique, and the product is close enough to ``m`` for ``rint`` to
 From there (15 significant digits and more: ``0.1 * 3``, most scaled values of an ICD) the
 product is taken exactly (:func:`_long_decimal`). Values outside all this (NaN,
 infinities, -0.0, tiny or huge magnitudes, exact ties) are left to the caller (``repr``),
-as pool texts. :func:`shortest_decimals` does the search; :func:`write_rows` the writing.
+as pool texts. :func:`shortest_decimals` does the search; :func:`write_rows` (a table of
+rows of one shape) and :func:`write_objects` (rows of different shapes) the writing.
 """
 
 from __future__ import annotations
@@ -167,6 +168,71 @@ def write_rows(pool: npt.NDArray[np.uint8], pool_start: IntArray, head: int,
         at = _put(pool, pool_start, tail, out, at)
         out[at] = 10
         at += 1
+    return at
+
+
+@kernel
+def write_objects(pool: npt.NDArray[np.uint8], pool_start: IntArray, row_head: IntArray,
+                  row_field: IntArray, row_fields: IntArray, row_cell: IntArray,
+                  field_open: IntArray, field_close: IntArray, field_key: IntArray,
+                  field_cells: IntArray, text: IntArray, digits: IntArray,
+                  mantissa: IntArray, code: npt.NDArray[np.uint8], code_text: IntArray,
+                  marks_open: int, marks_close: int, tail: int, out: npt.NDArray[np.uint8],
+                  ends: IntArray) -> int:
+    """Write rows of different shapes one after the other into ``out`` (no newline);
+    ``ends[r]`` is where row ``r`` ends; return the bytes written (``out`` must be large
+    enough).
+
+    Texts are pool entries, as for :func:`write_rows`. Row ``r`` is ``row_head[r]``, then
+    its ``row_fields[r]`` fields from ``row_field[r]`` on, each ``field_open[f]``, its
+    ``field_cells[f]`` cells separated by ", " and ``field_close[f]``; its cells are taken
+    in order from ``row_cell[r]`` on, each its pool text ``text[c]`` if not -1, else the
+    number ``digits[c]``/``mantissa[c]`` of :func:`shortest_decimals`. Then, for each field
+    whose cells' ``code`` bits, or-ed, give a text (``code_text[bits]`` not -1), that text
+    after ``field_key[f]``: these separated by ", ", between ``marks_open`` and
+    ``marks_close``, and only if there is one. Then ``tail``.
+    """
+    at = 0
+    scratch = np.empty(24, dtype=np.uint8)
+    for r in range(row_head.size):
+        at = _put(pool, pool_start, row_head[r], out, at)
+        c = row_cell[r]
+        for f in range(row_field[r], row_field[r] + row_fields[r]):
+            at = _put(pool, pool_start, field_open[f], out, at)
+            for j in range(field_cells[f]):
+                if j:
+                    out[at] = 44  # ", "
+                    out[at + 1] = 32
+                    at += 2
+                if text[c] >= 0:
+                    at = _put(pool, pool_start, text[c], out, at)
+                else:
+                    at = _number(digits[c], mantissa[c], scratch, out, at)
+                c += 1
+            at = _put(pool, pool_start, field_close[f], out, at)
+        c = row_cell[r]
+        first = True
+        for f in range(row_field[r], row_field[r] + row_fields[r]):
+            bits = 0
+            for _ in range(field_cells[f]):
+                bits |= code[c]
+                c += 1
+            entry = code_text[bits]
+            if entry < 0:
+                continue
+            if first:
+                at = _put(pool, pool_start, marks_open, out, at)
+                first = False
+            else:
+                out[at] = 44
+                out[at + 1] = 32
+                at += 2
+            at = _put(pool, pool_start, field_key[f], out, at)
+            at = _put(pool, pool_start, entry, out, at)
+        if not first:
+            at = _put(pool, pool_start, marks_close, out, at)
+        at = _put(pool, pool_start, tail, out, at)
+        ends[r] = at
     return at
 
 

@@ -42,18 +42,24 @@ so it pays from about this many on (minutes of a busy bus)."""
 
 
 class BatchValues:
-    """:func:`batch_values_json` for the batches of one decode, in order, each written the
-    cheaper way given what the decode has written so far (see :data:`COMPILED_AFTER`)."""
+    """The values of the batches of one decode, in order, as ``json_lines`` takes them
+    (``, "values": {...}`` per message, or nothing), each batch written the cheaper way
+    given what the decode has written so far (see :data:`COMPILED_AFTER`)."""
+
+    LEAD = ', "values": '
 
     def __init__(self, icd: Icd) -> None:
         self.icd = icd
         self.described = 0
         """Messages given values so far."""
 
-    def __call__(self, batch: Ms1553Batch) -> list[str | None]:
+    def __call__(self, batch: Ms1553Batch) -> list[str]:
         compiled = self.described >= COMPILED_AFTER or _numba_loaded()
-        out = batch_values_json(self.icd, batch, compiled=compiled)
-        self.described += len(out) - out.count(None)
+        rows, texts = _described(self.icd, batch, compiled, self.LEAD)
+        out = [""] * len(batch)
+        for i, text in zip(rows, texts, strict=True):
+            out[i] = text
+        self.described += len(rows)
         return out
 
 
@@ -67,38 +73,53 @@ def batch_values_json(icd: Icd, batch: Ms1553Batch, compiled: bool = False
     """Per message: the JSON text of ``{"message": name, parameter: value..., "flags":
     {...}}`` (what ``json.dumps`` of :meth:`IcdView.values` gives), or None; written by
     the compiled writer (:mod:`mapr_daemon.cli.icdview_rows`) if ``compiled``."""
-    rows = _python_rows
+    out: list[str | None] = [None] * len(batch)
+    rows, texts = _described(icd, batch, compiled, "")
+    for i, text in zip(rows, texts, strict=True):
+        out[i] = text
+    return out
+
+
+def _described(icd: Icd, batch: Ms1553Batch, compiled: bool, lead: str
+               ) -> tuple[list[int], list[str]]:
+    """The messages of ``batch`` the table describes and the text of each (``lead``, then
+    the values' JSON object)."""
+    names = message_numbers(icd, batch)
     if compiled:
         from mapr_daemon.cli.icdview_rows import compiled_rows
-        rows = compiled_rows
-    n = len(batch)
-    out: list[str | None] = [None] * n
-    decodable = _DECODABLE[batch.format]
-    pairs = batch.command << 17 | (batch.command2 + 1)
-    names = np.full(n, -1, np.int64)
-    messages: list[Message] = []
-    index: dict[str, int] = {}
-    for pair in np.unique(pairs[decodable]).tolist():
-        command2 = (pair & 0x1FFFF) - 1
-        message = icd.match_key(pair >> 17, None if command2 < 0 else command2)
-        if message is None:
-            continue
-        if message.name not in index:
-            index[message.name] = len(messages)
-            messages.append(message)
-        names[decodable & (pairs == pair)] = index[message.name]
-    for code, message in enumerate(messages):
+
+        rows = np.flatnonzero(names >= 0)
+        return rows.tolist(), compiled_rows(icd, lead).texts(batch, rows, names[rows])
+    places: list[int] = []
+    texts: list[str] = []
+    for code in np.unique(names[names >= 0]).tolist():
+        message = icd.messages[code]
         members = np.flatnonzero(names == code)
-        head = "{" + f'"message": {json.dumps(message.name)}'
-        for i in members[batch.data_count[members] == 0].tolist():
-            out[i] = head + "}"
+        head = lead + "{" + f'"message": {json.dumps(message.name)}'
+        empty = members[batch.data_count[members] == 0].tolist()
+        places += empty
+        texts += [head + "}"] * len(empty)
         members = members[batch.data_count[members] > 0]
         if members.size:
             series = _series(icd, message, batch, members)
-            texts = rows(message, series, members.size, head)
-            for i, text in zip(members.tolist(), texts, strict=True):
-                out[i] = text
-    return out
+            places += members.tolist()
+            texts += _python_rows(message, series, members.size, head)
+    return places, texts
+
+
+def message_numbers(icd: Icd, batch: Ms1553Batch) -> npt.NDArray[np.int64]:
+    """Per message of ``batch``, the number (index in ``icd.messages``) of the table's
+    message describing it, or -1; matched once per distinct pair of command words."""
+    number = {message.name: k for k, message in enumerate(icd.messages)}
+    decodable = _DECODABLE[batch.format]
+    pairs = batch.command << 17 | (batch.command2 + 1)
+    names = np.full(len(batch), -1, np.int64)
+    for pair in np.unique(pairs[decodable]).tolist():
+        command2 = (pair & 0x1FFFF) - 1
+        message = icd.match_key(pair >> 17, None if command2 < 0 else command2)
+        if message is not None:
+            names[decodable & (pairs == pair)] = number[message.name]
+    return names
 
 
 def _python_rows(message: Message, series: dict[str, Series], count: int,

@@ -128,14 +128,14 @@ def test_a_long_decode_turns_to_the_compiled_writer(traffic: Path,
     import mapr_daemon.cli.icdview_batch as batch_module
 
     calls: list[bool] = []
-    write = batch_module.batch_values_json
+    described = batch_module._described
 
-    def spy(icd: Any, batch: Any, compiled: bool = False) -> list[str | None]:
+    def spy(icd: Any, batch: Any, compiled: bool, lead: str) -> tuple[list[int], list[str]]:
         calls.append(compiled)
-        return write(icd, batch, compiled=compiled)
+        return described(icd, batch, compiled, lead)
 
     monkeypatch.setattr(batch_module, "COMPILED_AFTER", 100)
-    monkeypatch.setattr(batch_module, "batch_values_json", spy)
+    monkeypatch.setattr(batch_module, "_described", spy)
     monkeypatch.setattr(batch_module, "_numba_loaded", lambda: False)
     view = IcdView(str(ICD))
     assert view.icd is not None
@@ -143,4 +143,4 @@ def test_a_long_decode_turns_to_the_compiled_writer(traffic: Path,
     batch = next(b.ms1553 for b in Chapter10Reader(traffic).batches() if b.ms1553 is not None)
     first, second = values(batch), values(batch)
     assert calls == [False, True] and first == second
-    assert sum(text is not None for text in first) > 100
+    assert sum(text.startswith(', "values": {') for text in first) > 100
