@@ -1,6 +1,7 @@
 """Chapter 10 at full speed: file -> records against pychapter10, the JSON writer, decode --icd.
 
-    python bench/chapter10_speed.py [--seconds 60] [--repeat 40] [--seed N]
+    python bench/chapter10_speed.py [--seconds 60] [--repeat 40] [--seed N] [--runs 3]
+                                    [--icd-only]
 
 Files (all made here, in a temporary folder):
 
@@ -13,7 +14,8 @@ Files (all made here, in a temporary folder):
   messages, the other half traffic it does not describe.
 
 Every figure is CPU time of this process (the machine is shared; wall time beside it) and
-each rate is the best of three runs, measured side by side in one run:
+each rate is the best of ``--runs`` runs (three by default), measured side by side in one
+run (``--icd-only``: the icd file's figures only):
 
 * pychapter10: ``for packet in C10(f): for message in packet`` (1553 packets);
 * MAPR batches: :meth:`Chapter10Reader.batches` with ``arinc429=False`` (1553 records as
@@ -63,8 +65,13 @@ SAMPLE = ROOT / ".." / "shared" / "data" / "chapter10" / "sample.c10"
 ICD = ROOT / "configs" / "icd" / "ema-testbed.yaml"
 
 
-def best(run: Callable[[], int], times: int = 3) -> tuple[float, float, int]:
-    """(CPU s, wall s, items) of the fastest of ``times`` runs (by CPU)."""
+RUNS = [3]
+"""Runs each figure is the best of (``--runs``)."""
+
+
+def best(run: Callable[[], int], times: int = 0) -> tuple[float, float, int]:
+    """(CPU s, wall s, items) of the fastest of ``times`` runs (``--runs`` if 0), by CPU."""
+    times = times or RUNS[0]
     results = []
     for _ in range(times):
         cpu, wall = time.process_time(), time.perf_counter()
@@ -200,16 +207,22 @@ def main() -> None:
     parser.add_argument("--seconds", type=float, default=60.0, help="bus time of each file")
     parser.add_argument("--repeat", type=int, default=40, help="copies of the sample")
     parser.add_argument("--seed", type=int, default=None)
+    parser.add_argument("--runs", type=int, default=3, help="runs each figure is the best of")
+    parser.add_argument("--icd-only", action="store_true",
+                        help="only the decode / decode --icd figures")
     args = parser.parse_args()
+    RUNS[0] = max(1, args.runs)
     seed = fresh(args.seed)
     print(f"load average at start: {os.getloadavg()[0]:.2f}")
     with tempfile.TemporaryDirectory() as folder:
         dense = Path(folder) / "dense.c10"
         with Chapter10Writer(dense, start_time=datetime(2026, 1, 1)) as writer:
             writer.write(mixed(args.seconds))
-        files = [("dense", dense)]
+        files = [] if args.icd_only else [("dense", dense)]
         repeated = Path(folder) / "sample.c10"
-        if sample_repeated(repeated, args.repeat):
+        if args.icd_only:
+            pass
+        elif sample_repeated(repeated, args.repeat):
             files.append((f"sample x{args.repeat}", repeated))
         else:
             print(f"sample recording not at {SAMPLE}: skipped")
@@ -240,17 +253,17 @@ def main() -> None:
         print(f"\nicd: {icd_file.stat().st_size / 2**20:.1f} MiB, "
               f"{int(args.seconds * 1000):,} messages")
         plain, plain_wall, _ = best(lambda: decode(str(icd_file)))
-        print(f"  mapr decode        {plain:.2f} s CPU ({plain_wall:.2f} s wall)")
+        print(f"  mapr decode        {plain:.3f} s CPU ({plain_wall:.3f} s wall)")
         for label, after in (("repr writer", 10**12), ("compiled writer", 0)):
             with values_writer(after):
                 with_icd, icd_wall, _ = best(lambda: decode("--icd", str(ICD), str(icd_file)))
-            print(f"  mapr decode --icd, {label:<15} {with_icd:.2f} s CPU ({icd_wall:.2f} s "
+            print(f"  mapr decode --icd, {label:<15} {with_icd:.3f} s CPU ({icd_wall:.3f} s "
                   f"wall): {with_icd / plain:.2f}x decode")
-        cold = {label: min(fresh_decode(*argv, str(icd_file)) for _ in range(3))
+        cold = {label: min(fresh_decode(*argv, str(icd_file)) for _ in range(RUNS[0]))
                 for label, argv in (("decode", ()), ("decode --icd", ("--icd", str(ICD))))}
         print(f"  fresh interpreters (start-up included; {int(args.seconds * 500):,} messages "
-              f"with values: the repr writer): decode {cold['decode']:.2f} s CPU, "
-              f"decode --icd {cold['decode --icd']:.2f} s CPU "
+              f"with values: the repr writer): decode {cold['decode']:.3f} s CPU, "
+              f"decode --icd {cold['decode --icd']:.3f} s CPU "
               f"({cold['decode --icd'] / cold['decode']:.2f}x)")
         old, old_wall, _ = best(lambda: decode_icd_per_record(icd_file), times=1)
         print(f"  the per-record --icd path: {old:.2f} s CPU ({old_wall:.2f} s wall, one "

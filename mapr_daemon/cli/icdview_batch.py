@@ -34,11 +34,11 @@ for _code, _fmt in enumerate(FORMATS):
                                  TransferFormat.BCAST_RT_RT)
 
 
-COMPILED_AFTER = 150_000
+COMPILED_AFTER = 125_000
 """Messages with values a decode writes with ``repr`` before it turns to the compiled
 writer, unless numba is already loaded: loading it costs about 0.6 s of CPU once, and the
-compiled writer saves about 4 µs per such message (bench/chapter10_speed.py's ICD traffic),
-so it pays from about this many on (minutes of a busy bus)."""
+compiled writer saves about 4.8 µs per such message (bench/chapter10_speed.py's ICD
+traffic), so it pays from about this many on (minutes of a busy bus)."""
 
 
 class BatchValues:
