@@ -46,6 +46,8 @@ def test_check_accepts_the_shipped_config() -> None:
      ":4: assets[0].signals.phase_current_a: 'phase_current' is not a reasoner channel"),
     ("assets:\n  - name: EMA1\n    signals: {phase_current_a: phase_a_current_a}\n",
      ":3: assets[0].signals: no signal for dc_link_current_a, phase_b_current_a"),
+    ("record: {path: rec}\naircraft:\n  tail: 'N1;2'\n",
+     ":3: aircraft.tail: a recording (record.path) writes the tail into its TMATS record"),
 ])
 def test_errors_name_file_line_and_field(text: str, where: str) -> None:
     with pytest.raises(ConfigError) as caught:
