@@ -64,7 +64,7 @@ class CompiledRows:
         self.nan, self.inf, self.minus_inf = (pool.add(t) for t in
                                               ("NaN", "Infinity", "-Infinity"))
         self.marks_open, self.marks_close = pool.add(', "flags": {'), pool.add("}")
-        self.tail = self.marks_close
+        self.tail = pool.add("}\n")   # a row per line: cut by one str.split
         self._static = pool.arrays()
         self._static_entries = self._static[1].size - 1
         self.fields_per_message = np.diff(table.field_start)
@@ -102,9 +102,7 @@ class CompiledRows:
             self.field_close, self.field_key, np.diff(table.cell_start), text, digits,
             mantissa, flags, self.code_text, self.marks_open, self.marks_close, self.tail,
             out, ends)
-        whole = str(out[:written].data, "ascii")
-        return [whole[a:b] for a, b in zip([0, *ends[:-1].tolist()], ends.tolist(),
-                                           strict=True)]
+        return str(out[:written].data, "ascii").split("\n")[:-1]
 
     def _pool_arrays(self, value: npt.NDArray[np.float64], digits: I64, text: I64
                      ) -> tuple[npt.NDArray[np.uint8], I64]:
