@@ -25,7 +25,7 @@ from drivers.chapter10.ms1553_batch import FORMATS, Ms1553Batch
 from drivers.mil1553.record import TransferFormat
 from mapr_daemon.icd import Icd
 from mapr_daemon.icd.flags import flag_names
-from mapr_daemon.icd.model import Message
+from mapr_daemon.icd.model import INTEGER_CODE_TYPES, Message
 from mapr_daemon.icd.values import Series
 
 _DECODABLE = np.zeros(len(FORMATS), np.bool_)
@@ -133,7 +133,7 @@ def _python_rows(message: Message, series: dict[str, Series], count: int,
     for name, s in series.items():
         key = json.dumps(name)
         width = len(s) // count
-        text = _numbers(s.value)
+        text = _numbers(s)
         if s.parameter.labels:
             for place, code in enumerate(s.raw.tolist()):
                 label = s.parameter.label(code)
@@ -153,9 +153,16 @@ def _python_rows(message: Message, series: dict[str, Series], count: int,
             + "}" for row, m in zip(zip(*cells, strict=True), marks, strict=True)]
 
 
-def _numbers(values: npt.NDArray[np.float64]) -> list[str]:
-    """Floats as ``json.dumps`` writes them (``repr``; NaN and infinities by name)."""
-    text = list(map(repr, values.tolist()))
+def _numbers(series: Series) -> list[str]:
+    """The values of ``series`` as ``json.dumps`` writes them (``repr``; NaN and infinities
+    by name). A code (discrete, enumeration, counter) of up to 16 bits is its raw value as
+    a float: its text is looked up, not made (``repr`` costs about 0.35 µs a number)."""
+    values = series.value
+    p = series.parameter
+    if p.type in INTEGER_CODE_TYPES and p.width <= 16:
+        text = list(map(_whole_numbers(p.width).__getitem__, series.raw.tolist()))
+    else:
+        text = list(map(repr, values.tolist()))
     for at in np.flatnonzero(~np.isfinite(values)).tolist():
         value = float(values[at])
         text[at] = "NaN" if value != value else ("Infinity" if value > 0 else "-Infinity")
@@ -174,6 +181,12 @@ def _series(icd: Icd, message: Message, batch: Ms1553Batch,
     data = np.where(present, batch.words[at], 0).astype(np.uint16)
     return icd.decode_block(message.name, data, length.astype(np.intp),
                             batch.t_ns[members], batch.errors[members] != 0)
+
+
+@lru_cache(maxsize=17)
+def _whole_numbers(width: int) -> tuple[str, ...]:
+    """``repr`` of the floats 0.0 .. 2**width - 1, in order."""
+    return tuple(f"{code}.0" for code in range(1 << width))
 
 
 @lru_cache(maxsize=256)
