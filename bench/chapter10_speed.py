@@ -26,8 +26,9 @@ run (``--icd-only``: the icd file's figures only):
 * JSON writer: :func:`json_lines` per batch against ``json.dumps`` per record;
 * ``mapr decode`` and ``mapr decode --icd`` on the icd file (in process, to /dev/null), the
   values written by each writer (``repr``, and the compiled one a long decode turns to);
-  the same two commands in fresh interpreters, start-up included (CPU of the child); and
-  the per-record ICD path ``decode --icd`` used before (one run).
+  the same two commands in fresh interpreters, start-up included (CPU of the child); the
+  parts of ``decode --icd`` with the compiled writer; and the per-record ICD path
+  ``decode --icd`` used before (one run).
 """
 
 from __future__ import annotations
@@ -56,6 +57,7 @@ from drivers.chapter10.reader import Chapter10Reader
 from drivers.chapter10.walker import PacketWalker
 from drivers.chapter10.writer import Chapter10Writer
 from drivers.mil1553.record import MonitorRecord, TransferFormat
+from mapr_daemon.cli.chapter10_decode import BATCH_MESSAGES
 from mapr_daemon.cli.icdview import IcdView
 from mapr_daemon.cli.main import main as mapr
 from mapr_daemon.icd import load_icd
@@ -180,6 +182,35 @@ def interleaved(runs: dict[str, Callable[[], int]]) -> dict[str, tuple[float, fl
     return fastest
 
 
+def icd_parts(path: Path) -> dict[str, float]:
+    """CPU s of the parts of ``decode --icd`` (compiled writer) on ``path``, each the best
+    of ``--runs``: reading the batches, their values text, their JSON lines without and
+    with the values, joining the lines."""
+    from mapr_daemon.cli.icdview_batch import BatchValues
+
+    batches = [b.ms1553 for b in Chapter10Reader(path).batches(BATCH_MESSAGES)
+               if b.ms1553 is not None]
+    values = BatchValues(load_icd(ICD))
+    tails = [values(b) for b in batches]
+    lines = [json_lines(b, t) for b, t in zip(batches, tails, strict=True)]
+    parts: dict[str, Callable[[], object]] = {
+        "read": lambda: [b.ms1553 for b in Chapter10Reader(path).batches(BATCH_MESSAGES)],
+        "values text": lambda: [values(b) for b in batches],
+        "lines without values": lambda: [json_lines(b) for b in batches],
+        "lines with values": lambda: [json_lines(b, t)
+                                      for b, t in zip(batches, tails, strict=True)],
+        "join": lambda: ["".join(x) for x in lines]}
+    fastest = {}
+    for label, run in parts.items():
+        taken = []
+        for _ in range(RUNS[0]):
+            cpu = time.process_time()
+            run()
+            taken.append(time.process_time() - cpu)
+        fastest[label] = min(taken)
+    return fastest
+
+
 def fresh_decode(*argv: str) -> float:
     """CPU s (user + system) of ``mapr decode ARGV`` in a fresh interpreter, start-up
     included, output discarded."""
@@ -292,6 +323,10 @@ def main() -> None:
               f"with values: the repr writer): decode {cold['decode']:.3f} s CPU, "
               f"decode --icd {cold['decode --icd']:.3f} s CPU "
               f"({cold['decode --icd'] / cold['decode']:.2f}x)")
+        with values_writer(0):
+            parts = icd_parts(icd_file)
+        print("  decode --icd, compiled writer, by part (CPU s): " + ", ".join(
+            f"{label} {cpu:.3f}" for label, cpu in parts.items()))
         old, old_wall, _ = best(lambda: decode_icd_per_record(icd_file), times=1)
         print(f"  the per-record --icd path: {old:.2f} s CPU ({old_wall:.2f} s wall, one "
               f"run)")
