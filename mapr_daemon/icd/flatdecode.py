@@ -52,6 +52,8 @@ class FlatTable:
     """A table's messages, fields and cells as arrays (see the module doc)."""
 
     messages: tuple[Message, ...]
+    word_count: I64
+    """Per message, its data words (a record's words past them are not read)."""
     fields: tuple[Parameter, ...]
     """Every field of every message, message by message."""
     field_start: I64
@@ -131,7 +133,8 @@ def flatten(messages: tuple[Message, ...]) -> FlatTable:
         return np.array(values, np.float64)
 
     return FlatTable(
-        messages, tuple(fields), ints(field_start), ints(cell_start),
+        messages, ints([m.word_count for m in messages]), tuple(fields), ints(field_start),
+        ints(cell_start),
         ints(columns[0]), ints(columns[1]), ints(columns[2]), ints(columns[3]),
         ints(columns[4]), floats(columns[5]), floats(columns[6]), floats(columns[7]),
         floats(columns[8]), ints(columns[9]), ints(code_start), ints(codes),
@@ -170,9 +173,7 @@ def decode_cells(table: FlatTable, words: U16, data_start: I64, data_count: I64,
                    table.field_start, table.cell_start, table.kind, table.lsb, table.width,
                    table.signed, table.scaled, table.scale, table.offset, table.low,
                    table.high, table.check_codes, table.code_start, table.codes,
-                   table.code_label, table.col, table.col_lo, table.needed,
-                   np.array([table.messages[m].word_count for m in range(len(table.messages))],
-                            np.int64))
+                   table.code_label, table.col, table.col_lo, table.needed, table.word_count)
 
 
 @kernel
@@ -182,6 +183,7 @@ def _decode(words: U16, data_start: I64, data_count: I64, record_error: U8, row_
             high: F64, check_codes: I64, code_start: I64, codes: I64, code_label: I64,
             col: I64, col_lo: I64, needed: I64, word_count: I64
             ) -> tuple[F64, I64, U8, I64]:
+    """:func:`decode_cells` over the table's arrays (one loop: record, field, cell)."""
     cells = row_cell[-1]
     value = np.empty(cells, np.float64)
     raw = np.empty(cells, np.int64)
