@@ -35,11 +35,12 @@ for _code, _fmt in enumerate(FORMATS):
                                  TransferFormat.BCAST_RT_RT)
 
 
-COMPILED_AFTER = 125_000
+COMPILED_AFTER = 150_000
 """Messages with values a decode writes with ``repr`` before it turns to the compiled
 writer, unless numba is already loaded: loading it costs about 0.6 s of CPU once, and the
-compiled writer saves about 4.8 µs per such message (bench/chapter10_speed.py's ICD
-traffic), so it pays from about this many on (minutes of a busy bus)."""
+compiled writer saves 3.8-4.9 µs per such message (bench/chapter10_speed.py's ICD traffic:
+the two writers' CPU time apart, over 30 k messages with values, four runs), so it pays
+from about this many on (minutes of a busy bus)."""
 
 
 class BatchValues:
