@@ -1,6 +1,7 @@
 """Chapter 10 at full speed: file -> records against pychapter10, the JSON writer, decode --icd.
 
-    python bench/chapter10_speed.py [--seconds 60] [--repeat 40] [--seed N]
+    python bench/chapter10_speed.py [--seconds 60] [--repeat 40] [--seed N] [--runs 3]
+                                    [--icd-only]
 
 Files (all made here, in a temporary folder):
 
@@ -13,7 +14,8 @@ Files (all made here, in a temporary folder):
   messages, the other half traffic it does not describe.
 
 Every figure is CPU time of this process (the machine is shared; wall time beside it) and
-each rate is the best of three runs, measured side by side in one run:
+each rate is the best of ``--runs`` runs (three by default), measured side by side in one
+run (``--icd-only``: the icd file's figures only):
 
 * pychapter10: ``for packet in C10(f): for message in packet`` (1553 packets);
 * MAPR batches: :meth:`Chapter10Reader.batches` with ``arinc429=False`` (1553 records as
@@ -24,8 +26,9 @@ each rate is the best of three runs, measured side by side in one run:
 * JSON writer: :func:`json_lines` per batch against ``json.dumps`` per record;
 * ``mapr decode`` and ``mapr decode --icd`` on the icd file (in process, to /dev/null), the
   values written by each writer (``repr``, and the compiled one a long decode turns to);
-  the same two commands in fresh interpreters, start-up included (CPU of the child); and
-  the per-record ICD path ``decode --icd`` used before (one run).
+  the same two commands in fresh interpreters, start-up included (CPU of the child); the
+  parts of ``decode --icd`` with the compiled writer; and the per-record ICD path
+  ``decode --icd`` used before (one run).
 """
 
 from __future__ import annotations
@@ -54,6 +57,7 @@ from drivers.chapter10.reader import Chapter10Reader
 from drivers.chapter10.walker import PacketWalker
 from drivers.chapter10.writer import Chapter10Writer
 from drivers.mil1553.record import MonitorRecord, TransferFormat
+from mapr_daemon.cli.chapter10_decode import BATCH_MESSAGES
 from mapr_daemon.cli.icdview import IcdView
 from mapr_daemon.cli.main import main as mapr
 from mapr_daemon.icd import load_icd
@@ -63,8 +67,13 @@ SAMPLE = ROOT / ".." / "shared" / "data" / "chapter10" / "sample.c10"
 ICD = ROOT / "configs" / "icd" / "ema-testbed.yaml"
 
 
-def best(run: Callable[[], int], times: int = 3) -> tuple[float, float, int]:
-    """(CPU s, wall s, items) of the fastest of ``times`` runs (by CPU)."""
+RUNS = [3]
+"""Runs each figure is the best of (``--runs``)."""
+
+
+def best(run: Callable[[], int], times: int = 0) -> tuple[float, float, int]:
+    """(CPU s, wall s, items) of the fastest of ``times`` runs (``--runs`` if 0), by CPU."""
+    times = times or RUNS[0]
     results = []
     for _ in range(times):
         cpu, wall = time.process_time(), time.perf_counter()
@@ -153,6 +162,55 @@ def values_writer(after: int) -> Iterator[None]:
         batch_module.COMPILED_AFTER, batch_module._numba_loaded = saved
 
 
+def writer_decode(after: int, path: Path) -> int:
+    """``mapr decode --icd`` of ``path`` in this process, the compiled values writer from
+    ``after`` messages with values on (see :func:`values_writer`)."""
+    with values_writer(after):
+        return decode("--icd", str(ICD), str(path))
+
+
+def interleaved(runs: dict[str, Callable[[], int]]) -> dict[str, tuple[float, float]]:
+    """(CPU s, wall s) of the fastest run of each of ``runs``, by CPU: ``--runs`` rounds,
+    each running them all in turn, so a busy spell of a shared machine weighs on all alike."""
+    fastest: dict[str, tuple[float, float]] = {}
+    for _ in range(RUNS[0]):
+        for label, run in runs.items():
+            cpu, wall = time.process_time(), time.perf_counter()
+            run()
+            taken = (time.process_time() - cpu, time.perf_counter() - wall)
+            fastest[label] = min(fastest.get(label, taken), taken)
+    return fastest
+
+
+def icd_parts(path: Path) -> dict[str, float]:
+    """CPU s of the parts of ``decode --icd`` (compiled writer) on ``path``, each the best
+    of ``--runs``: reading the batches, their values text, their JSON lines without and
+    with the values, joining the lines."""
+    from mapr_daemon.cli.icdview_batch import BatchValues
+
+    batches = [b.ms1553 for b in Chapter10Reader(path).batches(BATCH_MESSAGES)
+               if b.ms1553 is not None]
+    values = BatchValues(load_icd(ICD))
+    tails = [values(b) for b in batches]
+    lines = [json_lines(b, t) for b, t in zip(batches, tails, strict=True)]
+    parts: dict[str, Callable[[], object]] = {
+        "read": lambda: [b.ms1553 for b in Chapter10Reader(path).batches(BATCH_MESSAGES)],
+        "values text": lambda: [values(b) for b in batches],
+        "lines without values": lambda: [json_lines(b) for b in batches],
+        "lines with values": lambda: [json_lines(b, t)
+                                      for b, t in zip(batches, tails, strict=True)],
+        "join": lambda: ["".join(x) for x in lines]}
+    fastest = {}
+    for label, run in parts.items():
+        taken = []
+        for _ in range(RUNS[0]):
+            cpu = time.process_time()
+            run()
+            taken.append(time.process_time() - cpu)
+        fastest[label] = min(taken)
+    return fastest
+
+
 def fresh_decode(*argv: str) -> float:
     """CPU s (user + system) of ``mapr decode ARGV`` in a fresh interpreter, start-up
     included, output discarded."""
@@ -200,16 +258,22 @@ def main() -> None:
     parser.add_argument("--seconds", type=float, default=60.0, help="bus time of each file")
     parser.add_argument("--repeat", type=int, default=40, help="copies of the sample")
     parser.add_argument("--seed", type=int, default=None)
+    parser.add_argument("--runs", type=int, default=3, help="runs each figure is the best of")
+    parser.add_argument("--icd-only", action="store_true",
+                        help="only the decode / decode --icd figures")
     args = parser.parse_args()
+    RUNS[0] = max(1, args.runs)
     seed = fresh(args.seed)
     print(f"load average at start: {os.getloadavg()[0]:.2f}")
     with tempfile.TemporaryDirectory() as folder:
         dense = Path(folder) / "dense.c10"
         with Chapter10Writer(dense, start_time=datetime(2026, 1, 1)) as writer:
             writer.write(mixed(args.seconds))
-        files = [("dense", dense)]
+        files = [] if args.icd_only else [("dense", dense)]
         repeated = Path(folder) / "sample.c10"
-        if sample_repeated(repeated, args.repeat):
+        if args.icd_only:
+            pass
+        elif sample_repeated(repeated, args.repeat):
             files.append((f"sample x{args.repeat}", repeated))
         else:
             print(f"sample recording not at {SAMPLE}: skipped")
@@ -239,19 +303,30 @@ def main() -> None:
                   f"json.dumps per record {n / cpu_r:,.0f} msg/s CPU ({cpu_r / cpu_b:.1f}x)")
         print(f"\nicd: {icd_file.stat().st_size / 2**20:.1f} MiB, "
               f"{int(args.seconds * 1000):,} messages")
-        plain, plain_wall, _ = best(lambda: decode(str(icd_file)))
-        print(f"  mapr decode        {plain:.2f} s CPU ({plain_wall:.2f} s wall)")
-        for label, after in (("repr writer", 10**12), ("compiled writer", 0)):
-            with values_writer(after):
-                with_icd, icd_wall, _ = best(lambda: decode("--icd", str(ICD), str(icd_file)))
-            print(f"  mapr decode --icd, {label:<15} {with_icd:.2f} s CPU ({icd_wall:.2f} s "
+        icd_runs = {"decode": lambda: decode(str(icd_file)),
+                    "repr writer": lambda: writer_decode(10**12, icd_file),
+                    "compiled writer": lambda: writer_decode(0, icd_file)}
+        writer_decode(0, icd_file)   # loads the kernels
+        fastest = interleaved(icd_runs)
+        plain, plain_wall = fastest["decode"]
+        print(f"  (each the best of {RUNS[0]} rounds, the three taken in turn in each round)")
+        print(f"  mapr decode        {plain:.3f} s CPU ({plain_wall:.3f} s wall)")
+        for label in ("repr writer", "compiled writer"):
+            with_icd, icd_wall = fastest[label]
+            print(f"  mapr decode --icd, {label:<15} {with_icd:.3f} s CPU ({icd_wall:.3f} s "
                   f"wall): {with_icd / plain:.2f}x decode")
-        cold = {label: min(fresh_decode(*argv, str(icd_file)) for _ in range(3))
-                for label, argv in (("decode", ()), ("decode --icd", ("--icd", str(ICD))))}
+        cold = {label: float("inf") for label in ("decode", "decode --icd")}
+        for _ in range(RUNS[0]):   # in turn, as above
+            for label, argv in (("decode", ()), ("decode --icd", ("--icd", str(ICD)))):
+                cold[label] = min(cold[label], fresh_decode(*argv, str(icd_file)))
         print(f"  fresh interpreters (start-up included; {int(args.seconds * 500):,} messages "
-              f"with values: the repr writer): decode {cold['decode']:.2f} s CPU, "
-              f"decode --icd {cold['decode --icd']:.2f} s CPU "
+              f"with values: the repr writer): decode {cold['decode']:.3f} s CPU, "
+              f"decode --icd {cold['decode --icd']:.3f} s CPU "
               f"({cold['decode --icd'] / cold['decode']:.2f}x)")
+        with values_writer(0):
+            parts = icd_parts(icd_file)
+        print("  decode --icd, compiled writer, by part (CPU s): " + ", ".join(
+            f"{label} {cpu:.3f}" for label, cpu in parts.items()))
         old, old_wall, _ = best(lambda: decode_icd_per_record(icd_file), times=1)
         print(f"  the per-record --icd path: {old:.2f} s CPU ({old_wall:.2f} s wall, one "
               f"run)")

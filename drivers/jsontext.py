@@ -3,8 +3,9 @@
 ``mapr decode --icd`` prints a few hundred thousand engineering values a minute of bus time.
 Python's ``repr`` of a float (what ``json.dumps`` writes) costs about 0.2 µs, as much as the
 rest of the decode; assembling each line from per-value strings costs as much again. Here a
-table of rows is written into one byte buffer by a compiled kernel (:mod:`drivers.jit`),
-each row a line, from a pool of fixed texts (keys, labels, flag lists) and numbers.
+batch of rows is written into one byte buffer by a compiled kernel (:mod:`drivers.jit`),
+each row where the last ended, from a pool of fixed texts (keys, labels, flag lists) and
+numbers.
 
 *Numbers.* ``repr`` gives the shortest decimal that reads back as the same float (the
 closest such if several), positional for magnitudes in [1e-4, 1e16). For such a value, the
@@ -17,7 +18,8 @@ the shortest is unique, and the product is close enough to ``m`` for ``rint`` to
 From there (15 significant digits and more: ``0.1 * 3``, most scaled values of an ICD) the
 product is taken exactly (:func:`_long_decimal`). Values outside all this (NaN,
 infinities, -0.0, tiny or huge magnitudes, exact ties) are left to the caller (``repr``),
-as pool texts. :func:`shortest_decimals` does the search; :func:`write_rows` the writing.
+as pool texts. :func:`shortest_decimals` does the search; :func:`write_objects` the writing
+(rows of different shapes, one after the other).
 """
 
 from __future__ import annotations
@@ -123,50 +125,68 @@ def _product(a: float, b: float) -> tuple[float, float]:
 
 
 @kernel
-def write_rows(pool: npt.NDArray[np.uint8], pool_start: IntArray, head: int,
-               prefix: IntArray, suffix: IntArray, digits: IntArray, mantissa: IntArray,
-               text: IntArray, marks: IntArray, mark_key: IntArray, marks_open: int,
-               marks_close: int, tail: int, out: npt.NDArray[np.uint8]) -> int:
-    """Write one line per row of the ``(rows, cells)`` tables into ``out``, each ended by a
-    newline; return the bytes written (``out`` must be large enough: see
-    :func:`row_bytes_bound`).
+def write_objects(pool: npt.NDArray[np.uint8], pool_start: IntArray, row_head: IntArray,
+                  row_field: IntArray, row_fields: IntArray, row_cell: IntArray,
+                  field_open: IntArray, field_close: IntArray, field_key: IntArray,
+                  field_cells: IntArray, text: IntArray, digits: IntArray,
+                  mantissa: IntArray, code: npt.NDArray[np.uint8], code_text: IntArray,
+                  marks_open: int, marks_close: int, tail: int, out: npt.NDArray[np.uint8],
+                  ends: IntArray) -> int:
+    """Write rows of different shapes one after the other into ``out`` (no newline);
+    ``ends[r]`` is where row ``r`` ends; return the bytes written (``out`` must be large
+    enough).
 
     Texts are pool entries: entry ``k`` is ``pool[pool_start[k]:pool_start[k + 1]]``; -1
-    is none. A line is ``head``; per cell ``prefix[c]``, the cell (its pool text
-    ``text[r, c]`` if not -1, else the number ``digits[r, c]``/``mantissa[r, c]`` of
-    :func:`shortest_decimals`), ``suffix[c]``; then, if any of the row's ``marks[r, k]`` is
-    not -1, ``marks_open``, those entries each after ``mark_key[k]`` and separated by ", ",
-    and ``marks_close``; then ``tail``.
+    is none. Row ``r`` is ``row_head[r]``, then
+    its ``row_fields[r]`` fields from ``row_field[r]`` on, each ``field_open[f]``, its
+    ``field_cells[f]`` cells separated by ", " and ``field_close[f]``; its cells are taken
+    in order from ``row_cell[r]`` on, each its pool text ``text[c]`` if not -1, else the
+    number ``digits[c]``/``mantissa[c]`` of :func:`shortest_decimals`. Then, for each field
+    whose cells' ``code`` bits, or-ed, give a text (``code_text[bits]`` not -1), that text
+    after ``field_key[f]``: these separated by ", ", between ``marks_open`` and
+    ``marks_close``, and only if there is one. Then ``tail``.
     """
     at = 0
     scratch = np.empty(24, dtype=np.uint8)
-    for r in range(digits.shape[0]):
-        at = _put(pool, pool_start, head, out, at)
-        for c in range(digits.shape[1]):
-            at = _put(pool, pool_start, prefix[c], out, at)
-            if text[r, c] >= 0:
-                at = _put(pool, pool_start, text[r, c], out, at)
-            else:
-                at = _number(digits[r, c], mantissa[r, c], scratch, out, at)
-            at = _put(pool, pool_start, suffix[c], out, at)
+    for r in range(row_head.size):
+        at = _put(pool, pool_start, row_head[r], out, at)
+        c = row_cell[r]
+        for f in range(row_field[r], row_field[r] + row_fields[r]):
+            at = _put(pool, pool_start, field_open[f], out, at)
+            for j in range(field_cells[f]):
+                if j:
+                    out[at] = 44  # ", "
+                    out[at + 1] = 32
+                    at += 2
+                if text[c] >= 0:
+                    at = _put(pool, pool_start, text[c], out, at)
+                else:
+                    at = _number(digits[c], mantissa[c], scratch, out, at)
+                c += 1
+            at = _put(pool, pool_start, field_close[f], out, at)
+        c = row_cell[r]
         first = True
-        for k in range(marks.shape[1]):
-            if marks[r, k] < 0:
+        for f in range(row_field[r], row_field[r] + row_fields[r]):
+            bits = 0
+            for _ in range(field_cells[f]):
+                bits |= code[c]
+                c += 1
+            entry = code_text[bits]
+            if entry < 0:
                 continue
             if first:
                 at = _put(pool, pool_start, marks_open, out, at)
                 first = False
             else:
-                out[at] = 44  # ", "
+                out[at] = 44
                 out[at + 1] = 32
                 at += 2
-            at = _put(pool, pool_start, mark_key[k], out, at)
-            at = _put(pool, pool_start, marks[r, k], out, at)
+            at = _put(pool, pool_start, field_key[f], out, at)
+            at = _put(pool, pool_start, entry, out, at)
         if not first:
             at = _put(pool, pool_start, marks_close, out, at)
         at = _put(pool, pool_start, tail, out, at)
-        out[at] = 10
-        at += 1
+        ends[r] = at
     return at
 
 
@@ -217,7 +237,7 @@ NUMBER_BYTES = 24
 
 
 class TextPool:
-    """Fixed texts (ASCII) numbered in the order first added, for :func:`write_rows`."""
+    """Fixed texts (ASCII) numbered in the order first added, for :func:`write_objects`."""
 
     def __init__(self) -> None:
         self._index: dict[str, int] = {}

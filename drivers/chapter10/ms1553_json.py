@@ -9,8 +9,8 @@ pieces, byte for byte what ``json.dumps`` gives:
   once per distinct combination (a flight has a few hundred) and broadcast;
 * words are turned into text once per batch, and each line is one f-string over slices.
 
-``values`` (engineering values from an ICD) come as text too
-(:mod:`mapr_daemon.cli.icdview_batch`).
+``values`` (engineering values from an ICD) come as text too, ready to put before the
+closing brace (:mod:`mapr_daemon.cli.icdview_batch`).
 """
 
 from __future__ import annotations
@@ -43,10 +43,10 @@ def _errors(mask: int) -> str:
     return "[" + ", ".join(f'"{name}"' for name in error_names(mask)) + "]"
 
 
-def json_lines(batch: Ms1553Batch, values: Sequence[str | None] | None = None
-               ) -> list[str]:
+def json_lines(batch: Ms1553Batch, tails: Sequence[str] | None = None) -> list[str]:
     """One JSON object per message, newline-terminated, as ``mapr decode`` prints them
-    (``values``: per message, the JSON text of the ICD's engineering values, or None)."""
+    (``tails``: per message, text to put before its closing brace: the ICD's engineering
+    values as ``, "values": {...}``, or nothing)."""
     n = len(batch)
     if n == 0:
         return []
@@ -62,8 +62,7 @@ def json_lines(batch: Ms1553Batch, values: Sequence[str | None] | None = None
     gaps = _pair_text(batch.gaps_ns, batch.n_status)
     times = [""] * n if batch.time is None else \
         [f', "time": "{t}"' if t else "" for t in batch.time.tolist()]
-    extra = [""] * n if values is None else \
-        ["" if v is None else f', "values": {v}' for v in values]
+    extra = [""] * n if tails is None else tails
     prefix = [prefixes[k] for k in inverse.tolist()]
     errors = [error_text[k] for k in mask_index.tolist()]
     return [f'{{"t_ns": {t}, {p}"data": [{d}], "status": [{s}], "gaps_ns": [{g}], '

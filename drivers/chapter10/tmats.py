@@ -47,6 +47,9 @@ class RecordingSetup:
     where ``mapr fleet --tail-tmats 'G\\TA'`` reads it."""
 
 
+SEPARATORS = (";", "\n", "\r")
+"""Characters a TMATS value cannot hold (they end an attribute or its line)."""
+
 TAIL_ATTRIBUTE = "G\\TA"
 """The TMATS code the tail number is written under (the test article)."""
 
@@ -104,7 +107,7 @@ def tmats_attributes(setup: RecordingSetup) -> list[tuple[str, str]]:
 def tmats_text(setup: RecordingSetup) -> str:
     """The TMATS record as written: one ``CODE:value;`` per line, CR LF line ends."""
     for code, value in tmats_attributes(setup):
-        if ";" in value or "\n" in value or "\r" in value:
+        if any(c in value for c in SEPARATORS):
             raise ValueError(f"TMATS value for {code} holds a separator: {value!r}")
     return "".join(f"{code}:{value};\r\n" for code, value in tmats_attributes(setup))
 

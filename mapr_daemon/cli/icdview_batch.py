@@ -3,12 +3,13 @@
 :meth:`IcdView.values <mapr_daemon.cli.icdview.IcdView.values>` decodes one record at a
 time (one numpy pass per message: fine for a live monitor, 7x the cost of reading for a
 recording). Here the messages of a batch are grouped by ICD message, their data words
-stacked straight from the batch's word array, and each group decoded in one call; the result
-per message is the same dict, key for key.
+stacked straight from the batch's word array, each group decoded in one call and its text
+written with one ``repr`` per number; the result per message is the same dict, key for key.
 
-The text is written with one ``repr`` per number here, or by a compiled writer
-(:mod:`mapr_daemon.cli.icdview_rows`, 2-3x faster on the values) once a decode has written
-enough values for loading it to pay (:class:`BatchValues`); both write the same bytes.
+Once a decode has written enough values for loading numba to pay (:class:`BatchValues`), a
+compiled writer takes over (:mod:`mapr_daemon.cli.icdview_rows`: the whole batch decoded
+and written in two kernel calls: it adds 2.3-3.0x less CPU time to a decode than the
+``repr`` writer in bench/chapter10_speed.py's runs); both write the same bytes.
 """
 
 from __future__ import annotations
@@ -24,7 +25,7 @@ from drivers.chapter10.ms1553_batch import FORMATS, Ms1553Batch
 from drivers.mil1553.record import TransferFormat
 from mapr_daemon.icd import Icd
 from mapr_daemon.icd.flags import flag_names
-from mapr_daemon.icd.model import Message
+from mapr_daemon.icd.model import INTEGER_CODE_TYPES, Message
 from mapr_daemon.icd.values import Series
 
 _DECODABLE = np.zeros(len(FORMATS), np.bool_)
@@ -37,23 +38,30 @@ for _code, _fmt in enumerate(FORMATS):
 COMPILED_AFTER = 150_000
 """Messages with values a decode writes with ``repr`` before it turns to the compiled
 writer, unless numba is already loaded: loading it costs about 0.6 s of CPU once, and the
-compiled writer saves about 4 µs per such message (bench/chapter10_speed.py's ICD traffic),
-so it pays from about this many on (minutes of a busy bus)."""
+compiled writer saves 3.8-4.9 µs per such message (bench/chapter10_speed.py's ICD traffic:
+the two writers' CPU time apart, over 30 k messages with values, four runs), so it pays
+from about this many on (minutes of a busy bus)."""
 
 
 class BatchValues:
-    """:func:`batch_values_json` for the batches of one decode, in order, each written the
-    cheaper way given what the decode has written so far (see :data:`COMPILED_AFTER`)."""
+    """The values of the batches of one decode, in order, as ``json_lines`` takes them
+    (``, "values": {...}`` per message, or nothing), each batch written the cheaper way
+    given what the decode has written so far (see :data:`COMPILED_AFTER`)."""
+
+    LEAD = ', "values": '
 
     def __init__(self, icd: Icd) -> None:
         self.icd = icd
         self.described = 0
         """Messages given values so far."""
 
-    def __call__(self, batch: Ms1553Batch) -> list[str | None]:
+    def __call__(self, batch: Ms1553Batch) -> list[str]:
         compiled = self.described >= COMPILED_AFTER or _numba_loaded()
-        out = batch_values_json(self.icd, batch, compiled=compiled)
-        self.described += len(out) - out.count(None)
+        rows, texts = _described(self.icd, batch, compiled, self.LEAD)
+        out = [""] * len(batch)
+        for i, text in zip(rows, texts, strict=True):
+            out[i] = text
+        self.described += len(rows)
         return out
 
 
@@ -67,38 +75,53 @@ def batch_values_json(icd: Icd, batch: Ms1553Batch, compiled: bool = False
     """Per message: the JSON text of ``{"message": name, parameter: value..., "flags":
     {...}}`` (what ``json.dumps`` of :meth:`IcdView.values` gives), or None; written by
     the compiled writer (:mod:`mapr_daemon.cli.icdview_rows`) if ``compiled``."""
-    rows = _python_rows
+    out: list[str | None] = [None] * len(batch)
+    rows, texts = _described(icd, batch, compiled, "")
+    for i, text in zip(rows, texts, strict=True):
+        out[i] = text
+    return out
+
+
+def _described(icd: Icd, batch: Ms1553Batch, compiled: bool, lead: str
+               ) -> tuple[list[int], list[str]]:
+    """The messages of ``batch`` the table describes and the text of each (``lead``, then
+    the values' JSON object)."""
+    names = message_numbers(icd, batch)
     if compiled:
         from mapr_daemon.cli.icdview_rows import compiled_rows
-        rows = compiled_rows
-    n = len(batch)
-    out: list[str | None] = [None] * n
-    decodable = _DECODABLE[batch.format]
-    pairs = batch.command << 17 | (batch.command2 + 1)
-    names = np.full(n, -1, np.int64)
-    messages: list[Message] = []
-    index: dict[str, int] = {}
-    for pair in np.unique(pairs[decodable]).tolist():
-        command2 = (pair & 0x1FFFF) - 1
-        message = icd.match_key(pair >> 17, None if command2 < 0 else command2)
-        if message is None:
-            continue
-        if message.name not in index:
-            index[message.name] = len(messages)
-            messages.append(message)
-        names[decodable & (pairs == pair)] = index[message.name]
-    for code, message in enumerate(messages):
+
+        rows = np.flatnonzero(names >= 0)
+        return rows.tolist(), compiled_rows(icd, lead).texts(batch, rows, names[rows])
+    places: list[int] = []
+    texts: list[str] = []
+    for code in np.unique(names[names >= 0]).tolist():
+        message = icd.messages[code]
         members = np.flatnonzero(names == code)
-        head = "{" + f'"message": {json.dumps(message.name)}'
-        for i in members[batch.data_count[members] == 0].tolist():
-            out[i] = head + "}"
+        head = lead + "{" + f'"message": {json.dumps(message.name)}'
+        empty = members[batch.data_count[members] == 0].tolist()
+        places += empty
+        texts += [head + "}"] * len(empty)
         members = members[batch.data_count[members] > 0]
         if members.size:
             series = _series(icd, message, batch, members)
-            texts = rows(message, series, members.size, head)
-            for i, text in zip(members.tolist(), texts, strict=True):
-                out[i] = text
-    return out
+            places += members.tolist()
+            texts += _python_rows(message, series, members.size, head)
+    return places, texts
+
+
+def message_numbers(icd: Icd, batch: Ms1553Batch) -> npt.NDArray[np.int64]:
+    """Per message of ``batch``, the number (index in ``icd.messages``) of the table's
+    message describing it, or -1; matched once per distinct pair of command words."""
+    number = {message.name: k for k, message in enumerate(icd.messages)}
+    decodable = _DECODABLE[batch.format]
+    pairs = batch.command << 17 | (batch.command2 + 1)
+    names = np.full(len(batch), -1, np.int64)
+    for pair in np.unique(pairs[decodable]).tolist():
+        command2 = (pair & 0x1FFFF) - 1
+        message = icd.match_key(pair >> 17, None if command2 < 0 else command2)
+        if message is not None:
+            names[decodable & (pairs == pair)] = number[message.name]
+    return names
 
 
 def _python_rows(message: Message, series: dict[str, Series], count: int,
@@ -111,7 +134,7 @@ def _python_rows(message: Message, series: dict[str, Series], count: int,
     for name, s in series.items():
         key = json.dumps(name)
         width = len(s) // count
-        text = _numbers(s.value)
+        text = _numbers(s)
         if s.parameter.labels:
             for place, code in enumerate(s.raw.tolist()):
                 label = s.parameter.label(code)
@@ -131,9 +154,16 @@ def _python_rows(message: Message, series: dict[str, Series], count: int,
             + "}" for row, m in zip(zip(*cells, strict=True), marks, strict=True)]
 
 
-def _numbers(values: npt.NDArray[np.float64]) -> list[str]:
-    """Floats as ``json.dumps`` writes them (``repr``; NaN and infinities by name)."""
-    text = list(map(repr, values.tolist()))
+def _numbers(series: Series) -> list[str]:
+    """The values of ``series`` as ``json.dumps`` writes them (``repr``; NaN and infinities
+    by name). A code (discrete, enumeration, counter) of up to 16 bits is its raw value as
+    a float: its text is looked up, not made (``repr`` costs about 0.35 µs a number)."""
+    values = series.value
+    p = series.parameter
+    if p.type in INTEGER_CODE_TYPES and p.width <= 16:
+        text = list(map(_whole_numbers(p.width).__getitem__, series.raw.tolist()))
+    else:
+        text = list(map(repr, values.tolist()))
     for at in np.flatnonzero(~np.isfinite(values)).tolist():
         value = float(values[at])
         text[at] = "NaN" if value != value else ("Infinity" if value > 0 else "-Infinity")
@@ -152,6 +182,12 @@ def _series(icd: Icd, message: Message, batch: Ms1553Batch,
     data = np.where(present, batch.words[at], 0).astype(np.uint16)
     return icd.decode_block(message.name, data, length.astype(np.intp),
                             batch.t_ns[members], batch.errors[members] != 0)
+
+
+@lru_cache(maxsize=17)
+def _whole_numbers(width: int) -> tuple[str, ...]:
+    """``repr`` of the floats 0.0 .. 2**width - 1, in order."""
+    return tuple(f"{code}.0" for code in range(1 << width))
 
 
 @lru_cache(maxsize=256)

@@ -1,107 +1,139 @@
-"""The compiled writer of :mod:`mapr_daemon.cli.icdview_batch`: a group's values text in
-one kernel call (:mod:`drivers.jsontext`), numbers as ``json.dumps`` writes them.
+"""The compiled writer of :mod:`mapr_daemon.cli.icdview_batch`: a whole batch's values text
+in two kernel calls, numbers as ``json.dumps`` writes them.
 
-Per parameter sample a cell: its number, or a pool text (a label, NaN, or a number only
-``repr`` writes); per parameter a flag-list cell where flags are set. Loading the kernels
-costs a process about 0.6 s of CPU once (numba and its code generator), so this module is
-imported only when that pays (see :class:`~mapr_daemon.cli.icdview_batch.BatchValues`).
+The table is flattened once (:mod:`mapr_daemon.icd.flatdecode`) and its fixed texts (each
+message's head, each field's key and brackets, labels, the flag lists of every flag byte)
+put in a :class:`~drivers.jsontext.TextPool`. Per batch: one kernel decodes every cell of
+every record the table describes (:func:`~mapr_daemon.icd.flatdecode.decode_cells`),
+:func:`~drivers.jsontext.shortest_decimals` finds each number's text, ``repr`` writes the
+few it cannot (NaN, infinities, -0.0, tiny or huge magnitudes), and one kernel writes every
+record's text into one buffer (:func:`~drivers.jsontext.write_objects`), cut into one string
+per record. No numpy pass runs per message or parameter.
+
+Loading the kernels costs a process about 0.6 s of CPU once (numba and its code generator),
+so this module is imported only when that pays (see
+:class:`~mapr_daemon.cli.icdview_batch.BatchValues`).
 """
 
 from __future__ import annotations
 
 import json
+import weakref
 
 import numpy as np
 import numpy.typing as npt
 
-from drivers.jsontext import NUMBER_BYTES, TextPool, shortest_decimals, write_rows
-from mapr_daemon.cli.icdview_batch import flag_list
-from mapr_daemon.icd.model import Message, Parameter
-from mapr_daemon.icd.values import Series
+from drivers.chapter10.ms1553_batch import Ms1553Batch
+from drivers.jsontext import NUMBER_BYTES, TextPool, shortest_decimals, write_objects
+from mapr_daemon.icd import Icd
+from mapr_daemon.icd.flags import FLAG_NAMES, flag_names
+from mapr_daemon.icd.flatdecode import FlatTable, decode_cells, flatten
+from mapr_daemon.icd.model import Message
+
+I64 = npt.NDArray[np.int64]
 
 
-def compiled_rows(message: Message, series: dict[str, Series], count: int,
-                  head: str) -> list[str]:
-    """The whole text of each of ``count`` messages of ``message`` from ``head`` on, given
-    their decoded ``series`` (record-major): one column of cells per sample of each
-    parameter, written by :func:`~drivers.jsontext.write_rows`."""
-    group = {c.name for c in message.group.channels} if message.group else set()
-    pool = TextPool()
-    before: list[str] = []   # the fixed text before each cell (after the one before it)
-    after = head
-    values: list[npt.NDArray[np.float64]] = []
-    labels: list[npt.NDArray[np.int64]] = []
-    unions: list[npt.NDArray[np.uint8]] = []   # per parameter, each message's flags
-    keys: list[str] = []
-    for name, s in series.items():
-        key = json.dumps(name)
-        width = len(s) // count
-        if name in group:   # an array, of one cell of no text when empty
-            before += [f"{after}, {key}: ["] + [", "] * (max(width, 1) - 1)
-            after = "]"
-        else:   # a scalar
-            before.append(f"{after}, {key}: ")
-            after = ""
-        if width:
-            values.append(s.value.reshape(count, width))
-            labels.append(_label_cells(pool, s.parameter, s.raw.reshape(count, width)))
-        else:
-            values.append(np.zeros((count, 1)))
-            labels.append(np.full((count, 1), pool.add(""), np.int64))
-        unions.append(s.flags if width == 1 else
-                      np.bitwise_or.reduce(s.flags.reshape(count, width), axis=1))
-        keys.append(f"{key}: ")
-    if not values:
-        return [head + "}"] * count
-    value = np.concatenate(values, axis=1) if len(values) > 1 else values[0]
-    text = np.concatenate(labels, axis=1) if len(labels) > 1 else labels[0]
-    digits, mantissa = shortest_decimals(np.ascontiguousarray(value).ravel())
-    slow = np.flatnonzero((digits < 0) & (text.ravel() < 0))
-    if slow.size:   # NaN, infinities and the numbers only repr writes
-        flat = text.ravel().copy()
-        rest = value.ravel()[slow]
+class CompiledRows:
+    """Values texts of the records of batches, for one table's messages; each text starts
+    with ``lead`` (``{"message": ...}`` as ``json.dumps`` writes it follows)."""
+
+    def __init__(self, messages: tuple[Message, ...], lead: str = "") -> None:
+        self.table: FlatTable = flatten(messages)
+        table = self.table
+        pool = self._pool = TextPool()
+        group = [{c.name for c in m.group.channels} if m.group else set() for m in messages]
+        self.heads = pool.add_all([lead + '{"message": ' + json.dumps(m.name) for m in messages])
+        opens, closes, keys = [], [], []
+        for m in range(len(messages)):
+            for f in range(table.field_start[m], table.field_start[m + 1]):
+                key = json.dumps(table.fields[f].name)
+                array = table.fields[f].name in group[m]
+                opens.append(f", {key}: " + ("[" if array else ""))
+                closes.append("]" if array else "")
+                keys.append(f"{key}: ")
+        self.field_open = pool.add_all(opens)
+        self.field_close = pool.add_all(closes)
+        self.field_key = pool.add_all(keys)
+        labels = pool.add_all([json.dumps(label) for label in table.labels])
+        self.label_entry = np.append(labels, -1)   # label index -> entry; -1 (none) -> -1
+        every_flag = sum(bit for bit, _ in FLAG_NAMES)
+        self.code_text = np.full(256, -1, np.int64)
+        for bits in range(1, every_flag + 1):
+            if bits & ~every_flag == 0:
+                self.code_text[bits] = pool.add(json.dumps(sorted(flag_names(bits))))
+        self.nan, self.inf, self.minus_inf = (pool.add(t) for t in
+                                              ("NaN", "Infinity", "-Infinity"))
+        self.marks_open, self.marks_close = pool.add(', "flags": {'), pool.add("}")
+        self.tail = pool.add("}\n")   # a row per line: cut by one str.split
+        self._static = pool.arrays()
+        self._static_entries = self._static[1].size - 1
+        self.fields_per_message = np.diff(table.field_start)
+        longest = max(NUMBER_BYTES, pool.longest())
+        fixed = np.array([len(o) + len(c) + len(k) + 2 + longest
+                          for o, c, k in zip(opens, closes, keys, strict=True)], np.int64)
+        field_fixed = np.concatenate([[0], np.cumsum(fixed)])
+        self.bound = (np.array([pool.length(int(h)) for h in self.heads], np.int64)
+                      + field_fixed[table.field_start[1:]] - field_fixed[table.field_start[:-1]]
+                      + 16 + table.cells_per_message * (longest + 2))
+        """Per message, the most bytes one record's text takes (from its head on)."""
+
+    def texts(self, batch: Ms1553Batch, rows: I64, message: I64) -> list[str]:
+        """The text of each record ``rows`` of ``batch`` (ascending), ``message[i]`` being
+        the table's message number of ``rows[i]``."""
+        if rows.size == 0:
+            return []
+        table = self.table
+        count = batch.data_count[rows]
+        empty = count <= 0
+        cells = np.where(empty, 0, table.cells_per_message[message])
+        row_cell = np.zeros(rows.size + 1, np.int64)
+        np.cumsum(cells, out=row_cell[1:])
+        value, _, flags, label = decode_cells(
+            table, batch.words, batch.data_start[rows], count,
+            (batch.errors[rows] != 0).astype(np.uint8), message, row_cell)
+        text = self.label_entry[label]
+        digits, mantissa = shortest_decimals(value)
+        pool, starts = self._pool_arrays(value, digits, text)
+        out = np.empty(int(self.bound[message].sum()), np.uint8)
+        ends = np.empty(rows.size, np.int64)
+        written = write_objects(
+            pool, starts, self.heads[message], table.field_start[message],
+            np.where(empty, 0, self.fields_per_message[message]), row_cell, self.field_open,
+            self.field_close, self.field_key, np.diff(table.cell_start), text, digits,
+            mantissa, flags, self.code_text, self.marks_open, self.marks_close, self.tail,
+            out, ends)
+        return str(out[:written].data, "ascii").split("\n")[:-1]
+
+    def _pool_arrays(self, value: npt.NDArray[np.float64], digits: I64, text: I64
+                     ) -> tuple[npt.NDArray[np.uint8], I64]:
+        """The pool's bytes and starts for this batch: the fixed texts, then the ``repr``
+        of each number :func:`shortest_decimals` leaves to it (``text`` set to them)."""
+        data, starts = self._static
+        slow = np.flatnonzero((digits < 0) & (text < 0))
+        if slow.size == 0:
+            return data, starts
+        rest = value[slow]
         finite = np.isfinite(rest)
-        flat[slow[finite]] = pool.extend(list(map(repr, rest[finite].tolist())))
-        flat[slow[~finite]] = np.where(np.isnan(rest[~finite]), pool.add("NaN"),
-                                       np.where(rest[~finite] > 0, pool.add("Infinity"),
-                                                pool.add("-Infinity")))
-        text = flat.reshape(text.shape)
-    flags = np.stack(unions, axis=1)
-    entries = np.full(256, -1, np.int64)   # per flag byte seen, its list's pool entry
-    for code in np.flatnonzero(np.bincount(flags.ravel(), minlength=256)[1:]).tolist():
-        entries[code + 1] = pool.add(flag_list(code + 1))
-    mark_table = entries[flags]
-    mark_key = pool.add_all(keys)
-    prefix = pool.add_all(before)
-    suffix = np.full(prefix.size, -1, np.int64)
-    suffix[-1] = pool.add(after)
-    tail, marks_open, marks_close = pool.add("}"), pool.add(', "flags": {'), pool.add("}")
-    fixed = sum(map(len, before)) + len(after) + 1 + 1 + len(', "flags": {') + 1 + \
-        sum(map(len, keys)) + 2 * len(keys)
-    per_cell = max(NUMBER_BYTES, pool.longest())
-    size = count * (fixed + per_cell * (value.shape[1] + len(keys)))
-    buffer = np.empty(size, np.uint8)
-    data_bytes, starts = pool.arrays()
-    written = write_rows(data_bytes, starts, -1, prefix, suffix,
-                         digits.reshape(value.shape), mantissa.reshape(value.shape),
-                         np.ascontiguousarray(text), np.ascontiguousarray(mark_table),
-                         mark_key, marks_open, marks_close, tail, buffer)
-    return str(buffer[:written].data, "ascii").split("\n")[:-1]
+        text[slow[~finite]] = np.where(np.isnan(rest[~finite]), self.nan,
+                                       np.where(rest[~finite] > 0, self.inf, self.minus_inf))
+        numbers = list(map(repr, rest[finite].tolist()))
+        text[slow[finite]] = self._static_entries + np.arange(len(numbers))
+        added = "".join(numbers).encode("ascii")
+        lengths = np.fromiter(map(len, numbers), np.int64, len(numbers))
+        more = starts[-1] + np.cumsum(lengths)
+        return (np.concatenate([data, np.frombuffer(added, np.uint8)]),
+                np.concatenate([starts, more]))
 
 
-def _label_cells(pool: TextPool, parameter: Parameter,
-                 raw: npt.NDArray[np.int64]) -> npt.NDArray[np.int64]:
-    """Per cell, the pool entry of its code's label (as JSON), or -1 where it has none."""
-    cells = np.full(raw.shape, -1, np.int64)
-    named = {code: label for code, label in parameter.labels.items() if label}
-    if not named:
-        return cells
-    low, high = min(named), max(named)
-    table = np.full(high - low + 1, -1, np.int64)   # code - low -> the label's entry
-    for code, label in named.items():
-        table[code - low] = pool.add(json.dumps(label))
-    inside = (raw >= low) & (raw <= high)
-    cells[inside] = table[raw[inside] - low]
-    return cells
+_TABLES: weakref.WeakKeyDictionary[Icd, dict[str, CompiledRows]] = \
+    weakref.WeakKeyDictionary()
 
 
+def compiled_rows(icd: Icd, lead: str = "") -> CompiledRows:
+    """The :class:`CompiledRows` of ``icd``'s messages, texts starting with ``lead`` (made
+    once per table and lead)."""
+    made = _TABLES.setdefault(icd, {})
+    rows = made.get(lead)
+    if rows is None:
+        rows = made[lead] = CompiledRows(icd.messages, lead)
+    return rows

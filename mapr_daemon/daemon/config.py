@@ -18,6 +18,7 @@ import os
 from pathlib import Path
 from typing import Any
 
+from drivers.chapter10.tmats import SEPARATORS as TMATS_SEPARATORS
 from drivers.monitor import available_backends
 from mapr_daemon.catalog import default_path as default_catalog_path
 from mapr_daemon.daemon import wiring
@@ -284,6 +285,10 @@ def parse(raw: Any, path: str, *, preflight: bool = False) -> Config:
         "channel_id": ("int", {"minimum": 1})})
     aircraft = _section(r, raw, "aircraft", AircraftConfig, {
         "tail": ("str", {}), "flight_gap_s": ("float", {"minimum": 1.0})})
+    if record.path is not None and any(c in aircraft.tail for c in TMATS_SEPARATORS):
+        raise r.error(raw["aircraft"], "tail", "aircraft.",
+                      f"a recording (record.path) writes the tail into its TMATS record, "
+                      f"which cannot hold ';' or a line break: {aircraft.tail!r}")
     kwargs: dict[str, Any] = {"backend": backend, "testbed": testbed, "reasoner": reasoner,
                               "catalog": catalog, "record": record, "aircraft": aircraft,
                               "source": path}

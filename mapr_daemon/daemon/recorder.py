@@ -15,6 +15,10 @@ the first record: the session clock's anchor (:mod:`.clock`), the very instant t
 events are stamped from. When time runs backwards — the backend was reopened after a failure and its
 bus time restarted — the file is closed and a new part begins (``...-part2.ch10``).
 
+Each file's TMATS setup record names the aircraft (``aircraft.tail``, as ``G\\TA``), as
+``mapr record --tail`` does, so ``mapr fleet --tail-tmats 'G\\TA'`` files the recording under
+its tail whatever folder it ends up in.
+
 A write error (disk full, the directory removed) is logged once and ends the recording; the
 daemon goes on monitoring.
 """
@@ -39,8 +43,11 @@ class SessionRecorder:
     """Writes a session's records to Chapter 10 files in ``directory``."""
 
     def __init__(self, directory: str, session_id: int, *, channel_id: int = 1,
-                 clock: BusClock | None = None) -> None:
+                 clock: BusClock | None = None, tail: str = "") -> None:
         self.directory = Path(directory)
+        self.tail = tail
+        """The aircraft's tail number (``aircraft.tail``), written into each file's TMATS
+        (``G\\TA``, where the fleet reader looks for it); none when empty."""
         self.clock = clock
         """The session's clock: a bus-time file starts at its anchor, so the file's time
         packets give the absolute time the daemon stamped its events with."""
@@ -97,7 +104,8 @@ class SessionRecorder:
         if self.files:
             name += f"-part{len(self.files) + 1}"
         path = self.directory / f"{name}.ch10"
-        writer = Chapter10Writer(path, channel_id=self.channel_id, start_time=start)
+        writer = Chapter10Writer(path, channel_id=self.channel_id, start_time=start,
+                                 tail=self.tail)
         self.files.append(path)
         log.info("recording to %s", path)
         return writer

@@ -129,7 +129,7 @@ class Service:
             if cfg.record.path is not None:
                 self.recorder = SessionRecorder(cfg.record.path, self.catalog.session_id or 0,
                                                 channel_id=cfg.record.channel_id,
-                                                clock=self.clock)
+                                                clock=self.clock, tail=cfg.aircraft.tail)
             self._start_reader()
             self._next_status = time.monotonic()
             self._next_stats = time.monotonic() + cfg.catalog.stats_interval_s

@@ -87,17 +87,38 @@ def test_json_lines_are_byte_identical(traffic: Path) -> None:
     assert decode(str(traffic)) == expected
 
 
-def test_icd_values_are_byte_identical(traffic: Path) -> None:
+@pytest.fixture(params=["repr", "compiled"])
+def values_writer(request: pytest.FixtureRequest, monkeypatch: pytest.MonkeyPatch) -> str:
+    """``decode --icd`` in this process with the ``repr`` values writer throughout, or the
+    compiled one from the first message on."""
+    import mapr_daemon.cli.icdview_batch as batch_module
+
+    compiled = request.param == "compiled"
+    monkeypatch.setattr(batch_module, "COMPILED_AFTER", 0 if compiled else 10**12)
+    monkeypatch.setattr(batch_module, "_numba_loaded", lambda: False)
+    return str(request.param)
+
+
+def test_icd_values_are_byte_identical(traffic: Path, values_writer: str) -> None:
     expected = reference_lines(traffic, str(ICD))
     assert expected.count('"values"') > 1500 and expected.count('"flags"') > 100
     assert decode("--icd", str(ICD), str(traffic)) == expected
 
 
-def test_the_sample_decodes_byte_identically() -> None:
+def test_the_sample_decodes_byte_identically(values_writer: str, tmp_path: Path) -> None:
+    """The real recording, plain, with the testbed's table (which describes none of its
+    messages) and with the table ``mapr icd discover`` writes from it (one parameter per
+    word of every message it holds)."""
     if not SAMPLE.is_file():
         pytest.skip(f"the sample Chapter 10 recording is not at {SAMPLE}")
     assert decode(str(SAMPLE)) == reference_lines(SAMPLE)
     assert decode("--icd", str(ICD), str(SAMPLE)) == reference_lines(SAMPLE, str(ICD))
+    table = tmp_path / "sample.yaml"
+    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+        assert main(["icd", "discover", str(SAMPLE), "--output", str(table)]) == 0
+    expected = reference_lines(SAMPLE, str(table))
+    assert expected.count('"values"') > 400
+    assert decode("--icd", str(table), str(SAMPLE)) == expected
 
 
 @pytest.mark.parametrize("compiled", [False, True], ids=["repr", "compiled"])
@@ -128,14 +149,14 @@ def test_a_long_decode_turns_to_the_compiled_writer(traffic: Path,
     import mapr_daemon.cli.icdview_batch as batch_module
 
     calls: list[bool] = []
-    write = batch_module.batch_values_json
+    described = batch_module._described
 
-    def spy(icd: Any, batch: Any, compiled: bool = False) -> list[str | None]:
+    def spy(icd: Any, batch: Any, compiled: bool, lead: str) -> tuple[list[int], list[str]]:
         calls.append(compiled)
-        return write(icd, batch, compiled=compiled)
+        return described(icd, batch, compiled, lead)
 
     monkeypatch.setattr(batch_module, "COMPILED_AFTER", 100)
-    monkeypatch.setattr(batch_module, "batch_values_json", spy)
+    monkeypatch.setattr(batch_module, "_described", spy)
     monkeypatch.setattr(batch_module, "_numba_loaded", lambda: False)
     view = IcdView(str(ICD))
     assert view.icd is not None
@@ -143,4 +164,4 @@ def test_a_long_decode_turns_to_the_compiled_writer(traffic: Path,
     batch = next(b.ms1553 for b in Chapter10Reader(traffic).batches() if b.ms1553 is not None)
     first, second = values(batch), values(batch)
     assert calls == [False, True] and first == second
-    assert sum(text is not None for text in first) > 100
+    assert sum(text.startswith(', "values": {') for text in first) > 100

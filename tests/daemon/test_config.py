@@ -50,6 +50,8 @@ def test_check_accepts_the_shipped_config() -> None:
      "      bearing: 300\n", ":5: assets[0].expected_life_flights.bearing: not an aging kind"),
     ("assets:\n  - name: EMA1\n    expected_life_flights: {esr: 0}\n",
      ":3: assets[0].expected_life_flights.esr: must be >= 1"),
+    ("record: {path: rec}\naircraft:\n  tail: 'N1;2'\n",
+     ":3: aircraft.tail: a recording (record.path) writes the tail into its TMATS record"),
 ])
 def test_errors_name_file_line_and_field(text: str, where: str) -> None:
     with pytest.raises(ConfigError) as caught:

@@ -9,11 +9,13 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from drivers.chapter10.tmats import TAIL_ATTRIBUTE
 from drivers.mil1553.record import MonitorRecord
 from drivers.monitor import open_monitor
 from mapr_daemon.daemon.config import Config, TestbedConfig
 from mapr_daemon.daemon.recorder import SessionRecorder
 from mapr_daemon.daemon.source import monitor_factory
+from mapr_daemon.fleet.archive import discover
 from mapr_daemon.icd import load_icd
 
 if TYPE_CHECKING:   # the fixture's class; pytest loads conftest itself
@@ -21,6 +23,9 @@ if TYPE_CHECKING:   # the fixture's class; pytest loads conftest itself
 
 ROOT = Path(__file__).resolve().parents[2]
 ICD = ROOT / "configs" / "icd" / "ema-testbed.yaml"
+SESSION_FILES = r"(?P<tail>[^/]+)/session-(?P<flight>\d+)-[^/]*\.ch10$"
+"""The daemon's file names to the fleet reader: the session as the flight, the folder as
+the tail unless the TMATS names one."""
 
 
 def content(records: list[MonitorRecord]) -> list[tuple[object, ...]]:
@@ -38,7 +43,7 @@ def test_the_daemon_records_what_it_sees_and_closes_on_sigterm(
     daemon = start_daemon(
         f"icd: {ICD}\ntestbed: {{realtime: false, duration_s: 0.6, seed: 4}}\n"
         f"catalog: {{path: {tmp_path / 'catalog.sqlite'}}}\n"
-        f"record: {{path: {recordings}}}\n")
+        f"record: {{path: {recordings}}}\naircraft: {{tail: N42MP}}\n")
     daemon.wait_log("stream ended", timeout=60)
     assert daemon.terminate()[0] == 0
     (file,) = recordings.iterdir()
@@ -55,6 +60,33 @@ def test_the_daemon_records_what_it_sees_and_closes_on_sigterm(
     assert content(recorded) == content(flown)
     # bus time from 0, to the 100 ns the format keeps
     assert all(abs(a.t_ns - b.t_ns) <= 50 for a, b in zip(recorded, flown, strict=True))
+    # the configured tail is in the file's TMATS, where the fleet reader finds it
+    (found,), bad = discover([recordings], pattern=SESSION_FILES, tail_tmats=TAIL_ATTRIBUTE)
+    assert (found.tail, found.flight, bad) == ("N42MP", 1, [])
+
+
+def test_each_file_names_the_configured_tail_and_none_without_one(tmp_path: Path) -> None:
+    """Every part of a session carries ``aircraft.tail`` as ``G\\TA``; a daemon with no
+    tail writes none, and the fleet reader falls back to the path."""
+    config = Config(icd=str(ICD), testbed=TestbedConfig(realtime=False, duration_s=0.1))
+    with monitor_factory(config, load_icd(ICD))() as monitor:
+        flown = list(monitor)
+    later = [dataclasses.replace(r, t_ns=r.t_ns + 2_000_000_000,
+                                 end_ns=r.end_ns + 2_000_000_000) for r in flown]
+    named = SessionRecorder(str(tmp_path / "box" / "named"), 3, tail="N77-TB")
+    named.write(later)
+    named.write(flown[:5])   # bus time from 0 again: a second part
+    named.close()
+    plain = SessionRecorder(str(tmp_path / "box" / "plain"), 4)
+    plain.write(flown)
+    plain.close()
+    found, bad = discover([tmp_path / "box"], pattern=SESSION_FILES, tail_tmats=TAIL_ATTRIBUTE)
+    assert not bad
+    assert sorted((r.tail, r.flight, Path(r.path).name.endswith("part2.ch10"))
+                  for r in found) == [("N77-TB", 3, False), ("N77-TB", 3, True),
+                                      ("plain", 4, False)]
+    assert content(replay(named.files[0])) == content(flown)
+    assert content(replay(named.files[1])) == content(flown[:5])
 
 
 def test_wall_clock_time_tags_are_rebased_and_a_restarted_bus_starts_a_new_part(

@@ -1,5 +1,5 @@
 """The compiled JSON row writer writes every number as ``json.dumps`` does, or leaves it to
-``repr``; rows come out as their pieces say."""
+``repr``; rows of any shape come out as their pieces say."""
 
 from __future__ import annotations
 
@@ -7,26 +7,27 @@ import json
 
 import numpy as np
 
-from drivers.jsontext import NUMBER_BYTES, TextPool, shortest_decimals, write_rows
+from drivers.jsontext import NUMBER_BYTES, TextPool, shortest_decimals, write_objects
 
 SEED = 20261125
 
 
 def numbers_as_written(values: np.ndarray) -> list[str | None]:
-    """Each value as the writer writes it (one row, one cell per value); None where
+    """Each value as the writer writes it (one row of one cell per value); None where
     :func:`shortest_decimals` leaves it to the caller."""
     digits, mantissa = shortest_decimals(values)
-    pool = TextPool()
-    none, bar = pool.add(""), pool.add("|")
-    out = np.empty(values.size * (NUMBER_BYTES + 1), np.uint8)
-    cells = (1, values.size)
-    data, starts = pool.arrays()
-    written = write_rows(data, starts, none, np.full(values.size, none, np.int64),
-                         np.full(values.size, bar, np.int64),
-                         digits.reshape(cells), mantissa.reshape(cells),
-                         np.full(cells, -1, np.int64), np.full((1, 0), -1, np.int64),
-                         np.zeros(0, np.int64), -1, -1, none, out)
-    texts = out[:written].tobytes().decode("ascii").rstrip("\n").split("|")[:-1]
+    n = values.size
+    out = np.empty(n * NUMBER_BYTES, np.uint8)
+    ends = np.empty(n, np.int64)
+    data, starts = TextPool().arrays()
+    one = np.array([-1], np.int64)   # the one kind of field: no text around its one cell
+    written = write_objects(data, starts, np.full(n, -1, np.int64), np.zeros(n, np.int64),
+                            np.ones(n, np.int64), np.arange(n, dtype=np.int64), one, one, one,
+                            np.ones(1, np.int64), np.full(n, -1, np.int64), digits, mantissa,
+                            np.zeros(n, np.uint8), np.full(256, -1, np.int64), -1, -1, -1,
+                            out, ends)
+    text = out[:written].tobytes().decode("ascii")
+    texts = [text[a:b] for a, b in zip([0, *ends[:-1].tolist()], ends.tolist(), strict=True)]
     return [t if d >= 0 else None for t, d in zip(texts, digits.tolist(), strict=True)]
 
 
@@ -49,24 +50,38 @@ def test_numbers_are_written_as_json_dumps_writes_them() -> None:
     assert {"-0.0", "nan", "inf", "-inf", "1e+16", "9.9999e-05"} <= left
 
 
-def test_rows_carry_their_texts_marks_and_numbers() -> None:
+def test_rows_of_different_shapes_carry_their_texts_marks_and_numbers() -> None:
     pool = TextPool()
     head, tail = pool.add('{"m": 1'), pool.add("}")
-    prefix = np.array([pool.add(', "a": '), pool.add(', "g": ['), pool.add(", ")], np.int64)
-    suffix = np.array([-1, -1, pool.add("]")], np.int64)
-    values = np.array([[1.5, 2.0, -0.25], [3.0, 1e-4, 10.0]])
-    digits, mantissa = shortest_decimals(values.ravel())
-    text = np.full((2, 3), -1, np.int64)
-    text[1, 0] = pool.add('"ON"')
-    marks = np.array([[-1], [pool.add('["missing"]')]], np.int64)
-    mark_key = np.array([pool.add('"a": ')], np.int64)
+    # fields: 0 "a" scalar, 1 "g" array of two, 2 "b" scalar, 3 "e" empty array
+    field_open = np.array([pool.add(', "a": '), pool.add(', "g": ['), pool.add(', "b": '),
+                           pool.add(', "e": [')], np.int64)
+    close = pool.add("]")
+    field_close = np.array([-1, close, -1, close], np.int64)
+    field_key = np.array([pool.add(f'"{k}": ') for k in "agbe"], np.int64)
+    field_cells = np.array([1, 2, 1, 0], np.int64)
+    # rows: a, g / b, e / nothing / a, g
+    row_field, row_fields = np.array([0, 2, 0, 0]), np.array([2, 2, 0, 2])
+    row_cell = np.array([0, 3, 4, 4])
+    values = np.array([1.5, 2.0, -0.25, 3.0, 7.0, 1e-4, 10.0])
+    digits, mantissa = shortest_decimals(values)
+    text = np.full(values.size, -1, np.int64)
+    text[3] = pool.add('"ON"')
+    code = np.array([0, 0, 0, 1, 0, 2, 1], np.uint8)   # or-ed per field: 1 or 3 -> a text
+    code_text = np.full(256, -1, np.int64)
+    code_text[1], code_text[3] = pool.add('["low"]'), pool.add('["low", "high"]')
     marks_open, marks_close = pool.add(', "flags": {'), pool.add("}")
     out = np.empty(1024, np.uint8)
+    ends = np.empty(4, np.int64)
     data, starts = pool.arrays()
-    written = write_rows(data, starts, head, prefix, suffix, digits.reshape(2, 3),
-                         mantissa.reshape(2, 3), text, marks, mark_key, marks_open,
-                         marks_close, tail, out)
-    lines = out[:written].tobytes().decode("ascii").splitlines()
-    assert [json.loads(line) for line in lines] == [
+    written = write_objects(data, starts, np.full(4, head, np.int64), row_field, row_fields,
+                            row_cell, field_open, field_close, field_key, field_cells, text,
+                            digits, mantissa, code, code_text, marks_open, marks_close, tail,
+                            out, ends)
+    whole = out[:written].tobytes().decode("ascii")
+    rows = [whole[a:b] for a, b in zip([0, *ends[:-1].tolist()], ends.tolist(), strict=True)]
+    assert [json.loads(row) for row in rows] == [
         {"m": 1, "a": 1.5, "g": [2.0, -0.25]},
-        {"m": 1, "a": "ON", "g": [0.0001, 10.0], "flags": {"a": ["missing"]}}]
+        {"m": 1, "b": "ON", "e": [], "flags": {"b": ["low"]}},
+        {"m": 1},
+        {"m": 1, "a": 7.0, "g": [0.0001, 10.0], "flags": {"g": ["low", "high"]}}]
