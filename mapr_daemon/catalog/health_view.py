@@ -17,11 +17,11 @@ from typing import Any
 from mapr_daemon.catalog import episode_store, history
 from mapr_daemon.catalog.episodes import Episode
 from mapr_daemon.catalog.model import BitRecord, Health
-from mapr_daemon.catalog.report import _table, fmt_time
+from mapr_daemon.catalog.report import fmt_time, text_table
 
 _LATEST = (
-    f"SELECT {history._COLUMNS}, n, first_ns, first_flight FROM ("
-    f"SELECT {history._COLUMNS}, row_number() OVER w_desc AS rn, count(*) OVER w AS n, "
+    f"SELECT {history.BIT_SELECT}, n, first_ns, first_flight FROM ("
+    f"SELECT {history.BIT_SELECT}, row_number() OVER w_desc AS rn, count(*) OVER w AS n, "
     "min(t_ns) OVER w AS first_ns, min(flight) OVER w AS first_flight FROM bits "
     "WINDOW w AS (PARTITION BY tail, asset), w_desc AS (PARTITION BY tail, asset ORDER BY "
     "coalesce(flight, 0) DESC, t_ns DESC, id DESC)) WHERE rn = 1 ORDER BY tail, asset")
@@ -96,7 +96,7 @@ def load(conn: sqlite3.Connection, with_episodes: bool) -> list[ActuatorHealth]:
     the catalog has the ``episodes`` table (schema v4 on)."""
     out = []
     for row in conn.execute(_LATEST):
-        record = history._record(row[:-3])
+        record = history.bit_record(row[:-3])
         n, first_ns, first_flight = row[-3:]
         episodes = tuple(episodes_of(conn, record.tail, record.asset, open_only=True)
                          ) if with_episodes else ()
@@ -139,7 +139,7 @@ def health_table(rows: Sequence[ActuatorHealth]) -> str:
              fmt_rul(a.health, hours=True) or "-", fmt_episodes(a.open_episodes),
              fmt_time(a.last.t_ns), "-" if a.last.flight is None else str(a.last.flight),
              fmt_time(a.first_ns), a.health.note or "") for a in rows]
-    return _table(("ACTUATOR", "SOH", "MODE", "RUL (90% INTERVAL)", "RUL HOURS", "EPISODES",
+    return text_table(("ACTUATOR", "SOH", "MODE", "RUL (90% INTERVAL)", "RUL HOURS", "EPISODES",
                    "LAST BIT (UTC)", "FLIGHT", "IN SERVICE SINCE (UTC)", "NOTE"), body,
                   right={1, 7})
 
@@ -158,5 +158,5 @@ def bits_table(records: Sequence[BitRecord]) -> str:
              r.fault or "nominal", fmt_soh(r.health), r.health.mode or "-",
              fmt_rul(r.health) if r.health.rul is not None else "-", r.health.note or "")
             for r in records]
-    return _table(("FLIGHT", "HOURS", "TIME (UTC)", "BIT", "SOH", "MODE", "RUL (90% INTERVAL)",
+    return text_table(("FLIGHT", "HOURS", "TIME (UTC)", "BIT", "SOH", "MODE", "RUL (90% INTERVAL)",
                    "NOTE"), body, right={0, 1, 4})

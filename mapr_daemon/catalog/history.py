@@ -22,9 +22,10 @@ from typing import Any
 
 from mapr_daemon.catalog.model import BitOutcome, BitRecord, Flight, Health
 
-_COLUMNS = ("id, session_id, tail, asset, t_ns, bus_ns, abs_ns, flight, flight_hours, fault, "
-            "event_id, wear, mode, soh, rul, rul_low, rul_high, rul_hours, rul_hours_low, "
-            "rul_hours_high, note, modes")
+BIT_SELECT = ("id, session_id, tail, asset, t_ns, bus_ns, abs_ns, flight, flight_hours, fault, "
+              "event_id, wear, mode, soh, rul, rul_low, rul_high, rul_hours, rul_hours_low, "
+              "rul_hours_high, note, modes")
+"""The ``bits`` columns :func:`bit_record` reads, in its order (for other readers' queries)."""
 CONDITIONS_SINCE = 8
 """Schema version that added ``bits.conditions`` (older files read it as ``{}``)."""
 
@@ -81,8 +82,8 @@ def upsert_flights(conn: sqlite3.Connection, flights: Sequence[Flight]) -> None:
         [(f.tail, f.flight, f.start_ns, f.end_ns, float(f.hours), f.source) for f in flights])
 
 
-def _record(row: Sequence[Any], conditions: str = "{}") -> BitRecord:
-    """A BIT from its :data:`_COLUMNS` and its stored conditions (``{}``: none, or not
+def bit_record(row: Sequence[Any], conditions: str = "{}") -> BitRecord:
+    """A BIT from its :data:`BIT_SELECT` and its stored conditions (``{}``: none, or not
     selected: the health view does not need them)."""
     (rid, sid, tail, asset, t_ns, bus_ns, abs_ns, flight, hours, fault, event_id, wear, mode,
      soh, rul, low, high, rh, rhl, rhh, note, modes) = row
@@ -105,11 +106,11 @@ def load_bits(conn: sqlite3.Connection, asset: str | None = None, tail: str | No
         where.append("tail = ?")
         args.append(tail)
     conditions = "conditions" if version is None or version >= CONDITIONS_SINCE else "'{}'"
-    sql = f"SELECT {_COLUMNS}, {conditions} FROM bits"
+    sql = f"SELECT {BIT_SELECT}, {conditions} FROM bits"
     if where:
         sql += " WHERE " + " AND ".join(where)
     sql += " ORDER BY coalesce(flight, 0), t_ns, id"
-    rows = [_record(r[:-1], r[-1]) for r in conn.execute(sql, args)]
+    rows = [bit_record(r[:-1], r[-1]) for r in conn.execute(sql, args)]
     return rows if last is None else rows[-last:]
 
 

@@ -103,7 +103,7 @@ def fmt_part(e: Event) -> str:
     return f"{part} ({members}: not separable in the bus data)"
 
 
-def _table(header: Sequence[str], rows: Iterable[Sequence[str]], right: set[int]) -> str:
+def text_table(header: Sequence[str], rows: Iterable[Sequence[str]], right: set[int]) -> str:
     """Columns as wide as their widest cell; ``right`` are right-aligned (numbers)."""
     body = [list(header), *(list(r) for r in rows)]
     widths = [max(len(r[i]) for r in body) for i in range(len(header))]
@@ -117,7 +117,7 @@ def events_table(events: Sequence[Event]) -> str:
     rows = [(str(e.id), fmt_time(e.t_ns), e.asset, "-" if e.rt is None else str(e.rt),
              fault_name(e), fmt_severity(e), f"{100 * e.confidence:.0f}%", _num(e.soh, 2),
              fmt_rul(e)) for e in events]
-    return _table(("ID", "TIME (UTC)", "ASSET", "RT", "FAULT", "SEVERITY", "CONF", "SOH",
+    return text_table(("ID", "TIME (UTC)", "ASSET", "RT", "FAULT", "SEVERITY", "CONF", "SOH",
                    "RUL"), rows, right={0, 3, 6, 7})
 
 
@@ -155,7 +155,7 @@ def event_detail(e: Event, session: Session | None) -> str:
 def trend_table(events: Sequence[Event]) -> str:
     rows = [(fmt_time(e.t_ns), fault_name(e), fmt_severity(e), _num(e.soh), fmt_rul(e))
             for e in events]
-    return _table(("TIME (UTC)", "FAULT", "SEVERITY", "SOH", "RUL"), rows, right={3})
+    return text_table(("TIME (UTC)", "FAULT", "SEVERITY", "SOH", "RUL"), rows, right={3})
 
 
 def stats_table(rows: Sequence[StatsRow]) -> str:
@@ -164,7 +164,7 @@ def stats_table(rows: Sequence[StatsRow]) -> str:
     body = [(fmt_time(r.start_ns), fmt_duration(r.end_ns - r.start_ns), r.bus,
              str(r.messages), str(r.words), f"{r.load_percent:.1f}", str(r.errors_total),
              errors(r)) for r in rows]
-    return _table(("START (UTC)", "LENGTH", "BUS", "MESSAGES", "WORDS", "LOAD %", "ERRORS",
+    return text_table(("START (UTC)", "LENGTH", "BUS", "MESSAGES", "WORDS", "LOAD %", "ERRORS",
                    "BY CLASS"), body, right={1, 3, 4, 5, 6})
 
 
@@ -178,7 +178,7 @@ def rt_stats_table(rows: Sequence[RtStatsRow]) -> str:
     body = [(r.label, "-" if r.wc is None else str(r.wc), str(r.messages), f"{r.rate_hz:.2f}",
              us(r.response_min_us), us(r.response_mean_us), us(r.response_max_us),
              fmt_time(r.last_seen_ns), errors(r)) for r in rows]
-    return _table(("RT/SA", "WC", "MESSAGES", "RATE HZ", "RESP MIN US", "MEAN", "MAX",
+    return text_table(("RT/SA", "WC", "MESSAGES", "RATE HZ", "RESP MIN US", "MEAN", "MAX",
                    "LAST SEEN (UTC)", "ERRORS"), body, right={1, 2, 3, 4, 5, 6})
 
 
@@ -186,7 +186,7 @@ def gaps_table(gaps: Sequence[Gap]) -> str:
     body = [(fmt_time(g.start_ns), fmt_time(g.end_ns),
              "ongoing" if g.end_ns is None else fmt_duration(g.end_ns - g.start_ns), g.reason)
             for g in gaps]
-    return _table(("GAP FROM (UTC)", "TO", "LENGTH", "REASON"), body, right={2})
+    return text_table(("GAP FROM (UTC)", "TO", "LENGTH", "REASON"), body, right={2})
 
 
 def _share(value: float | None) -> str:
@@ -205,7 +205,7 @@ def episodes_table(episodes: Sequence[Episode]) -> str:
     rows = [(str(ep.id), ep.asset, ep.part, "+".join(ep.modes), fmt_time(ep.opened_ns),
              fmt_time(ep.last_ns), str(ep.bits), fmt_trend(ep), ep.state, ep.acked_by or "-")
             for ep in episodes]
-    return _table(("ID", "ACTUATOR", "PART", "MODE", "OPENED (UTC)", "LAST BIT (UTC)", "BITS",
+    return text_table(("ID", "ACTUATOR", "PART", "MODE", "OPENED (UTC)", "LAST BIT (UTC)", "BITS",
                    "SEVERITY", "STATE", "ACKNOWLEDGED BY"), rows, right={0, 6})
 
 
