@@ -4,7 +4,8 @@
                                [--seed N] [--jobs 2]
                                [--kinds esr,capacitance,friction,smps_ron_high]
                                [--dictionary D.npz --prognosis P.npz] [--out DIR]
-                               [--no-memory] [--keep-recordings]
+                               [--no-memory] [--keep-recordings] [--mean-life 200]
+                               [--expected-life N] [--readback [--reassess]]
 
 Each unit is an actuator aging along :func:`mapr_daemon.ema.degradation.trajectory` (mean life
 200 flights, +/-30 %, as :mod:`mapr_daemon.reasoner.trajectory` and the fleet prior of the
@@ -40,6 +41,13 @@ Per kind and overall, with the worst unit beside the average. Then the same unit
 (same trajectory seeds) through the in-memory path (:func:`mapr_daemon.reasoner.trajectory
 .observe_units` and ``score``: its own BIT simulations, estimators and calibration, not the
 product's prognostic model nor the bus), scored with both criteria.
+
+``--expected-life N`` states the parts' expected life in the configuration
+(``assets[].expected_life_flights``, every kind): the fleet prior is then centred there with
+the aging model's part-to-part spread; without it the prior's own life (200 flights) is held
+loosely (``trend.LIFE_SD``), as for a user with no reliability figure. ``--readback
+--reassess`` scores a kept catalog under another such configuration: each BIT's health is
+computed afresh (``health.assess``, as the daemon does) from the estimates the run stored.
 
 Seeds are fresh each run (bench/seeds.py) and printed; every unit and flight seed derives from
 the run's seed, clear of the dictionary's, the prognostic model's and the fleet prior's.
@@ -77,6 +85,7 @@ from mapr_daemon.ema.faults import FaultSet
 from mapr_daemon.ema.params import default_actuator_path, load_actuator
 from mapr_daemon.ema.profile import CONDITIONS
 from mapr_daemon.reasoner.features import FloatArray
+from mapr_daemon.reasoner.health import assess
 from mapr_daemon.reasoner.prognosis import degradation
 from mapr_daemon.reasoner.trajectory import bit_flights, observe_units, score
 from mapr_daemon.reasoner.wear_model import PrognosticModel
@@ -213,6 +222,39 @@ def catalog_points(conn: sqlite3.Connection, u: Unit) -> tuple[list[Point], list
     return mode_pts, head_pts
 
 
+def reassessed_points(conn: sqlite3.Connection, u: Unit, model: PrognosticModel
+                      ) -> tuple[list[Point], list[Point]]:
+    """As :func:`catalog_points`, but each BIT's health computed afresh from the stored
+    estimates and conditions (``health.assess``, the function the daemon calls, with the
+    history up to that BIT) under ``model`` as configured now, instead of the stored health."""
+    eol = u.path.eol_flight
+    mode_pts: list[Point] = []
+    head_pts: list[Point] = []
+    flights: list[float] = []
+    wear: list[dict[str, float]] = []
+    conditions: list[dict[str, float]] = []
+    for b in load_bits(conn, tail=u.tail):
+        if b.flight is None or not b.wear:
+            continue
+        flights.append(float(b.flight))
+        wear.append(dict(b.wear))
+        conditions.append(dict(b.conditions))
+        h = assess(model, flights, wear, diagnosed=b.fault, seed=len(flights),
+                   conditions=conditions)
+        f = b.flight - 1
+        true = eol - f
+        if f < 0.25 * eol or true <= 0:
+            continue
+        row = h.modes.get(u.kind)
+        mode_pts.append(Point(f, true, _value(row, "rul"), _value(row, "low"),
+                              _value(row, "high"), h.mode) if row is not None and "rul" in row
+                        else Point(f, true, None, None, None, h.mode))
+        has = h.mode is not None and h.rul is not None
+        head_pts.append(Point(f, true, *((h.rul, h.rul_low, h.rul_high) if has
+                                         else (None, None, None)), h.mode))
+    return mode_pts, head_pts
+
+
 def estimate_errors(conn: sqlite3.Connection, u: Unit, model: PrognosticModel
                     ) -> tuple[FloatArray, FloatArray]:
     """The unit's stored per-BIT estimates of its true kind, read by the model's
@@ -307,6 +349,13 @@ def main() -> int:
     ap.add_argument("--readback", action="store_true",
                     help="score the catalog an earlier run (same --seed, --out and sizes) "
                          "left in --out, without flying again")
+    ap.add_argument("--expected-life", type=float,
+                    help="state the parts' expected life (flights) in the configuration "
+                         "(assets[].expected_life_flights, every kind); default: none stated")
+    ap.add_argument("--reassess", action="store_true",
+                    help="with --readback: compute each BIT's health afresh from the stored "
+                         "estimates under this run's configuration (e.g. another "
+                         "--expected-life) instead of reading the stored health")
     args = ap.parse_args()
     kinds = [k.strip() for k in args.kinds.split(",") if k.strip()]
     seed = fresh(args.seed)
@@ -341,9 +390,14 @@ def main() -> int:
               f"BIT every {args.bit_every} flights: {sum(len(u.flights) for u in units)} "
               f"recordings; unit seeds " + ", ".join(f"{u.tail}={u.seed}" for u in units))
         config = out / "mapr.yaml"
+        lives = "" if args.expected_life is None else \
+            "    expected_life_flights: {" + ", ".join(
+                f"{k}: {args.expected_life:g}" for k in kinds) + "}\n"
+        print(f"expected life stated in the configuration: "
+              f"{'none' if args.expected_life is None else f'{args.expected_life:g} flights'}")
         config.write_text(f"reasoner:\n  dictionary: {args.dictionary.resolve()}\nassets:\n"
                           f"  - name: EMA1\n    rt: 5\n    prognosis: "
-                          f"{args.prognosis.resolve()}\n", encoding="utf-8")
+                          f"{args.prognosis.resolve()}\n{lives}", encoding="utf-8")
         catalog = out / "fleet.db"
         if not args.readback:
             catalog.unlink(missing_ok=True)
@@ -352,8 +406,14 @@ def main() -> int:
             print(f"flown and replayed in {time.monotonic() - started:.0f} s; failed: {failed}")
         conn = sqlite3.connect(catalog)
         mode_scores, head_scores = [], []
+        configured = model.with_lives(
+            {} if args.expected_life is None else {k: args.expected_life for k in kinds})
+        if args.reassess:
+            print("health re-assessed from the stored estimates under this configuration "
+                  "(not the stored health)")
         for u in (u for u in units if u.kind != HEALTHY):
-            mode_pts, head_pts = catalog_points(conn, u)
+            mode_pts, head_pts = reassessed_points(conn, u, configured) if args.reassess \
+                else catalog_points(conn, u)
             mode_scores.append(score_points(u.tail, u.kind, u.path.eol_flight, mode_pts,
                                             LAMBDAS, ALPHA))
             head_scores.append(score_points(u.tail, u.kind, u.path.eol_flight, head_pts,

@@ -95,12 +95,13 @@ def _true_path(params: ActuatorParams, t: Trajectory) -> tuple[FloatArray, Float
 
 def learn_prior(params: ActuatorParams, kind: str, units: int,
                 mean_life: float = 200.0) -> trend.ShapePrior:
-    """The fleet prior of a kind from ``units`` training units' true degradation paths,
-    holding their life loosely (:meth:`~.trend.ShapePrior.with_life`: the aging model's
-    life is an assumption, not the user's fleet)."""
+    """The fleet prior of a kind from ``units`` training units' true degradation paths (their
+    life held as tightly as their own spread: what a fleet whose life is known gives; the
+    product loosens it where no life is stated, :meth:`~.wear_model.PrognosticModel
+    .with_lives`)."""
     paths = [_true_path(params, trajectory(params, kind, int(mean_life * 2), TRAINING_SEED + i,
                                            mean_life)) for i in range(units)]
-    return trend.ShapePrior.learn(kind, paths).with_life(kind, trend.LIFE_SD)
+    return trend.ShapePrior.learn(kind, paths)
 
 
 @dataclasses.dataclass(frozen=True)

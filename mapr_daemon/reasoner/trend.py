@@ -217,11 +217,10 @@ class ShapePrior:
 LIVES: FloatArray = np.logspace(1.0, 4.3, 331)
 """Lives (flights from 0 to the threshold) of the joint grid: 10 to 20,000 flights."""
 LIFE_SD = 0.7
-"""How loosely the fleet prior holds the life: sd of ``log(life)`` (a factor of two either
-way at one sd). Measured on kept fleet catalogs with the prior's life off by a factor of two
-either way: the learned spread (0.17) covered the true RUL at 29-68 % of the BITs, 0.5 at
-74-88 %, 0.8 at 78-87 %, at a cost of at most one alpha-lambda point in 16 when the prior is
-right (docs/reasoner.md, "The fleet prior's life")."""
+"""How loosely the fleet prior holds a life nobody stated: sd of ``log(life)`` (a factor of
+two either way at one sd). Measured on kept fleet catalogs with the prior's life off by a
+factor of two either way: the learned spread (0.17) covered the true RUL at 29-68 % of the
+BITs, 0.5 at 74-88 %, 0.8 at 78-87 % (docs/reasoner.md, "The fleet prior's life")."""
 
 
 def _joint_draws(shape: str, n: FloatArray, y: FloatArray, w: FloatArray, prior: ShapePrior,

@@ -125,16 +125,18 @@ class PrognosticModel:
         return healthy.scaled(c, self.supply_nominal_v)
 
     def with_lives(self, lives: Mapping[str, float] | None = None) -> PrognosticModel:
-        """This model with each kind's fleet prior holding the life loosely
-        (:data:`~.trend.LIFE_SD`) around the expected life ``lives[kind]`` in flights (the
-        user's reliability figure for that part; absent: the prior's own). A model file
-        built before the prior was held loosely is loosened the same way."""
+        """This model with each kind's fleet prior set for the fleet it trends: where
+        ``lives[kind]`` states the parts' expected life in flights (the user's reliability
+        figure), the prior's life is centred there with the training units' own spread (the
+        aging model's part-to-part scatter); where it does not, the life stays the aging
+        model's assumption and is held loosely (:data:`~.trend.LIFE_SD`)."""
         lives = lives or {}
         unknown = sorted(set(lives) - set(self.priors))
         if unknown:
             raise ConfigError(f"no fleet prior for {', '.join(unknown)} (aging kinds: "
                               f"{', '.join(sorted(self.priors))})", field="expected_life_flights")
-        priors = {k: p.with_life(k, trend.LIFE_SD, lives.get(k)) for k, p in self.priors.items()}
+        priors = {k: p.with_life(k, 0.0, lives[k]) if k in lives else
+                  p.with_life(k, trend.LIFE_SD) for k, p in self.priors.items()}
         return dataclasses.replace(self, priors=priors)
 
     # --- persistence -----------------------------------------------------------------------
