@@ -34,10 +34,8 @@ from mapr_daemon.icd.flags import (
     FLAG_RECORD_ERROR,
 )
 from mapr_daemon.icd.model import Message, Parameter, ParamType
+from mapr_daemon.icd.values import F64, I64, U8
 
-I64 = npt.NDArray[np.int64]
-F64 = npt.NDArray[np.float64]
-U8 = npt.NDArray[np.uint8]
 U16 = npt.NDArray[np.uint16]
 
 KIND_INTEGER, KIND_FLOAT32, KIND_BCD = 0, 1, 2
