@@ -1,9 +1,11 @@
 """Reading anchored words: bits, length and error flags from the crossings on their grid.
 
 Once a word's grid is fixed (its *anchor*, the sync's start, in samples), each crossing goes
-to the nearest half-bit slot, and crossings are counted per slot and direction, one word
-after another in a compiled kernel (a loop over each word's few dozen crossings, where numpy
-needed a dozen passes over all of them and a table of every word's slots). A good bit has
+to the nearest half-bit slot, one word after another in a compiled kernel (a loop over each
+word's few dozen crossings, where numpy needed a dozen passes over all of them and a table of
+every word's slots). The slots holding a crossing become one bit mask per direction, and the
+checks below are then a few mask operations for all 17 bits at once; a word with two
+crossings in one slot is counted slot by slot instead, bit after bit. A good bit has
 exactly one crossing at its middle slot and at most one at its start slot; a missing mid-bit
 transition leaves the middle empty, a glitch adds a pair. Each bit is then checked on its own:
 following the line's polarity from the sync's second half through every counted crossing,
