@@ -264,60 +264,85 @@ def _segments(starts: IntArray, levels: IntArray, runs: int, n: int, dropout_max
     fields of :class:`Segments` given (each at least ``runs`` long); returns the number of
     segments, crossings and silences.
 
-    One pass over the runs, with two stages one run apart: a run is repaired once the run
-    after it is known; a repaired run that keeps its neighbour's level is merged into it,
-    and a merged run becomes a segment (if not silent) once the next one begins. Two
-    sentinel runs at the end flush the stages.
+    One pass over the runs. Each run's repaired level is read from its neighbours as found
+    (the first and last runs are never repaired); a run whose repaired level differs from
+    the one before it starts a merged run, and the merged run it ends becomes a segment if
+    it is not silent. A sentinel after the last run ends the last merged run.
+
+    Most runs of a clean word are a polarity straight after the opposite one, too long to
+    be repaired: while the line does that, an inner loop writes each segment and its
+    crossing without the general case's tests (it keeps no state the general case does
+    not). A dead band between the polarities takes the general case.
     """
     longest = max(dropout_max, glitch_max)
     live = crossing_count = ends = 0
     previous_end = previous_level = 0  # the last segment's
-    have_run = have_before = have_merged = False
-    run_start = run_found = 0  # the run waiting for its successor to be repaired
-    before_found = before_fixed = 0  # the run before it, as found and as repaired
-    merged_begin = merged_level = 0  # the merged run being built
-    for i in range(runs + 2):
-        if i < runs:
-            found = levels[i]
-            next_start = starts[i]
+    previous_fixed = 7  # no level: the first run starts a merged run
+    merged_begin = merged_level = 0  # the merged run being built (level 0: none emitted)
+    r = 0
+    while r <= runs:
+        if merged_level != 0 and previous_end == merged_begin and live > 0 and \
+                previous_level == -merged_level:
+            # The merged run follows the last segment at a crossing without silence: while
+            # the next run is its opposite and not repairable, it ends as such a segment.
+            while r < runs - 1:
+                begin = starts[r]
+                if levels[r] != -merged_level or starts[r + 1] - begin <= longest:
+                    break
+                start = merged_begin - 0.5
+                crossings[crossing_count] = start
+                crossing_level[crossing_count] = merged_level
+                crossing_count += 1
+                level[live] = merged_level
+                left[live] = start
+                right[live] = begin - 0.5
+                adjacent[live] = True
+                live += 1
+                merged_begin = begin
+                merged_level = -merged_level
+                r += 1
+            previous_end, previous_level = merged_begin, -merged_level
+            previous_fixed = merged_level
+        if r < runs:
+            found = levels[r]
+            begin = starts[r]
+            fixed = found
+            if 0 < r < runs - 1:
+                length = starts[r + 1] - begin
+                if length <= longest:
+                    before = levels[r - 1]
+                    if before == levels[r + 1] and (
+                            (found == 0 and before != 0 and length <= dropout_max) or
+                            (found != 0 and length <= glitch_max)):
+                        fixed = before
         else:
-            found = 3 + i - runs
-            next_start = n
-        if have_run:
-            fixed = run_found
-            if have_before:
-                length = next_start - run_start
-                if length <= longest and before_found == found:
-                    short_gap = run_found == 0 and before_found != 0 and \
-                        length <= dropout_max
-                    if short_gap or (run_found != 0 and length <= glitch_max):
-                        fixed = before_found
-            if not have_before or fixed != before_fixed:
-                if have_merged and merged_level != 0:
-                    begin, end = merged_begin, run_start
-                    start = begin - 0.5
-                    silence = begin - previous_end
-                    crossing = live > 0 and silence <= dead_band_max and \
-                        merged_level != previous_level
-                    if crossing:
-                        if silence != 0:
-                            start = (previous_end - 1 + begin) / 2.0
-                            right[live - 1] = start
-                        crossings[crossing_count] = start
-                        crossing_level[crossing_count] = merged_level
-                        crossing_count += 1
-                    elif live > 0:
-                        silent_after[ends] = right[live - 1]
-                        ends += 1
-                    level[live] = merged_level
-                    left[live] = start
-                    right[live] = end - 0.5
-                    adjacent[live] = crossing
-                    previous_end, previous_level = end, merged_level
-                    live += 1
-                merged_begin, merged_level, have_merged = run_start, fixed, True
-            before_found, before_fixed, have_before = run_found, fixed, True
-        run_start, run_found, have_run = next_start, found, True
+            fixed = 8
+            begin = n
+        if fixed != previous_fixed:
+            if merged_level != 0:
+                start = merged_begin - 0.5
+                silence = merged_begin - previous_end
+                crossing = live > 0 and silence <= dead_band_max and \
+                    merged_level != previous_level
+                if crossing:
+                    if silence != 0:
+                        start = (previous_end - 1 + merged_begin) / 2.0
+                        right[live - 1] = start
+                    crossings[crossing_count] = start
+                    crossing_level[crossing_count] = merged_level
+                    crossing_count += 1
+                elif live > 0:
+                    silent_after[ends] = right[live - 1]
+                    ends += 1
+                level[live] = merged_level
+                left[live] = start
+                right[live] = begin - 0.5
+                adjacent[live] = crossing
+                previous_end, previous_level = begin, merged_level
+                live += 1
+            merged_begin, merged_level = begin, fixed
+            previous_fixed = fixed
+        r += 1
     if live:
         silent_after[ends] = right[live - 1]
         ends += 1
