@@ -8,7 +8,8 @@ the dictionary (``mapr dictionary build --prognosis FILE``, format :data:`FORMAT
   at known degradations over the flight envelope (pressures, ambient temperatures and
   aircraft-bus voltages drawn like the dictionary's, seeds of their own);
 * per kind the estimate's measured scale error and scatter (:class:`~.estimate_noise.Noise`),
-  from calibration BITs at known degradations over the same envelope with yet other seeds,
+  from calibration BITs at known degradations with yet other seeds, half over the same
+  envelope and half at the actuator's flight-to-flight spread (:attr:`BuildSpec.flight_share`),
   the scatter as a function of the degradation and the BIT's flight condition (the error
   of one estimate differs several-fold across the envelope); a kind whose estimate does not
   follow its degradation gets no noise model and the reason, and is never trended;
