@@ -8,7 +8,8 @@ the dictionary (``mapr dictionary build --prognosis FILE``, format :data:`FORMAT
   at known degradations over the flight envelope (pressures, ambient temperatures and
   aircraft-bus voltages drawn like the dictionary's, seeds of their own);
 * per kind the estimate's measured scale error and scatter (:class:`~.estimate_noise.Noise`),
-  from calibration BITs at known degradations over the same envelope with yet other seeds,
+  from calibration BITs at known degradations with yet other seeds, half over the same
+  envelope and half at the actuator's flight-to-flight spread (:attr:`BuildSpec.flight_share`),
   the scatter as a function of the degradation and the BIT's flight condition (the error
   of one estimate differs several-fold across the envelope); a kind whose estimate does not
   follow its degradation gets no noise model and the reason, and is never trended;
@@ -73,6 +74,15 @@ class BuildSpec:
     """Draw ambient temperature and aircraft-bus voltage over the actuator's envelope (else
     nominal); pressures uniform up to the envelope's maximum, a fifth of the BITs on the
     ground."""
+    flight_share: float = 0.5
+    """Share of each level's calibration BITs flown at the actuator's own flight-to-flight
+    spread of ambient temperature and bus voltage (the data sheet's ``thermal.ambient_c`` +-
+    ``ambient_flight_sd_k``, ``bus.nominal_v`` +- ``flight_mean_sd_v``: what a flight's BIT
+    sees) instead of uniformly over the envelope; the pressures are drawn alike. With every
+    calibration BIT over the envelope, the least squares of the calibration at a condition
+    is set by the envelope's edges (where one estimate scatters 2-10 times more) and reads
+    BITs flown at usual conditions with a bias and a sd off by up to 2x (docs/reasoner.md,
+    "Why the product's estimates differ from the calibration's")."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -215,6 +225,15 @@ def conditions(params: ActuatorParams, n: int, rng: np.random.Generator, envelop
     return [float(v) for v in q], [float(v) for v in amb], [float(v) for v in bus]
 
 
+def flight_spread(n_train: int, blocks: int, reps: int, share: float) -> list[bool]:
+    """Which BITs of the build's batch (``n_train`` training BITs, then ``blocks`` calibration
+    levels of ``reps`` BITs each) are flown at the plant's own flight-to-flight draw of ambient
+    and bus: the last ``round(share * reps)`` of every level (the training BITs never, so the
+    estimators do not depend on ``share``)."""
+    k = min(max(round(share * reps), 0), reps)
+    return [False] * n_train + [r >= reps - k for _ in range(blocks) for r in range(reps)]
+
+
 def build_prognostic_model(d: Dictionary, params: ActuatorParams, spec: BuildSpec = BuildSpec(),
                            *, kinds: tuple[str, ...] = AGING_KINDS,
                            workers: int | None = None) -> PrognosticModel:
@@ -227,6 +246,10 @@ def build_prognostic_model(d: Dictionary, params: ActuatorParams, spec: BuildSpe
            for _ in range(spec.calibration_reps)]
     todo = train + cal
     q, amb, bus = conditions(params, len(todo), rng, spec.envelope)
+    flown = flight_spread(len(train), len(kinds) * len(CALIBRATION_LEVELS),
+                          spec.calibration_reps, spec.flight_share)
+    amb = [None if f else a for a, f in zip(amb, flown, strict=True)]
+    bus = [None if f else b for b, f in zip(bus, flown, strict=True)]
     seeds = [TRAINING_SEED + i for i in range(len(train))] + \
         [CALIBRATION_SEED + i for i in range(len(cal))]
     runs = BitRuns.of([fault_at(params, k, h) for k, h in todo], q, seeds, amb, bus)
@@ -246,7 +269,8 @@ def build_prognostic_model(d: Dictionary, params: ActuatorParams, spec: BuildSpe
         except ConfigError as error:
             why[k] = error.detail
             continue
-        at_threshold = float(np.median(measured.h_sd(np.ones(len(rows)), c[rows])))
+        spread = [r for r in rows if not flown[r]] or rows   # the gate's median: the envelope
+        at_threshold = float(np.median(measured.h_sd(np.ones(len(spread)), c[spread])))
         if at_threshold > RESOLVE_SD:
             why[k] = (f"one BIT's estimate scatters by sd {at_threshold:.2f} of the failure "
                       f"threshold at the threshold (median over the envelope), above "
