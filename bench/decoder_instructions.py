@@ -8,14 +8,16 @@ speed change to the decoder is judged by this count first (and by bench/bitpath.
 The capture is bench/bitpath.py's dual-redundant loaded bus at 10 MS/s, clean and with the
 worst receiver impairments (its default seed is the one the decoder's design is measured
 on: quote fresh seeds from bench/bitpath.py for figures). Each capture is decoded under
-callgrind in 1 MiB chunks, after a warm-up decode, ``repeat`` times and 0 times: the
-difference divided by the decodes and samples is the count per sample, Python between the
-kernels included. Needs valgrind on PATH; takes a few minutes.
+callgrind in 1 MiB chunks, once to warm up (a process under valgrind sees another processor,
+so its first run compiles the kernels afresh), then ``repeat`` times with only those decodes
+counted: the count per sample includes the Python between the kernels, and nothing of the
+interpreter's start. Needs valgrind on PATH; takes a minute or two.
 """
 
 from __future__ import annotations
 
 import argparse
+import functools
 import os
 import re
 import subprocess
@@ -31,22 +33,28 @@ CHUNK = 1 << 20
 
 
 def decode_file(path: str, repeat: int) -> None:
-    """(Under valgrind) a warm-up decode, then ``repeat`` more."""
+    """(Under valgrind) a warm-up decode, then ``repeat`` more inside ``functools.reduce``,
+    the C function whose instructions callgrind is told to count (and only those)."""
     from drivers.mil1553.decoder import ManchesterDecoder
 
     samples = np.load(path)
-    for _ in range(repeat + 1):
+
+    def decode(count: int, _: int) -> int:
         decoder = ManchesterDecoder(10e6)
         for start in range(0, samples.size, CHUNK):
-            decoder.feed(samples[start:start + CHUNK])
-        decoder.flush()
+            count += decoder.feed(samples[start:start + CHUNK]).size
+        return count + decoder.flush().size
+
+    decode(0, 0)
+    functools.reduce(decode, range(repeat), 0)
 
 
 def collected(path: str, repeat: int) -> int:
-    """Instructions callgrind counted for the whole process."""
+    """Instructions callgrind counted inside ``functools.reduce`` (the decodes)."""
     with tempfile.TemporaryDirectory() as tmp:
         run = subprocess.run(
             ["valgrind", "--tool=callgrind", f"--callgrind-out-file={tmp}/out",
+             "--collect-atstart=no", "--toggle-collect=functools_reduce",
              sys.executable, str(Path(__file__).resolve()), "--child", path, str(repeat)],
             capture_output=True, text=True, check=True, env=dict(os.environ))
     match = re.search(r"Collected\s*:\s*(\d+)", run.stderr)
@@ -71,12 +79,6 @@ def main() -> None:
                         help="count one of the two captures")
     args = parser.parse_args()
     print(f"seed {args.seed}, {args.seconds:g} s of bus at 10 MS/s, {args.repeat} decodes")
-    # A process under valgrind sees another processor than a native one, so its first run
-    # compiles the kernels afresh (and caches them for the next): that run is not counted.
-    warm = encode_words(dual_redundant(2e-3, args.seed), 10e6)
-    with tempfile.TemporaryDirectory() as tmp:
-        np.save(f"{tmp}/warm.npy", warm)
-        collected(f"{tmp}/warm.npy", 0)
     worst = Impairments(jitter_ns=150, dead_band_ns=100, rate_error=1e-3, seed=args.seed + 1)
     for label, imp in (("clean", CLEAN), ("worst", worst)):
         if args.only not in (None, label):
@@ -85,7 +87,7 @@ def main() -> None:
         with tempfile.TemporaryDirectory() as tmp:
             path = f"{tmp}/capture.npy"
             np.save(path, samples)
-            cost = collected(path, args.repeat) - collected(path, 0)
+            cost = collected(path, args.repeat)
         print(f"  {label}: {cost / args.repeat / samples.size:.2f} instructions per sample")
 
 
