@@ -96,18 +96,12 @@ def _validate(k: IntArray, middle: FloatArray, correction: FloatArray, level: In
             first[valid] = level[k[i] - 1]
             valid += 1
     kept = np.ones(valid, dtype=np.bool_)
-    # The crossings around bits 0 and 1 are found by walking on from the last ones found,
-    # as np.searchsorted(..., side="left") would find them (from the start again where a
-    # candidate's anchor comes before the last one's, which only short sync settings allow).
-    near = 0
     for i in range(1, valid):
         if anchors[i] - anchors[i - 1] < 39.5 * half:
             for bit in range(2):
                 centre = anchors[i] + (3.5 + bit) * spus
-                if near > 0 and crossings[near - 1] >= centre - 0.3 * spus:
-                    near = 0
-                near = walk_to(crossings, centre - 0.3 * spus, near)
-                if walk_to(crossings, centre + 0.3 * spus, near) <= near:
+                if np.searchsorted(crossings, centre + 0.3 * spus) <= \
+                        np.searchsorted(crossings, centre - 0.3 * spus):
                     kept[i] = False
     # Two syncs cannot overlap: a sync-like pattern starting inside the previous sync (its
     # second half continued by a bit without its transition) is data.
