@@ -18,7 +18,8 @@ estimate of every aging kind (:meth:`~.wear_model.PrognosticModel.estimates`) â€
 * **RUL** of the leading mode in flights, the median and a 90 % interval (5 % and 95 %
   points of the trend's draws, :func:`~.trend.fit_rul`: the kind's aging shape with the
   fleet prior); in flight hours by the actuator's mean flight length so far. ``inf`` where
-  the trend does not reach the threshold within :data:`HORIZON` flights; 0 once the mode's
+  the trend does not reach the threshold within its horizon (:data:`HORIZON` flights, or
+  :data:`HORIZON_LIVES` times the part's expected life if longer); 0 once the mode's
   degradation is past its threshold. A trend needs BITs on three flights or more.
 * **per mode** (:attr:`Health.modes`), every trended kind states its own RUL once there are
   BITs on three flights, evidenced or not: for a kind whose readings are still within their
@@ -26,8 +27,9 @@ estimate of every aging kind (:meth:`~.wear_model.PrognosticModel.estimates`) â€
   fleet prior says how parts of that kind age from there (the prior is learned from parts
   that do age; a part that never ages is outside it). Only an evidenced kind can lead, so
   the headline RUL, SoH and episodes are unchanged by it; withholding the RUL until a kind
-  is evidenced left a third of a part's life with no statement at all, when a capacitor's
-  or a switch's early wear is still inside one reading's scatter.
+  is evidenced left a fifth of a simulated fleet's BITs (from a quarter of life on) with no
+  statement at all, while a capacitor's or a switch's early wear was still inside one
+  reading's scatter.
 
 A shorted or open switch (a terminal fault) is SoH 0 and RUL 0 at once.
 """
@@ -53,7 +55,10 @@ RECENT = 3
 EVIDENCE_Z = 3.0
 """Standard errors above healthy that make a kind's wear evidenced."""
 HORIZON = 2000.0
-"""Flights the trend is followed to; a RUL beyond it is ``inf``."""
+"""Flights the trend is followed to at least; a RUL beyond the horizon is ``inf``."""
+HORIZON_LIVES = 3.0
+"""The horizon is at least this many times the prior's expected life (a part stated to live
+5,000 flights is followed beyond 2,000)."""
 INTERVAL = 0.90
 """Coverage of the stated RUL interval (its 5 % and 95 % points)."""
 TERMINAL = ("short", "open")
@@ -120,11 +125,12 @@ def assess(model: PrognosticModel, flights: Sequence[float],
         row: dict[str, Any] = {"h": round(h, 4), "z": round(z, 2), "evidenced": evidenced}
         rul = None
         if evidenced and h >= 1.0:   # past its failure threshold: failed now, nothing to fit
-            rul = RulEstimate(0.0, 0.0, 0.0, np.zeros(1), HORIZON)
+            rul = RulEstimate(0.0, 0.0, 0.0, np.zeros(1), horizon(model, kind))
             row.update(rul=0.0, low=0.0, high=0.0)
         elif np.unique(fl[keep]).size >= 3:
             rul = trend.fit_rul(fl[keep], est[keep], now, kind, noise, model.priors.get(kind),
-                                seed=seed, horizon=HORIZON, conditions=cond[keep])
+                                seed=seed, horizon=horizon(model, kind),
+                                conditions=cond[keep])
             row.update(rul=_finite(rul.rul), low=_finite(rul.lower), high=_finite(rul.upper))
         modes[kind] = row
         if evidenced:
@@ -140,7 +146,15 @@ def assess(model: PrognosticModel, flights: Sequence[float],
                       modes=modes)
     return Health(soh, kind, rul.rul, rul.lower, rul.upper, modes=modes,
                   note=None if math.isfinite(rul.rul) else
-                  f"the trend does not reach the failure threshold within {HORIZON:g} flights")
+                  f"the trend does not reach the failure threshold within {rul.horizon:g} "
+                  "flights")
+
+
+def horizon(model: PrognosticModel, kind: str) -> float:
+    """Flights the trend of ``kind`` is followed to: :data:`HORIZON`, or
+    :data:`HORIZON_LIVES` expected lives of the part (its fleet prior's) if longer."""
+    prior = model.priors.get(kind)
+    return HORIZON if prior is None else max(HORIZON, HORIZON_LIVES * prior.life_flights(kind))
 
 
 def _finite(v: float) -> float | None:

@@ -145,6 +145,12 @@ class PrognosticModel:
         if unknown:
             raise ConfigError(f"no fleet prior for {', '.join(unknown)} (aging kinds: "
                               f"{', '.join(sorted(self.priors))})", field="expected_life_flights")
+        longest = float(trend.LIVES[-1]) / 2.0
+        beyond = sorted(k for k, v in lives.items() if v > longest)
+        if beyond:
+            raise ConfigError(f"an expected life beyond {longest:g} flights for "
+                              f"{', '.join(beyond)}: the trend follows lives up to "
+                              f"{float(trend.LIVES[-1]):g}", field="expected_life_flights")
         priors = {k: p.with_life(k, 0.0, lives[k]) if k in lives else
                   p.with_life(k, trend.LIFE_SD) for k, p in self.priors.items()}
         return dataclasses.replace(self, priors=priors)

@@ -14,6 +14,7 @@ from mapr_daemon.catalog import BitOutcome, CatalogWriter, Event
 from mapr_daemon.catalog.model import BitRecord
 from mapr_daemon.daemon.trending import AssetHistory, FlightLog, Trending, history_from_bits
 from mapr_daemon.ema.params import default_actuator_path, load_actuator
+from mapr_daemon.errors import ConfigError
 from mapr_daemon.reasoner import trend
 from mapr_daemon.reasoner.trajectory import learn_prior
 from mapr_daemon.reasoner.wear_model import PrognosticModel
@@ -83,6 +84,24 @@ def test_a_mode_not_yet_evidenced_still_states_its_rul_from_the_trend_and_the_fl
     assert row["low"] <= 200 - 24 <= row["high"]
     first = out[1].health   # BITs on two flights: no trend, no RUL of any mode
     assert first is not None and "rul" not in first.modes["esr"]
+
+
+def test_a_part_stated_to_live_long_is_followed_beyond_the_default_horizon(
+        model: PrognosticModel) -> None:
+    """Parts stated to live 3,000 flights, early in life: the RUL is a number of flights
+    (followed to three lives), not 'beyond 2,000 flights'."""
+    trending = Trending("N101", 900.0, {"EMA1": model.with_lives({"esr": 3000.0})})
+    out = []
+    for n in range(20, 260, 20):
+        trending.log.declare(n)
+        fly(trending, n)
+        out += trending.annotate([bit(n, 1.0 / (1.0 - n / 6000.0) - 1.0)])
+    health = out[-1].health
+    assert health is not None
+    row = health.modes["esr"]
+    assert row["rul"] is not None and row["rul"] > 2000
+    with pytest.raises(ConfigError, match="beyond"):
+        model.with_lives({"esr": 50_000.0})
 
 
 def test_a_wearing_capacitor_leads_with_soh_and_a_rul_interval_that_holds_the_truth(
