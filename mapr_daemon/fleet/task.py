@@ -24,17 +24,17 @@ import dataclasses
 import time
 import traceback
 
+from drivers.chapter10.reader import Chapter10Reader
 from drivers.errors import MaprError
-from drivers.mil1553.record import MonitorRecord
-from drivers.monitor import open_monitor
 from mapr_daemon.catalog import BitOutcome
 from mapr_daemon.daemon.clock import BusClock
 from mapr_daemon.daemon.config import Config
 from mapr_daemon.daemon.pipeline import Pipeline, build_pipeline
 from mapr_daemon.fleet.archive import Recording
 
-BATCH = 1024
-"""Records handed to :meth:`Pipeline.process` at a time (as ``mapr replay``)."""
+BATCH = 8192
+"""Messages read and handed to :meth:`Pipeline.process` at a time: consecutive packets
+merged by the reader (:meth:`Chapter10Reader.batches`), their records built in one pass."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -132,25 +132,22 @@ def _run(recording: Recording, config: Config, digest: str) -> TaskResult:
     first: int | None = None
     last = 0
     tail = recording.tail
-    monitor = open_monitor("chapter10", path=recording.path)
-    with monitor:
-        batch: list[MonitorRecord] = []
-        while True:
-            record = monitor.recv(timeout=0.0)
-            if record is not None:
-                batch.append(record)
-            if batch and (record is None or len(batch) >= BATCH):
-                first = batch[0].t_ns if first is None else first
-                last = batch[-1].t_ns
-                messages += len(batch)
-                result = pipe.process(batch, clock)
-                seen |= result.actuator_seen
-                failures += [f.error for f in result.failures]
-                outcomes += [_in_fleet(o, tail, recording) for o in result.outcomes]
-                batch = []
-            if record is None and monitor.ended:
-                break
-        issues = [str(issue) for issue in getattr(monitor, "issues", [])]
+    reader = Chapter10Reader(recording.path, arinc429=False)
+    try:
+        for batch in reader.batches(BATCH):
+            records = batch.records
+            if not records:
+                continue
+            first = records[0].t_ns if first is None else first
+            last = records[-1].t_ns
+            messages += len(records)
+            result = pipe.process(records, clock)
+            seen |= result.actuator_seen
+            failures += [f.error for f in result.failures]
+            outcomes += [_in_fleet(o, tail, recording) for o in result.outcomes]
+        issues = [str(issue) for issue in reader.issues]
+    finally:
+        reader.close()
     return TaskResult(recording, digest, True, None, outcomes, failures, issues, messages,
                       0.0 if first is None else (last - first) / 1e9, seen)
 
