@@ -1,8 +1,10 @@
 """One recording through the daemon's records -> events path, on a worker: the fleet's task.
 
-:func:`process_recording` opens a Chapter 10 file with the ``chapter10`` backend, as
-``mapr replay`` does, hands its records in batches to :meth:`Pipeline.process` (the one path
-the daemon and the replay run, built by :func:`build_pipeline`), and returns everything the
+:func:`process_recording` reads a Chapter 10 file with the reader the ``chapter10`` backend
+wraps, in merged batches (the records of up to :data:`BATCH` messages built in one pass, not
+taken one at a time from a monitor's queue: a task needs neither its filters nor its bus
+statistics), hands them to :meth:`Pipeline.process` (the one path the daemon and ``mapr
+replay`` run, built by :func:`build_pipeline`), and returns everything the
 catalog needs as a picklable :class:`TaskResult`: every diagnosed BIT as a
 :class:`~mapr_daemon.catalog.BitOutcome` with its bus and absolute stamps, its tail and its
 degradation estimates (the trend, which needs the tail's earlier flights, is the client's:
