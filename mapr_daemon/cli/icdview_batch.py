@@ -25,7 +25,7 @@ from drivers.chapter10.ms1553_batch import FORMATS, Ms1553Batch
 from drivers.mil1553.record import TransferFormat
 from mapr_daemon.icd import Icd
 from mapr_daemon.icd.flags import flag_names
-from mapr_daemon.icd.model import INTEGER_CODE_TYPES, Message
+from mapr_daemon.icd.model import Message
 from mapr_daemon.icd.values import Series
 
 _DECODABLE = np.zeros(len(FORMATS), np.bool_)
@@ -94,7 +94,7 @@ def _described(icd: Icd, batch: Ms1553Batch, compiled: bool, lead: str
         return rows.tolist(), compiled_rows(icd, lead).texts(batch, rows, names[rows])
     places: list[int] = []
     texts: list[str] = []
-    for code in np.unique(names[names >= 0]).tolist():
+    for code in _distinct(names[names >= 0]).tolist():
         message = icd.messages[code]
         members = np.flatnonzero(names == code)
         head = lead + "{" + f'"message": {json.dumps(message.name)}'
@@ -116,7 +116,7 @@ def message_numbers(icd: Icd, batch: Ms1553Batch) -> npt.NDArray[np.int64]:
     decodable = _DECODABLE[batch.format]
     pairs = batch.command << 17 | (batch.command2 + 1)
     names = np.full(len(batch), -1, np.int64)
-    for pair in np.unique(pairs[decodable]).tolist():
+    for pair in _distinct(pairs[decodable]).tolist():
         command2 = (pair & 0x1FFFF) - 1
         message = icd.match_key(pair >> 17, None if command2 < 0 else command2)
         if message is not None:
@@ -124,50 +124,110 @@ def message_numbers(icd: Icd, batch: Ms1553Batch) -> npt.NDArray[np.int64]:
     return names
 
 
+def _distinct(values: npt.NDArray[np.int64]) -> npt.NDArray[np.int64]:
+    """The distinct ``values``, sorted: ``np.unique`` without its indices, which imports
+    ``numpy.ma`` on first use (about 13 ms of a short decode's CPU time)."""
+    ordered = np.sort(values)
+    keep = np.ones(ordered.size, dtype=np.bool_)
+    keep[1:] = ordered[1:] != ordered[:-1]
+    return ordered[keep]
+
+
 def _python_rows(message: Message, series: dict[str, Series], count: int,
                  head: str) -> list[str]:
     """The whole text of each of ``count`` messages of ``message`` from ``head`` on, given
-    their decoded ``series`` (record-major), with one ``repr`` per number."""
-    group = {c.name for c in message.group.channels} if message.group else set()
-    cells: list[list[str]] = []
-    marks: list[list[str]] = [[] for _ in range(count)]
-    for name, s in series.items():
-        key = json.dumps(name)
-        width = len(s) // count
-        text = _numbers(s)
-        if s.parameter.labels:
-            for place, code in enumerate(s.raw.tolist()):
-                label = s.parameter.label(code)
-                if label:
-                    text[place] = json.dumps(label)
-        if name in group:
-            cells.append([f"{key}: [{', '.join(text[j * width:(j + 1) * width])}]"
-                          for j in range(count)])
-        else:
-            cells.append([f"{key}: {t}" for t in text[::width]])
-        union = np.bitwise_or.reduce(s.flags.reshape(count, width), axis=1)
-        for j in np.flatnonzero(union).tolist():
-            marks[j].append(f"{key}: {flag_list(int(union[j]))}")
-    if not cells:
+    their decoded ``series`` (record-major): one ``%`` per message of a format string made
+    once per message layout (``head``, the keys, a list's brackets for group channels, a
+    ``%s`` per number and one for the flags), rather than a string per cell and a join
+    per message (which cost as much as the numbers' ``repr``)."""
+    if not series:
         return [head + "}"] * count
-    return [head + ", " + ", ".join(row) + (", \"flags\": {" + ", ".join(m) + "}" if m else "")
-            + "}" for row, m in zip(zip(*cells, strict=True), marks, strict=True)]
+    group = {c.name for c in message.group.channels} if message.group else set()
+    layout: list[tuple[str, int]] = []
+    columns: list[list[str]] = []
+    flagged: list[tuple[str, npt.NDArray[np.uint8]]] = []
+    for name, s in series.items():
+        width = len(s) // count
+        layout.append((name, width if name in group else 0))
+        text = _numbers(s)
+        columns += [text] if width == 1 else [text[i::width] for i in range(width)]
+        union = np.bitwise_or.reduce(s.flags.reshape(count, width), axis=1)
+        if union.any():
+            flagged.append((name, union))
+    columns.append(_flags_texts(flagged, count))
+    return list(map(_row_format(head, tuple(layout)).__mod__, zip(*columns, strict=True)))
+
+
+@lru_cache(maxsize=256)
+def _row_format(head: str, layout: tuple[tuple[str, int], ...]) -> str:
+    """The ``%`` format of a message's text: ``head``, then per parameter (name, samples;
+    0 for a scalar) its key and a ``%s`` per sample, bracketed for a group channel; the
+    last ``%s`` takes the flags (or nothing)."""
+    parts = []
+    for name, samples in layout:
+        key = json.dumps(name).replace("%", "%%")
+        parts.append(f"{key}: [{', '.join(['%s'] * samples)}]" if samples else f"{key}: %s")
+    return head.replace("%", "%%") + ", " + ", ".join(parts) + "%s}"
+
+
+def _flags_texts(flagged: list[tuple[str, npt.NDArray[np.uint8]]], count: int) -> list[str]:
+    """Per message, ``, "flags": {...}`` (parameter: sorted flag names, in parameter
+    order) where any of ``flagged`` (parameter name, flag bits of each message) is set,
+    else nothing; each distinct entry written once."""
+    if not flagged:
+        return [""] * count
+    union = np.bitwise_or.reduce(np.stack([bits for _, bits in flagged]), axis=0)
+    rows = np.flatnonzero(union)
+    entries = []
+    for name, bits in flagged:
+        codes, inverse = np.unique(bits[rows], return_inverse=True)
+        texts = np.array([_flag_entry(name, code) for code in codes.tolist()], dtype=object)
+        entries.append(texts[inverse].tolist())
+    out = np.full(count, "", dtype=object)
+    out[rows] = [', "flags": {' + ", ".join(filter(None, row)) + "}"
+                 for row in zip(*entries, strict=True)]
+    texts_out: list[str] = out.tolist()
+    return texts_out
+
+
+@lru_cache(maxsize=4096)
+def _flag_entry(name: str, bits: int) -> str:
+    """``"name": [flag names]``, or nothing for no flags."""
+    return f"{json.dumps(name)}: {flag_list(bits)}" if bits else ""
 
 
 def _numbers(series: Series) -> list[str]:
     """The values of ``series`` as ``json.dumps`` writes them (``repr``; NaN and infinities
-    by name). A code (discrete, enumeration, counter) of up to 16 bits is its raw value as
-    a float: its text is looked up, not made (``repr`` costs about 0.35 µs a number)."""
+    by name; an enumeration's label, quoted, where it has one for the raw code). Bus data
+    repeats (codes, settled or slow signals, the same raw word read again), so each
+    distinct value is written once: distinct by its bits (the same bits, the same text;
+    0.0 and -0.0 apart), its text then repeated by index."""
     values = series.value
-    p = series.parameter
-    if p.type in INTEGER_CODE_TYPES and p.width <= 16:
-        text = list(map(_whole_numbers(p.width).__getitem__, series.raw.tolist()))
-    else:
-        text = list(map(repr, values.tolist()))
-    for at in np.flatnonzero(~np.isfinite(values)).tolist():
-        value = float(values[at])
+    bits, inverse = np.unique(values.view(np.int64), return_inverse=True)
+    distinct = bits.view(np.float64)
+    text = list(map(repr, distinct.tolist()))
+    for at in np.flatnonzero(~np.isfinite(distinct)).tolist():
+        value = float(distinct[at])
         text[at] = "NaN" if value != value else ("Infinity" if value > 0 else "-Infinity")
-    return text
+    out = np.array(text, dtype=object)[inverse]
+    p = series.parameter
+    if p.labels:
+        codes, labels = _label_table(tuple(sorted(p.labels.items())))
+        if codes.size:
+            place = np.minimum(np.searchsorted(codes, series.raw), codes.size - 1)
+            hit = codes[place] == series.raw
+            out[hit] = labels[place[hit]]
+    numbers: list[str] = out.tolist()
+    return numbers
+
+
+@lru_cache(maxsize=256)
+def _label_table(items: tuple[tuple[int, str], ...]
+                 ) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.object_]]:
+    """The codes that have a (non-empty) label, sorted, and each label's JSON text."""
+    kept = [(code, label) for code, label in items if label]
+    return (np.array([code for code, _ in kept], dtype=np.int64),
+            np.array([json.dumps(label) for _, label in kept], dtype=object))
 
 
 def _series(icd: Icd, message: Message, batch: Ms1553Batch,
@@ -182,12 +242,6 @@ def _series(icd: Icd, message: Message, batch: Ms1553Batch,
     data = np.where(present, batch.words[at], 0).astype(np.uint16)
     return icd.decode_block(message.name, data, length.astype(np.intp),
                             batch.t_ns[members], batch.errors[members] != 0)
-
-
-@lru_cache(maxsize=17)
-def _whole_numbers(width: int) -> tuple[str, ...]:
-    """``repr`` of the floats 0.0 .. 2**width - 1, in order."""
-    return tuple(f"{code}.0" for code in range(1 << width))
 
 
 @lru_cache(maxsize=256)
