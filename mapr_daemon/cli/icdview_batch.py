@@ -138,8 +138,11 @@ def _python_rows(message: Message, series: dict[str, Series], count: int,
     """The whole text of each of ``count`` messages of ``message`` from ``head`` on, given
     their decoded ``series`` (record-major): one ``%`` per message of a format string made
     once per message layout (``head``, the keys, a list's brackets for group channels, a
-    ``%s`` per number and one for the flags), rather than a string per cell and a join
-    per message (which cost as much as the numbers' ``repr``)."""
+    ``%s`` per number, then the flags), rather than a string per cell and a join per
+    message (which cost as much as the numbers' ``repr``).
+
+    The flags (``, "flags": {parameter: names, ...}`` where any is set) are columns too
+    (:func:`_flag_columns`)."""
     if not series:
         return [head + "}"] * count
     group = {c.name for c in message.group.channels} if message.group else set()
@@ -154,40 +157,46 @@ def _python_rows(message: Message, series: dict[str, Series], count: int,
         union = np.bitwise_or.reduce(s.flags.reshape(count, width), axis=1)
         if union.any():
             flagged.append((name, union))
-    columns.append(_flags_texts(flagged, count))
-    return list(map(_row_format(head, tuple(layout)).__mod__, zip(*columns, strict=True)))
+    if flagged:
+        columns += _flag_columns(flagged, count)
+    return list(map(_row_format(head, tuple(layout), len(flagged)).__mod__,
+                    zip(*columns, strict=True)))
 
 
 @lru_cache(maxsize=256)
-def _row_format(head: str, layout: tuple[tuple[str, int], ...]) -> str:
+def _row_format(head: str, layout: tuple[tuple[str, int], ...], flagged: int) -> str:
     """The ``%`` format of a message's text: ``head``, then per parameter (name, samples;
-    0 for a scalar) its key and a ``%s`` per sample, bracketed for a group channel; the
-    last ``%s`` takes the flags (or nothing)."""
+    0 for a scalar) its key and a ``%s`` per sample, bracketed for a group channel; then,
+    if ``flagged`` parameters have flags, a ``%s`` for the flags' opening, one per such
+    parameter and one for the closing."""
     parts = []
     for name, samples in layout:
         key = json.dumps(name).replace("%", "%%")
         parts.append(f"{key}: [{', '.join(['%s'] * samples)}]" if samples else f"{key}: %s")
-    return head.replace("%", "%%") + ", " + ", ".join(parts) + "%s}"
+    flags = "%s" * (flagged + 2) if flagged else ""
+    return head.replace("%", "%%") + ", " + ", ".join(parts) + flags + "}"
 
 
-def _flags_texts(flagged: list[tuple[str, npt.NDArray[np.uint8]]], count: int) -> list[str]:
-    """Per message, ``, "flags": {...}`` (parameter: sorted flag names, in parameter
-    order) where any of ``flagged`` (parameter name, flag bits of each message) is set,
-    else nothing; each distinct entry written once."""
-    if not flagged:
-        return [""] * count
-    union = np.bitwise_or.reduce(np.stack([bits for _, bits in flagged]), axis=0)
-    rows = np.flatnonzero(union)
-    entries = []
+def _flag_columns(flagged: list[tuple[str, npt.NDArray[np.uint8]]], count: int
+                  ) -> list[list[str]]:
+    """The flags' columns for :func:`_row_format`: per message, the opening
+    ``, "flags": {`` and the closing ``}`` where any of ``flagged`` (parameter name, flag
+    bits of each message) is set, and between them per parameter its entry (parameter:
+    its sorted flag names; after a comma if an earlier parameter has one) where it has
+    flags; nothing elsewhere. Each distinct entry is written once, then indexed."""
+    seen = np.zeros(count, dtype=np.intp)
+    columns = []
     for name, bits in flagged:
-        codes, inverse = np.unique(bits[rows], return_inverse=True)
-        texts = np.array([_flag_entry(name, code) for code in codes.tolist()], dtype=object)
-        entries.append(texts[inverse].tolist())
-    out = np.full(count, "", dtype=object)
-    out[rows] = [', "flags": {' + ", ".join(filter(None, row)) + "}"
-                 for row in zip(*entries, strict=True)]
-    texts_out: list[str] = out.tolist()
-    return texts_out
+        codes, inverse = np.unique(bits, return_inverse=True)
+        first = [_flag_entry(name, code) for code in codes.tolist()]
+        texts = np.array(first + [", " + t if t else "" for t in first], dtype=object)
+        columns.append(texts[inverse + codes.size * seen].tolist())
+        seen |= bits != 0
+    return [_OPENING[seen].tolist(), *columns, _CLOSING[seen].tolist()]
+
+
+_OPENING = np.array(["", ', "flags": {'], dtype=object)
+_CLOSING = np.array(["", "}"], dtype=object)
 
 
 @lru_cache(maxsize=4096)
