@@ -10,15 +10,16 @@ numpy, so no string is made per number. The rest (more places, larger, NaN, infi
 about a sixth of bench/chapter10_speed.py's values, a third of those float32 or BNR) are
 written by ``repr`` in the first part, the second empty.
 
-Why the short decimal is ``repr``'s text: for ``1e-4 <= |v| < 1e4`` the spacing of doubles
-near ``v`` is below ``2e-12``, far below ``1e-4``, so at most one decimal with at most 4
-places reads back as ``v``; the one with the fewest places (found by trying 0 to 4: ``k =
-rint(|v| * 10**p)``, and ``k / 10**p == |v|`` is exact, the quotient of two exact doubles
-rounded once, as parsing the decimal rounds it) has the fewest significant digits of all
-that read back, which is what ``repr`` writes, positionally (``repr`` writes an exponent
-only below 1e-4 and from 1e16 on), with ``.0`` for a whole number. ``-0.0`` is ``-0`` and
-``.0``, as ``repr`` writes it. tests/chapter10/test_number_text.py checks it against
-``json.dumps`` value by value.
+Why the tables' text is ``repr``'s: for ``1e-4 <= |v| < 1e4`` the spacing of doubles near
+``v`` is below ``2e-12``, far below ``1e-4``, so at most one decimal of at most 4 places
+reads back as ``v``. It is found with ``k = rint(|v| * 10**4)``: it exists if and only if
+``k / 10**4 == |v|`` (exact: the quotient of two exact doubles is rounded once, as parsing
+the decimal rounds it). Written with its trailing zeros left out (the places' table leaves
+them out) it has the fewest significant digits of all decimals that read back, which is
+what ``repr`` writes, positionally (``repr`` writes an exponent only below 1e-4 and from
+1e16 on), with ``.0`` for a whole number. ``-0.0`` is ``-0`` and ``.0``, as ``repr``
+writes it. tests/chapter10/test_number_text.py checks it against ``json.dumps``, number by
+number.
 """
 
 from __future__ import annotations
@@ -33,8 +34,6 @@ PLACES = 4
 
 WHOLE = 10**PLACES
 """The integer parts the tables write are below this."""
-
-_SCALE = 10.0 ** np.arange(PLACES + 1)
 
 
 @lru_cache(maxsize=1)
@@ -54,25 +53,14 @@ def number_parts(values: npt.NDArray[np.float64]
     """Two object arrays of texts whose concatenation, element by element, is what
     ``json.dumps`` writes for each of ``values`` (``repr``; ``NaN``, ``Infinity``,
     ``-Infinity`` by name)."""
-    size = values.size
     magnitude = np.abs(values)
-    left = np.flatnonzero(magnitude < WHOLE)   # NaN is not: it goes to repr
-    k = np.zeros(size, dtype=np.int64)
-    places = np.full(size, -1, dtype=np.int64)
-    for p in range(PLACES + 1):
-        if not left.size:
-            break
-        scaled = np.rint(magnitude[left] * _SCALE[p])
-        found = scaled / _SCALE[p] == magnitude[left]
-        k[left[found]] = scaled[found]
-        places[left[found]] = p
-        left = left[~found]
-    short = places >= 0
+    scaled = np.rint(magnitude * WHOLE)
+    short = (scaled / WHOLE == magnitude) & (magnitude < WHOLE)   # NaN is not: repr
+    k = np.where(short, scaled, 0).astype(np.int64)
     heads_table, places_table = _tables()
-    power = 10 ** np.maximum(places, 0)
-    whole = k // power
+    whole = k // WHOLE
     heads = heads_table[whole + WHOLE * np.signbit(values)]
-    tails = places_table[(k - whole * power) * (WHOLE // power)]
+    tails = places_table[k - whole * WHOLE]
     long = np.flatnonzero(~short)
     if long.size:
         heads[long] = list(map(repr, values[long].tolist()))
