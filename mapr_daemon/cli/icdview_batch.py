@@ -4,12 +4,15 @@
 time (one numpy pass per message: fine for a live monitor, 7x the cost of reading for a
 recording). Here the messages of a batch are grouped by ICD message, their data words
 stacked straight from the batch's word array, each group decoded in one call and its text
-written with one ``repr`` per number; the result per message is the same dict, key for key.
+written by one ``%`` per message of a format string made once per message layout, each
+distinct number of a column written once, short ones from tables and the rest by ``repr``
+(:mod:`mapr_daemon.cli.icdview_numbers`); the result per message is the same dict, key for
+key.
 
 Once a decode has written enough values for loading numba to pay (:class:`BatchValues`), a
 compiled writer takes over (:mod:`mapr_daemon.cli.icdview_rows`: the whole batch decoded
-and written in two kernel calls: it adds 2.3-3.0x less CPU time to a decode than the
-``repr`` writer in bench/chapter10_speed.py's runs); both write the same bytes.
+and written in two kernel calls: about 1.2 µs less CPU time per message with values than
+this writer on bench/chapter10_speed.py's traffic); both write the same bytes.
 """
 
 from __future__ import annotations
@@ -36,12 +39,13 @@ for _code, _fmt in enumerate(FORMATS):
                                  TransferFormat.BCAST_RT_RT)
 
 
-COMPILED_AFTER = 150_000
+COMPILED_AFTER = 450_000
 """Messages with values a decode writes with ``repr`` before it turns to the compiled
-writer, unless numba is already loaded: loading it costs about 0.6 s of CPU once, and the
-compiled writer saves 3.8-4.9 µs per such message (bench/chapter10_speed.py's ICD traffic:
-the two writers' CPU time apart, over 30 k messages with values, four runs), so it pays
-from about this many on (minutes of a busy bus)."""
+writer, unless numba is already loaded: loading it and its kernels costs about 0.55 s of
+CPU once, and the compiled writer saves 1.2 µs per such message (bench/chapter10_speed.py's
+ICD traffic, 30 k messages with values, the two writers best of 10 each, two runs: 0.088
+and 0.090 s against 0.053 s), so it pays from about this many on (a quarter of an hour of
+a busy bus). Traffic whose values repeat favours the ``repr`` writer more."""
 
 
 class BatchValues:
