@@ -157,12 +157,8 @@ def _python_rows(message: Message, series: dict[str, Series], count: int,
     for name, s in series.items():
         width = len(s) // count
         layout.append((name, width if name in group else 0))
-        heads, tails = _numbers(s)
-        if width == 1:
-            columns += [heads, tails]
-        else:
-            for i in range(width):
-                columns += [heads[i::width], tails[i::width]]
+        text = _numbers(s)
+        columns += [text] if width == 1 else [text[i::width] for i in range(width)]
         union = np.bitwise_or.reduce(s.flags.reshape(count, width), axis=1)
         if union.any():
             flagged.append((name, union))
@@ -181,8 +177,7 @@ def _row_format(head: str, layout: tuple[tuple[str, int], ...], flagged: int) ->
     parts = []
     for name, samples in layout:
         key = json.dumps(name).replace("%", "%%")
-        parts.append(f"{key}: [{', '.join(['%s%s'] * samples)}]" if samples
-                     else f"{key}: %s%s")
+        parts.append(f"{key}: [{', '.join(['%s'] * samples)}]" if samples else f"{key}: %s")
     flags = "%s" * (flagged + 2) if flagged else ""
     return head.replace("%", "%%") + ", " + ", ".join(parts) + flags + "}"
 
@@ -215,25 +210,25 @@ def _flag_entry(name: str, bits: int) -> str:
     return f"{json.dumps(name)}: {flag_list(bits)}" if bits else ""
 
 
-def _numbers(series: Series) -> tuple[list[str], list[str]]:
-    """The values of ``series`` as ``json.dumps`` writes them, each in two parts written
-    one after the other (:func:`~mapr_daemon.cli.icdview_numbers.number_parts`; an
-    enumeration's label, quoted, and nothing, where it has one for the raw code). Bus
-    data repeats (codes, settled or slow signals, the same raw word read again), so each
-    distinct value is written once: distinct by its bits (the same bits, the same text;
-    0.0 and -0.0 apart), its text then repeated by index."""
+def _numbers(series: Series) -> list[str]:
+    """The values of ``series`` as ``json.dumps`` writes them (an enumeration's label,
+    quoted, where it has one for the raw code). Bus data repeats (codes, settled or slow
+    signals, the same raw word read again), so each distinct value is written once
+    (:func:`~mapr_daemon.cli.icdview_numbers.number_parts`, its two parts joined):
+    distinct by its bits (the same bits, the same text; 0.0 and -0.0 apart), its text
+    then repeated by index."""
     bits, inverse = np.unique(series.value.view(np.int64), return_inverse=True)
     heads, tails = number_parts(bits.view(np.float64))
-    heads, tails = heads[inverse], tails[inverse]
+    text = (heads + tails)[inverse]
     p = series.parameter
     if p.labels:
         codes, labels = _label_table(tuple(sorted(p.labels.items())))
         if codes.size:
             place = np.minimum(np.searchsorted(codes, series.raw), codes.size - 1)
             hit = codes[place] == series.raw
-            heads[hit] = labels[place[hit]]
-            tails[hit] = ""
-    return heads.tolist(), tails.tolist()
+            text[hit] = labels[place[hit]]
+    numbers: list[str] = text.tolist()
+    return numbers
 
 
 @lru_cache(maxsize=256)

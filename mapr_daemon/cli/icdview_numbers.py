@@ -1,17 +1,17 @@
 """Numbers as ``json.dumps`` writes them, for a column of values at once, without a
 ``repr`` per number where the number is short.
 
-A value's text is given in two parts, written one after the other (the ``repr`` writer of
-:mod:`mapr_daemon.cli.icdview_batch` puts a ``%s%s`` per number in its row format): most
-engineering values of a 1553 bus are a 16-bit field times a decimal LSB, whose shortest
+A value's text is given in two parts, to be written one after the other (the ``repr`` writer
+of :mod:`mapr_daemon.cli.icdview_batch` joins them, once per distinct value of a column):
+most engineering values of a 1553 bus are a 16-bit field times a decimal LSB, whose shortest
 decimal has at most 4 places and an integer part below 10 000; for those both parts come
 from tables made once (the signed integer part; the point and the places), indexed with
-numpy, so no string is made per number. The rest (more places, larger, NaN, infinities)
-are written by ``repr`` in the first part, the second empty: in bench/chapter10_speed.py's
-random traffic a sixth of the numbers (a quarter of the distinct ones), of which three
-fifths are LSB products that need 16 or 17 digits (``0.001 * 15623`` is
-``15.623000000000001``), a quarter BNR values (binary LSBs: more places), the rest float32
-values and counters from 10 000 on.
+numpy, so no number is formatted (joining the two parts costs a fraction of a ``repr``). The
+rest (more places, larger, NaN, infinities) are written by ``repr`` in the first part, the
+second empty: in bench/chapter10_speed.py's random traffic a sixth of the numbers (a quarter
+of the distinct ones), of which three fifths are LSB products that need 16 or 17 digits
+(``0.001 * 15623`` is ``15.623000000000001``), a quarter BNR values (binary LSBs: more
+places), the rest float32 values and counters from 10 000 on.
 
 Why the tables' text is ``repr``'s: for ``1e-4 <= |v| < 1e4`` the spacing of doubles near
 ``v`` is below ``2e-12``, far below ``1e-4``, so at most one decimal of at most 4 places
