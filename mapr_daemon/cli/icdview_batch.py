@@ -63,11 +63,11 @@ class BatchValues:
     def __call__(self, batch: Ms1553Batch) -> list[str]:
         compiled = self.described >= COMPILED_AFTER or _numba_loaded()
         rows, texts = _described(self.icd, batch, compiled, self.LEAD)
-        out = [""] * len(batch)
-        for i, text in zip(rows, texts, strict=True):
-            out[i] = text
+        out = np.full(len(batch), "", dtype=object)
+        out[rows] = texts
         self.described += len(rows)
-        return out
+        placed: list[str] = out.tolist()
+        return placed
 
 
 def _numba_loaded() -> bool:
