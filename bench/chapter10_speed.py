@@ -184,9 +184,9 @@ def interleaved(runs: dict[str, Callable[[], int]]) -> dict[str, tuple[float, fl
 
 def icd_parts(path: Path) -> dict[str, float]:
     """CPU s of the parts of ``decode --icd`` (compiled writer) on ``path``, each the best
-    of ``--runs``: reading the batches, their values text, their JSON lines without and
-    with the values, joining the lines."""
-    from mapr_daemon.cli.icdview_batch import BatchValues
+    of ``--runs``: reading the batches, their values text (and the same by the ``repr``
+    writer), their JSON lines without and with the values, joining the lines."""
+    from mapr_daemon.cli.icdview_batch import BatchValues, batch_values_json
 
     batches = [b.ms1553 for b in Chapter10Reader(path).batches(BATCH_MESSAGES)
                if b.ms1553 is not None]
@@ -196,6 +196,8 @@ def icd_parts(path: Path) -> dict[str, float]:
     parts: dict[str, Callable[[], object]] = {
         "read": lambda: [b.ms1553 for b in Chapter10Reader(path).batches(BATCH_MESSAGES)],
         "values text": lambda: [values(b) for b in batches],
+        "values text by the repr writer": lambda: [batch_values_json(values.icd, b)
+                                                   for b in batches],
         "lines without values": lambda: [json_lines(b) for b in batches],
         "lines with values": lambda: [json_lines(b, t)
                                       for b, t in zip(batches, tails, strict=True)],

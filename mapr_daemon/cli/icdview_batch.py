@@ -4,12 +4,15 @@
 time (one numpy pass per message: fine for a live monitor, 7x the cost of reading for a
 recording). Here the messages of a batch are grouped by ICD message, their data words
 stacked straight from the batch's word array, each group decoded in one call and its text
-written with one ``repr`` per number; the result per message is the same dict, key for key.
+written by one ``%`` per message of a format string made once per message layout, each
+distinct number of a column written once, short ones from tables and the rest by ``repr``
+(:mod:`mapr_daemon.cli.icdview_numbers`); the result per message is the same dict, key for
+key.
 
 Once a decode has written enough values for loading numba to pay (:class:`BatchValues`), a
 compiled writer takes over (:mod:`mapr_daemon.cli.icdview_rows`: the whole batch decoded
-and written in two kernel calls: it adds 2.3-3.0x less CPU time to a decode than the
-``repr`` writer in bench/chapter10_speed.py's runs); both write the same bytes.
+and written in two kernel calls: about 1.2 µs less CPU time per message with values than
+this writer on bench/chapter10_speed.py's traffic); both write the same bytes.
 """
 
 from __future__ import annotations
@@ -23,9 +26,10 @@ import numpy.typing as npt
 
 from drivers.chapter10.ms1553_batch import FORMATS, Ms1553Batch
 from drivers.mil1553.record import TransferFormat
+from mapr_daemon.cli.icdview_numbers import number_parts
 from mapr_daemon.icd import Icd
 from mapr_daemon.icd.flags import flag_names
-from mapr_daemon.icd.model import INTEGER_CODE_TYPES, Message
+from mapr_daemon.icd.model import Message
 from mapr_daemon.icd.values import Series
 
 _DECODABLE = np.zeros(len(FORMATS), np.bool_)
@@ -35,12 +39,13 @@ for _code, _fmt in enumerate(FORMATS):
                                  TransferFormat.BCAST_RT_RT)
 
 
-COMPILED_AFTER = 150_000
+COMPILED_AFTER = 450_000
 """Messages with values a decode writes with ``repr`` before it turns to the compiled
-writer, unless numba is already loaded: loading it costs about 0.6 s of CPU once, and the
-compiled writer saves 3.8-4.9 µs per such message (bench/chapter10_speed.py's ICD traffic:
-the two writers' CPU time apart, over 30 k messages with values, four runs), so it pays
-from about this many on (minutes of a busy bus)."""
+writer, unless numba is already loaded: loading it and its kernels costs about 0.55 s of
+CPU once, and the compiled writer saves 1.2 µs per such message (bench/chapter10_speed.py's
+ICD traffic, 30 k messages with values, the two writers best of 10 each, two runs: 0.088
+and 0.090 s against 0.053 s), so it pays from about this many on (a quarter of an hour of
+a busy bus). Traffic whose values repeat favours the ``repr`` writer more."""
 
 
 class BatchValues:
@@ -58,11 +63,11 @@ class BatchValues:
     def __call__(self, batch: Ms1553Batch) -> list[str]:
         compiled = self.described >= COMPILED_AFTER or _numba_loaded()
         rows, texts = _described(self.icd, batch, compiled, self.LEAD)
-        out = [""] * len(batch)
-        for i, text in zip(rows, texts, strict=True):
-            out[i] = text
+        out = np.full(len(batch), "", dtype=object)
+        out[rows] = texts
         self.described += len(rows)
-        return out
+        placed: list[str] = out.tolist()
+        return placed
 
 
 def _numba_loaded() -> bool:
@@ -94,7 +99,7 @@ def _described(icd: Icd, batch: Ms1553Batch, compiled: bool, lead: str
         return rows.tolist(), compiled_rows(icd, lead).texts(batch, rows, names[rows])
     places: list[int] = []
     texts: list[str] = []
-    for code in np.unique(names[names >= 0]).tolist():
+    for code in _distinct(names[names >= 0]).tolist():
         message = icd.messages[code]
         members = np.flatnonzero(names == code)
         head = lead + "{" + f'"message": {json.dumps(message.name)}'
@@ -116,7 +121,7 @@ def message_numbers(icd: Icd, batch: Ms1553Batch) -> npt.NDArray[np.int64]:
     decodable = _DECODABLE[batch.format]
     pairs = batch.command << 17 | (batch.command2 + 1)
     names = np.full(len(batch), -1, np.int64)
-    for pair in np.unique(pairs[decodable]).tolist():
+    for pair in _distinct(pairs[decodable]).tolist():
         command2 = (pair & 0x1FFFF) - 1
         message = icd.match_key(pair >> 17, None if command2 < 0 else command2)
         if message is not None:
@@ -124,50 +129,115 @@ def message_numbers(icd: Icd, batch: Ms1553Batch) -> npt.NDArray[np.int64]:
     return names
 
 
+def _distinct(values: npt.NDArray[np.int64]) -> npt.NDArray[np.int64]:
+    """The distinct ``values``, sorted: ``np.unique`` without its indices, which imports
+    ``numpy.ma`` on first use (about 13 ms of a short decode's CPU time)."""
+    ordered = np.sort(values)
+    keep = np.ones(ordered.size, dtype=np.bool_)
+    keep[1:] = ordered[1:] != ordered[:-1]
+    return ordered[keep]
+
+
 def _python_rows(message: Message, series: dict[str, Series], count: int,
                  head: str) -> list[str]:
     """The whole text of each of ``count`` messages of ``message`` from ``head`` on, given
-    their decoded ``series`` (record-major), with one ``repr`` per number."""
-    group = {c.name for c in message.group.channels} if message.group else set()
-    cells: list[list[str]] = []
-    marks: list[list[str]] = [[] for _ in range(count)]
-    for name, s in series.items():
-        key = json.dumps(name)
-        width = len(s) // count
-        text = _numbers(s)
-        if s.parameter.labels:
-            for place, code in enumerate(s.raw.tolist()):
-                label = s.parameter.label(code)
-                if label:
-                    text[place] = json.dumps(label)
-        if name in group:
-            cells.append([f"{key}: [{', '.join(text[j * width:(j + 1) * width])}]"
-                          for j in range(count)])
-        else:
-            cells.append([f"{key}: {t}" for t in text[::width]])
-        union = np.bitwise_or.reduce(s.flags.reshape(count, width), axis=1)
-        for j in np.flatnonzero(union).tolist():
-            marks[j].append(f"{key}: {flag_list(int(union[j]))}")
-    if not cells:
+    their decoded ``series`` (record-major): one ``%`` per message of a format string made
+    once per message layout (``head``, the keys, a list's brackets for group channels, a
+    ``%s`` per number, then the flags), rather than a string per cell and a join per
+    message (which cost as much as the numbers' ``repr``).
+
+    The flags (``, "flags": {parameter: names, ...}`` where any is set) are columns too
+    (:func:`_flag_columns`)."""
+    if not series:
         return [head + "}"] * count
-    return [head + ", " + ", ".join(row) + (", \"flags\": {" + ", ".join(m) + "}" if m else "")
-            + "}" for row, m in zip(zip(*cells, strict=True), marks, strict=True)]
+    group = {c.name for c in message.group.channels} if message.group else set()
+    layout: list[tuple[str, int]] = []
+    columns: list[list[str]] = []
+    flagged: list[tuple[str, npt.NDArray[np.uint8]]] = []
+    for name, s in series.items():
+        width = len(s) // count
+        layout.append((name, width if name in group else 0))
+        text = _numbers(s)
+        columns += [text] if width == 1 else [text[i::width] for i in range(width)]
+        union = np.bitwise_or.reduce(s.flags.reshape(count, width), axis=1)
+        if union.any():
+            flagged.append((name, union))
+    if flagged:
+        columns += _flag_columns(flagged, count)
+    return list(map(_row_format(head, tuple(layout), len(flagged)).__mod__,
+                    zip(*columns, strict=True)))
+
+
+@lru_cache(maxsize=256)
+def _row_format(head: str, layout: tuple[tuple[str, int], ...], flagged: int) -> str:
+    """The ``%`` format of a message's text: ``head``, then per parameter (name, samples;
+    0 for a scalar) its key and a ``%s`` per sample, bracketed for a group channel; then,
+    if ``flagged`` parameters have flags, a ``%s`` for the flags' opening, one per such
+    parameter and one for the closing."""
+    parts = []
+    for name, samples in layout:
+        key = json.dumps(name).replace("%", "%%")
+        parts.append(f"{key}: [{', '.join(['%s'] * samples)}]" if samples else f"{key}: %s")
+    flags = "%s" * (flagged + 2) if flagged else ""
+    return head.replace("%", "%%") + ", " + ", ".join(parts) + flags + "}"
+
+
+def _flag_columns(flagged: list[tuple[str, npt.NDArray[np.uint8]]], count: int
+                  ) -> list[list[str]]:
+    """The flags' columns for :func:`_row_format`: per message, the opening
+    ``, "flags": {`` and the closing ``}`` where any of ``flagged`` (parameter name, flag
+    bits of each message) is set, and between them per parameter its entry (parameter:
+    its sorted flag names; after a comma if an earlier parameter has one) where it has
+    flags; nothing elsewhere. Each distinct entry is written once, then indexed."""
+    seen = np.zeros(count, dtype=np.intp)
+    columns = []
+    for name, bits in flagged:
+        codes, inverse = np.unique(bits, return_inverse=True)
+        first = [_flag_entry(name, code) for code in codes.tolist()]
+        texts = np.array(first + [", " + t if t else "" for t in first], dtype=object)
+        columns.append(texts[inverse + codes.size * seen].tolist())
+        seen |= bits != 0
+    return [_OPENING[seen].tolist(), *columns, _CLOSING[seen].tolist()]
+
+
+_OPENING = np.array(["", ', "flags": {'], dtype=object)
+_CLOSING = np.array(["", "}"], dtype=object)
+
+
+@lru_cache(maxsize=4096)
+def _flag_entry(name: str, bits: int) -> str:
+    """``"name": [flag names]``, or nothing for no flags."""
+    return f"{json.dumps(name)}: {flag_list(bits)}" if bits else ""
 
 
 def _numbers(series: Series) -> list[str]:
-    """The values of ``series`` as ``json.dumps`` writes them (``repr``; NaN and infinities
-    by name). A code (discrete, enumeration, counter) of up to 16 bits is its raw value as
-    a float: its text is looked up, not made (``repr`` costs about 0.35 µs a number)."""
-    values = series.value
+    """The values of ``series`` as ``json.dumps`` writes them (an enumeration's label,
+    quoted, where it has one for the raw code). Bus data repeats (codes, settled or slow
+    signals, the same raw word read again), so each distinct value is written once
+    (:func:`~mapr_daemon.cli.icdview_numbers.number_parts`, its two parts joined):
+    distinct by its bits (the same bits, the same text; 0.0 and -0.0 apart), its text
+    then repeated by index."""
+    bits, inverse = np.unique(series.value.view(np.int64), return_inverse=True)
+    heads, tails = number_parts(bits.view(np.float64))
+    text = (heads + tails)[inverse]
     p = series.parameter
-    if p.type in INTEGER_CODE_TYPES and p.width <= 16:
-        text = list(map(_whole_numbers(p.width).__getitem__, series.raw.tolist()))
-    else:
-        text = list(map(repr, values.tolist()))
-    for at in np.flatnonzero(~np.isfinite(values)).tolist():
-        value = float(values[at])
-        text[at] = "NaN" if value != value else ("Infinity" if value > 0 else "-Infinity")
-    return text
+    if p.labels:
+        codes, labels = _label_table(tuple(sorted(p.labels.items())))
+        if codes.size:
+            place = np.minimum(np.searchsorted(codes, series.raw), codes.size - 1)
+            hit = codes[place] == series.raw
+            text[hit] = labels[place[hit]]
+    numbers: list[str] = text.tolist()
+    return numbers
+
+
+@lru_cache(maxsize=256)
+def _label_table(items: tuple[tuple[int, str], ...]
+                 ) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.object_]]:
+    """The codes that have a (non-empty) label, sorted, and each label's JSON text."""
+    kept = [(code, label) for code, label in items if label]
+    return (np.array([code for code, _ in kept], dtype=np.int64),
+            np.array([json.dumps(label) for _, label in kept], dtype=object))
 
 
 def _series(icd: Icd, message: Message, batch: Ms1553Batch,
@@ -182,12 +252,6 @@ def _series(icd: Icd, message: Message, batch: Ms1553Batch,
     data = np.where(present, batch.words[at], 0).astype(np.uint16)
     return icd.decode_block(message.name, data, length.astype(np.intp),
                             batch.t_ns[members], batch.errors[members] != 0)
-
-
-@lru_cache(maxsize=17)
-def _whole_numbers(width: int) -> tuple[str, ...]:
-    """``repr`` of the floats 0.0 .. 2**width - 1, in order."""
-    return tuple(f"{code}.0" for code in range(1 << width))
 
 
 @lru_cache(maxsize=256)

@@ -12,7 +12,15 @@ minimum and maximum. Load once::
 :class:`SignalStream` turns a monitor's records into the per-parameter time series the
 reasoner consumes; :func:`format_values` renders one record's values on one line. The file
 format is documented in ``docs/icd.md``.
+
+The signal stream, the renderers and the traffic generator are imported on first use (PEP
+562), so decoding with a table (``mapr decode --icd``) does not pay for them at start-up.
 """
+
+from __future__ import annotations
+
+from importlib import import_module
+from typing import TYPE_CHECKING, Any
 
 from mapr_daemon.icd.busload import BusLoad, bus_load, message_time_us
 from mapr_daemon.icd.database import BatchResult, Icd, load_icd, loads_icd
@@ -28,10 +36,29 @@ from mapr_daemon.icd.model import (
     Terminal,
     WordOrder,
 )
-from mapr_daemon.icd.render import format_decoded, format_values
-from mapr_daemon.icd.signals import SignalStream, StreamStats, collect
-from mapr_daemon.icd.traffic import pattern_values, schedule_records
 from mapr_daemon.icd.values import DecodedMessage, Series
+
+if TYPE_CHECKING:
+    from mapr_daemon.icd.render import format_decoded, format_values
+    from mapr_daemon.icd.signals import SignalStream, StreamStats, collect
+    from mapr_daemon.icd.traffic import pattern_values, schedule_records
+
+_ON_FIRST_USE = {
+    "format_decoded": "render", "format_values": "render",
+    "SignalStream": "signals", "StreamStats": "signals", "collect": "signals",
+    "pattern_values": "traffic", "schedule_records": "traffic",
+}
+"""Names of this package imported from their module when first asked for."""
+
+
+def __getattr__(name: str) -> Any:
+    """``format_decoded``, ``SignalStream`` and the like, from their module, on first use."""
+    module = _ON_FIRST_USE.get(name)
+    if module is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(import_module(f"{__name__}.{module}"), name)
+    globals()[name] = value
+    return value
 
 __all__ = [
     "BatchResult",
