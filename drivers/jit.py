@@ -34,6 +34,9 @@ from collections.abc import Callable
 from typing import Any, TypeVar, cast
 
 import numba
+import numpy as np
+from llvmlite import ir
+from numba.extending import intrinsic
 
 Function = TypeVar("Function", bound=Callable[..., Any])
 
@@ -45,3 +48,29 @@ def kernel(function: Function) -> Function:
     numba's dispatcher, which compiles once per argument-type combination.
     """
     return cast(Function, numba.njit(cache=True, nogil=True)(function))
+
+
+def _trailing_zeros_typed(_context: Any, value: Any) -> Any:
+    """Typing and code generation of :data:`trailing_zeros` (numba's intrinsic protocol): a
+    uint64 in, LLVM's ``cttz`` with a zero input defined (64), the result typed int64."""
+    if value != numba.types.uint64:
+        return None  # numba then reports no matching signature
+
+    def generate(_ctx: Any, builder: ir.IRBuilder, _sig: Any, args: list[ir.Value]) -> Any:
+        return builder.cttz(args[0], ir.Constant(ir.IntType(1), 0))
+
+    return numba.types.int64(numba.types.uint64), generate
+
+
+trailing_zeros = cast(Callable[[np.uint64], int], intrinsic(_trailing_zeros_typed))
+"""The number of zero bits below the lowest set bit of a uint64 (64 for 0), as an int64;
+callable from kernels only.
+
+numba has no public count-trailing-zeros, and a bit scan written in Python terms (a de Bruijn
+multiply and table) costs several instructions where the processor has one (``tzcnt``/``bsf``).
+It lets a kernel turn a mask of set bits into their indices, one instruction per bit: with
+``word &= word - 1`` clearing the lowest. The result is int64, not uint64, so that adding it to
+an int64 index stays an integer (numba types ``int64 + uint64`` as float64). Inlined into the
+calling kernel, so that kernel's disk cache does not see a change here (see above): clear the
+cache (``__pycache__/*.nbi``/``*.nbc``) after changing it.
+"""

@@ -3,7 +3,7 @@
 Two stages, split where the work changes in kind:
 
 * Per sample: the only pass over the samples finds where the capture byte changes
-  (:func:`byte_changes`), shared by both buses, eight samples at a time.
+  (:func:`byte_changes`), shared by both buses, vectorised by numpy, then one bit per sample.
 * Per edge, one compiled kernel (:func:`line_segments`): the change points become runs of one
   bus, short interruptions are repaired, and runs become segments with timed crossings. This is
   a state machine over a few runs per microsecond of traffic; as numpy it took a dozen array
@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from drivers.jit import kernel
+from drivers.jit import kernel, trailing_zeros
 from drivers.mil1553.encoder import RX_BITS
 
 IntArray = npt.NDArray[np.int64]
@@ -75,74 +75,59 @@ def byte_changes(samples: npt.NDArray[np.uint8], work: Workspace
     """Indices where the capture byte differs from the one before, with 0 first, and the
     bytes there (views of ``work``'s arrays).
 
-    This is the one full pass over the samples that both buses share. It reads them eight at
-    a time (:func:`_byte_changes`): on a loaded bus at 10 MS/s a change comes every 5-10
-    samples, so most of the work is per word of eight samples, not per sample.
+    This is the one full pass over the samples that both buses share, done where it is
+    cheapest per sample: numpy compares each sample with the next and packs the flags to one
+    bit per sample (both vectorised, a few instructions per 32 samples), and a kernel
+    (:func:`_set_bits`) turns the set bits into indices, 64 samples at a time. On a loaded
+    bus at 10 MS/s a change comes every 5-10 samples, so the kernel's work is per change,
+    not per sample.
     """
-    changes = work.take("changes", samples.size + _SPARE, np.int64)
-    values = work.take("values", samples.size, np.uint8)
-    whole = samples.size // 8
-    count = _byte_changes(samples, samples[:8 * whole].view(np.uint64), changes, values)
+    n = samples.size
+    changes = work.take("changes", n, np.int64)
+    values = work.take("values", n, np.uint8)
+    differs = work.take("differs", max(n - 1, 0), np.bool_)
+    np.not_equal(samples[1:], samples[:-1], out=differs)
+    # packbits allocates its result (n / 8 bytes); taking it from the workspace would need a
+    # copy, and an allocation of this size is served from the heap, not faulted in afresh.
+    packed = np.packbits(differs, bitorder="little")
+    whole = packed.size // 8
+    count = _set_bits(samples, packed, packed[:8 * whole].view(np.uint64), changes, values)
     return changes[:count], values[:count]
 
 
-_SPARE = 2
-"""Entries written past the last change by :func:`_byte_changes` (kept or overwritten)."""
-_LOW_BITS = 0x0101010101010101
-_BYTE_INDEX = 0x0001020304050607
-"""Byte ``7 - k`` holds ``k``: ``(1 << 8k) * _BYTE_INDEX >> 56`` is ``k``."""
-
-
 @kernel
-def _byte_changes(samples: npt.NDArray[np.uint8], words: npt.NDArray[np.uint64],
-                  changes: IntArray, values: npt.NDArray[np.uint8]) -> int:
-    """:func:`byte_changes` into ``changes`` and ``values``; returns their number.
+def _set_bits(samples: npt.NDArray[np.uint8], packed: npt.NDArray[np.uint8],
+              words: npt.NDArray[np.uint64], changes: IntArray,
+              values: npt.NDArray[np.uint8]) -> int:
+    """:func:`byte_changes` into ``changes`` and ``values`` from the packed flags; returns
+    their number.
 
-    ``words`` is ``samples`` viewed as little-endian 64-bit words. A word XORed with itself
-    shifted by one byte (the next word's first byte shifted in) is non-zero in byte ``k``
-    exactly where sample ``8j + k + 1`` changes; each such byte is folded onto its lowest bit,
-    and the bits are turned into indices lowest first with a multiplication (no branch per
-    sample). The first two changes of a word are written unconditionally and kept by
-    counting; a word with more (high sample rates, noise) takes a short loop.
+    Bit ``k`` of ``packed`` (little bit order) says sample ``k + 1`` differs from sample
+    ``k``; ``words`` is its whole 64-bit words (little-endian), the bytes after them are read
+    one at a time. Each set bit's index is its word's base plus the count of trailing zeros,
+    and clearing the lowest set bit moves to the next: a few instructions per change, none
+    per unchanged sample. Sample 0 always starts the first run.
     """
-    n = samples.size
-    if n == 0:
+    if samples.size == 0:
         return 0
     changes[0] = 0
     count = 1
-    low = np.uint64(_LOW_BITS)
-    index = np.uint64(_BYTE_INDEX)
-    for j in range(words.size - 1):
+    one = np.uint64(1)
+    for j in range(words.size):
         word = words[j]
-        diff = word ^ ((word >> np.uint64(8)) | (words[j + 1] << np.uint64(56)))
-        diff |= diff >> np.uint64(4)
-        diff |= diff >> np.uint64(2)
-        diff |= diff >> np.uint64(1)
-        marks = diff & low
-        first = marks & (~marks + np.uint64(1))
-        rest = marks ^ first
-        second = rest & (~rest + np.uint64(1))
-        rest ^= second
-        base = 8 * j + 1
-        changes[count] = base + np.int64((first * index) >> np.uint64(56))
-        changes[count + 1] = base + np.int64((second * index) >> np.uint64(56))
-        total = int((marks * low) >> np.uint64(56))
-        if rest:
-            at = count + 2
-            while rest:
-                bit = rest & (~rest + np.uint64(1))
-                changes[at] = base + np.int64((bit * index) >> np.uint64(56))
-                at += 1
-                rest ^= bit
-        count += total
-    start = max(1, 8 * (words.size - 1) + 1)
-    previous = samples[start - 1]
-    for i in range(start, n):
-        value = samples[i]
-        changes[count] = i
-        count += value != previous
-        previous = value
-    # The bytes are gathered afterwards: storing them in the loops above made them slower.
+        base = 64 * j + 1
+        while word:
+            changes[count] = base + trailing_zeros(word)
+            count += 1
+            word &= word - one
+    for b in range(8 * words.size, packed.size):
+        word = np.uint64(packed[b])
+        base = 8 * b + 1
+        while word:
+            changes[count] = base + trailing_zeros(word)
+            count += 1
+            word &= word - one
+    # The bytes are gathered afterwards, in a loop of their own that vectorises.
     for j in range(count):
         values[j] = samples[changes[j]]
     return count

@@ -1,0 +1,84 @@
+"""The pass over the samples and its bit scan, against plain definitions.
+
+:func:`drivers.mil1553.edges.byte_changes` finds where the capture byte changes from packed
+comparison flags with a count-trailing-zeros intrinsic (:data:`drivers.jit.trailing_zeros`);
+both are checked here against what they stand for, at the edges that bit tricks get wrong:
+bits 0 and 63, zero, buffer lengths around the 64-sample words, changes at the last sample.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import numpy.typing as npt
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from drivers.jit import kernel, trailing_zeros
+from drivers.mil1553.edges import Workspace, byte_changes
+
+
+@kernel
+def _trailing_zeros_of(words: npt.NDArray[np.uint64], out: npt.NDArray[np.int64]) -> None:
+    """:data:`trailing_zeros` of each word (it is callable from kernels only)."""
+    for i in range(words.size):
+        out[i] = trailing_zeros(words[i])
+
+
+def trailing_zeros_by_definition(word: int) -> int:
+    """Zero bits below the lowest set bit of a 64-bit word; 64 for zero."""
+    if word == 0:
+        return 64
+    count = 0
+    while not word >> count & 1:
+        count += 1
+    return count
+
+
+def test_trailing_zeros_matches_definition() -> None:
+    rng = np.random.default_rng(18)
+    edges = [0, 1, 2, 3, 1 << 62, 1 << 63, (1 << 63) | 1, (1 << 64) - 1, (1 << 64) - 2]
+    singles = [1 << k for k in range(64)]
+    # Random words with their low bits cleared, so every count from 0 to 63 is common.
+    shifts = rng.integers(0, 64, 2000).astype(np.uint64)
+    randoms = (rng.integers(0, 1 << 63, 2000, dtype=np.uint64) << np.uint64(1)
+               | np.uint64(1)) << shifts
+    words = np.concatenate([np.array(edges + singles, dtype=np.uint64), randoms])
+    out = np.empty(words.size, dtype=np.int64)
+    _trailing_zeros_of(words, out)
+    assert out.tolist() == [trailing_zeros_by_definition(int(w)) for w in words]
+
+
+def changes_by_definition(samples: npt.NDArray[np.uint8]) -> npt.NDArray[np.int64]:
+    """0, then every index whose byte differs from the one before."""
+    if samples.size == 0:
+        return np.zeros(0, dtype=np.int64)
+    return np.concatenate([[0], np.flatnonzero(samples[1:] != samples[:-1]) + 1])
+
+
+def check(samples: npt.NDArray[np.uint8], work: Workspace) -> None:
+    changes, values = byte_changes(samples, work)
+    expected = changes_by_definition(samples)
+    np.testing.assert_array_equal(changes, expected)
+    np.testing.assert_array_equal(values, samples[expected])
+
+
+def test_byte_changes_every_length_and_pattern() -> None:
+    """Lengths 0-200 (partial and whole 64-sample words, partial bytes of flags), with no
+    change, every sample changing, and random changes; one workspace throughout, as in the
+    decoder, so arrays kept from a longer buffer are reused by a shorter one."""
+    rng = np.random.default_rng(40)
+    work = Workspace()
+    for n in range(201):
+        check(np.zeros(n, dtype=np.uint8), work)
+        check((np.arange(n) % 2).astype(np.uint8), work)
+        check(rng.integers(0, 3, n).astype(np.uint8), work)
+        check(np.repeat(rng.integers(0, 256, n), rng.integers(1, 9, n))[:n].astype(np.uint8),
+              work)
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.binary(max_size=3000), st.integers(0, 7))
+def test_byte_changes_random_bytes(data: bytes, offset: int) -> None:
+    """Any bytes, and a view that starts inside a 64-bit word of its base array."""
+    base = np.frombuffer(bytes(offset) + data, dtype=np.uint8)
+    check(base[offset:], Workspace())
