@@ -2,12 +2,14 @@
 
 Two stages, split where the work changes in kind:
 
-* Per sample: the only pass over the samples finds where the capture byte changes
-  (:func:`byte_changes`), shared by both buses, vectorised by numpy, then one bit per sample.
-* Per edge, one compiled kernel (:func:`line_segments`): the change points become runs of one
-  bus, short interruptions are repaired, and runs become segments with timed crossings. This is
-  a state machine over a few runs per microsecond of traffic; as numpy it took a dozen array
-  passes (each allocating, and paying its fixed cost), compiled it is one loop per step.
+* Per sample, in numpy's vectorised loops: each sample XOR the next, shared by both buses
+  (:func:`sample_differences`), then per bus its two bits of that, packed to one bit per
+  sample (:func:`bus_runs`).
+* Per edge, compiled kernels: the set bits become the runs of one bus (:func:`bus_runs`), short
+  interruptions are repaired, and runs become segments with timed crossings
+  (:func:`line_segments`). This is a state machine over a few runs per microsecond of
+  traffic; as numpy it took a dozen array passes (each allocating, and paying its fixed
+  cost), compiled it is one loop per step.
 
 Terms used here: a *run* is a maximal stretch of samples with one line level (+1 positive,
 -1 negative, 0 no signal). A *segment* is a run of +1 or -1. Two segments are *adjacent* when
@@ -70,67 +72,90 @@ def thread_workspace() -> Workspace:
     return work
 
 
-def byte_changes(samples: npt.NDArray[np.uint8], work: Workspace
-                 ) -> tuple[IntArray, npt.NDArray[np.uint8]]:
-    """Indices where the capture byte differs from the one before, with 0 first, and the
-    bytes there (views of ``work``'s arrays).
+def sample_differences(samples: npt.NDArray[np.uint8], work: Workspace
+                       ) -> npt.NDArray[np.uint8]:
+    """Each sample XOR the one after it (``samples.size - 1`` bytes, a view of ``work``'s
+    array): non-zero in the bits of each bus whose line changes at the next sample.
 
-    This is the one full pass over the samples that both buses share, done where it is
-    cheapest per sample: numpy compares each sample with the next and packs the flags to one
-    bit per sample (both vectorised, a few instructions per 32 samples), and a kernel
-    (:func:`_set_bits`) turns the set bits into indices, 64 samples at a time. On a loaded
-    bus at 10 MS/s a change comes every 5-10 samples, so the kernel's work is per change,
-    not per sample.
+    The one pass over the samples that both buses share, done by numpy: its loop works on a
+    vector register of samples at a time, a fraction of an instruction per sample.
     """
-    n = samples.size
-    changes = work.take("changes", n, np.int64)
-    values = work.take("values", n, np.uint8)
-    differs = work.take("differs", max(n - 1, 0), np.bool_)
-    np.not_equal(samples[1:], samples[:-1], out=differs)
-    # packbits allocates its result (n / 8 bytes); taking it from the workspace would need a
-    # copy, and an allocation of this size is served from the heap, not faulted in afresh.
-    packed = np.packbits(differs, bitorder="little")
+    differences = work.take("differences", max(samples.size - 1, 0), np.uint8)
+    np.bitwise_xor(samples[1:], samples[:-1], out=differences)
+    return differences
+
+
+def bus_runs(samples: npt.NDArray[np.uint8], differences: npt.NDArray[np.uint8], bus: int,
+             work: Workspace) -> tuple[IntArray, IntArray]:
+    """The runs of ``bus`` in ``samples``: the index where each starts (0 first) and its line
+    level (views of ``work``'s arrays, valid until its next use for a bus).
+
+    ``differences`` is :func:`sample_differences`. numpy keeps the bus's two bits of it and
+    packs them to one flag bit per sample (both passes vectorised); a kernel
+    (:func:`_bus_runs`) then visits only the set flags, 64 samples at a time. On a loaded bus
+    at 10 MS/s the bus's line changes every 5-10 samples, so the kernel's work is per change,
+    not per sample, and the other bus's changes are never visited.
+    """
+    pos, neg = RX_BITS[bus]
+    flags = work.take("bus_differences", differences.size, np.uint8)
+    np.bitwise_and(differences, pos | neg, out=flags)
+    # packbits allocates its result (one byte per 8 samples): there is no output argument,
+    # and an allocation of this size is served from the heap, not faulted in afresh.
+    packed = np.packbits(flags, bitorder="little")
     whole = packed.size // 8
-    count = _set_bits(samples, packed, packed[:8 * whole].view(np.uint64), changes, values)
-    return changes[:count], values[:count]
+    starts = work.take("starts", samples.size, np.int64)
+    levels = work.take("levels", samples.size, np.int64)
+    runs = _bus_runs(samples, packed, packed[:8 * whole].view(np.uint64), _LEVELS[bus],
+                     starts, levels)
+    return starts[:runs], levels[:runs]
 
 
 @kernel
-def _set_bits(samples: npt.NDArray[np.uint8], packed: npt.NDArray[np.uint8],
-              words: npt.NDArray[np.uint64], changes: IntArray,
-              values: npt.NDArray[np.uint8]) -> int:
-    """:func:`byte_changes` into ``changes`` and ``values`` from the packed flags; returns
-    their number.
+def _bus_runs(samples: npt.NDArray[np.uint8], packed: npt.NDArray[np.uint8],
+              words: npt.NDArray[np.uint64], line_level: IntArray, starts: IntArray,
+              levels: IntArray) -> int:
+    """:func:`bus_runs` into ``starts`` and ``levels`` from the packed flags; returns the
+    number of runs.
 
-    Bit ``k`` of ``packed`` (little bit order) says sample ``k + 1`` differs from sample
-    ``k``; ``words`` is its whole 64-bit words (little-endian), the bytes after them are read
-    one at a time. Each set bit's index is its word's base plus the count of trailing zeros,
-    and clearing the lowest set bit moves to the next: a few instructions per change, none
-    per unchanged sample. Sample 0 always starts the first run.
+    Bit ``k`` of ``packed`` (little bit order) says one of the bus's bits differs between
+    samples ``k`` and ``k + 1``; ``words`` is its whole 64-bit words (little-endian), the
+    bytes after them are read one at a time. Each set bit's sample is its word's base plus
+    the count of trailing zeros, and clearing the lowest set bit moves to the next: a few
+    instructions per change, none per unchanged sample. A flagged sample starts a run where
+    its level, ``line_level[byte]``, differs from the last run's (the bus's two bits can both
+    change with the level staying 0: both high is no signal, as both low is); it is written
+    either way and kept by moving on, not by a branch.
     """
     if samples.size == 0:
         return 0
-    changes[0] = 0
-    count = 1
+    previous = line_level[samples[0]]
+    starts[0] = 0
+    levels[0] = previous
+    runs = 1
     one = np.uint64(1)
     for j in range(words.size):
         word = words[j]
         base = 64 * j + 1
         while word:
-            changes[count] = base + trailing_zeros(word)
-            count += 1
+            at = base + trailing_zeros(word)
+            level = line_level[samples[at]]
+            starts[runs] = at
+            levels[runs] = level
+            runs += level != previous
+            previous = level
             word &= word - one
     for b in range(8 * words.size, packed.size):
         word = np.uint64(packed[b])
         base = 8 * b + 1
         while word:
-            changes[count] = base + trailing_zeros(word)
-            count += 1
+            at = base + trailing_zeros(word)
+            level = line_level[samples[at]]
+            starts[runs] = at
+            levels[runs] = level
+            runs += level != previous
+            previous = level
             word &= word - one
-    # The bytes are gathered afterwards, in a loop of their own that vectorises.
-    for j in range(count):
-        values[j] = samples[changes[j]]
-    return count
+    return runs
 
 
 @dataclass(frozen=True, slots=True)
@@ -159,13 +184,13 @@ class Segments:
     """The index in ``crossings`` of each candidate's crossing."""
 
 
-def line_segments(values: npt.NDArray[np.uint8], changes: IntArray, n: int, bus: int,
-                  work: Workspace, *, dropout_max: int, glitch_max: int,
+def line_segments(samples: npt.NDArray[np.uint8], differences: npt.NDArray[np.uint8],
+                  bus: int, work: Workspace, *, dropout_max: int, glitch_max: int,
                   dead_band_max: int, half_min: float,
                   span_min: float) -> Segments:
-    """The segments of ``bus`` in a buffer of ``n`` samples, given the capture bytes at the
-    shared change points (``values = samples[changes]``); their arrays are views of
-    ``work``'s, valid until its next use for a bus.
+    """The segments of ``bus`` in a buffer of samples, given their
+    :func:`sample_differences`; their arrays are views of ``work``'s, valid until its next
+    use for a bus.
 
     The bus's runs are repaired where an interruption is too short to be real:
 
@@ -190,9 +215,9 @@ def line_segments(values: npt.NDArray[np.uint8], changes: IntArray, n: int, bus:
     between their outer crossings (each off by at most 150 ns), where two long data runs hold
     1 µs each and span 2 µs.
     """
-    size = changes.size
-    starts, levels = work.take("starts", size, np.int64), work.take("levels", size, np.int64)
-    runs = _bus_runs(values, changes, _LEVELS[bus], starts, levels)
+    n = samples.size
+    starts, levels = bus_runs(samples, differences, bus, work)
+    runs = starts.size
     seg = Segments(work.take("level", runs, np.int8), work.take("left", runs, np.float64),
                    work.take("right", runs, np.float64),
                    work.take("adjacent", runs, np.bool_),
@@ -218,26 +243,6 @@ _LEVELS = {bus: np.array([((value & pos) != 0) - ((value & neg) != 0) for value 
            for bus, (pos, neg) in RX_BITS.items()}
 """Per bus, the line level each capture byte shows: RX minus RXB, so both outputs high is no
 signal, as both low is."""
-
-
-@kernel
-def _bus_runs(values: npt.NDArray[np.uint8], changes: IntArray, line_level: IntArray,
-              starts: IntArray, levels: IntArray) -> int:
-    """The runs of one bus (where its level, ``line_level[value]``, changes), written to
-    ``starts`` and ``levels``; returns their number.
-
-    Every change point is written, and kept (by moving on) only where the level changes: no
-    branch for the processor to mispredict where the two buses' changes interleave.
-    """
-    runs = 0
-    previous = 5  # no level
-    for i in range(changes.size):
-        level = line_level[values[i]]
-        starts[runs] = changes[i]
-        levels[runs] = level
-        runs += level != previous
-        previous = level
-    return runs
 
 
 @kernel

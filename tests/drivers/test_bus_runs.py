@@ -1,9 +1,10 @@
 """The pass over the samples and its bit scan, against plain definitions.
 
-:func:`drivers.mil1553.edges.byte_changes` finds where the capture byte changes from packed
-comparison flags with a count-trailing-zeros intrinsic (:data:`drivers.jit.trailing_zeros`);
-both are checked here against what they stand for, at the edges that bit tricks get wrong:
-bits 0 and 63, zero, buffer lengths around the 64-sample words, changes at the last sample.
+:func:`drivers.mil1553.edges.bus_runs` finds where a bus's line level changes from packed
+flags with a count-trailing-zeros intrinsic (:data:`drivers.jit.trailing_zeros`); both are
+checked here against what they stand for, at the edges that bit tricks get wrong: bits 0 and
+63, zero, buffer lengths around the 64-sample words, changes at the last sample, and both of
+a bus's bits changing at once with its level staying "no signal".
 """
 
 from __future__ import annotations
@@ -14,7 +15,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from drivers.jit import kernel, trailing_zeros
-from drivers.mil1553.edges import Workspace, byte_changes
+from drivers.mil1553.edges import Workspace, bus_runs, sample_differences
+from drivers.mil1553.encoder import RX_BITS
 
 
 @kernel
@@ -48,21 +50,32 @@ def test_trailing_zeros_matches_definition() -> None:
     assert out.tolist() == [trailing_zeros_by_definition(int(w)) for w in words]
 
 
-def changes_by_definition(samples: npt.NDArray[np.uint8]) -> npt.NDArray[np.int64]:
-    """0, then every index whose byte differs from the one before."""
-    if samples.size == 0:
-        return np.zeros(0, dtype=np.int64)
-    return np.concatenate([[0], np.flatnonzero(samples[1:] != samples[:-1]) + 1])
+def level_of(byte: int, bus: int) -> int:
+    """The line level a capture byte shows on ``bus``: RX minus RXB."""
+    pos, neg = RX_BITS[bus]
+    return int(byte & pos != 0) - int(byte & neg != 0)
+
+
+def runs_by_definition(samples: npt.NDArray[np.uint8], bus: int) -> tuple[list[int], list[int]]:
+    """Where each run of one level starts, and its level, sample by sample."""
+    starts: list[int] = []
+    levels: list[int] = []
+    for i, byte in enumerate(samples.tolist()):
+        level = level_of(byte, bus)
+        if not levels or level != levels[-1]:
+            starts.append(i)
+            levels.append(level)
+    return starts, levels
 
 
 def check(samples: npt.NDArray[np.uint8], work: Workspace) -> None:
-    changes, values = byte_changes(samples, work)
-    expected = changes_by_definition(samples)
-    np.testing.assert_array_equal(changes, expected)
-    np.testing.assert_array_equal(values, samples[expected])
+    differences = sample_differences(samples, work)
+    for bus in RX_BITS:
+        starts, levels = bus_runs(samples, differences, bus, work)
+        assert (starts.tolist(), levels.tolist()) == runs_by_definition(samples, bus)
 
 
-def test_byte_changes_every_length_and_pattern() -> None:
+def test_bus_runs_every_length_and_pattern() -> None:
     """Lengths 0-200 (partial and whole 64-sample words, partial bytes of flags), with no
     change, every sample changing, and random changes; one workspace throughout, as in the
     decoder, so arrays kept from a longer buffer are reused by a shorter one."""
@@ -70,15 +83,16 @@ def test_byte_changes_every_length_and_pattern() -> None:
     work = Workspace()
     for n in range(201):
         check(np.zeros(n, dtype=np.uint8), work)
-        check((np.arange(n) % 2).astype(np.uint8), work)
-        check(rng.integers(0, 3, n).astype(np.uint8), work)
+        check(np.resize(np.array([0x00, 0x05, 0x0A, 0x0F, 0x03, 0x0C], dtype=np.uint8), n),
+              work)
+        check(rng.integers(0, 16, n).astype(np.uint8), work)
         check(np.repeat(rng.integers(0, 256, n), rng.integers(1, 9, n))[:n].astype(np.uint8),
               work)
 
 
 @settings(max_examples=200, deadline=None)
 @given(st.binary(max_size=3000), st.integers(0, 7))
-def test_byte_changes_random_bytes(data: bytes, offset: int) -> None:
+def test_bus_runs_random_bytes(data: bytes, offset: int) -> None:
     """Any bytes, and a view that starts inside a 64-bit word of its base array."""
     base = np.frombuffer(bytes(offset) + data, dtype=np.uint8)
     check(base[offset:], Workspace())
