@@ -50,27 +50,42 @@ def kernel(function: Function) -> Function:
     return cast(Function, numba.njit(cache=True, nogil=True)(function))
 
 
-def _trailing_zeros_typed(_context: Any, value: Any) -> Any:
-    """Typing and code generation of :data:`trailing_zeros` (numba's intrinsic protocol): a
-    uint64 in, LLVM's ``cttz`` with a zero input defined (64), the result typed int64."""
-    if value != numba.types.uint64:
-        return None  # numba then reports no matching signature
 
-    def generate(_ctx: Any, builder: ir.IRBuilder, _sig: Any, args: list[ir.Value]) -> Any:
-        return builder.cttz(args[0], ir.Constant(ir.IntType(1), 0))
+def _uint64_to_int64(generate: Callable[[ir.IRBuilder, ir.Value], ir.Value]) -> Any:
+    """A numba intrinsic taking a uint64 and returning an int64, its machine code from
+    ``generate`` (LLVM builder, the argument). Only uint64 is accepted, so that a kernel
+    passing another integer type fails to compile rather than count another width. The
+    result is int64, not uint64, so that adding it to an int64 index stays an integer
+    (numba types ``int64 + uint64`` as float64); both are LLVM's i64, so nothing converts."""
 
-    return numba.types.int64(numba.types.uint64), generate
+    def typed(_context: Any, value: Any) -> Any:
+        if value != numba.types.uint64:
+            return None  # numba then reports no matching signature
+
+        def codegen(_ctx: Any, builder: ir.IRBuilder, _sig: Any, args: list[ir.Value]) -> Any:
+            return generate(builder, args[0])
+
+        return numba.types.int64(numba.types.uint64), codegen
+
+    return intrinsic(typed)
 
 
-trailing_zeros = cast(Callable[[np.uint64], int], intrinsic(_trailing_zeros_typed))
+trailing_zeros = cast(Callable[[np.uint64], int], _uint64_to_int64(
+    lambda builder, value: builder.cttz(value, ir.Constant(ir.IntType(1), 0))))
 """The number of zero bits below the lowest set bit of a uint64 (64 for 0), as an int64;
 callable from kernels only.
 
 numba has no public count-trailing-zeros, and a bit scan written in Python terms (a de Bruijn
 multiply and table) costs several instructions where the processor has one (``tzcnt``/``bsf``).
-It lets a kernel turn a mask of set bits into their indices, one instruction per bit: with
-``word &= word - 1`` clearing the lowest. The result is int64, not uint64, so that adding it to
-an int64 index stays an integer (numba types ``int64 + uint64`` as float64). Inlined into the
-calling kernel, so that kernel's disk cache does not see a change here (see above): clear the
-cache (``__pycache__/*.nbi``/``*.nbc``) after changing it.
+It lets a kernel turn a mask of set bits into their indices, a few instructions per set bit:
+with ``word &= word - 1`` clearing the lowest. Intrinsics are inlined into the calling
+kernel, so that kernel's disk cache does not see a change here (see above): clear the cache
+(``__pycache__/*.nbi``/``*.nbc``) after changing one.
+"""
+
+population_count = cast(Callable[[np.uint64], int], _uint64_to_int64(
+    lambda builder, value: builder.ctpop(value)))
+"""The number of set bits of a uint64, as an int64; callable from kernels only (one
+``popcnt`` instruction where the processor has it). With :data:`trailing_zeros`, it lets a
+kernel count the flags before a set bit of a packed mask without visiting each flag.
 """

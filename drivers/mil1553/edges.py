@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from drivers.jit import kernel, trailing_zeros
+from drivers.jit import kernel, population_count, trailing_zeros
 from drivers.mil1553.encoder import RX_BITS
 
 IntArray = npt.NDArray[np.int64]
@@ -220,7 +220,7 @@ def line_segments(samples: npt.NDArray[np.uint8], differences: npt.NDArray[np.ui
     runs = starts.size
     seg = Segments(work.take("level", runs, np.int8), work.take("left", runs, np.float64),
                    work.take("right", runs, np.float64),
-                   work.take("adjacent", runs, np.bool_),
+                   work.take("adjacent", _padded(runs), np.bool_),
                    work.take("crossings", runs, np.float64),
                    work.take("crossing_level", runs, np.int8),
                    work.take("silent_after", runs, np.float64),
@@ -230,8 +230,7 @@ def line_segments(samples: npt.NDArray[np.uint8], differences: npt.NDArray[np.ui
         starts, levels, runs, n, dropout_max, glitch_max, dead_band_max,
         seg.level, seg.left, seg.right, seg.adjacent_prev, seg.crossings, seg.crossing_level,
         seg.silent_after)
-    candidates = _candidates(seg.left[:live], seg.right[:live], seg.adjacent_prev[:live],
-                             half_min, span_min, seg.candidates, seg.candidate_crossing)
+    candidates = sync_candidates(seg, live, half_min, span_min, work)
     return Segments(seg.level[:live], seg.left[:live], seg.right[:live],
                     seg.adjacent_prev[:live], seg.crossings[:crossings],
                     seg.crossing_level[:crossings], seg.silent_after[:ends],
@@ -339,24 +338,80 @@ def _segments(starts: IntArray, levels: IntArray, runs: int, n: int, dropout_max
     return live, crossing_count, ends
 
 
-@kernel
-def _candidates(left: FloatArray, right: FloatArray, adjacent: BoolArray, half_min: float,
-                span_min: float, candidates: IntArray, candidate_crossing: IntArray) -> int:
-    """The sync candidates among the segments (see :func:`line_segments`), written to
-    ``candidates`` and ``candidate_crossing``; returns their number.
+def _padded(size: int) -> int:
+    """``size`` rounded up to whole 64-bit words of flags (one flag per element)."""
+    return -(-size // 64) * 64
 
-    Each segment is written, and kept (by moving on) only if it is one: bitwise tests, no
-    branch on the line's data for the processor to mispredict.
+
+def sync_candidates(seg: Segments, live: int, half_min: float, span_min: float,
+                    work: Workspace) -> int:
+    """The sync candidates among the first ``live`` segments of ``seg`` (see
+    :func:`line_segments`), written to its ``candidates`` and ``candidate_crossing``;
+    returns their number. ``seg.adjacent_prev`` must be at least :func:`_padded` ``(live)``
+    long (flags past ``live`` are never read).
+
+    About one segment in twenty-five is a candidate, so the test is made for all segments at
+    once in a loop that compiles to vector instructions (:func:`_candidate_flags`), with no
+    running count to carry from one segment to the next; numpy packs the flags (and the
+    segments' ``adjacent_prev``) to bits, and a second kernel (:func:`_candidates`) visits
+    only the set ones, numbering each candidate's crossing by counting the adjacent flags
+    before it.
+    """
+    size = _padded(live)
+    flags = work.take("candidate_flags", size, np.bool_)
+    _candidate_flags(seg.left[:live], seg.right[:live], seg.adjacent_prev[:live], half_min,
+                     span_min, flags)
+    candidate_words = np.packbits(flags, bitorder="little").view(np.uint64)
+    adjacent_words = np.packbits(seg.adjacent_prev[:size], bitorder="little").view(np.uint64)
+    return _candidates(candidate_words, adjacent_words, seg.candidates,
+                       seg.candidate_crossing)
+
+
+@kernel
+def _candidate_flags(left: FloatArray, right: FloatArray, adjacent: BoolArray, half_min: float,
+                     span_min: float, flags: BoolArray) -> None:
+    """Per segment, whether it is a sync candidate; ``flags`` past the segments are cleared.
+
+    A segment that begins at a crossing is one if it and the segment before it are each at
+    least ``half_min`` long, together at least ``span_min``. The first segment never is
+    (it has none before it). Bitwise tests and no state from one segment to the next, so the
+    loop compiles to vector instructions.
+    """
+    n = left.size
+    if n:
+        flags[0] = False
+    for j in range(1, n):
+        before = right[j - 1] - left[j - 1]
+        after = right[j] - left[j]
+        flags[j] = adjacent[j] & (before >= half_min) & (after >= half_min) & \
+            (before + after >= span_min)
+    for j in range(n, flags.size):
+        flags[j] = False
+
+
+@kernel
+def _candidates(candidate_words: npt.NDArray[np.uint64], adjacent_words: npt.NDArray[np.uint64],
+                candidates: IntArray, candidate_crossing: IntArray) -> int:
+    """The candidates flagged in ``candidate_words`` (bit ``j`` of the little-endian words:
+    segment ``j``), written with their crossings' indices to ``candidates`` and
+    ``candidate_crossing``; returns their number.
+
+    A candidate begins at a crossing, and every segment that begins at one but the first
+    segment (which never does) has its crossing next in ``crossings``: a candidate's crossing
+    is numbered by the adjacent flags up to it, less one, counted a word at a time.
     """
     found = 0
-    crossing = -1
-    after = right[0] - left[0] if left.size else 0.0
-    for j in range(1, left.size):
-        crossing += adjacent[j]
-        before = after
-        after = right[j] - left[j]
-        candidates[found] = j
-        candidate_crossing[found] = crossing
-        found += adjacent[j] & (before >= half_min) & (after >= half_min) & \
-            (before + after >= span_min)
+    before = -1  # adjacent flags in the words before this one, less one
+    one = np.uint64(1)
+    for w in range(candidate_words.size):
+        word = candidate_words[w]
+        adjacent = adjacent_words[w]
+        while word:
+            bit = trailing_zeros(word)
+            candidates[found] = 64 * w + bit
+            below = (one << np.uint64(bit) << one) - one  # bits 0 to ``bit``
+            candidate_crossing[found] = before + population_count(adjacent & below)
+            found += 1
+            word &= word - one
+        before += population_count(adjacent)
     return found

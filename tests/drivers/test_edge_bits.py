@@ -1,10 +1,12 @@
-"""The pass over the samples and its bit scan, against plain definitions.
+"""The bit scans of the edge stage, against plain definitions.
 
 :func:`drivers.mil1553.edges.bus_runs` finds where a bus's line level changes from packed
-flags with a count-trailing-zeros intrinsic (:data:`drivers.jit.trailing_zeros`); both are
-checked here against what they stand for, at the edges that bit tricks get wrong: bits 0 and
-63, zero, buffer lengths around the 64-sample words, changes at the last sample, and both of
-a bus's bits changing at once with its level staying "no signal".
+flags with a count-trailing-zeros intrinsic (:data:`drivers.jit.trailing_zeros`), and
+:func:`drivers.mil1553.edges.sync_candidates` (through ``line_segments``) numbers its
+candidates' crossings with a population count (:data:`drivers.jit.population_count`); all
+are checked here against what they stand for, at the edges that bit tricks get wrong: bits
+0 and 63, zero, lengths around 64, changes at the last sample, and both of a bus's bits
+changing at once with its level staying "no signal".
 """
 
 from __future__ import annotations
@@ -14,8 +16,13 @@ import numpy.typing as npt
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from drivers.jit import kernel, trailing_zeros
-from drivers.mil1553.edges import Workspace, bus_runs, sample_differences
+from drivers.jit import kernel, population_count, trailing_zeros
+from drivers.mil1553.edges import (
+    Workspace,
+    bus_runs,
+    line_segments,
+    sample_differences,
+)
 from drivers.mil1553.encoder import RX_BITS
 
 
@@ -24,6 +31,13 @@ def _trailing_zeros_of(words: npt.NDArray[np.uint64], out: npt.NDArray[np.int64]
     """:data:`trailing_zeros` of each word (it is callable from kernels only)."""
     for i in range(words.size):
         out[i] = trailing_zeros(words[i])
+
+
+@kernel
+def _population_count_of(words: npt.NDArray[np.uint64], out: npt.NDArray[np.int64]) -> None:
+    """:data:`population_count` of each word (callable from kernels only)."""
+    for i in range(words.size):
+        out[i] = population_count(words[i])
 
 
 def trailing_zeros_by_definition(word: int) -> int:
@@ -36,7 +50,7 @@ def trailing_zeros_by_definition(word: int) -> int:
     return count
 
 
-def test_trailing_zeros_matches_definition() -> None:
+def test_bit_intrinsics_match_definitions() -> None:
     rng = np.random.default_rng(18)
     edges = [0, 1, 2, 3, 1 << 62, 1 << 63, (1 << 63) | 1, (1 << 64) - 1, (1 << 64) - 2]
     singles = [1 << k for k in range(64)]
@@ -48,6 +62,8 @@ def test_trailing_zeros_matches_definition() -> None:
     out = np.empty(words.size, dtype=np.int64)
     _trailing_zeros_of(words, out)
     assert out.tolist() == [trailing_zeros_by_definition(int(w)) for w in words]
+    _population_count_of(words, out)
+    assert out.tolist() == [bin(int(w)).count("1") for w in words]
 
 
 def level_of(byte: int, bus: int) -> int:
@@ -96,3 +112,42 @@ def test_bus_runs_random_bytes(data: bytes, offset: int) -> None:
     """Any bytes, and a view that starts inside a 64-bit word of its base array."""
     base = np.frombuffer(bytes(offset) + data, dtype=np.uint8)
     check(base[offset:], Workspace())
+
+
+def candidates_by_definition(left: list[float], right: list[float], adjacent: list[bool],
+                             half_min: float, span_min: float) -> tuple[list[int], list[int]]:
+    """Segment by segment: a segment that begins at a crossing, long enough and after one
+    long enough; its crossing is the how-manieth segment beginning at one it is, from 0."""
+    found: list[int] = []
+    crossing: list[int] = []
+    count = -1
+    for j in range(1, len(left)):
+        count += adjacent[j]
+        before, after = right[j - 1] - left[j - 1], right[j] - left[j]
+        if adjacent[j] and before >= half_min and after >= half_min and \
+                before + after >= span_min:
+            found.append(j)
+            crossing.append(count)
+    return found, crossing
+
+
+def test_sync_candidates_match_definition() -> None:
+    """Segments of random lines (runs of 1-40 samples, silences, both buses' bits), and
+    their candidates counted anew from the segments' lengths; thresholds that make most
+    segments candidates exercise many set bits per 64-bit word. One workspace throughout, so
+    the flags past the segments hold a longer buffer's (they must not count)."""
+    rng = np.random.default_rng(7)
+    work = Workspace()
+    for trial in range(300):
+        n = int(rng.integers(0, 3000))
+        samples = np.repeat(rng.integers(0, 16, n), rng.integers(1, 41, n))[:n].astype(np.uint8)
+        half_min, span_min = [(9.5, 25.0), (1.0, 2.0), (0.0, 0.0)][trial % 3]
+        for bus in RX_BITS:
+            seg = line_segments(samples, sample_differences(samples, work), bus, work,
+                                dropout_max=3, glitch_max=trial % 2, dead_band_max=3,
+                                half_min=half_min, span_min=span_min)
+            expected = candidates_by_definition(seg.left.tolist(), seg.right.tolist(),
+                                                seg.adjacent_prev.tolist(), half_min, span_min)
+            assert (seg.candidates.tolist(), seg.candidate_crossing.tolist()) == expected
+            assert all(seg.crossings[c] == seg.left[k]
+                       for k, c in zip(seg.candidates, seg.candidate_crossing, strict=True))
