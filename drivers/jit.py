@@ -89,3 +89,53 @@ population_count = cast(Callable[[np.uint64], int], _uint64_to_int64(
 ``popcnt`` instruction where the processor has it). With :data:`trailing_zeros`, it lets a
 kernel count the flags before a set bit of a packed mask without visiting each flag.
 """
+
+
+def _changed_bits_typed(_context: Any, samples: Any, start: Any, bits: Any) -> Any:
+    """Typing and code generation of :data:`changed_bits` (numba's intrinsic protocol)."""
+    if not (isinstance(samples, numba.types.Array) and samples.dtype == numba.types.uint8
+            and samples.ndim == 1 and samples.layout == "C"
+            and isinstance(start, numba.types.Integer)
+            and isinstance(bits, numba.types.Integer)):
+        return None  # numba then reports no matching signature
+
+    def codegen(context: Any, builder: ir.IRBuilder, sig: Any, args: list[ir.Value]) -> Any:
+        data = context.make_array(sig.args[0])(context, builder, args[0]).data
+        index = context.cast(builder, args[1], sig.args[1], numba.types.intp)
+        byte = ir.IntType(8)
+        lanes = ir.VectorType(byte, _LANES)
+        here = builder.gep(data, [index])
+        after = builder.gep(here, [ir.Constant(index.type, 1)])
+        first = builder.load(builder.bitcast(here, lanes.as_pointer()), align=1)
+        second = builder.load(builder.bitcast(after, lanes.as_pointer()), align=1)
+        one = builder.trunc(context.cast(builder, args[2], sig.args[2], numba.types.int64), byte)
+        spread = builder.shuffle_vector(
+            builder.insert_element(ir.Constant(lanes, ir.Undefined), one,
+                                   ir.Constant(ir.IntType(32), 0)),
+            ir.Constant(lanes, ir.Undefined),
+            ir.Constant(ir.VectorType(ir.IntType(32), _LANES), [0] * _LANES))
+        differ = builder.and_(builder.xor(first, second), spread)
+        flags = builder.icmp_unsigned("!=", differ, ir.Constant(lanes, None))
+        return builder.bitcast(flags, ir.IntType(_LANES))
+
+    return numba.types.uint64(samples, start, bits), codegen
+
+
+_LANES = 64
+"""Samples compared by one :data:`changed_bits` (one bit each of a uint64)."""
+
+changed_bits = cast(Callable[[Any, int, int], np.uint64], intrinsic(_changed_bits_typed))
+"""``changed_bits(samples, start, bits)``: a uint64 whose bit ``k`` says
+``(samples[start + k] ^ samples[start + k + 1]) & bits`` is non-zero, for ``k`` in 0-63;
+callable from kernels only. ``samples`` is a C-contiguous uint8 array, and **the caller
+must ensure** ``0 <= start`` and ``start + 65 <= samples.size``: the 65 bytes are read
+without a bounds check.
+
+Written as one comparison of two 64-byte vectors, so LLVM compiles it to a handful of vector
+instructions (load, XOR, AND, compare, move the lanes' mask to a register: ``vpmovmskb`` with
+AVX2, a mask register with AVX-512) for 64 samples, where numba's loops, element by
+element, compile to one or more instructions per sample. It is how a kernel passes over a
+capture's samples: the bits it returns are visited with :data:`trailing_zeros`, so the work
+is per change, not per sample, and the samples are read once, with no array of flags in
+between.
+"""

@@ -50,7 +50,6 @@ from drivers.mil1553.edges import (
     Segments,
     Workspace,
     line_segments,
-    sample_differences,
     thread_workspace,
 )
 from drivers.mil1553.syncs import find_syncs, unexplained_segments, word_extents
@@ -226,17 +225,16 @@ class ManchesterDecoder:
     # --- internals -----------------------------------------------------------------------
     def _decode(self, buf: npt.NDArray[np.uint8], horizon: int, work: Workspace,
                 final: bool = False) -> WordBatch:
-        differences = sample_differences(buf, work)
-        out = [self._decode_bus(buf, differences, bus, horizon, final, work)
+        out = [self._decode_bus(buf, bus, horizon, final, work)
                for bus in (BUS_A, BUS_B)]
         self._decided_until = self._base + horizon
         return _in_time_order(concat_words(out))
 
-    def _decode_bus(self, buf: npt.NDArray[np.uint8], differences: npt.NDArray[np.uint8],
-                    bus: int, horizon: int, final: bool, work: Workspace) -> WordBatch:
+    def _decode_bus(self, buf: npt.NDArray[np.uint8], bus: int, horizon: int, final: bool,
+                    work: Workspace) -> WordBatch:
         spus = self._spus
         n = buf.size
-        seg = line_segments(buf, differences, bus, work, dropout_max=self._dropout_max,
+        seg = line_segments(buf, bus, work, dropout_max=self._dropout_max,
                             glitch_max=self._glitch_max,
                             dead_band_max=self._dropout_max,
                             half_min=self.settings.sync_half_min_us * spus,

@@ -2,14 +2,13 @@
 
 Two stages, split where the work changes in kind:
 
-* Per sample, in numpy's vectorised loops: each sample XOR the next, shared by both buses
-  (:func:`sample_differences`), then per bus its two bits of that, packed to one bit per
-  sample (:func:`bus_runs`).
-* Per edge, compiled kernels: the set bits become the runs of one bus (:func:`bus_runs`), short
-  interruptions are repaired, and runs become segments with timed crossings
-  (:func:`line_segments`). This is a state machine over a few runs per microsecond of
-  traffic; as numpy it took a dozen array passes (each allocating, and paying its fixed
-  cost), compiled it is one loop per step.
+* Per sample, the only pass over the samples (one per bus): each sample is compared with the
+  next, 64 at a time in vector registers, and the bus's runs are read from the samples where
+  its bits change (:func:`bus_runs`).
+* Per edge, compiled kernels: short interruptions are repaired, and runs become segments
+  with timed crossings (:func:`line_segments`). This is a state machine over a few runs per
+  microsecond of traffic; as numpy it took a dozen array passes (each allocating, and paying
+  its fixed cost), compiled it is one loop per step.
 
 Terms used here: a *run* is a maximal stretch of samples with one line level (+1 positive,
 -1 negative, 0 no signal). A *segment* is a run of +1 or -1. Two segments are *adjacent* when
@@ -27,7 +26,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from drivers.jit import kernel, population_count, trailing_zeros
+from drivers.jit import changed_bits, kernel, population_count, trailing_zeros
 from drivers.mil1553.encoder import RX_BITS
 
 IntArray = npt.NDArray[np.int64]
@@ -72,69 +71,49 @@ def thread_workspace() -> Workspace:
     return work
 
 
-def sample_differences(samples: npt.NDArray[np.uint8], work: Workspace
-                       ) -> npt.NDArray[np.uint8]:
-    """Each sample XOR the one after it (``samples.size - 1`` bytes, a view of ``work``'s
-    array): non-zero in the bits of each bus whose line changes at the next sample.
-
-    The one pass over the samples that both buses share, done by numpy: its loop works on a
-    vector register of samples at a time, a fraction of an instruction per sample.
-    """
-    differences = work.take("differences", max(samples.size - 1, 0), np.uint8)
-    np.bitwise_xor(samples[1:], samples[:-1], out=differences)
-    return differences
-
-
-def bus_runs(samples: npt.NDArray[np.uint8], differences: npt.NDArray[np.uint8], bus: int,
-             work: Workspace) -> tuple[IntArray, IntArray]:
+def bus_runs(samples: npt.NDArray[np.uint8], bus: int, work: Workspace
+             ) -> tuple[IntArray, IntArray]:
     """The runs of ``bus`` in ``samples``: the index where each starts (0 first) and its line
     level (views of ``work``'s arrays, valid until its next use for a bus).
 
-    ``differences`` is :func:`sample_differences`. numpy keeps the bus's two bits of it and
-    packs them to one flag bit per sample (both passes vectorised); a kernel
-    (:func:`_bus_runs`) then visits only the set flags, 64 samples at a time. On a loaded bus
-    at 10 MS/s the bus's line changes every 5-10 samples, so the kernel's work is per change,
-    not per sample, and the other bus's changes are never visited.
+    This is the pass over the samples, one per bus (:func:`_bus_runs`). It compares them 64
+    at a time, in vector registers (:data:`drivers.jit.changed_bits`), and visits only the
+    samples where the bus's bits change: on a loaded bus at 10 MS/s its line changes every
+    5-10 samples, so the work is per change, not per sample, and the other bus's changes are
+    never visited.
     """
     pos, neg = RX_BITS[bus]
-    flags = work.take("bus_differences", differences.size, np.uint8)
-    np.bitwise_and(differences, pos | neg, out=flags)
-    # packbits allocates its result (one byte per 8 samples): there is no output argument,
-    # and an allocation of this size is served from the heap, not faulted in afresh.
-    packed = np.packbits(flags, bitorder="little")
-    whole = packed.size // 8
     starts = work.take("starts", samples.size, np.int64)
     levels = work.take("levels", samples.size, np.int64)
-    runs = _bus_runs(samples, packed, packed[:8 * whole].view(np.uint64), _LEVELS[bus],
-                     starts, levels)
+    runs = _bus_runs(samples, pos | neg, _LEVELS[bus], starts, levels)
     return starts[:runs], levels[:runs]
 
 
 @kernel
-def _bus_runs(samples: npt.NDArray[np.uint8], packed: npt.NDArray[np.uint8],
-              words: npt.NDArray[np.uint64], line_level: IntArray, starts: IntArray,
-              levels: IntArray) -> int:
-    """:func:`bus_runs` into ``starts`` and ``levels`` from the packed flags; returns the
-    number of runs.
+def _bus_runs(samples: npt.NDArray[np.uint8], bits: int, line_level: IntArray,
+              starts: IntArray, levels: IntArray) -> int:
+    """:func:`bus_runs` into ``starts`` and ``levels``; returns the number of runs.
 
-    Bit ``k`` of ``packed`` (little bit order) says one of the bus's bits differs between
-    samples ``k`` and ``k + 1``; ``words`` is its whole 64-bit words (little-endian), the
-    bytes after them are read one at a time. Each set bit's sample is its word's base plus
-    the count of trailing zeros, and clearing the lowest set bit moves to the next: a few
-    instructions per change, none per unchanged sample. A flagged sample starts a run where
-    its level, ``line_level[byte]``, differs from the last run's (the bus's two bits can both
-    change with the level staying 0: both high is no signal, as both low is); it is written
-    either way and kept by moving on, not by a branch.
+    ``bits`` are the bus's two bits of a capture byte. Each block of 64 samples becomes a
+    mask of the samples whose bus bits differ from the sample before; each set bit's sample
+    is the block's base plus the count of trailing zeros, and clearing the lowest set bit
+    moves to the next: a few instructions per change. The last samples, after the whole
+    blocks, are read one at a time. A changed sample starts a run where its level,
+    ``line_level[byte]``, differs from the last run's (the bus's two bits can both change
+    with the level staying 0: both high is no signal, as both low is); it is written either
+    way and kept by moving on, not by a branch.
     """
-    if samples.size == 0:
+    n = samples.size
+    if n == 0:
         return 0
     previous = line_level[samples[0]]
     starts[0] = 0
     levels[0] = previous
     runs = 1
     one = np.uint64(1)
-    for j in range(words.size):
-        word = words[j]
+    blocks = (n - 1) // 64  # block j compares samples 64j to 64j + 64: all in the buffer
+    for j in range(blocks):
+        word = changed_bits(samples, 64 * j, bits)
         base = 64 * j + 1
         while word:
             at = base + trailing_zeros(word)
@@ -144,17 +123,12 @@ def _bus_runs(samples: npt.NDArray[np.uint8], packed: npt.NDArray[np.uint8],
             runs += level != previous
             previous = level
             word &= word - one
-    for b in range(8 * words.size, packed.size):
-        word = np.uint64(packed[b])
-        base = 8 * b + 1
-        while word:
-            at = base + trailing_zeros(word)
-            level = line_level[samples[at]]
-            starts[runs] = at
-            levels[runs] = level
-            runs += level != previous
-            previous = level
-            word &= word - one
+    for at in range(64 * blocks + 1, n):
+        level = line_level[samples[at]]
+        starts[runs] = at
+        levels[runs] = level
+        runs += level != previous
+        previous = level
     return runs
 
 
@@ -184,13 +158,11 @@ class Segments:
     """The index in ``crossings`` of each candidate's crossing."""
 
 
-def line_segments(samples: npt.NDArray[np.uint8], differences: npt.NDArray[np.uint8],
-                  bus: int, work: Workspace, *, dropout_max: int, glitch_max: int,
-                  dead_band_max: int, half_min: float,
+def line_segments(samples: npt.NDArray[np.uint8], bus: int, work: Workspace, *,
+                  dropout_max: int, glitch_max: int, dead_band_max: int, half_min: float,
                   span_min: float) -> Segments:
-    """The segments of ``bus`` in a buffer of samples, given their
-    :func:`sample_differences`; their arrays are views of ``work``'s, valid until its next
-    use for a bus.
+    """The segments of ``bus`` in a buffer of samples (C-contiguous); their arrays are views
+    of ``work``'s, valid until its next use for a bus.
 
     The bus's runs are repaired where an interruption is too short to be real:
 
@@ -216,7 +188,7 @@ def line_segments(samples: npt.NDArray[np.uint8], differences: npt.NDArray[np.ui
     1 µs each and span 2 µs.
     """
     n = samples.size
-    starts, levels = bus_runs(samples, differences, bus, work)
+    starts, levels = bus_runs(samples, bus, work)
     runs = starts.size
     seg = Segments(work.take("level", runs, np.int8), work.take("left", runs, np.float64),
                    work.take("right", runs, np.float64),

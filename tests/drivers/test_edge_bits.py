@@ -16,12 +16,11 @@ import numpy.typing as npt
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from drivers.jit import kernel, population_count, trailing_zeros
+from drivers.jit import changed_bits, kernel, population_count, trailing_zeros
 from drivers.mil1553.edges import (
     Workspace,
     bus_runs,
     line_segments,
-    sample_differences,
 )
 from drivers.mil1553.encoder import RX_BITS
 
@@ -38,6 +37,14 @@ def _population_count_of(words: npt.NDArray[np.uint64], out: npt.NDArray[np.int6
     """:data:`population_count` of each word (callable from kernels only)."""
     for i in range(words.size):
         out[i] = population_count(words[i])
+
+
+@kernel
+def _changed_bits_at(samples: npt.NDArray[np.uint8], starts: npt.NDArray[np.int64], bits: int,
+                     out: npt.NDArray[np.uint64]) -> None:
+    """:data:`changed_bits` at each start (callable from kernels only)."""
+    for i in range(starts.size):
+        out[i] = changed_bits(samples, starts[i], bits)
 
 
 def trailing_zeros_by_definition(word: int) -> int:
@@ -66,6 +73,21 @@ def test_bit_intrinsics_match_definitions() -> None:
     assert out.tolist() == [bin(int(w)).count("1") for w in words]
 
 
+def test_changed_bits_matches_definition() -> None:
+    """Every start of a buffer (unaligned loads), every mask of one or two bits and all
+    eight, on samples with long runs, single-sample changes and changes in other bits."""
+    rng = np.random.default_rng(65)
+    samples = np.repeat(rng.integers(0, 256, 100), rng.integers(1, 12, 100)).astype(np.uint8)
+    samples[::17] ^= np.uint8(0x80)
+    starts = np.arange(samples.size - 64, dtype=np.int64)
+    out = np.empty(starts.size, dtype=np.uint64)
+    for bits in [1 << k for k in range(8)] + [0x03, 0x0C, 0x81, 0xFF]:
+        _changed_bits_at(samples, starts, bits, out)
+        differ = (samples[1:] ^ samples[:-1]) & bits != 0
+        expected = [sum(int(differ[s + k]) << k for k in range(64)) for s in starts.tolist()]
+        assert out.tolist() == expected
+
+
 def level_of(byte: int, bus: int) -> int:
     """The line level a capture byte shows on ``bus``: RX minus RXB."""
     pos, neg = RX_BITS[bus]
@@ -85,9 +107,8 @@ def runs_by_definition(samples: npt.NDArray[np.uint8], bus: int) -> tuple[list[i
 
 
 def check(samples: npt.NDArray[np.uint8], work: Workspace) -> None:
-    differences = sample_differences(samples, work)
     for bus in RX_BITS:
-        starts, levels = bus_runs(samples, differences, bus, work)
+        starts, levels = bus_runs(samples, bus, work)
         assert (starts.tolist(), levels.tolist()) == runs_by_definition(samples, bus)
 
 
@@ -143,9 +164,8 @@ def test_sync_candidates_match_definition() -> None:
         samples = np.repeat(rng.integers(0, 16, n), rng.integers(1, 41, n))[:n].astype(np.uint8)
         half_min, span_min = [(9.5, 25.0), (1.0, 2.0), (0.0, 0.0)][trial % 3]
         for bus in RX_BITS:
-            seg = line_segments(samples, sample_differences(samples, work), bus, work,
-                                dropout_max=3, glitch_max=trial % 2, dead_band_max=3,
-                                half_min=half_min, span_min=span_min)
+            seg = line_segments(samples, bus, work, dropout_max=3, glitch_max=trial % 2,
+                                dead_band_max=3, half_min=half_min, span_min=span_min)
             expected = candidates_by_definition(seg.left.tolist(), seg.right.tolist(),
                                                 seg.adjacent_prev.tolist(), half_min, span_min)
             assert (seg.candidates.tolist(), seg.candidate_crossing.tolist()) == expected
