@@ -38,8 +38,9 @@ BoolArray = npt.NDArray[np.bool_]
 class Workspace:
     """Working arrays kept from one buffer to the next, grown when a buffer needs more.
 
-    A buffer's working arrays take about 9 MB for a loaded bus at 10 MS/s (60 MB at most, for
-    random bytes); allocated afresh each time, they are returned to the system and faulted
+    A buffer's working arrays take 26 MB for a loaded bus at 10 MS/s, most of it never
+    written (the runs' arrays are sized for a change at every sample), 56 MB for random
+    bytes; allocated afresh each time, they are returned to the system and faulted
     back in page by page for the next buffer, which cost more than the work done on them
     (about 3 µs a page on a virtual machine). Arrays taken from here are valid until the
     same name is taken again.
