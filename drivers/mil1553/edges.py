@@ -118,9 +118,10 @@ def _bus_runs(samples: npt.NDArray[np.uint8], bits: int, line_level: IntArray,
         base = 64 * j + 1
         while word:
             at = base + trailing_zeros(word)
-            level = line_level[samples[at]]
-            starts[runs] = at
-            levels[runs] = level
+            # Unsigned indices: numba then leaves out the wrap-around of negative ones.
+            level = line_level[samples[np.uint64(at)]]
+            starts[np.uint64(runs)] = at
+            levels[np.uint64(runs)] = level
             runs += level != previous
             previous = level
             word &= word - one
@@ -237,6 +238,7 @@ def _segments(starts: IntArray, levels: IntArray, runs: int, n: int, dropout_max
     not). A dead band between the polarities takes the general case.
     """
     longest = max(dropout_max, glitch_max)
+    one = np.uint64(1)
     live = crossing_count = ends = 0
     previous_end = previous_level = 0  # the last segment's
     previous_fixed = 7  # no level: the first run starts a merged run
@@ -248,17 +250,19 @@ def _segments(starts: IntArray, levels: IntArray, runs: int, n: int, dropout_max
             # The merged run follows the last segment at a crossing without silence: while
             # the next run is its opposite and not repairable, it ends as such a segment.
             while r < runs - 1:
-                begin = starts[r]
-                if levels[r] != -merged_level or starts[r + 1] - begin <= longest:
+                # Unsigned indices: numba then leaves out the wrap-around of negative ones.
+                at, new, crossed = np.uint64(r), np.uint64(live), np.uint64(crossing_count)
+                begin = starts[at]
+                if levels[at] != -merged_level or starts[at + one] - begin <= longest:
                     break
                 start = merged_begin - 0.5
-                crossings[crossing_count] = start
-                crossing_level[crossing_count] = merged_level
+                crossings[crossed] = start
+                crossing_level[crossed] = merged_level
                 crossing_count += 1
-                level[live] = merged_level
-                left[live] = start
-                right[live] = begin - 0.5
-                adjacent[live] = True
+                level[new] = merged_level
+                left[new] = start
+                right[new] = begin - 0.5
+                adjacent[new] = True
                 live += 1
                 merged_begin = begin
                 merged_level = -merged_level
@@ -266,14 +270,15 @@ def _segments(starts: IntArray, levels: IntArray, runs: int, n: int, dropout_max
             previous_end, previous_level = merged_begin, -merged_level
             previous_fixed = merged_level
         if r < runs:
-            found = levels[r]
-            begin = starts[r]
+            at = np.uint64(r)
+            found = levels[at]
+            begin = starts[at]
             fixed = found
             if 0 < r < runs - 1:
-                length = starts[r + 1] - begin
+                length = starts[at + one] - begin
                 if length <= longest:
-                    before = levels[r - 1]
-                    if before == levels[r + 1] and (
+                    before = levels[at - one]
+                    if before == levels[at + one] and (
                             (found == 0 and before != 0 and length <= dropout_max) or
                             (found != 0 and length <= glitch_max)):
                         fixed = before
