@@ -168,7 +168,7 @@ def unexplained_segments(left: FloatArray, right: FloatArray, anchors: FloatArra
         if gap < anchors.size:
             owner_start = walk_to(left, anchors[gap] - margin, owner_start)
         hi = owner_start if gap < anchors.size else left.size
-        for j in range(lo, hi):
+        for j in range(np.uint64(lo), np.uint64(hi)):  # unsigned: no wrap-around
             if not seen < left[j] < limit:
                 continue
             start, end = left[j] + base, right[j] + base
@@ -191,14 +191,15 @@ def walk_to(sorted_times: FloatArray, value: float, start: int) -> int:
     size = sorted_times.size
     probe = start
     stride = 1
-    while probe < size and sorted_times[probe] < value:
+    # Unsigned indices: numba then leaves out the wrap-around of negative ones.
+    while probe < size and sorted_times[np.uint64(probe)] < value:
         start = probe + 1
         probe += stride
         stride *= 2
     stop = min(probe, size)
     while start < stop:
         middle = (start + stop) // 2
-        if sorted_times[middle] < value:
+        if sorted_times[np.uint64(middle)] < value:
             start = middle + 1
         else:
             stop = middle
