@@ -56,10 +56,10 @@ def _windows(k: IntArray, crossing: IntArray, left: FloatArray, crossings: Float
     # its end and the next silence on from the last candidate's (both only move forward).
     last = silent = 0
     for i in range(k.size):
-        at = left[k[i]]
+        at = left[np.uint64(k[i])]  # unsigned indices: no wrap-around of negative ones
         middle[i] = at
         first = crossing[i]
-        while first > 0 and crossings[first - 1] >= at - 0.5 * half:
+        while first > 0 and crossings[np.uint64(first - 1)] >= at - 0.5 * half:
             first -= 1
         silent = walk_to(silent_after, at, silent)
         stop = silent_after[silent] if silent < silent_after.size else np.inf
@@ -89,11 +89,13 @@ def _validate(k: IntArray, middle: FloatArray, correction: FloatArray, level: In
     valid = 0
     for i in range(k.size):
         anchor = middle[i] - 3 * half + correction[i] * half
-        before = left[k[i] - 1]
-        first_ok = not adjacent_prev[k[i] - 1] or before >= anchor - 1.6 * half
-        if first_ok and before <= anchor + 0.5 * half and right[k[i]] >= anchor + 5.5 * half:
+        # Unsigned indices: numba then leaves out the wrap-around of negative ones.
+        after = np.uint64(k[i])  # the candidate segment, after the middle crossing
+        before = left[after - np.uint64(1)]
+        first_ok = not adjacent_prev[after - np.uint64(1)] or before >= anchor - 1.6 * half
+        if first_ok and before <= anchor + 0.5 * half and right[after] >= anchor + 5.5 * half:
             anchors[valid] = anchor
-            first[valid] = level[k[i] - 1]
+            first[valid] = level[after - np.uint64(1)]
             valid += 1
     kept = np.ones(valid, dtype=np.bool_)
     for i in range(1, valid):
