@@ -16,6 +16,11 @@ keeps stale machine code when only that other file changes, so keep such call ch
 file. Each new combination of argument types (dtype, layout, read-only flag) compiles and
 caches another copy: give a kernel fresh, writable, C-ordered float64 arrays.
 
+A few operations the processor has but numba's Python cannot say are here too, as
+intrinsics callable from kernels only (:data:`trailing_zeros`, :data:`population_count`,
+:data:`changed_bits`): they are written in LLVM's terms, the level numba compiles through,
+and are inlined into the kernels that call them, so the staleness above applies to them.
+
 Example::
 
     from drivers.jit import kernel
@@ -48,7 +53,6 @@ def kernel(function: Function) -> Function:
     numba's dispatcher, which compiles once per argument-type combination.
     """
     return cast(Function, numba.njit(cache=True, nogil=True)(function))
-
 
 
 def _uint64_to_int64(generate: Callable[[ir.IRBuilder, ir.Value], ir.Value]) -> Any:
@@ -136,6 +140,5 @@ instructions (load, XOR, AND, compare, move the lanes' mask to a register: ``vpm
 AVX2, a mask register with AVX-512) for 64 samples, where numba's loops, element by
 element, compile to one or more instructions per sample. It is how a kernel passes over a
 capture's samples: the bits it returns are visited with :data:`trailing_zeros`, so the work
-is per change, not per sample, and the samples are read once, with no array of flags in
-between.
+is per change, not per sample, with no array of flags in between.
 """
