@@ -107,7 +107,9 @@ def _read(crossings: FloatArray, crossing_level: Int8Array, anchors: FloatArray,
         up = 0
         down = 0
         twice = 0
-        for j in range(first_owned[word], end):
+        # Unsigned indices: numba then leaves out the wrap-around of negative ones, a few
+        # instructions per crossing (``j`` is only ever an index).
+        for j in range(np.uint64(first_owned[word]), np.uint64(end)):
             slot = np.rint((crossings[j] - anchor) / half)
             if FIRST_SLOT <= slot < FIRST_SLOT + BIT_SLOTS:
                 bit = 1 << (_POSITIONS - int(slot))

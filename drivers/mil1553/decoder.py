@@ -47,10 +47,8 @@ from drivers.errors import SampleRateError
 from drivers.mil1553.bitread import read_words
 from drivers.mil1553.edges import (
     FloatArray,
-    IntArray,
     Segments,
     Workspace,
-    byte_changes,
     line_segments,
     thread_workspace,
 )
@@ -227,16 +225,16 @@ class ManchesterDecoder:
     # --- internals -----------------------------------------------------------------------
     def _decode(self, buf: npt.NDArray[np.uint8], horizon: int, work: Workspace,
                 final: bool = False) -> WordBatch:
-        changes, values = byte_changes(buf, work)
-        out = [self._decode_bus(values, changes, buf.size, bus, horizon, final, work)
+        out = [self._decode_bus(buf, bus, horizon, final, work)
                for bus in (BUS_A, BUS_B)]
         self._decided_until = self._base + horizon
         return _in_time_order(concat_words(out))
 
-    def _decode_bus(self, values: npt.NDArray[np.uint8], changes: IntArray, n: int, bus: int,
-                    horizon: int, final: bool, work: Workspace) -> WordBatch:
+    def _decode_bus(self, buf: npt.NDArray[np.uint8], bus: int, horizon: int, final: bool,
+                    work: Workspace) -> WordBatch:
         spus = self._spus
-        seg = line_segments(values, changes, n, bus, work, dropout_max=self._dropout_max,
+        n = buf.size
+        seg = line_segments(buf, bus, work, dropout_max=self._dropout_max,
                             glitch_max=self._glitch_max,
                             dead_band_max=self._dropout_max,
                             half_min=self.settings.sync_half_min_us * spus,

@@ -2,12 +2,13 @@
 
 Two stages, split where the work changes in kind:
 
-* Per sample: the only pass over the samples finds where the capture byte changes
-  (:func:`byte_changes`), shared by both buses, eight samples at a time.
-* Per edge, one compiled kernel (:func:`line_segments`): the change points become runs of one
-  bus, short interruptions are repaired, and runs become segments with timed crossings. This is
-  a state machine over a few runs per microsecond of traffic; as numpy it took a dozen array
-  passes (each allocating, and paying its fixed cost), compiled it is one loop per step.
+* Per sample, the only pass over the samples (one per bus): each sample is compared with the
+  next, 64 at a time in vector registers, and the bus's runs are read from the samples where
+  its bits change (:func:`bus_runs`).
+* Per edge, compiled kernels: short interruptions are repaired, and runs become segments
+  with timed crossings (:func:`line_segments`). This is a state machine over a few runs per
+  microsecond of traffic; as numpy it took a dozen array passes (each allocating, and paying
+  its fixed cost), compiled it is one loop per step.
 
 Terms used here: a *run* is a maximal stretch of samples with one line level (+1 positive,
 -1 negative, 0 no signal). A *segment* is a run of +1 or -1. Two segments are *adjacent* when
@@ -25,7 +26,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from drivers.jit import kernel
+from drivers.jit import changed_bits, kernel, population_count, trailing_zeros
 from drivers.mil1553.encoder import RX_BITS
 
 IntArray = npt.NDArray[np.int64]
@@ -37,8 +38,9 @@ BoolArray = npt.NDArray[np.bool_]
 class Workspace:
     """Working arrays kept from one buffer to the next, grown when a buffer needs more.
 
-    A buffer's working arrays take about 9 MB for a loaded bus at 10 MS/s (60 MB at most, for
-    random bytes); allocated afresh each time, they are returned to the system and faulted
+    A buffer's working arrays take 26 MB for a loaded bus at 10 MS/s, most of it never
+    written (the runs' arrays are sized for a change at every sample), 56 MB for random
+    bytes; allocated afresh each time, they are returned to the system and faulted
     back in page by page for the next buffer, which cost more than the work done on them
     (about 3 µs a page on a virtual machine). Arrays taken from here are valid until the
     same name is taken again.
@@ -70,82 +72,66 @@ def thread_workspace() -> Workspace:
     return work
 
 
-def byte_changes(samples: npt.NDArray[np.uint8], work: Workspace
-                 ) -> tuple[IntArray, npt.NDArray[np.uint8]]:
-    """Indices where the capture byte differs from the one before, with 0 first, and the
-    bytes there (views of ``work``'s arrays).
+def bus_runs(samples: npt.NDArray[np.uint8], bus: int, work: Workspace
+             ) -> tuple[IntArray, IntArray]:
+    """The runs of ``bus`` in ``samples``: the index where each starts (0 first) and its line
+    level (views of ``work``'s arrays, valid until its next use for a bus).
 
-    This is the one full pass over the samples that both buses share. It reads them eight at
-    a time (:func:`_byte_changes`): on a loaded bus at 10 MS/s a change comes every 5-10
-    samples, so most of the work is per word of eight samples, not per sample.
+    This is the pass over the samples, one per bus (:func:`_bus_runs`). It compares them 64
+    at a time, in vector registers (:data:`drivers.jit.changed_bits`), and visits only the
+    samples where the bus's bits change: on a loaded bus at 10 MS/s its line changes every
+    5-10 samples, so the work is per change, not per sample, and the other bus's changes are
+    never visited.
     """
-    changes = work.take("changes", samples.size + _SPARE, np.int64)
-    values = work.take("values", samples.size, np.uint8)
-    whole = samples.size // 8
-    count = _byte_changes(samples, samples[:8 * whole].view(np.uint64), changes, values)
-    return changes[:count], values[:count]
-
-
-_SPARE = 2
-"""Entries written past the last change by :func:`_byte_changes` (kept or overwritten)."""
-_LOW_BITS = 0x0101010101010101
-_BYTE_INDEX = 0x0001020304050607
-"""Byte ``7 - k`` holds ``k``: ``(1 << 8k) * _BYTE_INDEX >> 56`` is ``k``."""
+    pos, neg = RX_BITS[bus]
+    starts = work.take("starts", samples.size, np.int64)
+    levels = work.take("levels", samples.size, np.int64)
+    runs = _bus_runs(samples, pos | neg, _LEVELS[bus], starts, levels)
+    return starts[:runs], levels[:runs]
 
 
 @kernel
-def _byte_changes(samples: npt.NDArray[np.uint8], words: npt.NDArray[np.uint64],
-                  changes: IntArray, values: npt.NDArray[np.uint8]) -> int:
-    """:func:`byte_changes` into ``changes`` and ``values``; returns their number.
+def _bus_runs(samples: npt.NDArray[np.uint8], bits: int, line_level: IntArray,
+              starts: IntArray, levels: IntArray) -> int:
+    """:func:`bus_runs` into ``starts`` and ``levels``; returns the number of runs.
 
-    ``words`` is ``samples`` viewed as little-endian 64-bit words. A word XORed with itself
-    shifted by one byte (the next word's first byte shifted in) is non-zero in byte ``k``
-    exactly where sample ``8j + k + 1`` changes; each such byte is folded onto its lowest bit,
-    and the bits are turned into indices lowest first with a multiplication (no branch per
-    sample). The first two changes of a word are written unconditionally and kept by
-    counting; a word with more (high sample rates, noise) takes a short loop.
+    ``bits`` are the bus's two bits of a capture byte. Each block of 64 samples becomes a
+    mask of the samples whose bus bits differ from the sample before; each set bit's sample
+    is the block's base plus the count of trailing zeros, and clearing the lowest set bit
+    moves to the next: a few instructions per change. The last samples, after the whole
+    blocks, are read one at a time. A changed sample starts a run where its level,
+    ``line_level[byte]``, differs from the last run's (the bus's two bits can both change
+    with the level staying 0: both high is no signal, as both low is); it is written either
+    way and kept by moving on, not by a branch.
     """
     n = samples.size
     if n == 0:
         return 0
-    changes[0] = 0
-    count = 1
-    low = np.uint64(_LOW_BITS)
-    index = np.uint64(_BYTE_INDEX)
-    for j in range(words.size - 1):
-        word = words[j]
-        diff = word ^ ((word >> np.uint64(8)) | (words[j + 1] << np.uint64(56)))
-        diff |= diff >> np.uint64(4)
-        diff |= diff >> np.uint64(2)
-        diff |= diff >> np.uint64(1)
-        marks = diff & low
-        first = marks & (~marks + np.uint64(1))
-        rest = marks ^ first
-        second = rest & (~rest + np.uint64(1))
-        rest ^= second
-        base = 8 * j + 1
-        changes[count] = base + np.int64((first * index) >> np.uint64(56))
-        changes[count + 1] = base + np.int64((second * index) >> np.uint64(56))
-        total = int((marks * low) >> np.uint64(56))
-        if rest:
-            at = count + 2
-            while rest:
-                bit = rest & (~rest + np.uint64(1))
-                changes[at] = base + np.int64((bit * index) >> np.uint64(56))
-                at += 1
-                rest ^= bit
-        count += total
-    start = max(1, 8 * (words.size - 1) + 1)
-    previous = samples[start - 1]
-    for i in range(start, n):
-        value = samples[i]
-        changes[count] = i
-        count += value != previous
-        previous = value
-    # The bytes are gathered afterwards: storing them in the loops above made them slower.
-    for j in range(count):
-        values[j] = samples[changes[j]]
-    return count
+    previous = line_level[samples[0]]
+    starts[0] = 0
+    levels[0] = previous
+    runs = 1
+    one = np.uint64(1)
+    blocks = (n - 1) // 64  # block j compares samples 64j to 64j + 64: all in the buffer
+    for j in range(blocks):
+        word = changed_bits(samples, 64 * j, bits)
+        base = 64 * j + 1
+        while word:
+            at = base + trailing_zeros(word)
+            # Unsigned indices: numba then leaves out the wrap-around of negative ones.
+            level = line_level[samples[np.uint64(at)]]
+            starts[np.uint64(runs)] = at
+            levels[np.uint64(runs)] = level
+            runs += level != previous
+            previous = level
+            word &= word - one
+    for at in range(64 * blocks + 1, n):
+        level = line_level[samples[at]]
+        starts[runs] = at
+        levels[runs] = level
+        runs += level != previous
+        previous = level
+    return runs
 
 
 @dataclass(frozen=True, slots=True)
@@ -174,13 +160,11 @@ class Segments:
     """The index in ``crossings`` of each candidate's crossing."""
 
 
-def line_segments(values: npt.NDArray[np.uint8], changes: IntArray, n: int, bus: int,
-                  work: Workspace, *, dropout_max: int, glitch_max: int,
-                  dead_band_max: int, half_min: float,
+def line_segments(samples: npt.NDArray[np.uint8], bus: int, work: Workspace, *,
+                  dropout_max: int, glitch_max: int, dead_band_max: int, half_min: float,
                   span_min: float) -> Segments:
-    """The segments of ``bus`` in a buffer of ``n`` samples, given the capture bytes at the
-    shared change points (``values = samples[changes]``); their arrays are views of
-    ``work``'s, valid until its next use for a bus.
+    """The segments of ``bus`` in a buffer of samples (C-contiguous); their arrays are views
+    of ``work``'s, valid until its next use for a bus.
 
     The bus's runs are repaired where an interruption is too short to be real:
 
@@ -205,12 +189,12 @@ def line_segments(values: npt.NDArray[np.uint8], changes: IntArray, n: int, bus:
     between their outer crossings (each off by at most 150 ns), where two long data runs hold
     1 µs each and span 2 µs.
     """
-    size = changes.size
-    starts, levels = work.take("starts", size, np.int64), work.take("levels", size, np.int64)
-    runs = _bus_runs(values, changes, _LEVELS[bus], starts, levels)
+    n = samples.size
+    starts, levels = bus_runs(samples, bus, work)
+    runs = starts.size
     seg = Segments(work.take("level", runs, np.int8), work.take("left", runs, np.float64),
                    work.take("right", runs, np.float64),
-                   work.take("adjacent", runs, np.bool_),
+                   work.take("adjacent", _padded(runs), np.bool_),
                    work.take("crossings", runs, np.float64),
                    work.take("crossing_level", runs, np.int8),
                    work.take("silent_after", runs, np.float64),
@@ -220,8 +204,7 @@ def line_segments(values: npt.NDArray[np.uint8], changes: IntArray, n: int, bus:
         starts, levels, runs, n, dropout_max, glitch_max, dead_band_max,
         seg.level, seg.left, seg.right, seg.adjacent_prev, seg.crossings, seg.crossing_level,
         seg.silent_after)
-    candidates = _candidates(seg.left[:live], seg.right[:live], seg.adjacent_prev[:live],
-                             half_min, span_min, seg.candidates, seg.candidate_crossing)
+    candidates = sync_candidates(seg, live, half_min, span_min, work)
     return Segments(seg.level[:live], seg.left[:live], seg.right[:live],
                     seg.adjacent_prev[:live], seg.crossings[:crossings],
                     seg.crossing_level[:crossings], seg.silent_after[:ends],
@@ -233,26 +216,6 @@ _LEVELS = {bus: np.array([((value & pos) != 0) - ((value & neg) != 0) for value 
            for bus, (pos, neg) in RX_BITS.items()}
 """Per bus, the line level each capture byte shows: RX minus RXB, so both outputs high is no
 signal, as both low is."""
-
-
-@kernel
-def _bus_runs(values: npt.NDArray[np.uint8], changes: IntArray, line_level: IntArray,
-              starts: IntArray, levels: IntArray) -> int:
-    """The runs of one bus (where its level, ``line_level[value]``, changes), written to
-    ``starts`` and ``levels``; returns their number.
-
-    Every change point is written, and kept (by moving on) only where the level changes: no
-    branch for the processor to mispredict where the two buses' changes interleave.
-    """
-    runs = 0
-    previous = 5  # no level
-    for i in range(changes.size):
-        level = line_level[values[i]]
-        starts[runs] = changes[i]
-        levels[runs] = level
-        runs += level != previous
-        previous = level
-    return runs
 
 
 @kernel
@@ -275,6 +238,7 @@ def _segments(starts: IntArray, levels: IntArray, runs: int, n: int, dropout_max
     not). A dead band between the polarities takes the general case.
     """
     longest = max(dropout_max, glitch_max)
+    one = np.uint64(1)
     live = crossing_count = ends = 0
     previous_end = previous_level = 0  # the last segment's
     previous_fixed = 7  # no level: the first run starts a merged run
@@ -286,17 +250,19 @@ def _segments(starts: IntArray, levels: IntArray, runs: int, n: int, dropout_max
             # The merged run follows the last segment at a crossing without silence: while
             # the next run is its opposite and not repairable, it ends as such a segment.
             while r < runs - 1:
-                begin = starts[r]
-                if levels[r] != -merged_level or starts[r + 1] - begin <= longest:
+                # Unsigned indices: numba then leaves out the wrap-around of negative ones.
+                at, new, crossed = np.uint64(r), np.uint64(live), np.uint64(crossing_count)
+                begin = starts[at]
+                if levels[at] != -merged_level or starts[at + one] - begin <= longest:
                     break
                 start = merged_begin - 0.5
-                crossings[crossing_count] = start
-                crossing_level[crossing_count] = merged_level
+                crossings[crossed] = start
+                crossing_level[crossed] = merged_level
                 crossing_count += 1
-                level[live] = merged_level
-                left[live] = start
-                right[live] = begin - 0.5
-                adjacent[live] = True
+                level[new] = merged_level
+                left[new] = start
+                right[new] = begin - 0.5
+                adjacent[new] = True
                 live += 1
                 merged_begin = begin
                 merged_level = -merged_level
@@ -304,14 +270,15 @@ def _segments(starts: IntArray, levels: IntArray, runs: int, n: int, dropout_max
             previous_end, previous_level = merged_begin, -merged_level
             previous_fixed = merged_level
         if r < runs:
-            found = levels[r]
-            begin = starts[r]
+            at = np.uint64(r)
+            found = levels[at]
+            begin = starts[at]
             fixed = found
             if 0 < r < runs - 1:
-                length = starts[r + 1] - begin
+                length = starts[at + one] - begin
                 if length <= longest:
-                    before = levels[r - 1]
-                    if before == levels[r + 1] and (
+                    before = levels[at - one]
+                    if before == levels[at + one] and (
                             (found == 0 and before != 0 and length <= dropout_max) or
                             (found != 0 and length <= glitch_max)):
                         fixed = before
@@ -349,24 +316,80 @@ def _segments(starts: IntArray, levels: IntArray, runs: int, n: int, dropout_max
     return live, crossing_count, ends
 
 
-@kernel
-def _candidates(left: FloatArray, right: FloatArray, adjacent: BoolArray, half_min: float,
-                span_min: float, candidates: IntArray, candidate_crossing: IntArray) -> int:
-    """The sync candidates among the segments (see :func:`line_segments`), written to
-    ``candidates`` and ``candidate_crossing``; returns their number.
+def _padded(size: int) -> int:
+    """``size`` rounded up to whole 64-bit words of flags (one flag per element)."""
+    return -(-size // 64) * 64
 
-    Each segment is written, and kept (by moving on) only if it is one: bitwise tests, no
-    branch on the line's data for the processor to mispredict.
+
+def sync_candidates(seg: Segments, live: int, half_min: float, span_min: float,
+                    work: Workspace) -> int:
+    """The sync candidates among the first ``live`` segments of ``seg`` (see
+    :func:`line_segments`), written to its ``candidates`` and ``candidate_crossing``;
+    returns their number. ``seg.adjacent_prev`` must be at least :func:`_padded` ``(live)``
+    long (flags past ``live`` are never read).
+
+    About one segment in twenty-five is a candidate, so the test is made for all segments at
+    once in a loop that compiles to vector instructions (:func:`_candidate_flags`), with no
+    running count to carry from one segment to the next; numpy packs the flags (and the
+    segments' ``adjacent_prev``) to bits, and a second kernel (:func:`_candidates`) visits
+    only the set ones, numbering each candidate's crossing by counting the adjacent flags
+    before it.
+    """
+    size = _padded(live)
+    flags = work.take("candidate_flags", size, np.bool_)
+    _candidate_flags(seg.left[:live], seg.right[:live], seg.adjacent_prev[:live], half_min,
+                     span_min, flags)
+    candidate_words = np.packbits(flags, bitorder="little").view(np.uint64)
+    adjacent_words = np.packbits(seg.adjacent_prev[:size], bitorder="little").view(np.uint64)
+    return _candidates(candidate_words, adjacent_words, seg.candidates,
+                       seg.candidate_crossing)
+
+
+@kernel
+def _candidate_flags(left: FloatArray, right: FloatArray, adjacent: BoolArray, half_min: float,
+                     span_min: float, flags: BoolArray) -> None:
+    """Per segment, whether it is a sync candidate; ``flags`` past the segments are cleared.
+
+    A segment that begins at a crossing is one if it and the segment before it are each at
+    least ``half_min`` long, together at least ``span_min``. The first segment never is
+    (it has none before it). Bitwise tests and no state from one segment to the next, so the
+    loop compiles to vector instructions.
+    """
+    n = left.size
+    if n:
+        flags[0] = False
+    for j in range(1, n):
+        before = right[j - 1] - left[j - 1]
+        after = right[j] - left[j]
+        flags[j] = adjacent[j] & (before >= half_min) & (after >= half_min) & \
+            (before + after >= span_min)
+    for j in range(n, flags.size):
+        flags[j] = False
+
+
+@kernel
+def _candidates(candidate_words: npt.NDArray[np.uint64], adjacent_words: npt.NDArray[np.uint64],
+                candidates: IntArray, candidate_crossing: IntArray) -> int:
+    """The candidates flagged in ``candidate_words`` (bit ``j`` of the little-endian words:
+    segment ``j``), written with their crossings' indices to ``candidates`` and
+    ``candidate_crossing``; returns their number.
+
+    A candidate begins at a crossing, and every segment that begins at one but the first
+    segment (which never does) has its crossing next in ``crossings``: a candidate's crossing
+    is numbered by the adjacent flags up to it, less one, counted a word at a time.
     """
     found = 0
-    crossing = -1
-    after = right[0] - left[0] if left.size else 0.0
-    for j in range(1, left.size):
-        crossing += adjacent[j]
-        before = after
-        after = right[j] - left[j]
-        candidates[found] = j
-        candidate_crossing[found] = crossing
-        found += adjacent[j] & (before >= half_min) & (after >= half_min) & \
-            (before + after >= span_min)
+    before = -1  # adjacent flags in the words before this one, less one
+    one = np.uint64(1)
+    for w in range(candidate_words.size):
+        word = candidate_words[w]
+        adjacent = adjacent_words[w]
+        while word:
+            bit = trailing_zeros(word)
+            candidates[found] = 64 * w + bit
+            below = (one << np.uint64(bit) << one) - one  # bits 0 to ``bit``
+            candidate_crossing[found] = before + population_count(adjacent & below)
+            found += 1
+            word &= word - one
+        before += population_count(adjacent)
     return found

@@ -74,7 +74,9 @@ def _fit_midranges(crossings: FloatArray, lo: IntArray, hi: IntArray, centre: Fl
         if hi[i] <= lo[i]:
             continue
         occupied = 0
-        for j in range(lo[i], hi[i]):
+        # Unsigned indices: numba then leaves out the wrap-around of negative ones, a few
+        # instructions per crossing (``j`` is only ever an index).
+        for j in range(np.uint64(lo[i]), np.uint64(hi[i])):
             occupied |= 1 << (int(np.floor((crossings[j] - centre[i]) * scale)) &
                               (PHASE_BINS - 1))
         width, starts = _widest_free_arc(occupied)

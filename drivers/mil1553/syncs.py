@@ -56,10 +56,10 @@ def _windows(k: IntArray, crossing: IntArray, left: FloatArray, crossings: Float
     # its end and the next silence on from the last candidate's (both only move forward).
     last = silent = 0
     for i in range(k.size):
-        at = left[k[i]]
+        at = left[np.uint64(k[i])]  # unsigned indices: no wrap-around of negative ones
         middle[i] = at
         first = crossing[i]
-        while first > 0 and crossings[first - 1] >= at - 0.5 * half:
+        while first > 0 and crossings[np.uint64(first - 1)] >= at - 0.5 * half:
             first -= 1
         silent = walk_to(silent_after, at, silent)
         stop = silent_after[silent] if silent < silent_after.size else np.inf
@@ -89,11 +89,13 @@ def _validate(k: IntArray, middle: FloatArray, correction: FloatArray, level: In
     valid = 0
     for i in range(k.size):
         anchor = middle[i] - 3 * half + correction[i] * half
-        before = left[k[i] - 1]
-        first_ok = not adjacent_prev[k[i] - 1] or before >= anchor - 1.6 * half
-        if first_ok and before <= anchor + 0.5 * half and right[k[i]] >= anchor + 5.5 * half:
+        # Unsigned indices: numba then leaves out the wrap-around of negative ones.
+        after = np.uint64(k[i])  # the candidate segment, after the middle crossing
+        before = left[after - np.uint64(1)]
+        first_ok = not adjacent_prev[after - np.uint64(1)] or before >= anchor - 1.6 * half
+        if first_ok and before <= anchor + 0.5 * half and right[after] >= anchor + 5.5 * half:
             anchors[valid] = anchor
-            first[valid] = level[k[i] - 1]
+            first[valid] = level[after - np.uint64(1)]
             valid += 1
     kept = np.ones(valid, dtype=np.bool_)
     for i in range(1, valid):
@@ -168,7 +170,7 @@ def unexplained_segments(left: FloatArray, right: FloatArray, anchors: FloatArra
         if gap < anchors.size:
             owner_start = walk_to(left, anchors[gap] - margin, owner_start)
         hi = owner_start if gap < anchors.size else left.size
-        for j in range(lo, hi):
+        for j in range(np.uint64(lo), np.uint64(hi)):  # unsigned: no wrap-around
             if not seen < left[j] < limit:
                 continue
             start, end = left[j] + base, right[j] + base
@@ -191,14 +193,15 @@ def walk_to(sorted_times: FloatArray, value: float, start: int) -> int:
     size = sorted_times.size
     probe = start
     stride = 1
-    while probe < size and sorted_times[probe] < value:
+    # Unsigned indices: numba then leaves out the wrap-around of negative ones.
+    while probe < size and sorted_times[np.uint64(probe)] < value:
         start = probe + 1
         probe += stride
         stride *= 2
     stop = min(probe, size)
     while start < stop:
         middle = (start + stop) // 2
-        if sorted_times[middle] < value:
+        if sorted_times[np.uint64(middle)] < value:
             start = middle + 1
         else:
             stop = middle
