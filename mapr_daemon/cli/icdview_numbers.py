@@ -57,8 +57,9 @@ def number_parts(values: npt.NDArray[np.float64]
     ``json.dumps`` writes for each of ``values`` (``repr``; ``NaN``, ``Infinity``,
     ``-Infinity`` by name)."""
     magnitude = np.abs(values)
-    scaled = np.rint(magnitude * WHOLE)
-    short = (scaled / WHOLE == magnitude) & (magnitude < WHOLE)   # NaN is not: repr
+    with np.errstate(over="ignore", invalid="ignore"):  # huge, infinite, NaN: repr below
+        scaled = np.rint(magnitude * WHOLE)
+        short = (scaled / WHOLE == magnitude) & (magnitude < WHOLE)   # NaN is not: repr
     k = np.where(short, scaled, 0).astype(np.int64)
     heads_table, places_table = _tables()
     whole = k // WHOLE

@@ -71,7 +71,8 @@ class FieldDecoder:
         flags = np.zeros(raw.shape, dtype=np.uint8)
         kind = p.type
         if kind is ParamType.FLOAT32:
-            value = bits.view(np.float32).astype(np.float64)
+            with np.errstate(invalid="ignore"):  # a signalling NaN is data: flagged below
+                value = bits.view(np.float32).astype(np.float64)
             flags[np.isnan(value)] |= FLAG_NAN
         elif kind is ParamType.BCD:
             value, bad = _bcd(bits, p.width // 4)
