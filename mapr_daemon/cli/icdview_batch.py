@@ -62,12 +62,27 @@ class BatchValues:
 
     def __call__(self, batch: Ms1553Batch) -> list[str]:
         compiled = self.described >= COMPILED_AFTER or _numba_loaded()
-        rows, texts = _described(self.icd, batch, compiled, self.LEAD)
-        out = np.full(len(batch), "", dtype=object)
-        out[rows] = texts
-        self.described += len(rows)
-        placed: list[str] = out.tolist()
-        return placed
+        texts, described = _batch_texts(self.icd, batch, compiled, self.LEAD)
+        self.described += described
+        return texts
+
+
+def _batch_texts(icd: Icd, batch: Ms1553Batch, compiled: bool, lead: str
+                 ) -> tuple[list[str], int]:
+    """Per message of ``batch``, ``lead`` and its values' JSON object, or "" if the table
+    does not describe it, written by the compiled writer if ``compiled``; and how many
+    messages the table describes."""
+    if compiled:
+        from mapr_daemon.cli.icdview_rows import compiled_rows
+
+        names = message_numbers(icd, batch)
+        return (compiled_rows(icd, lead).texts(batch, names),
+                int(np.count_nonzero(names >= 0)))
+    rows, texts = _described(icd, batch, lead)
+    out = np.full(len(batch), "", dtype=object)
+    out[rows] = texts
+    placed: list[str] = out.tolist()
+    return placed, len(rows)
 
 
 def _numba_loaded() -> bool:
@@ -80,23 +95,23 @@ def batch_values_json(icd: Icd, batch: Ms1553Batch, compiled: bool = False
     """Per message: the JSON text of ``{"message": name, parameter: value..., "flags":
     {...}}`` (what ``json.dumps`` of :meth:`IcdView.values` gives), or None; written by
     the compiled writer (:mod:`mapr_daemon.cli.icdview_rows`) if ``compiled``."""
+    if compiled:
+        from mapr_daemon.cli.icdview_rows import compiled_rows
+
+        names = message_numbers(icd, batch)
+        return [text if name >= 0 else None for text, name in
+                zip(compiled_rows(icd).texts(batch, names), names.tolist(), strict=True)]
     out: list[str | None] = [None] * len(batch)
-    rows, texts = _described(icd, batch, compiled, "")
+    rows, texts = _described(icd, batch, "")
     for i, text in zip(rows, texts, strict=True):
         out[i] = text
     return out
 
 
-def _described(icd: Icd, batch: Ms1553Batch, compiled: bool, lead: str
-               ) -> tuple[list[int], list[str]]:
+def _described(icd: Icd, batch: Ms1553Batch, lead: str) -> tuple[list[int], list[str]]:
     """The messages of ``batch`` the table describes and the text of each (``lead``, then
-    the values' JSON object)."""
+    the values' JSON object), by the Python writer."""
     names = message_numbers(icd, batch)
-    if compiled:
-        from mapr_daemon.cli.icdview_rows import compiled_rows
-
-        rows = np.flatnonzero(names >= 0)
-        return rows.tolist(), compiled_rows(icd, lead).texts(batch, rows, names[rows])
     places: list[int] = []
     texts: list[str] = []
     for code in _distinct(names[names >= 0]).tolist():
