@@ -92,3 +92,24 @@ def test_rows_of_different_shapes_carry_their_texts_marks_and_numbers() -> None:
         {"m": 1},
         {"m": 1, "a": 0.0001, "g": [10.0, 0.0001], "b": 0.0, "e": [],
          "flags": {"b": ["low"]}}]
+
+
+def test_millions_of_scaled_values_are_written_as_repr_writes_them() -> None:
+    """The numbers of an ICD decode: 16-bit fields (signed or not) times the usual LSBs,
+    with offsets, the edges of 4 places and of 10 000, and doubles of every magnitude the
+    writer takes, each with its sign; every one the writer writes reads as ``repr``'s."""
+    rng = np.random.default_rng(SEED + 1)
+    raw = rng.integers(-(1 << 15), 1 << 16, 50_000).astype(np.float64)
+    lsbs = (0.001, 0.01, 0.1, 1 / 3, 2.0 ** -15, 2.0 ** -8, 0.05, 0.0025, 1e-4, 360 / 65536)
+    scaled = [raw * lsb + offset for lsb in lsbs for offset in (0.0, -273.15, 0.5)]
+    edges = np.array([9999.9999, 10000.0, 1e-4, 0.0001, 9999.99995, 99999.9999, 0.00011,
+                      1.0000000000000002, 0.30000000000000004, 2.0 ** 48 - 1])
+    near = np.concatenate([np.nextafter(edges, 0), edges, np.nextafter(edges, np.inf)])
+    magnitudes = 10.0 ** rng.uniform(-4, np.log10(2.0 ** 48), 300_000)
+    values = np.concatenate([*scaled, near, magnitudes])
+    values = np.concatenate([values, -values])
+    written = numbers_as_written(values)
+    got = [(text, value) for text, value in zip(written, values.tolist(), strict=True)
+           if text is not None]
+    assert len(got) > 0.97 * values.size   # the rest: 16 digits past 2**53, left to repr
+    assert [text for text, _ in got] == [repr(value) for _, value in got]
