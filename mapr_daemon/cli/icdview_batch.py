@@ -11,7 +11,7 @@ key.
 
 Once a decode has written enough values for loading numba to pay (:class:`BatchValues`), a
 compiled writer takes over (:mod:`mapr_daemon.cli.icdview_rows`: the whole batch decoded
-and written in two kernel calls: about 1.2 µs less CPU time per message with values than
+and written in two kernel calls: about 2 µs less CPU time per message with values than
 this writer on bench/chapter10_speed.py's traffic); both write the same bytes.
 """
 
@@ -39,13 +39,14 @@ for _code, _fmt in enumerate(FORMATS):
                                  TransferFormat.BCAST_RT_RT)
 
 
-COMPILED_AFTER = 450_000
+COMPILED_AFTER = 200_000
 """Messages with values a decode writes with ``repr`` before it turns to the compiled
-writer, unless numba is already loaded: loading it and its kernels costs about 0.55 s of
-CPU once, and the compiled writer saves 1.2 µs per such message (bench/chapter10_speed.py's
-ICD traffic, 30 k messages with values, the two writers best of 10 each, two runs: 0.088
-and 0.090 s against 0.053 s), so it pays from about this many on (a quarter of an hour of
-a busy bus). Traffic whose values repeat favours the ``repr`` writer more."""
+writer, unless numba is already loaded: loading it and its kernels costs about 0.42 s of
+CPU once, and the compiled writer saves about 2 µs per such message (bench/chapter10_speed.py's
+ICD traffic, 30 k messages with values: values text 0.033 s against 0.092 s), so it pays
+from about this many on (a fresh ``mapr decode --icd`` of 200 k messages with values took
+the same CPU time, 2.06-2.09 s, with either writer throughout; 7 minutes of a busy bus).
+Traffic whose values repeat favours the ``repr`` writer more."""
 
 
 class BatchValues:
