@@ -86,4 +86,5 @@ copy_block = cast(Callable[[Any, int, Any, int], None], _copy_block)
 bytes of the uint8 array ``source`` from ``start`` to ``target`` at ``at``. A short text
 copied whole, past its end too, costs less than a loop over its bytes of unpredictable
 length; the caller leaves room past both ends. Both arrays must be C-contiguous uint8 and
-both ranges inside them: nothing is checked."""
+both ranges inside them: nothing is checked. A kernel using it keeps its cached machine code
+when only this file changes (see the module doc): clear the cache after changing it."""
