@@ -41,6 +41,7 @@ from typing import Any, TypeVar, cast
 import numba
 import numpy as np
 from llvmlite import ir
+from numba.core import cgutils, types
 from numba.extending import intrinsic
 
 Function = TypeVar("Function", bound=Callable[..., Any])
@@ -142,3 +143,44 @@ element, compile to one or more instructions per sample. It is how a kernel pass
 capture's samples: the bits it returns are visited with :data:`trailing_zeros`, so the work
 is per change, not per sample, with no array of flags in between.
 """
+
+
+def inline_kernel(function: Function) -> Function:
+    """A :func:`kernel` compiled into each kernel that calls it rather than called.
+
+    Small helpers called in a kernel's innermost loop (a copy of a few bytes) cost more as
+    calls than as code: numba passes each array as a structure of seven fields, and a call
+    keeps LLVM from optimising the loop around it. Call such a helper from kernels of its
+    own file only (see the module doc on the cache).
+    """
+    return cast(Function, numba.njit(cache=True, nogil=True, inline="always")(function))
+
+
+COPY_BLOCK = 32
+"""Bytes :func:`copy_block` copies."""
+
+
+@intrinsic
+def _copy_block(typingctx: Any, target: Any, at: Any, source: Any, start: Any) -> Any:
+    """The typing and code of :data:`copy_block`: one ``memcpy`` of a constant size, which
+    LLVM turns into a couple of vector moves."""
+    signature = types.void(target, at, source, start)
+
+    def generate(context: Any, builder: Any, sig: Any, args: Any) -> Any:
+        into = context.make_array(sig.args[0])(context, builder, args[0])
+        data = context.make_array(sig.args[2])(context, builder, args[2])
+        cgutils.raw_memcpy(builder, builder.gep(into.data, [args[1]]),  # type: ignore[no-untyped-call]
+                           builder.gep(data.data, [args[3]]),
+                           context.get_constant(types.intp, COPY_BLOCK), 1)
+        return context.get_dummy_value()
+
+    return signature, generate
+
+
+copy_block = cast(Callable[[Any, int, Any, int], None], _copy_block)
+"""``copy_block(target, at, source, start)``, in a kernel only: copy :data:`COPY_BLOCK`
+bytes of the uint8 array ``source`` from ``start`` to ``target`` at ``at``. A short text
+copied whole, past its end too, costs less than a loop over its bytes of unpredictable
+length; the caller leaves room past both ends. Both arrays must be C-contiguous uint8 and
+both ranges inside them: nothing is checked. A kernel using it keeps its cached machine code
+when only this file changes (see the module doc): clear the cache after changing it."""

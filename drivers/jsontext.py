@@ -18,7 +18,7 @@ the shortest is unique, and the product is close enough to ``m`` for ``rint`` to
 From there (15 significant digits and more: ``0.1 * 3``, most scaled values of an ICD) the
 product is taken exactly (:func:`_long_decimal`). Values outside all this (NaN,
 infinities, -0.0, tiny or huge magnitudes, exact ties) are left to the caller (``repr``),
-as pool texts. :func:`shortest_decimals` does the search; :func:`write_objects` the writing
+as pool texts. :func:`shortest_decimals` does the search; :func:`write_rows` the writing
 (rows of different shapes, one after the other).
 """
 
@@ -27,7 +27,7 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
-from drivers.jit import kernel
+from drivers.jit import COPY_BLOCK, copy_block, inline_kernel, kernel
 
 IntArray = npt.NDArray[np.int64]
 FloatArray = npt.NDArray[np.float64]
@@ -125,111 +125,147 @@ def _product(a: float, b: float) -> tuple[float, float]:
 
 
 @kernel
-def write_objects(pool: npt.NDArray[np.uint8], pool_start: IntArray, row_head: IntArray,
-                  row_field: IntArray, row_fields: IntArray, row_cell: IntArray,
-                  field_open: IntArray, field_close: IntArray, field_key: IntArray,
-                  field_cells: IntArray, text: IntArray, digits: IntArray,
-                  mantissa: IntArray, code: npt.NDArray[np.uint8], code_text: IntArray,
-                  marks_open: int, marks_close: int, tail: int, out: npt.NDArray[np.uint8],
-                  ends: IntArray) -> int:
-    """Write rows of different shapes one after the other into ``out`` (no newline);
-    ``ends[r]`` is where row ``r`` ends; return the bytes written (``out`` must be large
-    enough).
+def write_rows(pool: npt.NDArray[np.uint8], pool_start: IntArray, row_cells: IntArray,
+               row_cell: IntArray, row_template: IntArray, row_close: IntArray,
+               row_tail: IntArray, cell_lead: IntArray, cell_key: IntArray, text: IntArray,
+               digits: IntArray, mantissa: IntArray, code: npt.NDArray[np.uint8],
+               code_text: IntArray, marks_open: int, marks_close: int,
+               out: npt.NDArray[np.uint8], ends: IntArray) -> int:
+    """Write rows one after the other into ``out``; ``ends[r]`` is where row ``r`` ends;
+    return the bytes written (``out`` must be large enough).
 
-    Texts are pool entries: entry ``k`` is ``pool[pool_start[k]:pool_start[k + 1]]``; -1
-    is none. Row ``r`` is ``row_head[r]``, then
-    its ``row_fields[r]`` fields from ``row_field[r]`` on, each ``field_open[f]``, its
-    ``field_cells[f]`` cells separated by ", " and ``field_close[f]``; its cells are taken
-    in order from ``row_cell[r]`` on, each its pool text ``text[c]`` if not -1, else the
-    number ``digits[c]``/``mantissa[c]`` of :func:`shortest_decimals`. Then, for each field
-    whose cells' ``code`` bits, or-ed, give a text (``code_text[bits]`` not -1), that text
-    after ``field_key[f]``: these separated by ", ", between ``marks_open`` and
-    ``marks_close``, and only if there is one. Then ``tail``.
+    Texts are pool entries (see :class:`TextPool`: entry 0 is empty, and ``out`` has
+    :data:`COPY_BLOCK` bytes to spare past the text). Rows follow *templates*, one per
+    shape of row, laid out as cells: template cell ``t`` is ``cell_lead[t]``, the text
+    before it (the row's head and the key and bracket of its field for a field's first
+    cell, ", " within an array, a field's closing bracket and the next key between
+    fields), then the row's cell. Row ``r`` has ``row_cells[r]`` cells, taken in order
+    from ``row_cell[r]`` on with the template cells from ``row_template[r]`` on; a cell is
+    its pool text ``text[c]`` if not -1, else the number ``digits[c]``/``mantissa[c]`` of
+    :func:`shortest_decimals`. Then ``row_close[r]`` (what follows the last cell; a row of
+    no cells: all of its text). Then the flags: a field's cells' ``code`` bits, or-ed up to
+    its last cell (where ``cell_key[t]``, the field's key, is not -1), give a text
+    (``code_text[bits]`` not -1), written after that key; these separated by ", ", between
+    ``marks_open`` and ``marks_close``, and only if there is one. Then ``row_tail[r]``.
+
+    A shape's fixed texts are one pool entry between two cells, and the flags are
+    gathered while the cells are written: one copy per cell and one pass over the cells
+    (rather than a copy per field's key, bracket and separator and a second pass for the
+    flags). Each text is copied by fixed blocks (:func:`drivers.jit.copy_block`), not byte
+    by byte: a loop whose length changes from one text to the next cost most of the time.
     """
     at = 0
-    scratch = np.empty(24, dtype=np.uint8)
-    for r in range(row_head.size):
-        at = _put(pool, pool_start, row_head[r], out, at)
+    flagged = np.empty(2 * cell_key.size + 2, dtype=np.int64)   # (key, text) pairs
+    for r in range(row_cells.size):
         c = row_cell[r]
-        for f in range(row_field[r], row_field[r] + row_fields[r]):
-            at = _put(pool, pool_start, field_open[f], out, at)
-            for j in range(field_cells[f]):
-                if j:
+        t = row_template[r]
+        bits = 0
+        marks = 0
+        for _ in range(row_cells[r]):
+            at = _put(pool, pool_start, cell_lead[t], out, at)
+            entry = text[c]
+            if entry >= 0:
+                at = _put(pool, pool_start, entry, out, at)
+            else:
+                at = _number(digits[c], mantissa[c], out, at)
+            bits |= code[c]
+            key = cell_key[t]
+            if key >= 0 and bits:   # a field's last cell, flagged
+                entry = code_text[bits]
+                if entry >= 0:
+                    flagged[marks] = key
+                    flagged[marks + 1] = entry
+                    marks += 2
+                bits = 0
+            c += 1
+            t += 1
+        at = _put(pool, pool_start, row_close[r], out, at)
+        if marks:
+            at = _put(pool, pool_start, marks_open, out, at)
+            for k in range(0, marks, 2):
+                if k:
                     out[at] = 44  # ", "
                     out[at + 1] = 32
                     at += 2
-                if text[c] >= 0:
-                    at = _put(pool, pool_start, text[c], out, at)
-                else:
-                    at = _number(digits[c], mantissa[c], scratch, out, at)
-                c += 1
-            at = _put(pool, pool_start, field_close[f], out, at)
-        c = row_cell[r]
-        first = True
-        for f in range(row_field[r], row_field[r] + row_fields[r]):
-            bits = 0
-            for _ in range(field_cells[f]):
-                bits |= code[c]
-                c += 1
-            entry = code_text[bits]
-            if entry < 0:
-                continue
-            if first:
-                at = _put(pool, pool_start, marks_open, out, at)
-                first = False
-            else:
-                out[at] = 44
-                out[at + 1] = 32
-                at += 2
-            at = _put(pool, pool_start, field_key[f], out, at)
-            at = _put(pool, pool_start, entry, out, at)
-        if not first:
+                at = _put(pool, pool_start, flagged[k], out, at)
+                at = _put(pool, pool_start, flagged[k + 1], out, at)
             at = _put(pool, pool_start, marks_close, out, at)
-        at = _put(pool, pool_start, tail, out, at)
+        at = _put(pool, pool_start, row_tail[r], out, at)
         ends[r] = at
     return at
 
 
-@kernel
+@inline_kernel
 def _put(pool: npt.NDArray[np.uint8], pool_start: IntArray, entry: int,
          out: npt.NDArray[np.uint8], at: int) -> int:
-    """Copy pool entry ``entry`` (none if -1) to ``out[at:]``; return the new end."""
-    if entry < 0:
-        return at
-    start = int(pool_start[entry])
-    size = int(pool_start[entry + 1]) - start
-    out[at:at + size] = pool[start:start + size]
-    return at + size
+    """Copy pool entry ``entry`` to ``out[at:]`` (by blocks: see :func:`write_rows`);
+    return the new end."""
+    start = pool_start[entry]
+    size = pool_start[entry + 1] - start
+    copy_block(out, at, pool, start)
+    if size > COPY_BLOCK:
+        done = COPY_BLOCK
+        while done < size:
+            copy_block(out, at + done, pool, start + done)
+            done += COPY_BLOCK
+    return int(at + size)
 
 
-@kernel
-def _number(digits: int, mantissa: int, scratch: npt.NDArray[np.uint8],
-            out: npt.NDArray[np.uint8], at: int) -> int:
-    """Write ``mantissa / 10**digits`` positionally (``.0`` for a whole number)."""
+_PAIRS = np.array([ord(c) for i in range(100) for c in f"{i:02d}"], dtype=np.uint8)
+"""The two digits of 0..99, one after the other."""
+_UPOWERS = np.array([10 ** d for d in range(20)], dtype=np.uint64)
+"""Powers of ten as integers: 10**19 is the last below 2**64."""
+
+
+@inline_kernel
+def _number(digits: int, mantissa: int, out: npt.NDArray[np.uint8], at: int) -> int:
+    """Write ``mantissa / 10**digits`` positionally (``.0`` for a whole number).
+
+    The integer and fractional parts are written from their last digit back, two digits
+    per division (a table of the pairs 00..99), the fraction padded with zeros to
+    ``digits`` places."""
     if mantissa < 0:
         out[at] = 45  # "-"
         at += 1
         mantissa = -mantissa
-    rest = np.uint64(mantissa)  # unsigned: division by 10 is a multiplication
-    ten = np.uint64(10)
-    count = 0
-    while count <= digits or rest > 0:  # at least one digit before the point
-        quotient = rest // ten
-        scratch[count] = np.uint8(48 + (rest - quotient * ten))
-        rest = quotient
-        count += 1
-    for j in range(count - 1, digits - 1, -1):
-        out[at] = scratch[j]
-        at += 1
-    out[at] = 46  # "."
-    at += 1
+    rest = np.uint64(mantissa)
     if digits == 0:
-        out[at] = 48
-        return at + 1
-    for j in range(digits - 1, -1, -1):
-        out[at] = scratch[j]
-        at += 1
-    return at
+        whole = rest
+        fraction = np.uint64(0)
+    elif digits >= _UPOWERS.size:   # 20 places: the mantissa (< 2**63) has fewer digits
+        whole = np.uint64(0)
+        fraction = rest
+    else:
+        whole = rest // _UPOWERS[digits]
+        fraction = rest - whole * _UPOWERS[digits]
+    size = 1
+    while size < 20 and whole >= _UPOWERS[size]:
+        size += 1
+    end = at + size
+    _digits_back(whole, size, out, end)
+    out[end] = 46  # "."
+    if digits == 0:
+        out[end + 1] = 48
+        return end + 2
+    _digits_back(fraction, digits, out, end + 1 + digits)
+    return end + 1 + digits
+
+
+@inline_kernel
+def _digits_back(value: np.uint64, count: int, out: npt.NDArray[np.uint8], end: int) -> None:
+    """Write ``value`` as ``count`` digits (leading zeros) ending before ``out[end]``."""
+    hundred = np.uint64(100)
+    at = end
+    while count >= 2:
+        quotient = value // hundred
+        pair = 2 * int(value - quotient * hundred)
+        out[at - 2] = _PAIRS[pair]
+        out[at - 1] = _PAIRS[pair + 1]
+        value = quotient
+        at -= 2
+        count -= 2
+    if count:
+        out[at - 1] = np.uint8(48 + int(value % np.uint64(10)))
 
 
 NUMBER_BYTES = 24
@@ -237,11 +273,17 @@ NUMBER_BYTES = 24
 
 
 class TextPool:
-    """Fixed texts (ASCII) numbered in the order first added, for :func:`write_objects`."""
+    """Fixed texts (ASCII) numbered in the order first added, for :func:`write_rows`.
+
+    Entry 0 is the empty text (where a row has nothing to write: :func:`write_rows` takes
+    no "none"), and the pool's bytes end in :data:`~drivers.jit.COPY_BLOCK` spare bytes,
+    so that every entry can be copied by whole blocks."""
+
+    EMPTY = 0
 
     def __init__(self) -> None:
-        self._index: dict[str, int] = {}
-        self._texts: list[str] = []
+        self._index: dict[str, int] = {"": self.EMPTY}
+        self._texts: list[str] = [""]
 
     def add(self, text: str) -> int:
         """The entry number of ``text`` (added if new)."""
@@ -255,24 +297,15 @@ class TextPool:
         """The entry numbers of ``texts`` (each added if new)."""
         return np.array([self.add(text) for text in texts], dtype=np.int64)
 
-    def extend(self, texts: list[str]) -> IntArray:
-        """Add ``texts`` as new entries, without looking for equal ones (many texts once
-        each: numbers); their entry numbers."""
-        first = len(self._texts)
-        self._texts += texts
-        return np.arange(first, len(self._texts), dtype=np.int64)
-
     def longest(self) -> int:
         """Bytes of the longest entry."""
         return max(map(len, self._texts), default=0)
 
-    def length(self, entry: int) -> int:
-        """Bytes of entry ``entry`` (0 for -1)."""
-        return 0 if entry < 0 else len(self._texts[entry])
-
     def arrays(self) -> tuple[npt.NDArray[np.uint8], IntArray]:
-        """The pool's bytes and entry starts (one more than entries), for the kernel."""
-        data = np.frombuffer("".join(self._texts).encode("ascii"), dtype=np.uint8)
+        """The pool's bytes (and the spare ones) and entry starts (one more than entries),
+        for the kernel."""
+        data = np.frombuffer(("".join(self._texts) + "\0" * COPY_BLOCK).encode("ascii"),
+                             dtype=np.uint8)
         starts = np.zeros(len(self._texts) + 1, dtype=np.int64)
         np.cumsum([len(t) for t in self._texts], out=starts[1:])
         return data, starts

@@ -11,7 +11,7 @@ key.
 
 Once a decode has written enough values for loading numba to pay (:class:`BatchValues`), a
 compiled writer takes over (:mod:`mapr_daemon.cli.icdview_rows`: the whole batch decoded
-and written in two kernel calls: about 1.2 µs less CPU time per message with values than
+and written in two kernel calls: about 2 µs less CPU time per message with values than
 this writer on bench/chapter10_speed.py's traffic); both write the same bytes.
 """
 
@@ -39,13 +39,14 @@ for _code, _fmt in enumerate(FORMATS):
                                  TransferFormat.BCAST_RT_RT)
 
 
-COMPILED_AFTER = 450_000
+COMPILED_AFTER = 200_000
 """Messages with values a decode writes with ``repr`` before it turns to the compiled
-writer, unless numba is already loaded: loading it and its kernels costs about 0.55 s of
-CPU once, and the compiled writer saves 1.2 µs per such message (bench/chapter10_speed.py's
-ICD traffic, 30 k messages with values, the two writers best of 10 each, two runs: 0.088
-and 0.090 s against 0.053 s), so it pays from about this many on (a quarter of an hour of
-a busy bus). Traffic whose values repeat favours the ``repr`` writer more."""
+writer, unless numba is already loaded: loading it and its kernels costs about 0.42 s of
+CPU once, and the compiled writer saves about 2 µs per such message (bench/chapter10_speed.py's
+ICD traffic, 30 k messages with values: values text 0.033 s against 0.092 s), so it pays
+from about this many on (a fresh ``mapr decode --icd`` of 200 k messages with values took
+the same CPU time, 2.06-2.09 s, with either writer throughout; 7 minutes of a busy bus).
+Traffic whose values repeat favours the ``repr`` writer more."""
 
 
 class BatchValues:
@@ -62,12 +63,27 @@ class BatchValues:
 
     def __call__(self, batch: Ms1553Batch) -> list[str]:
         compiled = self.described >= COMPILED_AFTER or _numba_loaded()
-        rows, texts = _described(self.icd, batch, compiled, self.LEAD)
-        out = np.full(len(batch), "", dtype=object)
-        out[rows] = texts
-        self.described += len(rows)
-        placed: list[str] = out.tolist()
-        return placed
+        texts, described = _batch_texts(self.icd, batch, compiled, self.LEAD)
+        self.described += described
+        return texts
+
+
+def _batch_texts(icd: Icd, batch: Ms1553Batch, compiled: bool, lead: str
+                 ) -> tuple[list[str], int]:
+    """Per message of ``batch``, ``lead`` and its values' JSON object, or "" if the table
+    does not describe it, written by the compiled writer if ``compiled``; and how many
+    messages the table describes."""
+    if compiled:
+        from mapr_daemon.cli.icdview_rows import compiled_rows
+
+        names = message_numbers(icd, batch)
+        return (compiled_rows(icd, lead).texts(batch, names),
+                int(np.count_nonzero(names >= 0)))
+    rows, texts = _described(icd, batch, lead)
+    out = np.full(len(batch), "", dtype=object)
+    out[rows] = texts
+    placed: list[str] = out.tolist()
+    return placed, len(rows)
 
 
 def _numba_loaded() -> bool:
@@ -80,23 +96,23 @@ def batch_values_json(icd: Icd, batch: Ms1553Batch, compiled: bool = False
     """Per message: the JSON text of ``{"message": name, parameter: value..., "flags":
     {...}}`` (what ``json.dumps`` of :meth:`IcdView.values` gives), or None; written by
     the compiled writer (:mod:`mapr_daemon.cli.icdview_rows`) if ``compiled``."""
+    if compiled:
+        from mapr_daemon.cli.icdview_rows import compiled_rows
+
+        names = message_numbers(icd, batch)
+        return [text if name >= 0 else None for text, name in
+                zip(compiled_rows(icd).texts(batch, names), names.tolist(), strict=True)]
     out: list[str | None] = [None] * len(batch)
-    rows, texts = _described(icd, batch, compiled, "")
+    rows, texts = _described(icd, batch, "")
     for i, text in zip(rows, texts, strict=True):
         out[i] = text
     return out
 
 
-def _described(icd: Icd, batch: Ms1553Batch, compiled: bool, lead: str
-               ) -> tuple[list[int], list[str]]:
+def _described(icd: Icd, batch: Ms1553Batch, lead: str) -> tuple[list[int], list[str]]:
     """The messages of ``batch`` the table describes and the text of each (``lead``, then
-    the values' JSON object)."""
+    the values' JSON object), by the Python writer."""
     names = message_numbers(icd, batch)
-    if compiled:
-        from mapr_daemon.cli.icdview_rows import compiled_rows
-
-        rows = np.flatnonzero(names >= 0)
-        return rows.tolist(), compiled_rows(icd, lead).texts(batch, rows, names[rows])
     places: list[int] = []
     texts: list[str] = []
     for code in _distinct(names[names >= 0]).tolist():

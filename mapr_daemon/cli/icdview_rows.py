@@ -1,14 +1,17 @@
 """The compiled writer of :mod:`mapr_daemon.cli.icdview_batch`: a whole batch's values text
 in two kernel calls, numbers as ``json.dumps`` writes them.
 
-The table is flattened once (:mod:`mapr_daemon.icd.flatdecode`) and its fixed texts (each
-message's head, each field's key and brackets, labels, the flag lists of every flag byte)
-put in a :class:`~drivers.jsontext.TextPool`. Per batch: one kernel decodes every cell of
-every record the table describes (:func:`~mapr_daemon.icd.flatdecode.decode_cells`),
+The table is flattened once (:mod:`mapr_daemon.icd.flatdecode`) and its fixed texts put in
+a :class:`~drivers.jsontext.TextPool`: per cell of each message, the text before it (the
+message's head, the field's key and bracket, the separator), per message the text after
+its last cell, per field its key in the flags, labels, the flag lists of every flag byte.
+Per batch: one kernel decodes every cell of every record the table describes
+(:func:`~mapr_daemon.icd.flatdecode.decode_cells`),
 :func:`~drivers.jsontext.shortest_decimals` finds each number's text, ``repr`` writes the
 few it cannot (NaN, infinities, -0.0, tiny or huge magnitudes), and one kernel writes every
-record's text into one buffer (:func:`~drivers.jsontext.write_objects`), cut into one string
-per record. No numpy pass runs per message or parameter.
+record's text into one buffer (:func:`~drivers.jsontext.write_rows`; a record the table
+does not describe, an empty line), cut into one string per record of the batch. No numpy
+pass runs per message or parameter.
 
 Loading the kernels costs a process about 0.6 s of CPU once (numba and its code generator),
 so this module is imported only when that pays (see
@@ -24,7 +27,8 @@ import numpy as np
 import numpy.typing as npt
 
 from drivers.chapter10.ms1553_batch import Ms1553Batch
-from drivers.jsontext import NUMBER_BYTES, TextPool, shortest_decimals, write_objects
+from drivers.jit import COPY_BLOCK
+from drivers.jsontext import NUMBER_BYTES, TextPool, shortest_decimals, write_rows
 from mapr_daemon.icd import Icd
 from mapr_daemon.icd.flags import FLAG_NAMES, flag_names
 from mapr_daemon.icd.flatdecode import FlatTable, decode_cells, flatten
@@ -42,18 +46,31 @@ class CompiledRows:
         table = self.table
         pool = self._pool = TextPool()
         group = [{c.name for c in m.group.channels} if m.group else set() for m in messages]
-        self.heads = pool.add_all([lead + '{"message": ' + json.dumps(m.name) for m in messages])
-        opens, closes, keys = [], [], []
+        heads = [lead + '{"message": ' + json.dumps(m.name) for m in messages]
+        self.heads = pool.add_all(heads)
+        leads: list[str] = []
+        """Per cell of the table, the text before it in a record's text (see
+        :func:`~drivers.jsontext.write_rows`)."""
+        cell_key: list[int] = []
+        closes: list[str] = []
+        fixed: list[int] = []
         for m in range(len(messages)):
+            pending = heads[m]
             for f in range(table.field_start[m], table.field_start[m + 1]):
                 key = json.dumps(table.fields[f].name)
                 array = table.fields[f].name in group[m]
-                opens.append(f", {key}: " + ("[" if array else ""))
-                closes.append("]" if array else "")
-                keys.append(f"{key}: ")
-        self.field_open = pool.add_all(opens)
-        self.field_close = pool.add_all(closes)
-        self.field_key = pool.add_all(keys)
+                pending += f", {key}: " + ("[" if array else "")
+                cells = int(table.cell_start[f + 1] - table.cell_start[f])
+                for j in range(cells):
+                    leads.append(pending + (", " if j else ""))
+                    pending = ""
+                    cell_key.append(pool.add(f"{key}: ") if j == cells - 1 else -1)
+                pending += "]" if array else ""
+                fixed.append(2 * len(key) + 10)   # its key, brackets and flags' key
+            closes.append(pending)
+        self.cell_lead = pool.add_all(leads)
+        self.cell_key = np.array(cell_key, np.int64)
+        self.closes = pool.add_all(closes)
         labels = pool.add_all([json.dumps(label) for label in table.labels])
         self.label_entry = np.append(labels, -1)   # label index -> entry; -1 (none) -> -1
         every_flag = sum(bit for bit, _ in FLAG_NAMES)
@@ -65,42 +82,48 @@ class CompiledRows:
                                               ("NaN", "Infinity", "-Infinity"))
         self.marks_open, self.marks_close = pool.add(', "flags": {'), pool.add("}")
         self.tail = pool.add("}\n")   # a row per line: cut by one str.split
+        self.newline = pool.add("\n")  # a message the table does not describe
         self._static = pool.arrays()
         self._static_entries = self._static[1].size - 1
-        self.fields_per_message = np.diff(table.field_start)
+        self._static_text = self._static[0][:-COPY_BLOCK]
         longest = max(NUMBER_BYTES, pool.longest())
-        fixed = np.array([len(o) + len(c) + len(k) + 2 + longest
-                          for o, c, k in zip(opens, closes, keys, strict=True)], np.int64)
-        field_fixed = np.concatenate([[0], np.cumsum(fixed)])
-        self.bound = (np.array([pool.length(int(h)) for h in self.heads], np.int64)
+        field_fixed = np.concatenate([[0], np.cumsum(np.array(fixed, np.int64) + longest)])
+        self.first_cell = table.cell_start[table.field_start[:-1]]
+        self.bound = (np.array([len(h) for h in heads], np.int64)
                       + field_fixed[table.field_start[1:]] - field_fixed[table.field_start[:-1]]
                       + 16 + table.cells_per_message * (longest + 2))
         """Per message, the most bytes one record's text takes (from its head on)."""
 
-    def texts(self, batch: Ms1553Batch, rows: I64, message: I64) -> list[str]:
-        """The text of each record ``rows`` of ``batch`` (ascending), ``message[i]`` being
-        the table's message number of ``rows[i]``."""
-        if rows.size == 0:
+    def texts(self, batch: Ms1553Batch, names: I64) -> list[str]:
+        """The text of each record of ``batch``, ``names[i]`` being the table's message
+        number of record ``i`` (-1: none, its text empty)."""
+        if names.size == 0:
             return []
         table = self.table
-        count = batch.data_count[rows]
-        empty = count <= 0
-        cells = np.where(empty, 0, table.cells_per_message[message])
-        row_cell = np.zeros(rows.size + 1, np.int64)
-        np.cumsum(cells, out=row_cell[1:])
+        described = names >= 0
+        message = np.where(described, names, 0)
+        count = batch.data_count
+        full = described & (count > 0)
+        row_cells = np.where(full, table.cells_per_message[message], 0)
+        row_cell = np.zeros(names.size + 1, np.int64)
+        np.cumsum(row_cells, out=row_cell[1:])
+        rows = np.flatnonzero(described)
         value, _, flags, label = decode_cells(
-            table, batch.words, batch.data_start[rows], count,
-            (batch.errors[rows] != 0).astype(np.uint8), message, row_cell)
+            table, batch.words, batch.data_start[rows], count[rows],
+            (batch.errors[rows] != 0).astype(np.uint8), names[rows],
+            np.append(row_cell[rows], row_cell[-1]))
         text = self.label_entry[label]
         digits, mantissa = shortest_decimals(value)
         pool, starts = self._pool_arrays(value, digits, text)
-        out = np.empty(int(self.bound[message].sum()), np.uint8)
-        ends = np.empty(rows.size, np.int64)
-        written = write_objects(
-            pool, starts, self.heads[message], table.field_start[message],
-            np.where(empty, 0, self.fields_per_message[message]), row_cell, self.field_open,
-            self.field_close, self.field_key, np.diff(table.cell_start), text, digits,
-            mantissa, flags, self.code_text, self.marks_open, self.marks_close, self.tail,
+        out = np.empty(int(np.where(described, self.bound[message], 1).sum()) + COPY_BLOCK,
+                       np.uint8)
+        ends = np.empty(names.size, np.int64)
+        head = np.where(described, self.heads[message], TextPool.EMPTY)
+        written = write_rows(
+            pool, starts, row_cells, row_cell, self.first_cell[message],
+            np.where(full, self.closes[message], head),
+            np.where(described, self.tail, self.newline), self.cell_lead, self.cell_key,
+            text, digits, mantissa, flags, self.code_text, self.marks_open, self.marks_close,
             out, ends)
         return str(out[:written].data, "ascii").split("\n")[:-1]
 
@@ -118,10 +141,10 @@ class CompiledRows:
                                        np.where(rest[~finite] > 0, self.inf, self.minus_inf))
         numbers = list(map(repr, rest[finite].tolist()))
         text[slow[finite]] = self._static_entries + np.arange(len(numbers))
-        added = "".join(numbers).encode("ascii")
+        added = ("".join(numbers) + "\0" * COPY_BLOCK).encode("ascii")
         lengths = np.fromiter(map(len, numbers), np.int64, len(numbers))
         more = starts[-1] + np.cumsum(lengths)
-        return (np.concatenate([data, np.frombuffer(added, np.uint8)]),
+        return (np.concatenate([self._static_text, np.frombuffer(added, np.uint8)]),
                 np.concatenate([starts, more]))
 
 

@@ -149,14 +149,14 @@ def test_a_long_decode_turns_to_the_compiled_writer(traffic: Path,
     import mapr_daemon.cli.icdview_batch as batch_module
 
     calls: list[bool] = []
-    described = batch_module._described
+    batch_texts = batch_module._batch_texts
 
-    def spy(icd: Any, batch: Any, compiled: bool, lead: str) -> tuple[list[int], list[str]]:
+    def spy(icd: Any, batch: Any, compiled: bool, lead: str) -> tuple[list[str], int]:
         calls.append(compiled)
-        return described(icd, batch, compiled, lead)
+        return batch_texts(icd, batch, compiled, lead)
 
     monkeypatch.setattr(batch_module, "COMPILED_AFTER", 100)
-    monkeypatch.setattr(batch_module, "_described", spy)
+    monkeypatch.setattr(batch_module, "_batch_texts", spy)
     monkeypatch.setattr(batch_module, "_numba_loaded", lambda: False)
     view = IcdView(str(ICD))
     assert view.icd is not None
