@@ -18,8 +18,9 @@ caches another copy: give a kernel fresh, writable, C-ordered float64 arrays.
 
 A few operations the processor has but numba's Python cannot say are here too, as
 intrinsics callable from kernels only (:data:`trailing_zeros`, :data:`population_count`,
-:data:`changed_bits`): they are written in LLVM's terms, the level numba compiles through,
-and are inlined into the kernels that call them, so the staleness above applies to them.
+:data:`changed_bits`, :data:`copy_block`): they are written in LLVM's terms, the level numba
+compiles through, and are inlined into the kernels that call them, so the staleness above
+applies to them, as it does to helpers compiled with :func:`inline_kernel`.
 
 Example::
 
