@@ -50,6 +50,8 @@ import numpy as np
 from chapter10 import C10
 from chapter10.c10 import TYPES
 
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
 from bench.recording import mixed
 from bench.seeds import fresh
 from drivers.chapter10.ms1553_json import json_lines
