@@ -14,8 +14,11 @@ open; the daemon tests' spec), seeds from 0; flights on fresh seeds, printed.
 from __future__ import annotations
 
 import argparse
+import sys
 import time
 from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from bench.seeds import fresh
 from drivers.backends.loopback import LoopbackMonitor

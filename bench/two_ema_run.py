@@ -33,6 +33,8 @@ from typing import Any
 
 import yaml
 
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
 from bench.seeds import fresh
 from mapr_daemon.catalog import CatalogReader
 
