@@ -36,6 +36,8 @@ log = logging.getLogger("mapr.reasoner")
 INITIATED_BIT = 2
 """``bit_request`` code of an initiated BIT (configs/icd/ema-testbed.yaml)."""
 KEEP_S = 4.0
+"""Seconds of each signal kept between batches (at least): a BIT record (1.46 s for the
+shipped actuators) and the margin before it, whatever the batches' length."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -107,7 +109,15 @@ class BitWatch:
             values.append(np.asarray(s.value, dtype=np.float64).reshape(s.t_ns.size, -1)[:, 0])
             if name == self.timebase:
                 now = float(s.t_ns[-1])
-        self._compact()
+        self._merge()
+        events = self._complete(now)
+        self._trim()
+        return events
+
+    def _complete(self, now: float | None) -> list[BitFound]:
+        """Diagnose every BIT whose record has come by ``now`` (the last sample time tag),
+        from the whole buffers: a batch may span more than :data:`KEEP_S` of bus (a file
+        read in large batches), and the buffers are trimmed only after."""
         events: list[BitFound] = []
         while True:
             if self.pending is None:
@@ -127,13 +137,21 @@ class BitWatch:
             if decision is not None:
                 events.append(BitFound(request, onset, decision))
 
-    def _compact(self) -> None:
+    def _merge(self) -> None:
+        """Each buffer as one array of time tags and one of values."""
         for times, values in self.buffers.values():
             if len(times) > 1:
                 t, v = np.concatenate(times), np.concatenate(values)
                 times[:], values[:] = [t], [v]
+
+    def _trim(self) -> None:
+        """Keep the last :data:`KEEP_S` of each buffer, or a BIT record and a second more
+        where the actuator's BIT is longer: what a BIT still being collected needs (a request
+        is taken, and its record's start known, as soon as a sample follows it)."""
+        window = max(KEEP_S * 1e9, self.span_ns + 1e9)
+        for times, values in self.buffers.values():
             if times and times[0].size:
-                keep = times[0] >= times[0][-1] - KEEP_S * 1e9
+                keep = times[0] >= times[0][-1] - window
                 times[0], values[0] = times[0][keep], values[0][keep]
 
     def _series(self, name: str) -> tuple[FloatArray, FloatArray]:

@@ -5,13 +5,14 @@ own healthy BITs, with no threshold override."""
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from drivers.backends.loopback import LoopbackMonitor
-from mapr_daemon.daemon.bitwatch import BitWatch
+from mapr_daemon.daemon.bitwatch import KEEP_S, BitWatch
 from mapr_daemon.ema.faults import FaultSet, parse_fault
 from mapr_daemon.ema.params import default_actuator_path, load_actuator, with_sample_rate
 from mapr_daemon.icd import SignalStream, load_icd
@@ -120,3 +121,30 @@ def test_a_reasoner_failure_costs_the_bit_not_the_watcher(
     assert watch.failure_count == 1 and len(watch.failures) == 1
     assert watch.failures[0][0] == watch.last_onset
     assert watch.feed({}) == [] and watch.failures == [], "the failed BIT is not retried"
+
+
+def test_a_batch_longer_than_the_watchers_memory_keeps_its_bit(
+        healthy: tuple[Aircraft, list[object]], dictionary: Path) -> None:
+    """A file read in large batches (a fleet task, an API user) hands the watcher several
+    seconds of bus at once: the BIT at the batch's start is diagnosed as it is from the
+    traffic on its own, not trimmed away with the samples older than the watcher keeps."""
+    series = SignalStream(ICD).feed(healthy[1])
+    later = 3_000_000_000  # the same traffic again 3 s on, without a BIT request
+    long_batch = {}
+    for name, s in series.items():
+        value = np.zeros_like(s.value) if name == "bit_request" else s.value
+        long_batch[name] = dataclasses.replace(
+            s, t_ns=np.concatenate([s.t_ns, s.t_ns + later]),
+            value=np.concatenate([s.value, value]), raw=np.concatenate([s.raw, s.raw]),
+            flags=np.concatenate([s.flags, s.flags]))
+    span_s = (long_batch["bit_request"].t_ns[-1] - long_batch["bit_request"].t_ns[0]) / 1e9
+    assert span_s > KEEP_S, "the batch spans more than the watcher keeps"
+
+    def watcher() -> BitWatch:
+        return BitWatch(Reasoner(Dictionary.load(dictionary),
+                                 load_actuator(default_actuator_path())))
+
+    (alone,) = watcher().feed(series)
+    (in_long,) = watcher().feed(long_batch)
+    assert (in_long.request_ns, in_long.onset_ns) == (alone.request_ns, alone.onset_ns)
+    assert in_long.decision["evidence"]["score"] == alone.decision["evidence"]["score"]
