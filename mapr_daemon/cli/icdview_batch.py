@@ -24,20 +24,13 @@ from functools import lru_cache
 import numpy as np
 import numpy.typing as npt
 
-from drivers.chapter10.ms1553_batch import FORMATS, Ms1553Batch
-from drivers.mil1553.record import TransferFormat
+from drivers.chapter10.ms1553_batch import Ms1553Batch
 from mapr_daemon.cli.icdview_numbers import number_parts
 from mapr_daemon.icd import Icd
+from mapr_daemon.icd.columns import distinct, message_numbers, stacked_series
 from mapr_daemon.icd.flags import flag_names
 from mapr_daemon.icd.model import Message
 from mapr_daemon.icd.values import Series
-
-_DECODABLE = np.zeros(len(FORMATS), np.bool_)
-for _code, _fmt in enumerate(FORMATS):
-    _DECODABLE[_code] = _fmt in (TransferFormat.BC_RT, TransferFormat.RT_BC,
-                                 TransferFormat.RT_RT, TransferFormat.BCAST_BC_RT,
-                                 TransferFormat.BCAST_RT_RT)
-
 
 COMPILED_AFTER = 200_000
 """Messages with values a decode writes with ``repr`` before it turns to the compiled
@@ -115,7 +108,7 @@ def _described(icd: Icd, batch: Ms1553Batch, lead: str) -> tuple[list[int], list
     names = message_numbers(icd, batch)
     places: list[int] = []
     texts: list[str] = []
-    for code in _distinct(names[names >= 0]).tolist():
+    for code in distinct(names[names >= 0]).tolist():
         message = icd.messages[code]
         members = np.flatnonzero(names == code)
         head = lead + "{" + f'"message": {json.dumps(message.name)}'
@@ -124,34 +117,10 @@ def _described(icd: Icd, batch: Ms1553Batch, lead: str) -> tuple[list[int], list
         texts += [head + "}"] * len(empty)
         members = members[batch.data_count[members] > 0]
         if members.size:
-            series = _series(icd, message, batch, members)
+            series = stacked_series(icd, message, batch, members)
             places += members.tolist()
             texts += _python_rows(message, series, members.size, head)
     return places, texts
-
-
-def message_numbers(icd: Icd, batch: Ms1553Batch) -> npt.NDArray[np.int64]:
-    """Per message of ``batch``, the number (index in ``icd.messages``) of the table's
-    message describing it, or -1; matched once per distinct pair of command words."""
-    number = {message.name: k for k, message in enumerate(icd.messages)}
-    decodable = _DECODABLE[batch.format]
-    pairs = batch.command << 17 | (batch.command2 + 1)
-    names = np.full(len(batch), -1, np.int64)
-    for pair in _distinct(pairs[decodable]).tolist():
-        command2 = (pair & 0x1FFFF) - 1
-        message = icd.match_key(pair >> 17, None if command2 < 0 else command2)
-        if message is not None:
-            names[decodable & (pairs == pair)] = number[message.name]
-    return names
-
-
-def _distinct(values: npt.NDArray[np.int64]) -> npt.NDArray[np.int64]:
-    """The distinct ``values``, sorted: ``np.unique`` without its indices, which imports
-    ``numpy.ma`` on first use (about 13 ms of a short decode's CPU time)."""
-    ordered = np.sort(values)
-    keep = np.ones(ordered.size, dtype=np.bool_)
-    keep[1:] = ordered[1:] != ordered[:-1]
-    return ordered[keep]
 
 
 def _python_rows(message: Message, series: dict[str, Series], count: int,
@@ -254,20 +223,6 @@ def _label_table(items: tuple[tuple[int, str], ...]
     kept = [(code, label) for code, label in items if label]
     return (np.array([code for code, _ in kept], dtype=np.int64),
             np.array([json.dumps(label) for _, label in kept], dtype=object))
-
-
-def _series(icd: Icd, message: Message, batch: Ms1553Batch,
-            members: npt.NDArray[np.intp]) -> dict[str, Series]:
-    """The decoded parameters of ``members`` (all of ``message``), their words stacked
-    straight from the batch's word array."""
-    wc = message.word_count
-    length = np.minimum(batch.data_count[members], wc)
-    columns = np.arange(wc)
-    present = columns[None, :] < length[:, None]
-    at = np.where(present, batch.data_start[members, None] + columns[None, :], 0)
-    data = np.where(present, batch.words[at], 0).astype(np.uint16)
-    return icd.decode_block(message.name, data, length.astype(np.intp),
-                            batch.t_ns[members], batch.errors[members] != 0)
 
 
 @lru_cache(maxsize=256)

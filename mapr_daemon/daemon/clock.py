@@ -29,6 +29,7 @@ from collections.abc import Callable, Sequence
 from datetime import UTC, datetime, timedelta
 from typing import Literal
 
+from drivers.chapter10.ms1553_batch import NO_EPOCH, Ms1553Batch
 from drivers.chapter10.timebase import RTC_NS
 from drivers.mil1553.record import MonitorRecord
 
@@ -60,24 +61,31 @@ class BusClock:
         """Live, bus-time tags: the absolute time of bus time 0 (a multiple of 10 ms)."""
         self._last_ns: int | None = None
 
-    def observe(self, records: Sequence[MonitorRecord]) -> None:
-        """Take a batch of records (in time order) before anything is stamped from it."""
-        if not records:
+    def observe(self, records: Sequence[MonitorRecord] | Ms1553Batch) -> None:
+        """Take a batch of records (in time order; or a Chapter 10 reader's batch of
+        columns) before anything is stamped from it."""
+        if not len(records):
             return
-        first, last = records[0], records[-1]
+        if isinstance(records, Ms1553Batch):
+            first_ns, last_ns = int(records.t_ns[0]), int(records.t_ns[-1])
+            epochs = records.epoch_ns
+            epoch: object = None if epochs is None or epochs[-1] == NO_EPOCH else \
+                int(epochs[-1])
+        else:
+            first_ns, last_ns = records[0].t_ns, records[-1].t_ns
+            epoch = records[-1].extra.get("epoch_ns")
         if self.mode == "recording":
-            epoch = last.extra.get("epoch_ns")
             if isinstance(epoch, int):
-                self.offset_ns = epoch - int(last.t_ns)
+                self.offset_ns = epoch - int(last_ns)
             return
-        if first.t_ns >= WALL_CLOCK_NS:
+        if first_ns >= WALL_CLOCK_NS:
             self.offset_ns, self.anchor_ns = 0, None
         elif self.anchor_ns is None or self.offset_ns != self.anchor_ns or \
-                (self._last_ns is not None and first.t_ns < self._last_ns - BACKWARDS_NS):
+                (self._last_ns is not None and first_ns < self._last_ns - BACKWARDS_NS):
             now = int(self.now_ns())
             self.anchor_ns = now - now % ANCHOR_NS
             self.offset_ns = self.anchor_ns
-        self._last_ns = int(last.t_ns)
+        self._last_ns = int(last_ns)
 
     def absolute(self, bus_ns: int) -> int | None:
         """Absolute ns since 1970 UTC of bus time ``bus_ns`` (None while unknown)."""

@@ -30,6 +30,7 @@ import time
 from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any
 
+from drivers.chapter10.ms1553_batch import Ms1553Batch
 from drivers.mil1553.record import MonitorRecord
 from mapr_daemon.catalog import BitOutcome, Event, event_from_reasoner
 from mapr_daemon.catalog.model import BitRecord, Flight
@@ -120,11 +121,14 @@ class Pipeline:
         if self.trending is not None:
             self.trending.log.declare(number, hours)
 
-    def process(self, records: Sequence[MonitorRecord], clock: BusClock) -> Batch:
-        """Decode and diagnose one batch (records in time order). ``clock`` is the
-        session's: it sees the records first, then stamps the events found in them."""
+    def process(self, records: Sequence[MonitorRecord] | Ms1553Batch, clock: BusClock
+                ) -> Batch:
+        """Decode and diagnose one batch (records in time order, or a Chapter 10 reader's
+        batch of columns, decoded as its records would be without building them).
+        ``clock`` is the session's: it sees the records first, then stamps the events found
+        in them."""
         clock.observe(records)
-        series = self.stream.feed(records) if records else {}
+        series = self.stream.feed(records) if len(records) else {}
         found: list[tuple[Watched, BitFound]] = []
         failures: list[Failure] = []
         seen = False
@@ -140,8 +144,10 @@ class Pipeline:
         outcomes = [self.outcome(w.asset, bit, clock) for w, bit in found]
         flights: list[Flight] = []
         if self.trending is not None:
-            if seen and records:
-                self.trending.observe(self._when(stamp(records[-1].t_ns), clock))
+            if seen and len(records):
+                last = int(records.t_ns[-1]) if isinstance(records, Ms1553Batch) else \
+                    records[-1].t_ns
+                self.trending.observe(self._when(stamp(last), clock))
             outcomes = self.trending.annotate(outcomes)
             flights = self.trending.log.pop_changed() if outcomes else []
         events = [o.event for o in outcomes if o.event is not None]

@@ -27,7 +27,9 @@ from itertools import islice
 
 import numpy as np
 
+from drivers.chapter10.ms1553_batch import Ms1553Batch
 from drivers.mil1553.record import MonitorRecord
+from mapr_daemon.icd.columns import decode_columns
 from mapr_daemon.icd.database import Icd
 from mapr_daemon.icd.flags import FLAG_AFTER_GAP
 from mapr_daemon.icd.model import Group, Message
@@ -76,9 +78,12 @@ class SignalStream:
         self._wanted = wanted
         self._blocks: dict[str, _BlockState] = {}
 
-    def feed(self, records: Iterable[MonitorRecord]) -> dict[str, Series]:
-        """Decode ``records`` (in time order) and return their series."""
-        batch = self.icd.decode_batch(records)
+    def feed(self, records: Iterable[MonitorRecord] | Ms1553Batch) -> dict[str, Series]:
+        """Decode ``records`` (in time order) and return their series. A Chapter 10
+        reader's batch of columns is decoded as its records would be, without building
+        them (:mod:`mapr_daemon.icd.columns`)."""
+        batch = decode_columns(self.icd, records) if isinstance(records, Ms1553Batch) \
+            else self.icd.decode_batch(records)
         s = self.stats
         s.decoded += sum(batch.records.values())
         s.unmatched += batch.unmatched
