@@ -109,7 +109,7 @@ def _changed_bits_typed(_context: Any, samples: Any, start: Any, bits: Any) -> A
         data = context.make_array(sig.args[0])(context, builder, args[0]).data
         index = context.cast(builder, args[1], sig.args[1], numba.types.intp)
         byte = ir.IntType(8)
-        lanes = ir.VectorType(byte, _LANES)
+        lanes = ir.VectorType(byte, LANES)
         here = builder.gep(data, [index])
         after = builder.gep(here, [ir.Constant(index.type, 1)])
         first = builder.load(builder.bitcast(here, lanes.as_pointer()), align=1)
@@ -119,16 +119,17 @@ def _changed_bits_typed(_context: Any, samples: Any, start: Any, bits: Any) -> A
             builder.insert_element(ir.Constant(lanes, ir.Undefined), one,
                                    ir.Constant(ir.IntType(32), 0)),
             ir.Constant(lanes, ir.Undefined),
-            ir.Constant(ir.VectorType(ir.IntType(32), _LANES), [0] * _LANES))
+            ir.Constant(ir.VectorType(ir.IntType(32), LANES), [0] * LANES))
         differ = builder.and_(builder.xor(first, second), spread)
         flags = builder.icmp_unsigned("!=", differ, ir.Constant(lanes, None))
-        return builder.bitcast(flags, ir.IntType(_LANES))
+        return builder.bitcast(flags, ir.IntType(LANES))
 
     return numba.types.uint64(samples, start, bits), codegen
 
 
-_LANES = 64
-"""Samples compared by one :data:`changed_bits` (one bit each of a uint64)."""
+LANES = 64
+"""Samples compared by one :data:`changed_bits` (one bit each of a uint64). Kernels that call
+it are written for this number (:mod:`drivers.mil1553.edges` checks it at import)."""
 
 changed_bits = cast(Callable[[Any, int, int], np.uint64], intrinsic(_changed_bits_typed))
 """``changed_bits(samples, start, bits)``: a uint64 whose bit ``k`` says
@@ -158,13 +159,20 @@ def inline_kernel(function: Function) -> Function:
 
 
 COPY_BLOCK = 32
-"""Bytes :func:`copy_block` copies."""
+"""Bytes :func:`copy_block` copies. Kernels that call it are written for this number
+(:mod:`drivers.jsontext` checks it at import)."""
 
 
 @intrinsic
 def _copy_block(typingctx: Any, target: Any, at: Any, source: Any, start: Any) -> Any:
     """The typing and code of :data:`copy_block`: one ``memcpy`` of a constant size, which
-    LLVM turns into a couple of vector moves."""
+    LLVM turns into a couple of vector moves. Only 1-D C-contiguous uint8 arrays and integer
+    offsets are accepted (anything else: no matching signature), since the offsets are taken
+    as byte offsets and nothing is checked."""
+    if not (all(isinstance(a, types.Array) and a.dtype == types.uint8 and a.ndim == 1
+                and a.layout == "C" for a in (target, source))
+            and all(isinstance(i, types.Integer) for i in (at, start))):
+        return None
     signature = types.void(target, at, source, start)
 
     def generate(context: Any, builder: Any, sig: Any, args: Any) -> Any:

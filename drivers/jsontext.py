@@ -29,6 +29,17 @@ import numpy.typing as npt
 
 from drivers.jit import COPY_BLOCK, copy_block, inline_kernel, kernel
 
+WRITTEN_FOR_BLOCK = 32
+"""The :data:`~drivers.jit.COPY_BLOCK` this file's kernels were compiled for. numba caches a
+kernel by its own source file only, so a new block size in drivers/jit.py alone would leave
+the cached kernels copying the old size while the buffers are sized for the new one (bytes
+written past their end): such a change must come with one here, which renews this file's
+cache."""
+if COPY_BLOCK != WRITTEN_FOR_BLOCK:
+    raise ImportError(f"drivers/jsontext.py is written for {WRITTEN_FOR_BLOCK}-byte copies, "
+                      f"drivers/jit.py copies {COPY_BLOCK}: change both (and clear the "
+                      "kernel cache)")
+
 IntArray = npt.NDArray[np.int64]
 FloatArray = npt.NDArray[np.float64]
 

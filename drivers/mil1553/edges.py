@@ -26,10 +26,21 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from drivers.jit import changed_bits, kernel, population_count, trailing_zeros
+from drivers.jit import LANES, changed_bits, kernel, population_count, trailing_zeros
 from drivers.mil1553.encoder import RX_BITS
 
 IntArray = npt.NDArray[np.int64]
+
+WRITTEN_FOR_LANES = 64
+"""The :data:`~drivers.jit.LANES` this file's kernels step by (64 samples per
+:func:`~drivers.jit.changed_bits`, 65 bytes read). numba caches a kernel by its own source
+file only, so a change of the lanes in drivers/jit.py alone would leave cached kernels
+reading past the samples: such a change must come with one here, which renews this file's
+cache."""
+if LANES != WRITTEN_FOR_LANES:
+    raise ImportError(f"drivers/mil1553/edges.py steps by {WRITTEN_FOR_LANES} samples, "
+                      f"drivers/jit.py compares {LANES}: change both (and clear the kernel "
+                      "cache)")
 FloatArray = npt.NDArray[np.float64]
 Int8Array = npt.NDArray[np.int8]
 BoolArray = npt.NDArray[np.bool_]

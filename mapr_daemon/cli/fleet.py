@@ -148,6 +148,8 @@ def run(args: argparse.Namespace) -> int:
         close_client(client)
     session = catalog.session_id
     catalog.close("fleet run complete")
+    for damaged in summary.damaged:
+        print(f"mapr fleet: {damaged}", file=sys.stderr)
     for failed in summary.failed:
         print(f"mapr fleet: {failed.recording.path}: {failed.error}", file=sys.stderr)
     wall = time.monotonic() - started

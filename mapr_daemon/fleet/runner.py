@@ -60,6 +60,8 @@ class RunSummary:
     hours: float = 0.0
     reasoner_failures: int = 0
     damaged_packets: int = 0
+    damaged: list[str] = dataclasses.field(default_factory=list)
+    """Each damaged packet skipped, as ``path: offset N: what``, in the order stored."""
     task_s: list[float] = dataclasses.field(default_factory=list)
 
 
@@ -171,6 +173,7 @@ class FleetRun:
                 summary.failed.append(result)
             summary.reasoner_failures += len(result.failures)
             summary.damaged_packets += len(result.issues)
+            summary.damaged += [f"{recording.path}: {issue}" for issue in result.issues]
             summary.task_s.append(result.task_s)
         else:
             summary.skipped += 1

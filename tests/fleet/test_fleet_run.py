@@ -140,3 +140,18 @@ def test_the_client_killed_mid_run_resumes_with_only_what_is_missing(
     assert sorted((r[0], r[1]) for r in rows) == [("N101", 1), ("N101", 2), ("N102", 1),
                                                   ("N102", 2)]
     assert bits == 4 and len(set(events)) == len(events)
+
+
+def test_damaged_packets_are_named_with_their_file_and_offset(
+        dask_client: Any, fleet_archive: Path, fleet_dictionary: Path, tmp_path: Path) -> None:
+    """A recording with a few damaged packets is stored from the rest of its packets, and the
+    run names each packet skipped (file and offset), as ``mapr replay`` does."""
+    path = fleet_archive / "N102" / "flight-0002.ch10"
+    data = bytearray(path.read_bytes())
+    for at in range(len(data) // 3, len(data) // 3 + 4000, 997):
+        data[at] ^= 0xFF
+    path.write_bytes(bytes(data))
+    summary = run_fleet(dask_client, fleet_archive, tmp_path / "fleet.db", fleet_dictionary)
+    assert summary.stored == 4 and not summary.failed
+    assert summary.damaged and len(summary.damaged) == summary.damaged_packets
+    assert all(line.startswith(f"{path}: offset ") for line in summary.damaged), summary.damaged
