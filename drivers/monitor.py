@@ -28,7 +28,9 @@ from collections import Counter, deque
 from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
 from types import TracebackType
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
 
 from drivers.backends import BACKENDS, available_backends, plugin_backends
 from drivers.errors import (
@@ -41,6 +43,9 @@ from drivers.errors import (
 from drivers.mil1553.record import MonitorRecord, TransferFormat
 from drivers.mil1553.wordbatch import WORD_TIME_NS
 from drivers.rtstats import TrafficStatistics
+
+if TYPE_CHECKING:
+    from drivers.chapter10.ms1553_batch import Ms1553Batch
 
 __all__ = ["BACKENDS", "BusMonitor", "BusStatistics", "MonitorFilter", "MonitorRecord",
            "available_backends", "open_monitor"]
@@ -96,6 +101,32 @@ class BusStatistics:
         self.errors.setdefault(bus, Counter()).update(record.errors)
         self.first_ns.setdefault(bus, record.t_ns)
         self.last_ns[bus] = max(self.last_ns.get(bus, 0), record.end_ns or record.t_ns)
+
+    def add_columns(self, batch: Ms1553Batch) -> None:
+        """Count a Chapter 10 reader's batch of columns as :meth:`add` counts each of its
+        records, without building them."""
+        if not len(batch):
+            return
+        from drivers.chapter10.ms1553_batch import ERROR_BIT
+
+        words = 1 + (batch.command2 >= 0) + batch.data_count + batch.n_status
+        ends = np.where(batch.end_ns != 0, batch.end_ns, batch.t_ns)
+        for code, bus in ((0, "A"), (1, "B")):
+            mine = np.flatnonzero(batch.bus == code)
+            if not mine.size:
+                continue
+            count = int(words[mine].sum())
+            self.messages[bus] += int(mine.size)
+            self.words[bus] += count
+            self.busy_ns[bus] += count * WORD_TIME_NS
+            errors = self.errors.setdefault(bus, Counter())
+            masks = batch.errors[mine]
+            for name, bit in ERROR_BIT.items():
+                flagged = int(np.count_nonzero(masks & bit))
+                if flagged:
+                    errors[name] += flagged
+            self.first_ns.setdefault(bus, int(batch.t_ns[mine[0]]))
+            self.last_ns[bus] = max(self.last_ns.get(bus, 0), int(ends[mine].max()))
 
     def load(self, bus: str) -> float:
         """Share of time the bus carried words, in %, over the whole time monitored (from

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import logging
 import sys
 import time
 from pathlib import Path
@@ -38,10 +39,17 @@ if TYPE_CHECKING:
     from drivers.mil1553.record import MonitorRecord
     from mapr_daemon.catalog import CatalogWriter
     from mapr_daemon.daemon.config import Config
-    from mapr_daemon.daemon.pipeline import Pipeline
+    from mapr_daemon.daemon.pipeline import Batch, Pipeline
 
 BATCH = 1024
-"""Records handed to the ICD and reasoner at a time."""
+"""Records handed to the ICD and reasoner at a time when paced (``--speed``)."""
+COLUMNS = BATCH
+"""Messages read and handed on at a time as fast as the file reads, as columns: no more than
+when paced, since the flights told from the traffic's gaps are told at batch ends (a BIT
+just before a gap in a longer batch would be counted in the next flight)."""
+
+log = logging.getLogger("drivers.backends.chapter10")
+"""The damaged packets are named under the backend's logger, as when it reads them."""
 
 
 def add_subparser(subparsers: Any) -> None:
@@ -193,6 +201,9 @@ class Replay:
 
     def run(self, progress: bool) -> None:
         bar = ProgressBar(sys.stderr, self.monitor.size, progress)
+        if not self.monitor.speed:
+            self._run_columns(bar)
+            return
         batch: list[MonitorRecord] = []
         while True:
             record = self.monitor.recv(timeout=0.2)
@@ -206,12 +217,36 @@ class Replay:
                 break
         bar.show(self.monitor.size, sum(self.stats.messages.values()), final=True)
 
+    def _run_columns(self, bar: ProgressBar) -> None:
+        """As fast as the file reads: the reader's merged batches, each handed to the
+        pipeline as columns (no record object per message; decoded as the records would be,
+        mapr_daemon/icd/columns.py); the damaged packets named on stderr here, as the
+        monitor would have named them."""
+        import numpy as np
+
+        last = 0
+        for batch in self.monitor.reader.batches(COLUMNS):
+            columns = batch.ms1553
+            if columns is not None and len(columns):
+                self.stats.add_columns(columns)
+                self.error_messages += int(np.count_nonzero(columns.errors))
+                last = int(columns.t_ns[-1])
+                self._store(self.pipe.process(columns, self.clock), last, log_issues=True)
+            bar.show(self.monitor.position, sum(self.stats.messages.values()))
+        self._gaps(last, log_issues=True)
+        bar.show(self.monitor.size, sum(self.stats.messages.values()), final=True)
+
     def process(self, records: list[MonitorRecord]) -> None:
         for record in records:
             self.stats.add(record)
             self.error_messages += bool(record.errors)
-        result = self.pipe.process(records, self.clock)
-        self._gaps(records[-1].t_ns if records else 0)
+        self._store(self.pipe.process(records, self.clock),
+                    records[-1].t_ns if records else 0)
+
+    def _store(self, result: Batch, bus_ns: int, *, log_issues: bool = False) -> None:
+        """A processed batch into the catalog: the gaps met up to ``bus_ns``, the reasoner's
+        failures, the BITs with their events."""
+        self._gaps(bus_ns, log_issues=log_issues)
         self.actuator_seen |= result.actuator_seen
         for failure in result.failures:
             at = self._when(failure.bus_ns)
@@ -226,9 +261,13 @@ class Replay:
         absolute = self.clock.absolute(bus_ns)
         return time.time_ns() if absolute is None else absolute
 
-    def _gaps(self, bus_ns: int) -> None:
+    def _gaps(self, bus_ns: int, *, log_issues: bool = False) -> None:
+        """Each damaged packet met since the last call as a catalog gap (and on stderr when
+        ``log_issues``: the monitor logs those it reads itself)."""
         issues = self.monitor.issues
-        for issue in issues[self.issues_seen:]:  # the backend logs each on stderr
+        for issue in issues[self.issues_seen:]:
+            if log_issues:
+                log.warning("%s: %s", self.path, issue)
             at = self._when(bus_ns)
             self.catalog.record_gap(at, at, f"{self.path.name}: {issue}")
         self.issues_seen = len(issues)

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from datetime import datetime
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -170,3 +171,39 @@ def test_a_recorded_bit_flight_is_diagnosed_as_the_daemon_would(
     assert set(evidence) == set(live.evidence)
     assert evidence["score"] == pytest.approx(live.evidence["score"], rel=1e-3)
     assert set(event.params) == set(live.params)
+
+
+def test_as_fast_as_the_file_reads_stores_what_the_paced_replay_stores(
+        bit_flight: tuple[Path, list[Event]], sample_c10: Path, dictionary: Path,
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """Unpaced, a replay hands the pipeline the reader's columns (no record per message);
+    paced (``--speed``, here far faster than recorded time), one record at a time through
+    the monitor: the same summary and the same catalog, BITs, events, bus statistics and
+    damaged packets alike."""
+    def both(path: Path, *extra: str) -> list[tuple[str, list[Any]]]:
+        stored = []
+        for speed in ("0", "1e6"):
+            db = tmp_path / f"{path.stem}-{speed}.db"
+            code, out, _ = replay(capsys, str(path), "--catalog", str(db), "--icd", str(ICD),
+                                  "--speed", speed, *extra)
+            assert code == exitcodes.OK
+            with CatalogReader(db) as catalog:
+                stored.append((out.replace(str(db), "DB"), [
+                    [(e.asset, e.fault, e.bus_ns, e.abs_ns, e.evidence["score"])
+                     for e in catalog.events()],
+                    [(b.asset, b.bus_ns, b.flight, b.fault) for b in catalog.bits()],
+                    [(s.bus, s.messages, s.words, dict(s.errors), s.load_percent)
+                     for s in catalog.stats()],
+                    [(s.start_ns, s.end_ns) for s in catalog.stats()],
+                    [g.reason for g in catalog.gaps()]]))
+        return stored
+
+    flight, _ = bit_flight
+    (fast, paced) = both(flight, "--diagnose", "--dictionary", str(dictionary),
+                         "--threshold", "1e-9")
+    assert fast == paced and len(fast[1][0]) == 1   # the recording's own time: same stamps
+    (fast, paced) = both(sample_c10)
+    # no full date in the sample's time packets: its statistics' interval is the replay's
+    # own wall clock, so it is left out
+    del fast[1][3], paced[1][3]
+    assert fast == paced and fast[1][3] and len(fast[1][2]) == 2   # a damaged packet, 2 buses
