@@ -144,11 +144,12 @@ class Pipeline:
         outcomes = [self.outcome(w.asset, bit, clock) for w, bit in found]
         flights: list[Flight] = []
         if self.trending is not None:
+            end = None
             if seen and len(records):
                 last = int(records.t_ns[-1]) if isinstance(records, Ms1553Batch) else \
                     records[-1].t_ns
-                self.trending.observe(self._when(stamp(last), clock))
-            outcomes = self.trending.annotate(outcomes)
+                end = self._when(stamp(last), clock)
+            outcomes = self.trending.annotate_batch(outcomes, end)
             flights = self.trending.log.pop_changed() if outcomes else []
         events = [o.event for o in outcomes if o.event is not None]
         return Batch(series, [bit for _, bit in found], events, outcomes, failures, seen,

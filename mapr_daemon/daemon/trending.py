@@ -172,6 +172,23 @@ class Trending:
         """The actuators' traffic was on the bus at ``t_ns`` (epoch ns)."""
         self.log.observe(t_ns)
 
+    def annotate_batch(self, outcomes: Sequence[BitOutcome], traffic_end_ns: int | None
+                       ) -> list[BitOutcome]:
+        """The BITs of one batch of traffic, annotated (:meth:`annotate`), then the batch's
+        last actuator traffic at ``traffic_end_ns`` observed (None: none in the batch).
+
+        Each BIT is observed at its own time before it is annotated (a BIT is the actuator's
+        traffic), so a gap long enough to start a flight inside a batch puts the BITs before
+        it in the flight they were flown in, not the next one, whatever the batch's length.
+        """
+        out = []
+        for outcome in outcomes:
+            self.log.observe(outcome.t_ns)
+            out += self.annotate([outcome])
+        if traffic_end_ns is not None:
+            self.log.observe(traffic_end_ns)
+        return out
+
     def annotate(self, outcomes: Sequence[BitOutcome]) -> list[BitOutcome]:
         """Each BIT with its flight and the actuator's health after it (its event too)."""
         out = []

@@ -148,6 +148,24 @@ def test_flights_are_told_from_gaps_in_the_traffic_or_declared() -> None:
     assert log.hours_at(T0 + 30 * DAY) == pytest.approx(1.1667 + 0.5 + 37 * mean, rel=1e-3)
 
 
+def test_a_bit_just_before_a_flight_gap_in_the_same_batch_stays_in_its_flight(
+        model: PrognosticModel) -> None:
+    """One batch of traffic (a file read in batches, a busy bus) holds the end of a flight,
+    with a BIT in it, the ground gap, then the next flight's first traffic: the BIT is
+    counted in the flight it was flown in, and the later traffic starts the next flight."""
+    trending = Trending("N101", 900.0, {"EMA1": model})
+    fly(trending, 1)                          # flight 1: an hour of traffic, a day in
+    flown = bit(1, 0.05)                      # half an hour into flight 1
+    later = flown.t_ns + 3 * HOUR             # after the ground gap, in the same batch
+    (o,) = trending.annotate_batch([flown], later)
+    assert o.flight == 1
+    assert trending.log.number == 2           # the batch's last traffic: the next flight
+    ten_minutes = 600 * 10**9
+    (after,) = trending.annotate_batch([dataclasses.replace(flown, t_ns=later + ten_minutes)],
+                                       None)
+    assert after.flight == 2
+
+
 def test_the_history_is_stored_and_a_restart_continues_the_trend(
         model: PrognosticModel, tmp_path: Path) -> None:
     path = tmp_path / "c.sqlite"
