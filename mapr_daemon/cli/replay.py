@@ -45,8 +45,8 @@ BATCH = 1024
 """Records handed to the ICD and reasoner at a time when paced (``--speed``)."""
 COLUMNS = BATCH
 """Messages read and handed on at a time as fast as the file reads, as columns: no more than
-when paced, since the flights told from the traffic's gaps are told at batch ends (a BIT
-just before a gap in a longer batch would be counted in the next flight)."""
+when paced, since a damaged packet's catalog gap is stamped with the bus time of the batch it
+was met in (a larger batch would stamp it later)."""
 
 log = logging.getLogger("drivers.backends.chapter10")
 """The damaged packets are named under the backend's logger, as when it reads them."""
