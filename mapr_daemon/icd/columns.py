@@ -8,7 +8,8 @@ words back into arrays costs about 5 µs a message, twice what decoding them cos
 messages are matched to the table once per distinct pair of command words, each message's
 data words gathered straight from the batch's word array, and each message decoded in one
 call: :func:`decode_columns` returns what ``decode_batch`` returns for the batch's records
-(series in the same order, the same counts; tests/icd/test_columns.py checks it).
+(series in the same order, the same counts; tests/chapter10/test_decode_columns.py checks
+it).
 """
 
 from __future__ import annotations
@@ -19,21 +20,17 @@ import numpy as np
 import numpy.typing as npt
 
 from drivers.chapter10.ms1553_batch import FORMATS
-from drivers.mil1553.record import TransferFormat
+from mapr_daemon.icd.database import DECODABLE_FORMATS, BatchResult
 from mapr_daemon.icd.values import Series
 
 if TYPE_CHECKING:
     from drivers.chapter10.ms1553_batch import Ms1553Batch
-    from mapr_daemon.icd.database import BatchResult, Icd
+    from mapr_daemon.icd.database import Icd
     from mapr_daemon.icd.model import Message
 
-DECODABLE = np.zeros(len(FORMATS), np.bool_)
-"""By format code of :data:`FORMATS`: whether the table can describe such a message (the
-formats :meth:`Icd.match` accepts)."""
-for _code, _fmt in enumerate(FORMATS):
-    DECODABLE[_code] = _fmt in (TransferFormat.BC_RT, TransferFormat.RT_BC,
-                                TransferFormat.RT_RT, TransferFormat.BCAST_BC_RT,
-                                TransferFormat.BCAST_RT_RT)
+DECODABLE = np.array([fmt in DECODABLE_FORMATS for fmt in FORMATS], np.bool_)
+"""By format code of :data:`FORMATS`: whether the table can describe such a message
+(:data:`~mapr_daemon.icd.database.DECODABLE_FORMATS`)."""
 
 
 def message_numbers(icd: Icd, batch: Ms1553Batch) -> npt.NDArray[np.int64]:
@@ -79,8 +76,6 @@ def decode_columns(icd: Icd, batch: Ms1553Batch) -> BatchResult:
     """What ``icd.decode_batch(batch.records())`` returns, without building the records:
     the series of every message the table describes and carries data, grouped by message in
     the order each message first appears, and the counts."""
-    from mapr_daemon.icd.database import BatchResult
-
     result = BatchResult()
     names = message_numbers(icd, batch)
     known = names >= 0

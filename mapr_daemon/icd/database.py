@@ -31,7 +31,7 @@ from mapr_daemon.icd.validate import validate_table
 from mapr_daemon.icd.values import DecodedMessage, Series
 from mapr_daemon.icd.yamlsrc import load_file, load_text
 
-_DECODABLE = frozenset({TransferFormat.BC_RT, TransferFormat.RT_BC, TransferFormat.RT_RT,
+DECODABLE_FORMATS = frozenset({TransferFormat.BC_RT, TransferFormat.RT_BC, TransferFormat.RT_RT,
                         TransferFormat.BCAST_BC_RT, TransferFormat.BCAST_RT_RT})
 
 
@@ -92,7 +92,7 @@ class Icd:
 
     def match(self, record: MonitorRecord) -> Message | None:
         """The message a record carries, or None (mode codes, unknown RT/SA, stray words)."""
-        if record.format not in _DECODABLE or record.command is None:
+        if record.format not in DECODABLE_FORMATS or record.command is None:
             return None
         message = self._by_key.get(record.command >> 5)
         if message is None and record.command2 is not None:
@@ -128,7 +128,7 @@ class Icd:
         for rec in records:
             cmd = rec.command
             message = None
-            if cmd is not None and rec.format in _DECODABLE:
+            if cmd is not None and rec.format in DECODABLE_FORMATS:
                 message = by_key.get(cmd >> 5)
                 if message is None and rec.command2 is not None:
                     message = by_key.get(rec.command2 >> 5)
