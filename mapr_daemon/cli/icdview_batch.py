@@ -89,17 +89,8 @@ def batch_values_json(icd: Icd, batch: Ms1553Batch, compiled: bool = False
     """Per message: the JSON text of ``{"message": name, parameter: value..., "flags":
     {...}}`` (what ``json.dumps`` of :meth:`IcdView.values` gives), or None; written by
     the compiled writer (:mod:`mapr_daemon.cli.icdview_rows`) if ``compiled``."""
-    if compiled:
-        from mapr_daemon.cli.icdview_rows import compiled_rows
-
-        names = message_numbers(icd, batch)
-        return [text if name >= 0 else None for text, name in
-                zip(compiled_rows(icd).texts(batch, names), names.tolist(), strict=True)]
-    out: list[str | None] = [None] * len(batch)
-    rows, texts = _described(icd, batch, "")
-    for i, text in zip(rows, texts, strict=True):
-        out[i] = text
-    return out
+    texts, _ = _batch_texts(icd, batch, compiled, "")
+    return [text or None for text in texts]   # a described message's text is never empty
 
 
 def _described(icd: Icd, batch: Ms1553Batch, lead: str) -> tuple[list[int], list[str]]:
