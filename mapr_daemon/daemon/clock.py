@@ -43,6 +43,14 @@ BACKWARDS_NS = 1_000_000_000
 """Bus time running back by more than this is a restarted bus clock."""
 
 
+def traffic_span(records: Sequence[MonitorRecord] | Ms1553Batch) -> tuple[int, int]:
+    """Bus time tags of the first and the last message of a non-empty batch, records or a
+    Chapter 10 reader's columns."""
+    if isinstance(records, Ms1553Batch):
+        return int(records.t_ns[0]), int(records.t_ns[-1])
+    return records[0].t_ns, records[-1].t_ns
+
+
 def stamp(t_ns: int) -> int:
     """``t_ns`` rounded to :data:`STAMP_NS` as a Chapter 10 writer rounds a time tag."""
     return (int(t_ns) + STAMP_NS // 2) // STAMP_NS * STAMP_NS
@@ -66,13 +74,12 @@ class BusClock:
         columns) before anything is stamped from it."""
         if not len(records):
             return
+        first_ns, last_ns = traffic_span(records)
         if isinstance(records, Ms1553Batch):
-            first_ns, last_ns = int(records.t_ns[0]), int(records.t_ns[-1])
             epochs = records.epoch_ns
             epoch: object = None if epochs is None or epochs[-1] == NO_EPOCH else \
                 int(epochs[-1])
         else:
-            first_ns, last_ns = records[0].t_ns, records[-1].t_ns
             epoch = records[-1].extra.get("epoch_ns")
         if self.mode == "recording":
             if isinstance(epoch, int):

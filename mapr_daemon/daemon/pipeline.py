@@ -30,18 +30,18 @@ import time
 from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any
 
-from drivers.chapter10.ms1553_batch import Ms1553Batch
 from drivers.mil1553.record import MonitorRecord
 from mapr_daemon.catalog import BitOutcome, Event, event_from_reasoner
 from mapr_daemon.catalog.model import BitRecord, Flight
 from mapr_daemon.daemon import source, wiring
 from mapr_daemon.daemon.bitwatch import BitFound, BitWatch
-from mapr_daemon.daemon.clock import BusClock, stamp
+from mapr_daemon.daemon.clock import BusClock, stamp, traffic_span
 from mapr_daemon.daemon.config import AssetConfig, Config
 from mapr_daemon.errors import ConfigError
 from mapr_daemon.icd import Icd, Series, SignalStream, load_icd
 
 if TYPE_CHECKING:
+    from drivers.chapter10.ms1553_batch import Ms1553Batch
     from mapr_daemon.daemon.trending import Trending
     from mapr_daemon.reasoner.wear_model import PrognosticModel
 
@@ -146,9 +146,7 @@ class Pipeline:
         if self.trending is not None:
             end = None
             if seen and len(records):
-                last = int(records.t_ns[-1]) if isinstance(records, Ms1553Batch) else \
-                    records[-1].t_ns
-                end = self._when(stamp(last), clock)
+                end = self._when(stamp(traffic_span(records)[1]), clock)
             outcomes = self.trending.annotate_batch(outcomes, end)
             flights = self.trending.log.pop_changed() if outcomes else []
         events = [o.event for o in outcomes if o.event is not None]
