@@ -30,6 +30,9 @@ from drivers.jit import LANES, changed_bits, kernel, population_count, trailing_
 from drivers.mil1553.encoder import RX_BITS
 
 IntArray = npt.NDArray[np.int64]
+FloatArray = npt.NDArray[np.float64]
+Int8Array = npt.NDArray[np.int8]
+BoolArray = npt.NDArray[np.bool_]
 
 WRITTEN_FOR_LANES = 64
 """The :data:`~drivers.jit.LANES` this file's kernels step by (64 samples per
@@ -41,9 +44,6 @@ if LANES != WRITTEN_FOR_LANES:
     raise ImportError(f"drivers/mil1553/edges.py steps by {WRITTEN_FOR_LANES} samples, "
                       f"drivers/jit.py compares {LANES}: change both (and clear the kernel "
                       "cache)")
-FloatArray = npt.NDArray[np.float64]
-Int8Array = npt.NDArray[np.int8]
-BoolArray = npt.NDArray[np.bool_]
 
 
 class Workspace:
