@@ -121,23 +121,32 @@ def test_the_sample_decodes_byte_identically(values_writer: str, tmp_path: Path)
     assert decode("--icd", str(table), str(SAMPLE)) == expected
 
 
-@pytest.mark.parametrize("compiled", [False, True], ids=["repr", "compiled"])
-def test_both_values_writers_write_what_json_dumps_writes(traffic: Path, compiled: bool) -> None:
-    """The Python writer and the compiled one (used once a decode has written many values)
-    give each message the text of ``json.dumps`` of :meth:`IcdView.values`."""
+def values_both_ways(path: Path, compiled: bool = False
+                     ) -> tuple[list[str | None], list[str | None]]:
+    """Per message of ``path`` (the testbed table): the values text the batch writer gives
+    (the compiled one if ``compiled``), and ``json.dumps`` of :meth:`IcdView.values` of its
+    record (None for both where the table describes nothing)."""
     from mapr_daemon.cli.icdview_batch import batch_values_json
 
     view = IcdView(str(ICD))
     assert view.icd is not None
     written: list[str | None] = []
     expected: list[str | None] = []
-    for batch in Chapter10Reader(traffic).batches():
+    for batch in Chapter10Reader(path).batches():
         if batch.ms1553 is None:
             continue
         written += batch_values_json(view.icd, batch.ms1553, compiled=compiled)
         for record in batch.records:
             values = view.values(record)
             expected.append(None if values is None else json.dumps(values))
+    return written, expected
+
+
+@pytest.mark.parametrize("compiled", [False, True], ids=["repr", "compiled"])
+def test_both_values_writers_write_what_json_dumps_writes(traffic: Path, compiled: bool) -> None:
+    """The Python writer and the compiled one (used once a decode has written many values)
+    give each message the text of ``json.dumps`` of :meth:`IcdView.values`."""
+    written, expected = values_both_ways(traffic, compiled)
     assert sum(text is not None for text in expected) > 1500
     assert written == expected
 

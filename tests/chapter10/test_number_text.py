@@ -14,14 +14,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from drivers.chapter10.reader import Chapter10Reader
 from drivers.chapter10.writer import Chapter10Writer
 from drivers.mil1553.record import MonitorRecord, TransferFormat
 from mapr_daemon.cli.icdview import IcdView
-from mapr_daemon.cli.icdview_batch import batch_values_json
 from mapr_daemon.cli.icdview_numbers import number_parts
 
-ICD = Path(__file__).resolve().parents[2] / "configs" / "icd" / "ema-testbed.yaml"
+from .test_decode_batch import ICD, values_both_ways
+
 SEED = 20260518
 
 
@@ -99,17 +98,7 @@ def test_repeated_and_special_values_decode_as_json_dumps(tmp_path: Path) -> Non
     path = tmp_path / "repeating.c10"
     with Chapter10Writer(path, start_time=datetime(2026, 5, 18, 9)) as writer:
         writer.write(repeating_traffic(3000, SEED))
-    view = IcdView(str(ICD))
-    assert view.icd is not None
-    got: list[str | None] = []
-    expected: list[str | None] = []
-    for batch in Chapter10Reader(path).batches():
-        if batch.ms1553 is None:
-            continue
-        got += batch_values_json(view.icd, batch.ms1553)
-        for record in batch.records:
-            values = view.values(record)
-            expected.append(None if values is None else json.dumps(values))
+    got, expected = values_both_ways(path)
     text = "".join(e for e in expected if e)
     for needle in ("-0.0", "NaN", "Infinity", "-Infinity", "e-", "e+", '"flags"', '"POSITION"'):
         assert needle in text, needle
