@@ -11,7 +11,8 @@ conditions.
 ``paired`` reads a kept run of ``bench/fleet_rul.py --out DIR`` (its ``fleet.db``, and the
 dictionary and prognostic model named in its ``mapr.yaml``), rebuilds every BIT flight's
 fault, seed and named condition from the run seed as the bench drew them, and flies each BIT
-again directly (:func:`~mapr_daemon.reasoner.build.stream_matrices`, the model build's way)
+again directly (:func:`~mapr_daemon.reasoner.training.dictionary_build.stream_matrices`, the model
+build's way)
 with the same fault, pressure and plant seed: the plant then draws the same ambient and bus.
 Printed: how the catalog's stored condition and raw estimate differ from the direct BIT's
 (the bus path: ICD scaling, record assembly, sample timing, the pressure the BIT is told), and
@@ -47,13 +48,14 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from mapr_daemon.catalog.history import load_bits
 from mapr_daemon.ema.params import default_actuator_path, load_actuator
 from mapr_daemon.ema.profile import CONDITIONS
-from mapr_daemon.reasoner import wear
-from mapr_daemon.reasoner.build import stream_matrices
-from mapr_daemon.reasoner.corpus import BitRuns
-from mapr_daemon.reasoner.dictionary import Dictionary
-from mapr_daemon.reasoner.prognosis import degradation
-from mapr_daemon.reasoner.trajectory import CALIBRATION_LEVELS
-from mapr_daemon.reasoner.wear_model import PrognosticModel, conditions, fault_at
+from mapr_daemon.reasoner.diagnosis.dictionary import Dictionary
+from mapr_daemon.reasoner.prognosis import wear_estimators
+from mapr_daemon.reasoner.prognosis.prognostic_model import PrognosticModel
+from mapr_daemon.reasoner.prognosis.soh import degradation
+from mapr_daemon.reasoner.training.corpus import BitRuns
+from mapr_daemon.reasoner.training.dictionary_build import stream_matrices
+from mapr_daemon.reasoner.training.prognosis_build import conditions, fault_at
+from mapr_daemon.reasoner.training.rul_scoring import CALIBRATION_LEVELS
 
 BINS = ((-0.1, 0.1), (0.1, 0.3), (0.3, 0.5), (0.5, 0.7), (0.7, 0.9), (0.9, 1.2))
 Z90 = 1.645
@@ -155,7 +157,7 @@ def levels(args: argparse.Namespace) -> None:
                       [None] * n + list(amb), [None] * n + list(bus))
     m = stream_matrices(params, runs, d.window_starts, d.window_samples)
     q = np.array(qf + qe)
-    y, c = wear.observations(d, m, list(q))
+    y, c = wear_estimators.observations(d, m, list(q))
     cond = [PrognosticModel.bit_conditions(d, m[i], float(q[i])) for i in range(2 * n)]
     truth = np.array([h for _, h in todo] * 2)
     kind_of = np.array([k for k, _ in todo] * 2)

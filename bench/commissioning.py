@@ -9,14 +9,15 @@ part tolerance, each parameter uniform in its band (:data:`UNIT_BANDS`, percent)
 Each unit flies :data:`MAX_BITS` healthy BITs in the full plant (sensor noise, friction
 scatter, bus drift and ripple), each at its own random condition in the envelope: dynamic
 pressure 0..2500 Pa, ambient -40..70 C, aircraft bus 22..29 V (uniform). Commissioning
-(:func:`mapr_daemon.reasoner.identify.identify`, the shipped tolerances) then sees the data
+(:func:`mapr_daemon.reasoner.commissioning.identify.identify`, the shipped tolerances) then sees
+the data
 sheet and the unit's first n BITs, n in :data:`COUNTS`. Printed per parameter and n: the RMS
 and the worst identification error over the units (log ratio of identified to true, in %),
 how many units found it identifiable, and the median and worst |error|/sd (1 = the reported
 sd is right).
 
 The unit's source is one function (:func:`simulated_unit`): anything that returns the true
-parameter values and a :class:`~mapr_daemon.reasoner.corpus.Runs` of its healthy BITs (a
+parameter values and a :class:`~mapr_daemon.reasoner.training.corpus.Runs` of its healthy BITs (a
 plant of another model form, say) can be scored by :func:`score_unit` the same way.
 
 Run: ``python3 bench/commissioning.py [--units 6] [--seed S] [--counts 1,2,5,10,20]``; the
@@ -35,10 +36,10 @@ import numpy as np
 
 from mapr_daemon.ema.faults import FaultSet
 from mapr_daemon.ema.params import ActuatorParams, default_actuator_path, load_actuator
-from mapr_daemon.reasoner import identify_prior as ip
-from mapr_daemon.reasoner.corpus import Runs, simulate_bit
-from mapr_daemon.reasoner.identify import Identification, identify
-from mapr_daemon.reasoner.identify_bits import from_runs
+from mapr_daemon.reasoner.commissioning import prior as ip
+from mapr_daemon.reasoner.commissioning.bits import from_runs
+from mapr_daemon.reasoner.commissioning.identify import Identification, identify
+from mapr_daemon.reasoner.training.corpus import Runs, simulate_bit
 
 UNIT_BANDS: dict[str, tuple[float, float]] = {
     "motor.resistance_ohm": (-10, 10), "motor.back_emf_v_s_per_rad": (-5, 5),

@@ -60,15 +60,15 @@ def load_average() -> str:
 def small_dictionary(folder: Path) -> Path:
     """The tests' small dictionary (healthy, ESR, friction, phase-A high-side short/open)."""
     from mapr_daemon.ema.params import default_actuator_path, load_actuator
-    from mapr_daemon.reasoner import build
-    from mapr_daemon.reasoner.dictionary import DictionarySpec
+    from mapr_daemon.reasoner.diagnosis.dictionary import DictionarySpec
+    from mapr_daemon.reasoner.training import dictionary_build
 
     spec = DictionarySpec(pressures_pa=(0.0, 1600.0), nominal_per_pressure=4,
                           severities=(0.25, 0.5, 0.75, 1.0), kinds=("esr", "friction"),
                           shorts=("A_high",), opens=("A_high",), calibration_runs=10,
                           calibration_pressure_pa=(200.0, 1400.0), threshold_margin=1.5)
     path = folder / "dictionary.npz"
-    build.build(load_actuator(default_actuator_path()), spec).save(path)
+    dictionary_build.build(load_actuator(default_actuator_path()), spec).save(path)
     return path
 
 

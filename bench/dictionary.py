@@ -52,7 +52,7 @@ def _warm() -> float:
     """Load (or compile) the plant kernel; seconds taken."""
     from mapr_daemon.ema.faults import FaultSet
     from mapr_daemon.ema.params import default_actuator_path, load_actuator
-    from mapr_daemon.reasoner.corpus import simulate_bit
+    from mapr_daemon.reasoner.training.corpus import simulate_bit
 
     t0 = time.perf_counter()
     simulate_bit(load_actuator(default_actuator_path()), [FaultSet()], [0.0], [1], workers=1)
@@ -63,7 +63,7 @@ def _child(case: str, workers: int | None, one_core: bool) -> dict[str, Any]:
     """One measured case in this process."""
     if one_core:
         os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})
-    from mapr_daemon.reasoner.workers import resolve
+    from mapr_daemon.reasoner.training.workers import resolve
 
     warm = _warm()
     n_workers = resolve(workers)
@@ -72,8 +72,8 @@ def _child(case: str, workers: int | None, one_core: bool) -> dict[str, Any]:
     if case == "default":
         from mapr_daemon.cli.dictionary import default_spec_path
         from mapr_daemon.ema.params import default_actuator_path, load_actuator
-        from mapr_daemon.reasoner.build import build
-        from mapr_daemon.reasoner.dictionary import DictionarySpec
+        from mapr_daemon.reasoner.diagnosis.dictionary import DictionarySpec
+        from mapr_daemon.reasoner.training.dictionary_build import build
 
         def flown(fraction: float) -> None:
             if fraction >= 1.0:   # every BIT flown and (but the last batch) reduced to M
@@ -124,7 +124,7 @@ def main() -> None:
     if args.child:
         print(json.dumps(_child(args.child, args.workers, args.one_core)))
         return
-    from mapr_daemon.reasoner.workers import usable_cores
+    from mapr_daemon.reasoner.training.workers import usable_cores
 
     cores = usable_cores()
     print(f"machine: {os.cpu_count()} cores, {cores} usable; load average {_load()}")

@@ -4,14 +4,14 @@ fresh BITs over the envelope and at nominal conditions.
     python3 bench/estimate_noise.py --dictionary D.npz --prognosis P.npz [--bits 150] [--seed N]
 
 Per trended kind, ``--bits`` BITs at degradations uniform in 0-1.2 of the failure threshold,
-flown by the EMA model (:func:`~mapr_daemon.reasoner.corpus.simulate_bit` batches) at seeds
+flown by the EMA model (:func:`~mapr_daemon.reasoner.training.corpus.simulate_bit` batches) at seeds
 drawn fresh from the printed run seed, clear of the model's training (7,000,000 up) and
 calibration (8,000,000 up) seeds; two sets: **envelope** (pressure up to the envelope's
 maximum with a fifth on the ground, ambient temperature and aircraft-bus voltage uniform over
 their ranges, as the model was built) and **nominal** (the five named flight conditions'
 pressures, nominal temperature and bus). Each BIT's estimate is read by the model two ways:
 envelope-wide (one line ``(estimate - offset) / gain``, sd ``sd0 + sd1*h``: what the product
-did before) and at the BIT's condition (:meth:`~mapr_daemon.reasoner.estimate_noise.Noise
+did before) and at the BIT's condition (:meth:`~mapr_daemon.reasoner.prognosis.wear_noise.Noise
 .calibrate` and ``h_sd``: what it does now). Printed per kind and part of the envelope (bus
 below nominal - 2 V, the rest, nominal), per reading: the error's mean and sd against the
 truth, the median stated sd and how often the truth lies inside the 90 % band (90 % if
@@ -32,11 +32,12 @@ from seeds import fresh
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from mapr_daemon.ema.params import default_actuator_path, load_actuator
-from mapr_daemon.reasoner import wear
-from mapr_daemon.reasoner.build import stream_matrices
-from mapr_daemon.reasoner.corpus import BitRuns
-from mapr_daemon.reasoner.dictionary import Dictionary
-from mapr_daemon.reasoner.wear_model import PrognosticModel, conditions, fault_at
+from mapr_daemon.reasoner.diagnosis.dictionary import Dictionary
+from mapr_daemon.reasoner.prognosis import wear_estimators
+from mapr_daemon.reasoner.prognosis.prognostic_model import PrognosticModel
+from mapr_daemon.reasoner.training.corpus import BitRuns
+from mapr_daemon.reasoner.training.dictionary_build import stream_matrices
+from mapr_daemon.reasoner.training.prognosis_build import conditions, fault_at
 
 NAMED_PRESSURES = (0.0, 300.0, 600.0, 1000.0, 1500.0)
 Z90 = 1.645
@@ -54,7 +55,7 @@ def fly(d: Dictionary, model: PrognosticModel, kinds: list[str], n: int, envelop
     seeds = [int(s) for s in rng.integers(SEED_BASE, 2 * SEED_BASE, len(todo))]
     runs = BitRuns.of([fault_at(params, k, h) for k, h in todo], q, seeds, amb, bus)
     m = stream_matrices(params, runs, d.window_starts, d.window_samples)
-    y, c = wear.observations(d, m, q)
+    y, c = wear_estimators.observations(d, m, q)
     out = {}
     for k in kinds:
         rows = [i for i, (kk, _) in enumerate(todo) if kk == k]

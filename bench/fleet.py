@@ -72,8 +72,8 @@ def default_dictionary() -> Path:
 def default_prognosis(dictionary: Path) -> Path:
     """A prognostic model for ``dictionary``, built once with the default spec and cached."""
     from mapr_daemon.ema.params import default_actuator_path, load_actuator
-    from mapr_daemon.reasoner.dictionary import Dictionary
-    from mapr_daemon.reasoner.wear_model import build_prognostic_model
+    from mapr_daemon.reasoner.diagnosis.dictionary import Dictionary
+    from mapr_daemon.reasoner.training.prognosis_build import build_prognostic_model
 
     path = dictionary.with_name(f"prognosis-{dictionary.stem}.npz")
     if not path.exists():

@@ -8,7 +8,7 @@
                                [--expected-life N] [--readback [--reassess]]
 
 Each unit is an actuator aging along :func:`mapr_daemon.ema.degradation.trajectory` (mean life
-200 flights, +/-30 %, as :mod:`mapr_daemon.reasoner.trajectory` and the fleet prior of the
+200 flights, +/-30 %, as :mod:`mapr_daemon.reasoner.training.rul_scoring` and the fleet prior of the
 prognostic model; ``--mean-life`` flies units the prior does not describe), one tail per
 unit. Every
 ``--bit-every``-th flight from flight 0 to its end of life is flown by the testbed
@@ -38,7 +38,7 @@ headline (leading-mode) RUL, stated only for an evidenced kind. Scored:
   whose health names a wearing mode (false wear), and how many carry a RUL.
 
 Per kind and overall, with the worst unit beside the average. Then the same units' paths
-(same trajectory seeds) through the in-memory path (:func:`mapr_daemon.reasoner.trajectory
+(same trajectory seeds) through the in-memory path (:func:`mapr_daemon.reasoner.training.rul_scoring
 .observe_units` and ``score``: its own BIT simulations, estimators and calibration, not the
 product's prognostic model nor the bus), scored with both criteria.
 
@@ -78,17 +78,17 @@ from seeds import fresh
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from mapr_daemon.arrays import FloatArray
 from mapr_daemon.catalog.history import load_bits
 from mapr_daemon.cli.main import main as mapr
 from mapr_daemon.ema.degradation import Trajectory, trajectory
 from mapr_daemon.ema.faults import FaultSet
 from mapr_daemon.ema.params import default_actuator_path, load_actuator
 from mapr_daemon.ema.profile import CONDITIONS
-from mapr_daemon.reasoner.features import FloatArray
-from mapr_daemon.reasoner.health import assess
-from mapr_daemon.reasoner.prognosis import degradation
-from mapr_daemon.reasoner.trajectory import bit_flights, observe_units, score
-from mapr_daemon.reasoner.wear_model import PrognosticModel
+from mapr_daemon.reasoner.prognosis.assessment import assess
+from mapr_daemon.reasoner.prognosis.prognostic_model import PrognosticModel
+from mapr_daemon.reasoner.prognosis.soh import degradation
+from mapr_daemon.reasoner.training.rul_scoring import bit_flights, observe_units, score
 from mapr_daemon.testbed.fleet import FIRST_DAY, fly_flight
 
 KINDS = ("capacitance", "esr", "friction", "smps_ron_high")
@@ -258,7 +258,7 @@ def reassessed_points(conn: sqlite3.Connection, u: Unit, model: PrognosticModel
 def estimate_errors(conn: sqlite3.Connection, u: Unit, model: PrognosticModel
                     ) -> tuple[FloatArray, FloatArray]:
     """The unit's stored per-BIT estimates of its true kind, read by the model's
-    :class:`~mapr_daemon.reasoner.estimate_noise.Noise` at each BIT's stored flight condition,
+    :class:`~mapr_daemon.reasoner.prognosis.wear_noise.Noise` at each BIT's stored flight condition,
     minus the true degradation; and the sd the model states for them (same scale)."""
     noise = model.noise.get(u.kind)
     if noise is None:
@@ -434,8 +434,9 @@ def main() -> int:
 
 def in_memory(dictionary: Path, units: Sequence[Unit], bit_every: int,
               kinds: Sequence[str], mean_life: float = MEAN_LIFE) -> None:
-    """The same units' paths through reasoner/trajectory.py (its own BITs and estimators)."""
-    from mapr_daemon.reasoner.dictionary import Dictionary
+    """The same units' paths through reasoner/training/rul_scoring.py (its own BITs and
+    estimators)."""
+    from mapr_daemon.reasoner.diagnosis.dictionary import Dictionary
 
     params = load_actuator(default_actuator_path())
     started = time.monotonic()
@@ -449,7 +450,7 @@ def in_memory(dictionary: Path, units: Sequence[Unit], bit_every: int,
                for t, tr, e, lo, hi in zip(s.times, s.true_rul, s.est_rul, s.lower, s.upper,
                                            strict=True)]
         scores.append(score_points(u.tail, u.kind, s.eol, pts, LAMBDAS, ALPHA, leads=False))
-    print_table(f"in memory (reasoner/trajectory.py, same trajectory seeds; "
+    print_table(f"in memory (reasoner/training/rul_scoring.py, same trajectory seeds; "
                 f"{time.monotonic() - started:.0f} s): point criterion", scores, kinds)
     beta = [v for s in scored for v in s.alpha_lambda.values()]
     print(f"in memory, alpha-lambda with its beta = 0.5 draw criterion: "

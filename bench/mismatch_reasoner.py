@@ -26,9 +26,9 @@ from seeds import fresh as fresh_seed
 
 from mapr_daemon.ema.batch import RunSpec
 from mapr_daemon.ema.params import default_actuator_path, load_actuator
-from mapr_daemon.reasoner.corpus import Runs, simulate_bit
-from mapr_daemon.reasoner.dictionary import Dictionary
-from mapr_daemon.reasoner.events import Reasoner
+from mapr_daemon.reasoner.diagnosis.dictionary import Dictionary
+from mapr_daemon.reasoner.reasoner import Reasoner
+from mapr_daemon.reasoner.training.corpus import Runs, simulate_bit
 from mapr_daemon.testbed.mismatch import fleet
 
 

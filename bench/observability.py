@@ -32,8 +32,8 @@ from mapr_daemon.ema.params import (
     with_sample_rate,
 )
 from mapr_daemon.ema.run import RunResult, run_batch
-from mapr_daemon.reasoner.sector import CHANNELS as SECTOR_CHANNELS
-from mapr_daemon.reasoner.sector import a_high_resistance
+from mapr_daemon.reasoner.diagnosis.sector import CHANNELS as SECTOR_CHANNELS
+from mapr_daemon.reasoner.diagnosis.sector import a_high_resistance
 from mapr_daemon.testbed.profiles import bit_profile
 
 KINDS = ("capacitance", "esr", "smps_ron_high", "smps_ron_low", "inverter_ron_a_high", "friction")
@@ -55,7 +55,8 @@ VISIBLE_WITH = {
 def sector_resistance(res: RunResult) -> np.ndarray:
     """Loop resistance where phase A's high side is the PWM'd switch, minus elsewhere (ohm).
 
-    The reasoner's own per-record fit (:func:`mapr_daemon.reasoner.sector.a_high_resistance`:
+    The reasoner's own per-record fit
+    (:func:`mapr_daemon.reasoner.diagnosis.sector.a_high_resistance`:
     ``duty * Vdc`` on the sector's torque current and the speed, over the samples whose sector
     and drive direction put phase A's high side in the PWM'd leg and over the rest; an
     inverter phase-A high-side Ron fault raises only the first), over the profile after its

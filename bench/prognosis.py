@@ -2,10 +2,12 @@
 
 Two units of each aging kind of issue 5 (capacitance, ESR, SMPS high/low-side Ron, inverter
 phase-A Ron, friction), a BIT every 4 flights of each unit's life. Each BIT is read by the
-kind's degradation estimator (mapr_daemon/reasoner/wear.py), trained on BITs flown at known
+kind's degradation estimator (mapr_daemon/reasoner/prognosis/wear_estimators.py), trained on BITs
+flown at known
 degradations with seeds of their own; its scale error and noise are measured on calibration
 BITs of yet other seeds. At each BIT from a quarter of the life on, the reasoner fits the
-kind's aging shape (exponential, reciprocal, power; see mapr_daemon/reasoner/trend.py) to the
+kind's aging shape (exponential, reciprocal, power; see mapr_daemon/reasoner/prognosis/trend.py) to
+the
 estimates so far, with a fleet prior (shape parameter jointly with the life, and the part's
 flight-to-flight scatter) learned from 30 other units per kind, and again without it, from
 the same BITs. alpha = 0.2 at lambda 0.5 and 0.75 (t0 = flight 0), beta = 0.5; relative
@@ -27,9 +29,9 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from mapr_daemon.ema.params import default_actuator_path, load_actuator
-from mapr_daemon.reasoner.build import build
-from mapr_daemon.reasoner.dictionary import Dictionary, DictionarySpec
-from mapr_daemon.reasoner.trajectory import (
+from mapr_daemon.reasoner.diagnosis.dictionary import Dictionary, DictionarySpec
+from mapr_daemon.reasoner.training.dictionary_build import build
+from mapr_daemon.reasoner.training.rul_scoring import (
     CALIBRATION_LEVELS,
     CALIBRATION_REPS,
     FLEET_UNITS,

@@ -23,11 +23,11 @@ from pathlib import Path
 
 from mapr_daemon.ema.faults import FaultSet, at_severity
 from mapr_daemon.ema.params import default_actuator_path, load_actuator
-from mapr_daemon.reasoner import build
-from mapr_daemon.reasoner.corpus import simulate_bit
-from mapr_daemon.reasoner.dictionary import Dictionary, DictionarySpec
-from mapr_daemon.reasoner.estimator import ParameterEstimator
-from mapr_daemon.reasoner.events import Reasoner
+from mapr_daemon.reasoner.diagnosis.dictionary import Dictionary, DictionarySpec
+from mapr_daemon.reasoner.ekf.estimator import ParameterEstimator
+from mapr_daemon.reasoner.reasoner import Reasoner
+from mapr_daemon.reasoner.training import dictionary_build
+from mapr_daemon.reasoner.training.corpus import simulate_bit
 
 SPEC = DictionarySpec(
     pressures_pa=(0.0, 800.0, 1600.0), nominal_per_pressure=4, severities=(0.25, 0.5, 0.75, 1.0),
@@ -47,7 +47,8 @@ def main() -> int:
     args = ap.parse_args()
     params = load_actuator(default_actuator_path())
     t0 = time.perf_counter()
-    d = Dictionary.load(args.dictionary) if args.dictionary else build.build(params, SPEC)
+    d = Dictionary.load(args.dictionary) if args.dictionary else \
+        dictionary_build.build(params, SPEC)
     print(f"dictionary: {args.dictionary or 'small (the test suite spec)'}, "
           f"{len(d.templates)} templates")
     kinds = [FaultSet()] + [FaultSet.of([at_severity(params, k, s)])

@@ -8,8 +8,10 @@ fresh seeds each run, printed), a BIT every ``--bit-every`` flights. Each BIT's 
 estimate is the unit's TRUE degradation plus Gaussian noise of sd ``sigma`` (in units of
 the failure threshold), and the trend is told that sd exactly: the estimator is perfect but
 for its noise, unbiased, its noise known, no leading mode to choose, no evidence gate. What
-this bench scores is therefore the trend itself (:func:`mapr_daemon.reasoner.trend.fit_rul`
-with the product's fleet prior, :func:`~mapr_daemon.reasoner.trajectory.learn_prior`) at that
+this bench scores is therefore the trend itself
+(:func:`mapr_daemon.reasoner.prognosis.trend.fit_rul`
+with the product's fleet prior, :func:`~mapr_daemon.reasoner.training.rul_scoring.learn_prior`) at
+that
 noise, with the same rules as bench/fleet_rul.py (bench/rul_scoring.py): alpha-lambda (alpha
 0.2, lambda 0.5 and 0.75) by the median, and coverage of the 90 % interval at every BIT from a
 quarter of life on.
@@ -36,8 +38,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from mapr_daemon.ema.degradation import trajectory
 from mapr_daemon.ema.params import ActuatorParams, default_actuator_path, load_actuator
-from mapr_daemon.reasoner import prognosis, trend
-from mapr_daemon.reasoner.trajectory import bit_flights, learn_prior
+from mapr_daemon.reasoner.prognosis import soh, trend
+from mapr_daemon.reasoner.training.rul_scoring import bit_flights, learn_prior
 
 KINDS = ("capacitance", "esr", "friction", "smps_ron_high")
 LAMBDAS = (0.5, 0.75)
@@ -53,7 +55,7 @@ def unit_points(kind: str, seed: int, sigma: float, bit_every: int, mean_life: f
     """One unit's stated RUL at each BIT from a quarter of its life on."""
     t = trajectory(params, kind, int(mean_life * 2), seed, mean_life)
     fl = bit_flights(t, bit_every)
-    h = np.array([prognosis.degradation(params, kind, float(t.values[int(f)])) for f in fl])
+    h = np.array([soh.degradation(params, kind, float(t.values[int(f)])) for f in fl])
     est = h + sigma * np.random.default_rng(seed + 1).standard_normal(fl.size)
     noise = trend.Noise(max(sigma, MIN_SD))
     pts = []

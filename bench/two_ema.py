@@ -27,9 +27,9 @@ from mapr_daemon.daemon.bitwatch import BitWatch
 from mapr_daemon.ema.faults import FaultSet, parse_fault
 from mapr_daemon.ema.params import ActuatorParams, load_actuator, with_sample_rate
 from mapr_daemon.icd import SignalStream, load_icd
-from mapr_daemon.reasoner import build
-from mapr_daemon.reasoner.dictionary import DictionarySpec
-from mapr_daemon.reasoner.events import Reasoner
+from mapr_daemon.reasoner.diagnosis.dictionary import DictionarySpec
+from mapr_daemon.reasoner.reasoner import Reasoner
+from mapr_daemon.reasoner.training import dictionary_build
 from mapr_daemon.testbed.aircraft import Aircraft
 from mapr_daemon.testbed.profiles import steady_profile
 
@@ -61,7 +61,7 @@ def main() -> None:
     aileron = with_sample_rate(load_actuator(ROOT / "configs/actuators/aileron-uav.yaml"), 2000)
     elevator = with_sample_rate(load_actuator(ROOT / "configs/actuators/elevator-uav.yaml"), 1000)
     started = time.monotonic()
-    dictionaries = [build.build(aileron, SPEC), build.build(elevator, SPEC)]
+    dictionaries = [dictionary_build.build(aileron, SPEC), dictionary_build.build(elevator, SPEC)]
     print(f"dictionaries built in {time.monotonic() - started:.0f} s (aileron 2 kHz, "
           f"elevator 1 kHz)")
     right = {"EMA1": 0, "EMA2": 0}

@@ -5,14 +5,16 @@ by part-to-part tolerance, and a model form the data sheet does not carry — st
 or voltage-mode control, a housekeeping load, a Hall offset, sensor gain and offset errors).
 Each unit flies ``--commission-bits`` healthy BITs at conditions drawn over the envelope; the
 data sheet's dictionary is calibrated to the unit on them
-(:func:`mapr_daemon.reasoner.adapt.calibrate_unit`); then the unit's other BITs are
+(:func:`mapr_daemon.reasoner.commissioning.calibrate.calibrate_unit`); then the unit's other BITs
+are
 diagnosed: ``--healthy`` healthy ones and two faulted ones per mode (magnitudes 25-100 % of
 range for the parametric modes, short/open on a random switch), all at conditions drawn over
 the whole envelope (a quarter on the ground). The same BITs are also decided with the
 uncalibrated dictionary, for comparison.
 
 With ``--identify`` each unit is commissioned as ``mapr commission`` does it: its parameters
-identified from the same BITs (:func:`mapr_daemon.reasoner.identify.identify`), a dictionary
+identified from the same BITs (:func:`mapr_daemon.reasoner.commissioning.identify.identify`), a
+dictionary
 built on the identified actuator (``--spec``, default the shipped one), then calibrated to
 the unit; slower (a dictionary per unit).
 
@@ -39,12 +41,13 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from mapr_daemon.ema.batch import RunSpec
 from mapr_daemon.ema.faults import SWITCHES, Fault, FaultSet, at_severity
 from mapr_daemon.ema.params import ActuatorParams, default_actuator_path, load_actuator
-from mapr_daemon.reasoner import adapt, classifier, parts
-from mapr_daemon.reasoner.build import build, run_matrices
-from mapr_daemon.reasoner.corpus import Runs, simulate_bit
-from mapr_daemon.reasoner.dictionary import Dictionary, DictionarySpec
-from mapr_daemon.reasoner.identify import identify
-from mapr_daemon.reasoner.identify_bits import from_runs
+from mapr_daemon.reasoner.commissioning import calibrate
+from mapr_daemon.reasoner.commissioning.bits import from_runs
+from mapr_daemon.reasoner.commissioning.identify import identify
+from mapr_daemon.reasoner.diagnosis import classifier, parts
+from mapr_daemon.reasoner.diagnosis.dictionary import Dictionary, DictionarySpec
+from mapr_daemon.reasoner.training.corpus import Runs, simulate_bit
+from mapr_daemon.reasoner.training.dictionary_build import build, run_matrices
 from mapr_daemon.testbed.mismatch import fleet
 
 MODES = ("capacitance", "esr", "smps_ron_high", "smps_ron_low", "inverter_ron_a_high",
@@ -121,7 +124,7 @@ def main() -> int:
         base = d
         if args.identify:
             base = _identified(sheet, runs, comm, args.spec)
-        unit_d, report = adapt.calibrate_unit(base, m[comm], np.asarray(q)[comm])
+        unit_d, report = calibrate.calibrate_unit(base, m[comm], np.asarray(q)[comm])
         widened.append(report.widened_cells)
         for stat, (old, new) in report.thresholds.items():
             raised.setdefault(stat, []).append(new / old)

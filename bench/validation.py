@@ -33,10 +33,10 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from mapr_daemon.ema.faults import SWITCHES, Fault, FaultSet, at_severity
 from mapr_daemon.ema.params import default_actuator_path, load_actuator
-from mapr_daemon.reasoner import classifier
-from mapr_daemon.reasoner.build import build, run_matrices
-from mapr_daemon.reasoner.corpus import simulate_bit
-from mapr_daemon.reasoner.dictionary import Dictionary, DictionarySpec
+from mapr_daemon.reasoner.diagnosis import classifier
+from mapr_daemon.reasoner.diagnosis.dictionary import Dictionary, DictionarySpec
+from mapr_daemon.reasoner.training.corpus import simulate_bit
+from mapr_daemon.reasoner.training.dictionary_build import build, run_matrices
 
 MODES = ("capacitance", "esr", "smps_ron_high", "smps_ron_low", "inverter_ron_a_high",
          "friction", "short", "open")

@@ -56,8 +56,8 @@ def dictionary(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A small fault dictionary (ESR and friction, two pressures, over the envelope), built
     once per session for every test that diagnoses (~30 s)."""
     from mapr_daemon.ema.params import default_actuator_path, load_actuator
-    from mapr_daemon.reasoner import build
-    from mapr_daemon.reasoner.dictionary import DictionarySpec
+    from mapr_daemon.reasoner.diagnosis.dictionary import DictionarySpec
+    from mapr_daemon.reasoner.training import dictionary_build
 
     spec = DictionarySpec(pressures_pa=(0.0, 1600.0), nominal_per_pressure=4,
                           severities=(0.25, 0.5, 0.75, 1.0), kinds=("esr", "friction"),
@@ -65,5 +65,5 @@ def dictionary(tmp_path_factory: pytest.TempPathFactory) -> Path:
                           calibration_runs=20, envelope=True, ground_share=0.2,
                           threshold_margin=1.5)
     path = tmp_path_factory.mktemp("dictionary") / "dictionary.npz"
-    build.build(load_actuator(default_actuator_path()), spec).save(path)
+    dictionary_build.build(load_actuator(default_actuator_path()), spec).save(path)
     return path

@@ -105,3 +105,176 @@ class Watch:
         f"mapr_daemon/cli/x.py:{n}: imports {SIMULATOR} at module level" for n in (2, 3, 4, 7)
     ] + [f"mapr_daemon/cli/x.py:{n}: imports {SIMULATOR} in run()" for n in (10, 11)
          ] + [f"mapr_daemon/cli/x.py:15: imports {SIMULATOR} in Watch.feed()"]
+
+
+# ---------------------------------------------------------------------------------------------
+# Layering: every package on a floor, imports only go down, and no module import cycle.
+
+FLOORS: tuple[tuple[str, ...], ...] = (
+    ("errors", "arrays"),
+    ("ema", "icd"),
+    ("catalog", "reasoner.diagnosis", "reasoner.ekf"),
+    ("reasoner.prognosis",),
+    ("reasoner.training",),
+    ("reasoner.commissioning",),
+    ("reasoner",),
+    ("daemon",),
+    ("fleet",),
+    ("cli",),
+    ("testbed",),
+)
+"""The floors of ``mapr_daemon``, bottom first. A package imports only packages on lower
+floors (and itself); packages on one floor do not import each other. ``reasoner`` alone is
+its face (``reasoner/__init__.py``, ``reasoner/reasoner.py``); its sub-packages read as the
+reasoner's pipeline: diagnose, estimate, trend, train, commission."""
+
+REASONER_SUBPACKAGES = ("diagnosis", "ekf", "prognosis", "training", "commissioning")
+
+
+def unit_of(module: str) -> str | None:
+    """The floor-table unit a dotted module belongs to (None outside ``mapr_daemon``)."""
+    parts = module.split(".")
+    if parts[0] != "mapr_daemon" or len(parts) < 2:
+        return None
+    if parts[1] == "reasoner" and len(parts) > 2 and parts[2] in REASONER_SUBPACKAGES:
+        return f"reasoner.{parts[2]}"
+    return parts[1]
+
+
+def module_name(path: Path) -> str:
+    parts = list(path.relative_to(ROOT).with_suffix("").parts)
+    if parts[-1] == "__init__":
+        parts.pop()
+    return ".".join(parts)
+
+
+def _resolve(importer: str, node: ast.Import | ast.ImportFrom, known: set[str]) -> list[str]:
+    """The project modules an import statement loads: ``from pkg import name`` is the module
+    ``pkg.name`` when there is one, else ``pkg`` itself."""
+    if isinstance(node, ast.Import):
+        return [a.name for a in node.names if a.name in known]
+    base = node.module or ""
+    if node.level:
+        anchor = importer.split(".")[: -node.level] if not importer.endswith("__init__") else \
+            importer.split(".")
+        base = ".".join(anchor + ([base] if base else []))
+    out = [f"{base}.{a.name}" for a in node.names if f"{base}.{a.name}" in known]
+    if len(out) < len(node.names) and base in known:
+        out.append(base)
+    return out
+
+
+def import_graph() -> dict[str, set[str]]:
+    """Module -> the project modules it imports (anywhere in it: module level, functions,
+    ``TYPE_CHECKING`` blocks)."""
+    paths = {module_name(p): p for package in ("mapr_daemon", "drivers")
+             for p in sorted((ROOT / package).rglob("*.py"))}
+    known = set(paths)
+    graph: dict[str, set[str]] = {}
+    for name, path in paths.items():
+        targets: set[str] = set()
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, (ast.Import, ast.ImportFrom)):
+                targets.update(t for t in _resolve(name, node, known) if t != name)
+        graph[name] = targets
+    return graph
+
+
+def floor_violations(graph: dict[str, set[str]]) -> list[str]:
+    floor = {unit: i for i, units in enumerate(FLOORS) for unit in units}
+    bad = []
+    for importer, targets in sorted(graph.items()):
+        src = unit_of(importer)
+        if src is None:
+            continue
+        if src not in floor:
+            bad.append(f"{importer}: package {src} has no floor in FLOORS")
+            continue
+        for target in sorted(targets):
+            dst = unit_of(target)
+            if dst is None or dst == src:
+                continue
+            if dst not in floor or floor[dst] >= floor[src]:
+                bad.append(f"{importer} imports {target}: {src} (floor {floor[src]}) may not "
+                           f"import {dst} (floor {floor.get(dst)})")
+    return bad
+
+
+def cycles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """Strongly connected components of more than one module (Tarjan, iterative)."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on_stack: set[str] = set()
+    found: list[list[str]] = []
+    counter = 0
+    for root in sorted(graph):
+        if root in index:
+            continue
+        work = [(root, iter(sorted(graph[root])))]
+        index[root] = low[root] = counter
+        counter += 1
+        stack.append(root)
+        on_stack.add(root)
+        while work:
+            node, children = work[-1]
+            child = next(children, None)
+            if child is not None:
+                if child not in index:
+                    index[child] = low[child] = counter
+                    counter += 1
+                    stack.append(child)
+                    on_stack.add(child)
+                    work.append((child, iter(sorted(graph.get(child, ())))))
+                elif child in on_stack:
+                    low[node] = min(low[node], index[child])
+                continue
+            work.pop()
+            if work:
+                low[work[-1][0]] = min(low[work[-1][0]], low[node])
+            if low[node] == index[node]:
+                component = []
+                while True:
+                    member = stack.pop()
+                    on_stack.discard(member)
+                    component.append(member)
+                    if member == node:
+                        break
+                if len(component) > 1:
+                    found.append(sorted(component))
+    return found
+
+
+def test_every_package_imports_only_the_floors_below_it() -> None:
+    assert floor_violations(import_graph()) == []
+
+
+def test_no_module_import_cycle() -> None:
+    assert cycles(import_graph()) == []
+
+
+def test_the_layering_checks_can_fail() -> None:
+    graph = {
+        "mapr_daemon.reasoner.diagnosis.features": {"mapr_daemon.reasoner.prognosis.trend"},
+        "mapr_daemon.reasoner.prognosis.trend": {"mapr_daemon.reasoner.diagnosis.features"},
+        "mapr_daemon.catalog.reader": {"mapr_daemon.reasoner.diagnosis.features"},
+        "mapr_daemon.nowhere.x": set(),
+    }
+    assert floor_violations(graph) == [
+        "mapr_daemon.catalog.reader imports mapr_daemon.reasoner.diagnosis.features: catalog "
+        "(floor 2) may not import reasoner.diagnosis (floor 2)",
+        "mapr_daemon.nowhere.x: package nowhere has no floor in FLOORS",
+        "mapr_daemon.reasoner.diagnosis.features imports mapr_daemon.reasoner.prognosis.trend: "
+        "reasoner.diagnosis (floor 2) may not import reasoner.prognosis (floor 3)",
+    ]
+    assert cycles(graph) == [["mapr_daemon.reasoner.diagnosis.features",
+                              "mapr_daemon.reasoner.prognosis.trend"]]
+
+
+def test_one_float_array_alias() -> None:
+    """``FloatArray`` is defined once for the aircraft side (``mapr_daemon/arrays.py``)."""
+    defining = [p.relative_to(ROOT).as_posix() for p in sorted((ROOT / "mapr_daemon").rglob("*.py"))
+                if any(isinstance(n, ast.Assign) and any(isinstance(t, ast.Name) and
+                                                         t.id == "FloatArray" for t in n.targets)
+                       for n in ast.parse(p.read_text(encoding="utf-8")).body)]
+    assert defining == ["mapr_daemon/arrays.py"]

@@ -4,7 +4,8 @@ A fault that persists writes an event at every BIT; an episode groups them, so a
 sees one line per fault with its history instead of a dozen identical events. The rule:
 
 - **Key.** An episode belongs to one actuator (the event's ``asset``) and one replaceable
-  part (the event's ``evidence["part"]``, :mod:`mapr_daemon.reasoner.parts`; the fault mode
+  part (the event's ``evidence["part"]``, :mod:`mapr_daemon.reasoner.diagnosis.parts`; the fault
+  mode
   itself when an event names no part). A BIT that decides another mode of the same part (the
   SMPS's high-side and low-side switch resistances, which the bus data cannot tell apart)
   updates the same episode; ``modes`` lists every mode seen.

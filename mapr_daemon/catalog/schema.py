@@ -34,7 +34,7 @@ History:
    it was processed with; what makes a fleet run idempotent and resumable.
 8. ``bits.conditions``: the flight condition each BIT was flown at (dynamic pressure,
    aircraft-bus voltage, ambient temperature), which the trend weighs its estimates by
-   (:mod:`~mapr_daemon.reasoner.estimate_noise`). BITs stored before keep ``{}`` and are
+   (:mod:`~mapr_daemon.reasoner.prognosis.wear_noise`). BITs stored before keep ``{}`` and are
    weighed by the envelope-wide noise.
 """
 
@@ -209,7 +209,7 @@ MIGRATIONS: tuple[tuple[str, ...], ...] = (
             config_digest TEXT NOT NULL)""",
         "CREATE INDEX recordings_tail_flight ON recordings(tail, flight)",
     ),
-    (  # 8: each BIT's flight condition (reasoner/estimate_noise.py)
+    (  # 8: each BIT's flight condition (reasoner/prognosis/wear_noise.py)
         "ALTER TABLE bits ADD COLUMN conditions TEXT NOT NULL DEFAULT '{}'",
     ),
 )

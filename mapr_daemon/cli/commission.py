@@ -26,8 +26,8 @@ from mapr_daemon.ema.params import ActuatorParams, load_actuator
 from mapr_daemon.errors import ConfigError
 
 if TYPE_CHECKING:
-    from mapr_daemon.reasoner.identify import Identification
-    from mapr_daemon.reasoner.identify_bits import BitRecord
+    from mapr_daemon.reasoner.commissioning.bits import BitRecord
+    from mapr_daemon.reasoner.commissioning.identify import Identification
 
 ACTUATOR_FILE = "actuator.yaml"
 RECORD_FILE = "commissioning.json"
@@ -59,8 +59,8 @@ def _say(message: str) -> None:
 def _read_bits(paths: list[Path]) -> tuple[list[BitRecord], list[tuple[str, str]]]:
     """Every run of every file as a BIT record; a file of no BITs is skipped with its reason.
     An unreadable file is an unreadable input: OSError (exit 2)."""
-    from mapr_daemon.reasoner.corpus import from_npz
-    from mapr_daemon.reasoner.identify_bits import from_runs
+    from mapr_daemon.reasoner.commissioning.bits import from_runs
+    from mapr_daemon.reasoner.training.corpus import from_npz
 
     records: list[BitRecord] = []
     skipped: list[tuple[str, str]] = []
@@ -91,15 +91,16 @@ def _notes(ident: Identification) -> dict[str, str]:
 def _dictionary(params: ActuatorParams, spec_path: Path | None, out: Path,
                 bits: list[BitRecord]) -> tuple[str, dict[str, Any]]:
     """Build the dictionary on the identified actuator, calibrate it to the unit's own BITs
-    (``bits``, the records the identification used: :func:`~mapr_daemon.reasoner.adapt.
+    (``bits``, the records the identification used:
+    :func:`~mapr_daemon.reasoner.commissioning.calibrate.
     calibrate_unit`) and save it; returns its file name and what the calibration did."""
     import numpy as np
 
     from mapr_daemon.cli.dictionary import default_spec_path
-    from mapr_daemon.reasoner.adapt import MIN_BITS, calibrate_unit
-    from mapr_daemon.reasoner.build import build
-    from mapr_daemon.reasoner.dictionary import DictionarySpec
-    from mapr_daemon.reasoner.events import Reasoner
+    from mapr_daemon.reasoner.commissioning.calibrate import MIN_BITS, calibrate_unit
+    from mapr_daemon.reasoner.diagnosis.dictionary import DictionarySpec
+    from mapr_daemon.reasoner.reasoner import Reasoner
+    from mapr_daemon.reasoner.training.dictionary_build import build
 
     spec = DictionarySpec.load(spec_path or default_spec_path())
     d = build(params, spec)
@@ -123,9 +124,12 @@ def _dictionary(params: ActuatorParams, spec_path: Path | None, out: Path,
 
 def run(args: argparse.Namespace) -> int:
     from mapr_daemon.ema.dump import write_actuator
-    from mapr_daemon.reasoner.commissioning import CommissioningRecord, write_record
-    from mapr_daemon.reasoner.identify import identify
-    from mapr_daemon.reasoner.identify_prior import default_tolerances_path, load_tolerances
+    from mapr_daemon.reasoner.commissioning.identify import identify
+    from mapr_daemon.reasoner.commissioning.prior import (
+        default_tolerances_path,
+        load_tolerances,
+    )
+    from mapr_daemon.reasoner.commissioning.record import CommissioningRecord, write_record
 
     params = load_actuator(args.actuator)
     tolerances = load_tolerances(args.tolerances or default_tolerances_path(), params)

@@ -7,7 +7,8 @@
 is a hash of the spec, the actuator file, the sample rate it is built at and the source of
 every module the dictionary's content depends on (the plant, the profiles, the reasoner), so
 a changed model is never diagnosed with a stale dictionary. The actuator's prognostic model
-(what SoH trends and RUL need, :mod:`mapr_daemon.reasoner.wear_model`) is built from that
+(what SoH trends and RUL need, :mod:`mapr_daemon.reasoner.prognosis.prognostic_model`) is built
+from that
 dictionary and cached beside it under the same key.
 """
 
@@ -27,8 +28,8 @@ from mapr_daemon.daemon.clock import BusClock
 from mapr_daemon.daemon.config import Config, ReasonerConfig
 from mapr_daemon.daemon.pipeline import Batch, build_pipeline
 from mapr_daemon.ema.params import ActuatorParams, load_actuator
-from mapr_daemon.reasoner.build import build
-from mapr_daemon.reasoner.dictionary import DictionarySpec
+from mapr_daemon.reasoner.diagnosis.dictionary import DictionarySpec
+from mapr_daemon.reasoner.training.dictionary_build import build
 
 PACKAGE = Path(__file__).resolve().parents[1]
 MODEL_SOURCES = ("ema", "reasoner", "testbed")
@@ -111,8 +112,8 @@ def cached_models(params: ActuatorParams, actuator_path: Path,
     path = cache_dir() / f"prognosis-{cache_key(params, actuator_path, spec_path)}.npz"
     if path.exists():
         return dictionary, path
-    from mapr_daemon.reasoner.dictionary import Dictionary
-    from mapr_daemon.reasoner.wear_model import build_prognostic_model
+    from mapr_daemon.reasoner.diagnosis.dictionary import Dictionary
+    from mapr_daemon.reasoner.training.prognosis_build import build_prognostic_model
     print(f"Building the {params.name} prognostic model once (degradation estimators, their "
           f"noise, fleet priors; about a minute); it is cached in {path.parent}",
           file=sys.stderr)

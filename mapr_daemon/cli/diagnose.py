@@ -53,9 +53,9 @@ def add_subparser(subparsers: Any) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from mapr_daemon.reasoner.corpus import from_npz
-    from mapr_daemon.reasoner.dictionary import Dictionary
-    from mapr_daemon.reasoner.events import Reasoner
+    from mapr_daemon.reasoner.diagnosis.dictionary import Dictionary
+    from mapr_daemon.reasoner.reasoner import Reasoner
+    from mapr_daemon.reasoner.training.corpus import from_npz
 
     d = Dictionary.load(args.dictionary)
     runs = from_npz(args.run)

@@ -18,7 +18,7 @@ from pathlib import Path
 from typing import Any
 
 from mapr_daemon.ema.params import default_actuator_path, load_actuator, with_sample_rate
-from mapr_daemon.reasoner.dictionary import DictionarySpec
+from mapr_daemon.reasoner.diagnosis.dictionary import DictionarySpec
 
 
 def default_spec_path() -> Path:
@@ -71,8 +71,8 @@ def jobs(text: str) -> int:
 
 
 def run_build(args: argparse.Namespace) -> int:
-    from mapr_daemon.reasoner.build import build
-    from mapr_daemon.reasoner.workers import resolve
+    from mapr_daemon.reasoner.training.dictionary_build import build
+    from mapr_daemon.reasoner.training.workers import resolve
 
     spec = DictionarySpec.load(args.spec or default_spec_path())
     params = load_actuator(args.actuator or default_actuator_path())
@@ -97,7 +97,7 @@ def run_build(args: argparse.Namespace) -> int:
           f"({time.process_time() - cpu:.1f} s CPU on {workers} worker"
           f"{'s' if workers > 1 else ''}, peak memory {peak_rss_mb():.0f} MB)")
     if args.prognosis is not None:
-        from mapr_daemon.reasoner.wear_model import build_prognostic_model
+        from mapr_daemon.reasoner.training.prognosis_build import build_prognostic_model
         start = time.monotonic()
         model = build_prognostic_model(d, params, workers=workers)
         model.save(args.prognosis)
@@ -108,8 +108,8 @@ def run_build(args: argparse.Namespace) -> int:
 
 
 def run_plot(args: argparse.Namespace) -> int:
-    from mapr_daemon.reasoner.dictionary import Dictionary
-    from mapr_daemon.reasoner.plots import plot_dictionary
+    from mapr_daemon.reasoner.diagnosis.curve_plots import plot_dictionary
+    from mapr_daemon.reasoner.diagnosis.dictionary import Dictionary
 
     d = Dictionary.load(args.dictionary)
     for path in plot_dictionary(d, args.output):

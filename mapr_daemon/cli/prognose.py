@@ -47,8 +47,8 @@ def _num(x: float) -> float | None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from mapr_daemon.reasoner.dictionary import Dictionary
-    from mapr_daemon.reasoner.trajectory import score_units
+    from mapr_daemon.reasoner.diagnosis.dictionary import Dictionary
+    from mapr_daemon.reasoner.training.rul_scoring import score_units
 
     kind, sep, seed = args.trajectory.partition(":")
     try:

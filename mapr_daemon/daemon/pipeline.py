@@ -43,7 +43,7 @@ from mapr_daemon.icd import Icd, Series, SignalStream, load_icd
 if TYPE_CHECKING:
     from drivers.chapter10.ms1553_batch import Ms1553Batch
     from mapr_daemon.daemon.trending import Trending
-    from mapr_daemon.reasoner.wear_model import PrognosticModel
+    from mapr_daemon.reasoner.prognosis.prognostic_model import PrognosticModel
 
 
 @dataclasses.dataclass(frozen=True)
@@ -220,9 +220,9 @@ def _reasoner(config: Config, asset: AssetConfig, i: int, path: str, loaded: dic
     """One asset's BIT watch (its own reasoner: adaptation state is per unit) and model;
     files shared by several assets are read once (``loaded``)."""
     from mapr_daemon.ema.params import load_actuator
-    from mapr_daemon.reasoner.dictionary import Dictionary
-    from mapr_daemon.reasoner.events import Reasoner
-    from mapr_daemon.reasoner.wear_model import PrognosticModel
+    from mapr_daemon.reasoner.diagnosis.dictionary import Dictionary
+    from mapr_daemon.reasoner.prognosis.prognostic_model import PrognosticModel
+    from mapr_daemon.reasoner.reasoner import Reasoner
     field = f"assets[{i}].dictionary" if asset.dictionary else "reasoner.dictionary"
     if path not in loaded:
         try:

@@ -4,7 +4,8 @@ The reasoner reads each BIT on its own (:class:`~.pipeline.Pipeline`). What a BI
 the actuator's life depends on the ones before it, so this step keeps, per actuator, its BIT
 history (flight number and per-kind degradation estimates; reloaded from the catalog at
 start, so a restart or the next replay continues the trend) and refits the trend after each
-BIT (:func:`~mapr_daemon.reasoner.health.assess`): SoH, the leading fault mode, RUL with a
+BIT (:func:`~mapr_daemon.reasoner.prognosis.assessment.assess`): SoH, the leading fault mode, RUL
+with a
 90 % interval in flights and in flight hours. The event of an anomalous BIT carries the
 same SoH and RUL.
 
@@ -25,8 +26,8 @@ from collections.abc import Mapping, Sequence
 
 from mapr_daemon.catalog import BitOutcome, Event
 from mapr_daemon.catalog.model import BitRecord, Flight, Health
-from mapr_daemon.reasoner.health import INTERVAL, assess
-from mapr_daemon.reasoner.wear_model import PrognosticModel
+from mapr_daemon.reasoner.prognosis.assessment import INTERVAL, assess
+from mapr_daemon.reasoner.prognosis.prognostic_model import PrognosticModel
 
 NS_PER_HOUR = 3_600_000_000_000
 

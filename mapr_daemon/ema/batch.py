@@ -16,12 +16,12 @@ from collections.abc import Sequence
 import numpy as np
 import numpy.typing as npt
 
+from mapr_daemon.arrays import FloatArray
 from mapr_daemon.ema import faults as fl
 from mapr_daemon.ema.form import ModelForm
 from mapr_daemon.ema.params import CHANNELS, ActuatorParams
 from mapr_daemon.errors import ConfigError
 
-FloatArray = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
 
 

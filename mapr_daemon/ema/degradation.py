@@ -24,7 +24,7 @@ import math
 
 import numpy as np
 
-from mapr_daemon.ema.batch import FloatArray
+from mapr_daemon.arrays import FloatArray
 from mapr_daemon.ema.faults import Fault, nominal_value
 from mapr_daemon.ema.params import ActuatorParams
 from mapr_daemon.errors import ConfigError

@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from mapr_daemon.ema.batch import FloatArray
+from mapr_daemon.arrays import FloatArray
 
 
 def trapezoid(theta_e: npt.NDArray[np.floating[Any]]) -> FloatArray:

@@ -25,8 +25,9 @@ from collections.abc import Sequence
 import numpy as np
 import numpy.typing as npt
 
+from mapr_daemon.arrays import FloatArray
 from mapr_daemon.ema import sensors, temperature
-from mapr_daemon.ema.batch import BatchArrays, FloatArray, RunSpec, build
+from mapr_daemon.ema.batch import BatchArrays, RunSpec, build
 from mapr_daemon.ema.params import CHANNELS, CONTROLLER_CHANNELS
 from mapr_daemon.ema.step import ACC, STATE, integrate, pack
 from mapr_daemon.errors import ConfigError

@@ -16,11 +16,9 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
-import numpy.typing as npt
 
+from mapr_daemon.arrays import FloatArray
 from mapr_daemon.errors import ConfigError
-
-FloatArray = npt.NDArray[np.float64]
 
 
 @dataclasses.dataclass(frozen=True)

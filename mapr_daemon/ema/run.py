@@ -11,7 +11,8 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
-from mapr_daemon.ema.batch import FloatArray, RunSpec
+from mapr_daemon.arrays import FloatArray
+from mapr_daemon.ema.batch import RunSpec
 from mapr_daemon.ema.plant import EmaBatch
 from mapr_daemon.ema.profile import Profile
 from mapr_daemon.errors import ConfigError

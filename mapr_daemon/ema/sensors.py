@@ -19,7 +19,8 @@ import dataclasses
 
 import numpy as np
 
-from mapr_daemon.ema.batch import BatchArrays, FloatArray
+from mapr_daemon.arrays import FloatArray
+from mapr_daemon.ema.batch import BatchArrays
 
 EXTRA_DRAWS = 2
 """Random columns per sample besides the channels: bus drift and bus ripple."""

@@ -55,7 +55,8 @@ import math
 import numpy as np
 
 from drivers.jit import kernel
-from mapr_daemon.ema.batch import BatchArrays, FloatArray
+from mapr_daemon.arrays import FloatArray
+from mapr_daemon.ema.batch import BatchArrays
 
 U_MAX = 0.98
 """Largest PWM duty the drive commands (bootstrap refresh)."""

@@ -29,7 +29,8 @@ electrolytic capacitance      ``1 + 0.002 (T - 25)``                 about -13 %
 ============================  =====================================  =========================
 
 The MOSFET and copper laws are linear in ``T``; only ESR's is not, so the healthy model takes
-``T`` and :func:`esr_factor` as regressors (:mod:`mapr_daemon.reasoner.healthy`). The winding's
+``T`` and :func:`esr_factor` as regressors (:mod:`mapr_daemon.reasoner.diagnosis.healthy_model`).
+The winding's
 law is applied to the motor's own temperature inside the compiled step
 (:data:`mapr_daemon.ema.step.COPPER_ALPHA`, kept beside its kernel: numba's cache tracks only a
 kernel's own file).

@@ -96,7 +96,7 @@ def _fresh(config: Config) -> Pipeline:
     from mapr_daemon.daemon.bitwatch import BitWatch
     from mapr_daemon.daemon.pipeline import Watched
     from mapr_daemon.icd import SignalStream
-    from mapr_daemon.reasoner.events import Reasoner
+    from mapr_daemon.reasoner.reasoner import Reasoner
     watched = []
     for w in cached.watched:
         watch = w.watch

@@ -85,15 +85,15 @@ def test_diagnose_needs_a_dictionary(sample_c10: Path, tmp_path: Path,
 @pytest.fixture(scope="module")
 def dictionary(tmp_path_factory: pytest.TempPathFactory) -> Path:
     from mapr_daemon.ema.params import default_actuator_path, load_actuator
-    from mapr_daemon.reasoner import build
-    from mapr_daemon.reasoner.dictionary import DictionarySpec
+    from mapr_daemon.reasoner.diagnosis.dictionary import DictionarySpec
+    from mapr_daemon.reasoner.training import dictionary_build
 
     spec = DictionarySpec(pressures_pa=(0.0, 1600.0), nominal_per_pressure=2,
                           severities=(0.5, 1.0), kinds=("esr", "friction"), shorts=(),
                           opens=(), calibration_runs=10, calibration_pressure_pa=(200.0, 1400.0),
                           threshold_margin=1.5)
     path = tmp_path_factory.mktemp("dictionary") / "dictionary.npz"
-    build.build(load_actuator(default_actuator_path()), spec).save(path)
+    dictionary_build.build(load_actuator(default_actuator_path()), spec).save(path)
     return path
 
 

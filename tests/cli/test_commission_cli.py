@@ -11,9 +11,9 @@ import pytest
 from mapr_daemon.cli.main import main
 from mapr_daemon.ema.dump import write_actuator
 from mapr_daemon.ema.params import default_actuator_path, load_actuator
-from mapr_daemon.reasoner import identify_prior as ip
-from mapr_daemon.reasoner.commissioning import read_record
-from mapr_daemon.reasoner.dictionary import Dictionary
+from mapr_daemon.reasoner.commissioning import prior as ip
+from mapr_daemon.reasoner.commissioning.record import read_record
+from mapr_daemon.reasoner.diagnosis.dictionary import Dictionary
 
 TINY_SPEC = """\
 pressures_pa: [0, 1500]

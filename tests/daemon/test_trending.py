@@ -15,9 +15,9 @@ from mapr_daemon.catalog.model import BitRecord
 from mapr_daemon.daemon.trending import AssetHistory, FlightLog, Trending, history_from_bits
 from mapr_daemon.ema.params import default_actuator_path, load_actuator
 from mapr_daemon.errors import ConfigError
-from mapr_daemon.reasoner import trend
-from mapr_daemon.reasoner.trajectory import learn_prior
-from mapr_daemon.reasoner.wear_model import PrognosticModel
+from mapr_daemon.reasoner.prognosis import trend
+from mapr_daemon.reasoner.prognosis.prognostic_model import PrognosticModel
+from mapr_daemon.reasoner.training.rul_scoring import learn_prior
 
 T0 = 1_778_300_000_000_000_000
 HOUR = 3_600_000_000_000

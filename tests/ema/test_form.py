@@ -9,7 +9,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from mapr_daemon.ema.batch import FloatArray, RunSpec
+from mapr_daemon.arrays import FloatArray
+from mapr_daemon.ema.batch import RunSpec
 from mapr_daemon.ema.form import ModelForm
 from mapr_daemon.ema.params import default_actuator_path, load_actuator
 from mapr_daemon.ema.plant import EmaBatch, SensorBlock

@@ -10,7 +10,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from mapr_daemon.ema.batch import FloatArray, RunSpec
+from mapr_daemon.arrays import FloatArray
+from mapr_daemon.ema.batch import RunSpec
 from mapr_daemon.ema.faults import Fault, FaultSet
 from mapr_daemon.ema.params import default_actuator_path, load_actuator
 from mapr_daemon.ema.run import RunResult, run_batch

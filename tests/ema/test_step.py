@@ -31,8 +31,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from mapr_daemon.arrays import FloatArray
 from mapr_daemon.ema import inverter, step
-from mapr_daemon.ema.batch import FloatArray, RunSpec, build
+from mapr_daemon.ema.batch import RunSpec, build
 from mapr_daemon.ema.faults import Fault, FaultSet
 from mapr_daemon.ema.params import OUTPUT_CHANNELS, default_actuator_path, load_actuator
 from mapr_daemon.ema.plant import EmaBatch

@@ -30,8 +30,8 @@ FLIGHTS = 4
 def fleet_model(fleet_dictionary: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A tiny prognostic model for the fleet dictionary (a few seconds)."""
     from mapr_daemon.ema.params import default_actuator_path, load_actuator
-    from mapr_daemon.reasoner.dictionary import Dictionary
-    from mapr_daemon.reasoner.wear_model import BuildSpec, build_prognostic_model
+    from mapr_daemon.reasoner.diagnosis.dictionary import Dictionary
+    from mapr_daemon.reasoner.training.prognosis_build import BuildSpec, build_prognostic_model
 
     model = build_prognostic_model(
         Dictionary.load(fleet_dictionary), load_actuator(default_actuator_path()),

@@ -12,12 +12,12 @@ import dataclasses
 import numpy as np
 import pytest
 
+from mapr_daemon.arrays import FloatArray
 from mapr_daemon.ema.faults import Fault, FaultSet, at_severity
 from mapr_daemon.ema.params import ActuatorParams, default_actuator_path, load_actuator
-from mapr_daemon.reasoner import build
-from mapr_daemon.reasoner.corpus import Runs, simulate_bit
-from mapr_daemon.reasoner.dictionary import Dictionary, DictionarySpec
-from mapr_daemon.reasoner.features import FloatArray
+from mapr_daemon.reasoner.diagnosis.dictionary import Dictionary, DictionarySpec
+from mapr_daemon.reasoner.training import dictionary_build
+from mapr_daemon.reasoner.training.corpus import Runs, simulate_bit
 
 SPEC = DictionarySpec(
     pressures_pa=(0.0, 800.0, 1600.0), nominal_per_pressure=4, severities=(0.25, 0.5, 0.75, 1.0),
@@ -58,7 +58,7 @@ def _held_faults(params: ActuatorParams) -> list[FaultSet]:
 @pytest.fixture(scope="session")
 def bench() -> Bench:
     params = load_actuator(default_actuator_path())
-    plan = build._plan(params, SPEC)
+    plan = dictionary_build._plan(params, SPEC)
     fs, qs, seeds, roles = plan.faults, plan.pressures_pa, plan.seeds, plan.roles
     held = _held_faults(params)
     fs += held
@@ -68,10 +68,10 @@ def bench() -> Bench:
     runs = simulate_bit(params, fs, qs, seeds,
                         ambient_c=plan.ambient_c + [None] * len(held),
                         bus_v=plan.bus_v + [None] * len(held))
-    starts = build.windows(SPEC, runs.corners, runs.command_deg.size)
-    m = build.run_matrices(runs, starts, SPEC.window_samples)
+    starts = dictionary_build.windows(SPEC, runs.corners, runs.command_deg.size)
+    m = dictionary_build.run_matrices(runs, starts, SPEC.window_samples)
     role = np.asarray(roles)
     own = role != "held"
-    d = build.assemble(params, SPEC, m[own], runs.dynamic_pressure_pa[own],
+    d = dictionary_build.assemble(params, SPEC, m[own], runs.dynamic_pressure_pa[own],
                        [r for r in roles if r != "held"], starts, runs.sample_rate_hz)
     return Bench(params, d, runs, m, m[role == "held"], runs.dynamic_pressure_pa[role == "held"])

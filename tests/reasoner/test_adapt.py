@@ -1,4 +1,4 @@
-"""A dictionary calibrated to one unit from its own healthy BITs (reasoner/adapt.py).
+"""A dictionary calibrated to one unit from its own healthy BITs (reasoner/calibrate.py).
 
 The unit is drawn off the data sheet by the simulator's mismatch harness (parameters within
 part-to-part tolerance, a model form the data sheet does not carry); the dictionary is the
@@ -13,12 +13,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from mapr_daemon.arrays import FloatArray
 from mapr_daemon.ema.faults import FaultSet, at_severity
 from mapr_daemon.errors import ConfigError
-from mapr_daemon.reasoner import adapt, build, classifier
-from mapr_daemon.reasoner.corpus import simulate_bit
-from mapr_daemon.reasoner.dictionary import Dictionary
-from mapr_daemon.reasoner.features import FloatArray
+from mapr_daemon.reasoner.commissioning import calibrate
+from mapr_daemon.reasoner.diagnosis import classifier
+from mapr_daemon.reasoner.diagnosis.dictionary import Dictionary
+from mapr_daemon.reasoner.training import dictionary_build
+from mapr_daemon.reasoner.training.corpus import simulate_bit
 from mapr_daemon.testbed.mismatch import draw_unit
 from tests.reasoner.conftest import Bench
 
@@ -46,7 +48,8 @@ def unit(bench: Bench) -> Unit:
     specs = [u.spec(f, seed=900_000 + i) for i, f in enumerate(faults)]
     runs = simulate_bit(bench.params, [], list(q), [], specs=specs)
     d = bench.dictionary
-    return Unit(build.run_matrices(runs, d.window_starts, d.window_samples, d.signals), q, role)
+    m = dictionary_build.run_matrices(runs, d.window_starts, d.window_samples, d.signals)
+    return Unit(m, q, role)
 
 
 def _decide(d: Dictionary, u: Unit, role: str) -> list[classifier.Decision]:
@@ -54,9 +57,9 @@ def _decide(d: Dictionary, u: Unit, role: str) -> list[classifier.Decision]:
             if r == role]
 
 
-def _calibrated(bench: Bench, u: Unit) -> tuple[Dictionary, adapt.UnitCalibration]:
+def _calibrated(bench: Bench, u: Unit) -> tuple[Dictionary, calibrate.UnitCalibration]:
     comm = [i for i, r in enumerate(u.role) if r == "commission"]
-    return adapt.calibrate_unit(bench.dictionary, u.m[comm], u.q[comm])
+    return calibrate.calibrate_unit(bench.dictionary, u.m[comm], u.q[comm])
 
 
 def test_a_mismatched_units_healthy_bits_alarm_until_it_is_calibrated(bench: Bench,
@@ -93,7 +96,7 @@ def test_the_calibration_survives_save_and_load(bench: Bench, unit: Unit, tmp_pa
 
 def test_too_few_bits_or_a_second_calibration_are_refused(bench: Bench, unit: Unit) -> None:
     with pytest.raises(ConfigError, match="at least"):
-        adapt.calibrate_unit(bench.dictionary, unit.m[:2], unit.q[:2])
+        calibrate.calibrate_unit(bench.dictionary, unit.m[:2], unit.q[:2])
     d, _ = _calibrated(bench, unit)
     with pytest.raises(ConfigError, match="already"):
-        adapt.calibrate_unit(d, unit.m[:COMMISSION], unit.q[:COMMISSION])
+        calibrate.calibrate_unit(d, unit.m[:COMMISSION], unit.q[:COMMISSION])

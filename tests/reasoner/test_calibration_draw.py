@@ -12,13 +12,14 @@ import numpy as np
 import pytest
 
 from mapr_daemon.ema.params import default_actuator_path, load_actuator
-from mapr_daemon.reasoner import build, wear
-from mapr_daemon.reasoner.build import stream_matrices
-from mapr_daemon.reasoner.corpus import BitRuns
-from mapr_daemon.reasoner.dictionary import DictionarySpec
-from mapr_daemon.reasoner.wear_model import (
+from mapr_daemon.reasoner.diagnosis.dictionary import DictionarySpec
+from mapr_daemon.reasoner.prognosis import wear_estimators
+from mapr_daemon.reasoner.prognosis.prognostic_model import PrognosticModel
+from mapr_daemon.reasoner.training import dictionary_build
+from mapr_daemon.reasoner.training.corpus import BitRuns
+from mapr_daemon.reasoner.training.dictionary_build import stream_matrices
+from mapr_daemon.reasoner.training.prognosis_build import (
     BuildSpec,
-    PrognosticModel,
     build_prognostic_model,
     fault_at,
     flight_spread,
@@ -46,7 +47,7 @@ def flown() -> tuple[PrognosticModel, PrognosticModel, dict[str, np.ndarray]]:
                           severities=(0.5, 1.0), kinds=("esr",), shorts=(), opens=(),
                           healthy_runs=48, calibration_runs=12, envelope=True,
                           ground_share=0.2, threshold_margin=1.5)
-    d = build.build(params, spec)
+    d = dictionary_build.build(params, spec)
     models = [build_prognostic_model(d, params, BuildSpec(training_bits=800,
                                                           calibration_reps=30,
                                                           fleet_units=4,
@@ -58,7 +59,7 @@ def flown() -> tuple[PrognosticModel, PrognosticModel, dict[str, np.ndarray]]:
     runs = BitRuns.of([fault_at(params, "esr", float(v)) for v in h], list(q),
                       [TEST_SEED + i for i in range(FLIGHT_BITS)])   # ambient, bus: the plant's
     m = stream_matrices(params, runs, d.window_starts, d.window_samples)
-    y, c = wear.observations(d, m, list(q))
+    y, c = wear_estimators.observations(d, m, list(q))
     est = np.array([models[0].estimators["esr"].estimate(y[i], c[i]) for i in range(h.size)])
     scaled = np.array([models[0].scaled(PrognosticModel.bit_conditions(d, m[i], float(q[i])))
                        for i in range(h.size)])

@@ -19,7 +19,7 @@ from mapr_daemon.ema.batch import RunSpec
 from mapr_daemon.ema.faults import FaultSet
 from mapr_daemon.ema.run import RunResult
 from mapr_daemon.errors import RecordError
-from mapr_daemon.reasoner.events import Reasoner
+from mapr_daemon.reasoner.reasoner import Reasoner
 from mapr_daemon.testbed.profiles import bit_profile
 from tests.reasoner.conftest import HELD_OUT, Bench
 

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from mapr_daemon.errors import ConfigError
-from mapr_daemon.reasoner import classifier
-from mapr_daemon.reasoner.dictionary import Dictionary, DictionarySpec
+from mapr_daemon.reasoner.diagnosis import classifier
+from mapr_daemon.reasoner.diagnosis.dictionary import Dictionary, DictionarySpec
 from tests.reasoner.conftest import HELD_OUT, Bench
 
 

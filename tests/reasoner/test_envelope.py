@@ -14,9 +14,10 @@ import pytest
 
 from mapr_daemon.ema.faults import FaultSet, at_severity
 from mapr_daemon.ema.params import ActuatorParams, default_actuator_path, load_actuator
-from mapr_daemon.reasoner import build, classifier
-from mapr_daemon.reasoner.corpus import simulate_bit
-from mapr_daemon.reasoner.dictionary import Dictionary, DictionarySpec
+from mapr_daemon.reasoner.diagnosis import classifier
+from mapr_daemon.reasoner.diagnosis.dictionary import Dictionary, DictionarySpec
+from mapr_daemon.reasoner.training import dictionary_build
+from mapr_daemon.reasoner.training.corpus import simulate_bit
 
 SPEC = DictionarySpec(
     pressures_pa=(0.0, 1250.0, 2500.0), nominal_per_pressure=4,
@@ -32,7 +33,7 @@ CORNERS = [  # (dynamic pressure Pa, ambient C, bus mean V): the envelope's corn
 @pytest.fixture(scope="module")
 def envelope() -> tuple[ActuatorParams, Dictionary]:
     params = load_actuator(default_actuator_path())
-    return params, build.build(params, SPEC)
+    return params, dictionary_build.build(params, SPEC)
 
 
 def _decide(params: ActuatorParams, d: Dictionary, faults: FaultSet,
@@ -40,7 +41,7 @@ def _decide(params: ActuatorParams, d: Dictionary, faults: FaultSet,
     q, amb, bus = (list(col) for col in zip(*CORNERS, strict=True))
     runs = simulate_bit(params, [faults] * len(CORNERS), q,
                         [seed + i for i in range(len(CORNERS))], ambient_c=amb, bus_v=bus)
-    m = build.run_matrices(runs, d.window_starts, d.window_samples, d.signals)
+    m = dictionary_build.run_matrices(runs, d.window_starts, d.window_samples, d.signals)
     return [classifier.decide(d, m[i], q[i]) for i in range(len(CORNERS))]
 
 

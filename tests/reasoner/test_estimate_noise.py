@@ -8,8 +8,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mapr_daemon.reasoner import trend
-from mapr_daemon.reasoner.estimate_noise import Noise, scaled_rows
+from mapr_daemon.reasoner.prognosis import trend
+from mapr_daemon.reasoner.prognosis.wear_noise import Noise, scaled_rows
 
 
 def _calibration(n: int, seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -118,8 +118,8 @@ def test_a_bit_outside_the_calibrated_envelope_is_read_at_its_edge() -> None:
 def test_the_model_file_keeps_the_noise_model(tmp_path: Path) -> None:
     """A prognostic model saved and loaded has the same noise (tuples, not lists) and the
     nominal supply it scales conditions by."""
-    from mapr_daemon.reasoner.wear import WearModel
-    from mapr_daemon.reasoner.wear_model import PrognosticModel
+    from mapr_daemon.reasoner.prognosis.prognostic_model import PrognosticModel
+    from mapr_daemon.reasoner.prognosis.wear_estimators import WearModel
 
     h, est, c = _calibration(600, 9)
     noise = Noise.measure(h, est, c)

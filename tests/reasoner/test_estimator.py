@@ -12,18 +12,18 @@ import dataclasses
 import numpy as np
 import pytest
 
+from mapr_daemon.arrays import FloatArray
 from mapr_daemon.ema.batch import RunSpec
 from mapr_daemon.ema.faults import Fault, FaultSet
 from mapr_daemon.ema.params import ActuatorParams, default_actuator_path, load_actuator
 from mapr_daemon.ema.plant import EmaBatch
-from mapr_daemon.reasoner.corpus import Runs, simulate_bit
-from mapr_daemon.reasoner.estimator import (
+from mapr_daemon.reasoner.ekf.estimator import (
     Estimate,
     ParameterEstimator,
     Reference,
     severity_check,
 )
-from mapr_daemon.reasoner.features import FloatArray
+from mapr_daemon.reasoner.training.corpus import Runs, simulate_bit
 from mapr_daemon.testbed.profiles import sine_profile
 
 Q_PA = 1600.0

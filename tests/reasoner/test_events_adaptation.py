@@ -10,9 +10,9 @@ from typing import Any
 import pytest
 
 from mapr_daemon.ema.faults import Fault, FaultSet
-from mapr_daemon.reasoner.corpus import Runs, simulate_bit
-from mapr_daemon.reasoner.estimator import Confirmation, Estimate
-from mapr_daemon.reasoner.events import Reasoner
+from mapr_daemon.reasoner.ekf.estimator import Confirmation, Estimate
+from mapr_daemon.reasoner.reasoner import Reasoner
+from mapr_daemon.reasoner.training.corpus import Runs, simulate_bit
 from tests.reasoner.conftest import Bench
 
 FRICTION = (3.0, 3.0, 3.0, 5.0)

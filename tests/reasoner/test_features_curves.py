@@ -8,9 +8,8 @@ import pytest
 from mapr_daemon.ema.faults import FaultSet
 from mapr_daemon.ema.params import default_actuator_path, load_actuator
 from mapr_daemon.errors import ConfigError
-from mapr_daemon.reasoner import curves
-from mapr_daemon.reasoner.corpus import simulate_bit
-from mapr_daemon.reasoner.features import (
+from mapr_daemon.reasoner.diagnosis import curves
+from mapr_daemon.reasoner.diagnosis.features import (
     EXTENDED_SIGNALS,
     FEATURES,
     PAPER_SIGNALS,
@@ -19,6 +18,7 @@ from mapr_daemon.reasoner.features import (
     feature_matrix,
     window_values,
 )
+from mapr_daemon.reasoner.training.corpus import simulate_bit
 
 RATE = 2000.0
 

@@ -24,11 +24,15 @@ from mapr_daemon.ema.params import (
     parse_actuator,
 )
 from mapr_daemon.errors import ConfigError
-from mapr_daemon.reasoner import identify_prior as ip
-from mapr_daemon.reasoner.commissioning import CommissioningRecord, read_record, write_record
-from mapr_daemon.reasoner.corpus import simulate_bit
-from mapr_daemon.reasoner.identify import Identification, identify
-from mapr_daemon.reasoner.identify_bits import BitRecord, from_runs, unusable
+from mapr_daemon.reasoner.commissioning import prior as ip
+from mapr_daemon.reasoner.commissioning.bits import BitRecord, from_runs, unusable
+from mapr_daemon.reasoner.commissioning.identify import Identification, identify
+from mapr_daemon.reasoner.commissioning.record import (
+    CommissioningRecord,
+    read_record,
+    write_record,
+)
+from mapr_daemon.reasoner.training.corpus import simulate_bit
 
 TRUE_FACTORS = {"motor.resistance_ohm": 1.08, "motor.back_emf_v_s_per_rad": 0.96,
                 "motor.inertia_kg_m2": 1.12, "gear.efficiency": 0.96}

@@ -19,10 +19,10 @@ from mapr_daemon.cli.main import main
 from mapr_daemon.ema.faults import Fault, FaultSet, at_severity
 from mapr_daemon.ema.params import default_actuator_path, load_actuator
 from mapr_daemon.errors import ConfigError
-from mapr_daemon.reasoner import build
-from mapr_daemon.reasoner.corpus import BitRuns, simulate_bit
-from mapr_daemon.reasoner.dictionary import DictionarySpec
-from mapr_daemon.reasoner.workers import resolve, usable_cores
+from mapr_daemon.reasoner.diagnosis.dictionary import DictionarySpec
+from mapr_daemon.reasoner.training import dictionary_build
+from mapr_daemon.reasoner.training.corpus import BitRuns, simulate_bit
+from mapr_daemon.reasoner.training.workers import resolve, usable_cores
 
 SMALL = DictionarySpec(
     pressures_pa=(0.0, 1500.0), nominal_per_pressure=3, severities=(0.5, 1.0),
@@ -57,17 +57,19 @@ def test_simulate_bit_in_threaded_batches_equals_one_batch() -> None:
     assert len(seen) > 3 and seen[-1] == 1.0
     assert all(b >= a for a, b in itertools.pairwise(seen))
     # the streaming path (each batch reduced to M in its worker) gives the same M
-    starts = build.windows(SMALL, one.corners, one.command_deg.size)
-    streamed = build.stream_matrices(params, BitRuns.of(faults, qs, seeds, ambient, bus), starts,
-                                     SMALL.window_samples, workers=2, runs_per_batch=2)
-    np.testing.assert_array_equal(streamed, build.run_matrices(one, starts, SMALL.window_samples))
+    starts = dictionary_build.windows(SMALL, one.corners, one.command_deg.size)
+    streamed = dictionary_build.stream_matrices(
+        params, BitRuns.of(faults, qs, seeds, ambient, bus), starts, SMALL.window_samples,
+        workers=2, runs_per_batch=2)
+    np.testing.assert_array_equal(
+        streamed, dictionary_build.run_matrices(one, starts, SMALL.window_samples))
 
 
 def test_threaded_build_saves_the_same_dictionary(tmp_path: Path) -> None:
     params = load_actuator(default_actuator_path())
     seen: list[float] = []
-    one = build.build(params, SMALL, workers=1, runs_per_batch=10_000)
-    many = build.build(params, SMALL, progress=seen.append, workers=2, runs_per_batch=5)
+    one = dictionary_build.build(params, SMALL, workers=1, runs_per_batch=10_000)
+    many = dictionary_build.build(params, SMALL, progress=seen.append, workers=2, runs_per_batch=5)
     one.save(tmp_path / "one.npz")
     many.save(tmp_path / "many.npz")
     assert (tmp_path / "one.npz").read_bytes() == (tmp_path / "many.npz").read_bytes()

@@ -10,10 +10,11 @@ import pytest
 
 from mapr_daemon.ema.faults import PARAMETRIC, TERMINAL, FaultSet, at_severity
 from mapr_daemon.ema.params import ActuatorParams, default_actuator_path, load_actuator
-from mapr_daemon.reasoner import build, parts
-from mapr_daemon.reasoner.corpus import Runs, simulate_bit
-from mapr_daemon.reasoner.dictionary import Dictionary, DictionarySpec
-from mapr_daemon.reasoner.events import Reasoner
+from mapr_daemon.reasoner.diagnosis import parts
+from mapr_daemon.reasoner.diagnosis.dictionary import Dictionary, DictionarySpec
+from mapr_daemon.reasoner.reasoner import Reasoner
+from mapr_daemon.reasoner.training import dictionary_build
+from mapr_daemon.reasoner.training.corpus import Runs, simulate_bit
 
 SPEC = DictionarySpec(
     pressures_pa=(0.0, 800.0, 1600.0), nominal_per_pressure=4, severities=(0.25, 0.5, 0.75, 1.0),
@@ -36,16 +37,16 @@ class Smps:
 @pytest.fixture(scope="module")
 def smps() -> Smps:
     params = load_actuator(default_actuator_path())
-    plan = build._plan(params, SPEC)
+    plan = dictionary_build._plan(params, SPEC)
     fs, qs, seeds, roles = plan.faults, plan.pressures_pa, plan.seeds, plan.roles
     n_own = len(fs)
     fs += [FaultSet.of([at_severity(params, k, s)]) for k, s, _ in HELD_OUT]
     qs += [q for _, _, q in HELD_OUT]
     seeds += [60_000 + i for i in range(len(HELD_OUT))]
     runs = simulate_bit(params, fs, qs, seeds)
-    starts = build.windows(SPEC, runs.corners, runs.command_deg.size)
-    m = build.run_matrices(runs, starts, SPEC.window_samples)
-    d = build.assemble(params, SPEC, m[:n_own], runs.dynamic_pressure_pa[:n_own], roles,
+    starts = dictionary_build.windows(SPEC, runs.corners, runs.command_deg.size)
+    m = dictionary_build.run_matrices(runs, starts, SPEC.window_samples)
+    d = dictionary_build.assemble(params, SPEC, m[:n_own], runs.dynamic_pressure_pa[:n_own], roles,
                        starts, runs.sample_rate_hz)
     held = dataclasses.replace(runs, channels={k: v[n_own:] for k, v in runs.channels.items()},
                                dynamic_pressure_pa=runs.dynamic_pressure_pa[n_own:])

@@ -8,15 +8,15 @@ import dataclasses
 import numpy as np
 
 from mapr_daemon.ema.inverter import NEGATIVE, POSITIVE
-from mapr_daemon.reasoner import classifier, healthy, matched
-from mapr_daemon.reasoner.false_alarm import calibrate_gaussian
-from mapr_daemon.reasoner.features import (
+from mapr_daemon.reasoner.diagnosis import classifier, healthy_model, matched_filter
+from mapr_daemon.reasoner.diagnosis.false_alarm import calibrate_gaussian
+from mapr_daemon.reasoner.diagnosis.features import (
     EXTENDED_SIGNALS,
     SECTOR_SIGNALS,
     column_names,
     derived_signals,
 )
-from mapr_daemon.reasoner.sector import a_high_resistance
+from mapr_daemon.reasoner.diagnosis.sector import a_high_resistance
 from tests.reasoner.conftest import Bench
 
 
@@ -58,11 +58,11 @@ def test_the_resistance_is_one_value_per_record_and_one_healthy_cell() -> None:
     assert one.shape == (3000,) and np.allclose(one, 0.2)
     columns = column_names((*EXTENDED_SIGNALS, *SECTOR_SIGNALS))
     rows, pool = 122, 6
-    cells = healthy.record_cells(columns, rows, pool)
+    cells = healthy_model.record_cells(columns, rows, pool)
     col = columns.index("mean:a_high_resistance_ohm")
     own = cells[(cells % len(columns) == col).any(axis=1)]
     assert own.shape == (1, pool) and np.all(own == own[0, 0])
-    without = healthy.record_cells(column_names(EXTENDED_SIGNALS), rows, pool)
+    without = healthy_model.record_cells(column_names(EXTENDED_SIGNALS), rows, pool)
     assert cells.shape[0] == without.shape[0] + 4 * (rows - 32) // pool + 1
 
 
@@ -84,7 +84,7 @@ def test_the_matched_filter_weighs_cells_by_the_inverse_healthy_covariance() -> 
     mu = np.array([0.0, 1.0, 0.0, 0.5, 0.0, 0.0])
     sev = rng.uniform(0.1, 0.5, 20_000)
     faulted = rng.normal(size=(sev.size, dim)) @ mix + sev[:, None] * mu
-    w = matched.fit(z, faulted, sev, shrinkage=0.0)
+    w = matched_filter.fit(z, faulted, sev, shrinkage=0.0)
     cov = mix.T @ mix
     expect = np.linalg.solve(cov, mu)
     assert np.allclose(w / np.linalg.norm(w), expect / np.linalg.norm(expect), atol=0.05)

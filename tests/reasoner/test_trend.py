@@ -8,13 +8,14 @@ import math
 import numpy as np
 import pytest
 
+from mapr_daemon.arrays import FloatArray
 from mapr_daemon.ema.degradation import trajectory
 from mapr_daemon.ema.params import default_actuator_path, load_actuator
 from mapr_daemon.errors import ConfigError
-from mapr_daemon.reasoner import prognosis, trend
-from mapr_daemon.reasoner.features import FloatArray
-from mapr_daemon.reasoner.trajectory import learn_prior
-from mapr_daemon.reasoner.wear_model import PrognosticModel
+from mapr_daemon.reasoner.prognosis import soh, trend
+from mapr_daemon.reasoner.prognosis.prognostic_model import PrognosticModel
+from mapr_daemon.reasoner.training import rul_metrics
+from mapr_daemon.reasoner.training.rul_scoring import learn_prior
 
 PARAMS = load_actuator(default_actuator_path())
 
@@ -22,7 +23,7 @@ PARAMS = load_actuator(default_actuator_path())
 def _path(kind: str, seed: int) -> tuple[float, FloatArray, FloatArray]:
     t = trajectory(PARAMS, kind, 400, seed, 200.0)
     n = np.arange(0, math.floor(t.eol_flight) + 1, dtype=np.float64)
-    h = np.array([prognosis.degradation(PARAMS, kind, float(t.values[int(f)])) for f in n])
+    h = np.array([soh.degradation(PARAMS, kind, float(t.values[int(f)])) for f in n])
     return t.eol_flight, n, h
 
 
@@ -40,7 +41,7 @@ def test_rul_at_three_quarters_of_life_within_20_percent(kind: str) -> None:
     true = eol - now
     assert r.rul == pytest.approx(true, rel=0.2)
     assert r.lower <= true <= r.upper
-    assert prognosis.alpha_lambda_pass(true, r.draws)
+    assert rul_metrics.alpha_lambda_pass(true, r.draws)
 
 
 def test_more_noise_widens_the_bounds() -> None:
@@ -136,7 +137,7 @@ def _coverage(kind: str, life: float, prior: trend.ShapePrior) -> float:
     for seed in (1, 2, 3):
         t = trajectory(PARAMS, kind, int(life * 2), seed, life)
         n = np.arange(0, math.floor(t.eol_flight) + 1, 4, dtype=np.float64)
-        h = np.array([prognosis.degradation(PARAMS, kind, float(t.values[int(f)])) for f in n])
+        h = np.array([soh.degradation(PARAMS, kind, float(t.values[int(f)])) for f in n])
         est = h + 0.08 * np.random.default_rng(seed).standard_normal(n.size)
         for now in n[n >= 0.25 * t.eol_flight][::3]:
             seen = n <= now
@@ -168,7 +169,7 @@ def trend_path(kind: str, i: int) -> tuple[FloatArray, FloatArray]:
     """A training unit's true path (flights, h) up to its end of life."""
     t = trajectory(PARAMS, kind, 400, 10_000 + i, 200.0)
     n = np.arange(min(math.floor(t.eol_flight), t.values.size - 1) + 1, dtype=np.float64)
-    h = np.array([prognosis.degradation(PARAMS, kind, float(t.values[int(f)])) for f in n])
+    h = np.array([soh.degradation(PARAMS, kind, float(t.values[int(f)])) for f in n])
     return n, h
 
 

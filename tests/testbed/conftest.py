@@ -14,9 +14,9 @@ ROOT = Path(__file__).resolve().parents[2]
 def small_models(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A directory of ``{aileron,elevator}-{dictionary,prognosis}.npz``."""
     from mapr_daemon.ema.params import load_actuator, with_sample_rate
-    from mapr_daemon.reasoner import build
-    from mapr_daemon.reasoner.dictionary import DictionarySpec
-    from mapr_daemon.reasoner.wear_model import BuildSpec, build_prognostic_model
+    from mapr_daemon.reasoner.diagnosis.dictionary import DictionarySpec
+    from mapr_daemon.reasoner.training import dictionary_build
+    from mapr_daemon.reasoner.training.prognosis_build import BuildSpec, build_prognostic_model
 
     spec = DictionarySpec(pressures_pa=(0.0, 1600.0), nominal_per_pressure=2,
                           severities=(0.5, 1.0), kinds=("esr",), shorts=(), opens=(),
@@ -26,7 +26,7 @@ def small_models(tmp_path_factory: pytest.TempPathFactory) -> Path:
     for surface, rate in (("aileron", 2000.0), ("elevator", 1000.0)):
         params = with_sample_rate(
             load_actuator(ROOT / "configs" / "actuators" / f"{surface}-uav.yaml"), rate)
-        d = build.build(params, spec)
+        d = dictionary_build.build(params, spec)
         d.save(where / f"{surface}-dictionary.npz")
         build_prognostic_model(d, params, BuildSpec(training_bits=60, calibration_reps=2,
                                                     fleet_units=8),

@@ -9,7 +9,7 @@ import pytest
 
 from mapr_daemon.cli import exitcodes
 from mapr_daemon.cli.main import main
-from mapr_daemon.reasoner.dictionary import Dictionary
+from mapr_daemon.reasoner.diagnosis.dictionary import Dictionary
 
 ROOT = Path(__file__).resolve().parents[2]
 TINY = """pressures_pa: [1600.0]

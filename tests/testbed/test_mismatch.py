@@ -16,7 +16,7 @@ from mapr_daemon.ema.form import ModelForm
 from mapr_daemon.ema.params import ActuatorParams, default_actuator_path, load_actuator
 from mapr_daemon.ema.plant import EmaBatch
 from mapr_daemon.errors import ConfigError
-from mapr_daemon.reasoner.corpus import simulate_bit
+from mapr_daemon.reasoner.training.corpus import simulate_bit
 from mapr_daemon.testbed.mismatch import MAX_EFFICIENCY, TOLERANCES, draw_unit, fleet
 from mapr_daemon.testbed.profiles import bit_profile
 

@@ -17,9 +17,9 @@ from mapr_daemon.daemon.config import load_config
 from mapr_daemon.ema.faults import FaultSet, parse_fault
 from mapr_daemon.ema.params import ActuatorParams, load_actuator, with_sample_rate
 from mapr_daemon.icd import SignalStream, load_icd
-from mapr_daemon.reasoner import build
-from mapr_daemon.reasoner.dictionary import DictionarySpec
-from mapr_daemon.reasoner.events import Reasoner
+from mapr_daemon.reasoner.diagnosis.dictionary import DictionarySpec
+from mapr_daemon.reasoner.reasoner import Reasoner
+from mapr_daemon.reasoner.training import dictionary_build
 from mapr_daemon.testbed.aircraft import FAST_CHANNELS, POWER_CHANNELS, Aircraft
 from mapr_daemon.testbed.profiles import steady_profile
 
@@ -55,7 +55,7 @@ def tiny_dictionary(params: ActuatorParams) -> Reasoner:
                           severities=(0.5, 1.0), kinds=("esr",), shorts=(), opens=(),
                           healthy_runs=48, calibration_runs=12, envelope=True,
                           ground_share=0.0, threshold_margin=1.5)
-    return Reasoner(build.build(params, spec), params)
+    return Reasoner(dictionary_build.build(params, spec), params)
 
 
 def test_both_emas_stream_their_own_samples_on_one_bus(

@@ -1,0 +1,208 @@
+"""The reasoner's face to the daemon and the CLI: signals of one BIT in, one event out.
+
+>>> # r = Reasoner(Dictionary.load("dictionary.npz"), load_actuator(default_actuator_path()))
+>>> # event = r.diagnose(channels, command_deg, dynamic_pressure_pa)   # dict, JSON-ready
+
+``channels`` maps the ICD's signal names (``phase_a_current_a``, ``position_deg``,
+``dc_bus_voltage_v``, ...) to arrays of one BIT record at the dictionary's sample rate;
+the event has the keys of ``mapr diagnose``: anomaly, fault, severity (physical unit), unit,
+confidence, parameters, soh, component, part (the replaceable part), ambiguity (its members'
+probabilities, :mod:`~.parts`), rul, evidence.
+
+A record that cannot be diagnosed (non-finite samples, too short, a numerical failure on its
+data: :data:`RECORD_ERRORS`) raises from :meth:`Reasoner.diagnose`;
+:meth:`Reasoner.diagnose_or_flag` turns that into :func:`error_event` (anomaly undecided,
+confidence 0, ``evidence.error`` naming the error) so a batch goes on with its other records.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from mapr_daemon.arrays import FloatArray
+from mapr_daemon.ema.params import ActuatorParams
+from mapr_daemon.errors import RecordError
+from mapr_daemon.reasoner.diagnosis import classifier, parts
+from mapr_daemon.reasoner.diagnosis.dictionary import Dictionary
+from mapr_daemon.reasoner.diagnosis.features import derived_signals, feature_matrix
+from mapr_daemon.reasoner.ekf.estimator import (
+    UNITS,
+    Confirmation,
+    Estimate,
+    ParameterEstimator,
+    Reference,
+    severity_check,
+)
+from mapr_daemon.reasoner.ekf.model import NEEDED
+from mapr_daemon.reasoner.prognosis import soh
+
+if TYPE_CHECKING:
+    from mapr_daemon.reasoner.prognosis.prognostic_model import PrognosticModel
+
+RECORD_ERRORS: tuple[type[Exception], ...] = (RecordError, ValueError, ArithmeticError)
+"""Errors that concern one record's data, not the dictionary or the configuration: our own
+checks (:class:`~mapr_daemon.errors.RecordError`) and the numerical libraries' refusals
+(numpy's ``LinAlgError`` and scipy's non-finite checks are ``ValueError``; ``ArithmeticError``
+covers division and overflow). A configuration error stays fatal: it would fail every record."""
+
+
+def check_record(channels: Mapping[str, FloatArray]) -> None:
+    """RecordError naming the channels with NaN or infinite samples (and how many).
+
+    Why here: a NaN does not always raise downstream — in the supply voltage it made every
+    statistic NaN, every comparison false, and the record "healthy" with confidence 1.
+    """
+    bad = {k: int(np.count_nonzero(~np.isfinite(np.asarray(v, dtype=np.float64))))
+           for k, v in channels.items()}
+    bad = {k: n for k, n in bad.items() if n}
+    if bad:
+        raise RecordError("non-finite samples in " + ", ".join(
+            f"{k} ({n})" for k, n in sorted(bad.items())), field="channels")
+
+
+def error_event(error: BaseException) -> dict[str, Any]:
+    """The event of a record that could not be diagnosed: the keys of any event, anomaly
+    undecided (``None``), confidence 0, and ``evidence.error`` = {type, message}."""
+    return {
+        "anomaly": None, "fault": None, "severity": None, "unit": None, "confidence": 0.0,
+        "parameters": {}, "soh": None, "component": None, "part": None, "ambiguity": None,
+        "rul": None,
+        "evidence": {"error": {"type": type(error).__name__, "message": str(error)}},
+    }
+
+
+class Reasoner:
+    """Decides on BIT records against one fault dictionary, for one actuator.
+
+    It keeps the EKF's reference model across records and adapts it by itself (the paper's
+    model adaptation): a parameter changed from the reference in the same direction on
+    ``confirm_after`` consecutive BITs (:class:`~.estimator.Confirmation`) is confirmed, the
+    reference moves to the mean of those estimates, and that record's event says so in
+    ``evidence.model_adaptation`` (which parameters, from what to what). Later records'
+    ``evidence.parameter_changes`` are measured from the adapted model.
+    """
+
+    def __init__(self, dictionary: Dictionary, params: ActuatorParams,
+                 confirm_after: int = 3, prognostic: PrognosticModel | None = None) -> None:
+        self.dictionary = dictionary
+        self.params = params
+        self.prognostic = prognostic
+        """With it, each event carries ``wear``: the BIT's degradation estimate per aging
+        kind, what the actuator's trend is fitted on (:mod:`.health`)."""
+        self.reference = Reference.nominal(params)
+        self.confirmation = Confirmation(confirm_after)
+
+    def matrix(self, channels: Mapping[str, FloatArray], command_deg: FloatArray) -> FloatArray:
+        """M ``(32, 72)`` of one BIT record."""
+        d = self.dictionary
+        need = int(d.window_starts.max()) + d.window_samples
+        n = int(np.asarray(channels["position_deg"]).shape[-1])
+        if n < need:
+            raise RecordError(f"a BIT record needs {need} samples, got {n}", field="signals")
+        sig = derived_signals({k: np.atleast_2d(np.asarray(v, dtype=np.float64))
+                               for k, v in channels.items()},
+                              np.asarray(command_deg, dtype=np.float64))
+        m: FloatArray = feature_matrix(sig, d.window_starts, d.window_samples,
+                                       d.sample_rate_hz, d.signals)[0]
+        return m
+
+    def decide(self, m: FloatArray, dynamic_pressure_pa: float,
+               paper: bool = False) -> classifier.Decision:
+        """Ours by default, the paper's chosen-curve classifier with ``paper=True``."""
+        f = classifier.paper_decide if paper else classifier.decide
+        return f(self.dictionary, m, float(dynamic_pressure_pa))
+
+    def diagnose(self, channels: Mapping[str, FloatArray], command_deg: FloatArray,
+                 dynamic_pressure_pa: float, paper: bool = False) -> dict[str, Any]:
+        """The event for one BIT record; one of :data:`RECORD_ERRORS` if it cannot be
+        diagnosed, in which case the adaptation state is left as it was."""
+        check_record(channels)
+        if not math.isfinite(dynamic_pressure_pa):
+            raise RecordError("not finite", field="dynamic_pressure_pa")
+        m = self.matrix(channels, command_deg)
+        est = None  # the EKF needs its channels at the actuator file's sample rate
+        if all(k in channels for k in NEEDED) and \
+                self.dictionary.sample_rate_hz == self.params.sensors.sample_rate_hz:
+            est = ParameterEstimator(self.params, self.reference).run(channels,
+                                                                      dynamic_pressure_pa)
+        dec = self.decide(m, dynamic_pressure_pa, paper)
+        if not (math.isfinite(dec.score) and math.isfinite(dec.confidence)):
+            raise RecordError(f"the classifier's statistic is not finite (score {dec.score}, "
+                              f"confidence {dec.confidence})", field="classifier")
+        event = self.event(dec, est)
+        if est is not None:
+            self._adapt(est, event["evidence"])
+        if self.prognostic is not None:
+            event["wear"] = self.prognostic.estimates(self.dictionary, m, dynamic_pressure_pa)
+            event["conditions"] = self.prognostic.bit_conditions(self.dictionary, m,
+                                                                 dynamic_pressure_pa)
+        return event
+
+    def diagnose_or_flag(self, channels: Mapping[str, FloatArray], command_deg: FloatArray,
+                         dynamic_pressure_pa: float, paper: bool = False) -> dict[str, Any]:
+        """:meth:`diagnose`, or :func:`error_event` when the record cannot be diagnosed."""
+        try:
+            return self.diagnose(channels, command_deg, dynamic_pressure_pa, paper)
+        except RECORD_ERRORS as error:
+            return error_event(error)
+
+    def _adapt(self, est: Estimate, evidence: dict[str, Any]) -> None:
+        """Record the changes from the reference; adapt it to what is now confirmed."""
+        changes = self.reference.changed(est)
+        evidence["parameter_changes"] = {k: float(f"{v:.4g}") for k, v in changes.items()}
+        confirmed = self.confirmation.observe(changes, est)
+        if not confirmed:
+            return
+        before = {k: self.reference.value[k] for k in confirmed}
+        self.reference.adapt(confirmed)
+        evidence["model_adaptation"] = {
+            "rule": f"changed the same way on {self.confirmation.consecutive} consecutive "
+                    f"BITs beyond {self.reference.k_sd:g} sd and the tolerance",
+            "parameters": {k: {"from": float(f"{before[k]:.6g}"),
+                               "to": float(f"{v:.6g}"), "unit": UNITS[k]}
+                           for k, v in confirmed.items()}}
+
+    def event(self, dec: classifier.Decision,
+              estimate: Estimate | None = None) -> dict[str, Any]:
+        """A decision as the JSON-ready event of ``mapr diagnose``.
+
+        ``parameters`` holds the EKF's estimates (value, sd, unit, reference value), and
+        ``evidence.severity_check`` compares the classifier's severity with the EKF where the
+        fault moves an estimated parameter (friction). ``component`` is the monitored item the
+        fault degrades, ``part`` the replaceable part it belongs to, ``ambiguity`` that part's
+        members with their probabilities and the group the data cannot separate
+        (:func:`~.parts.ambiguity`); all three null without a decided fault.
+        """
+        health = 1.0
+        component: str | None = None
+        part: str | None = None
+        ambiguity: dict[str, Any] | None = None
+        if dec.anomaly and dec.fault is not None:
+            health = soh.soh(self.params, dec.fault, dec.value)
+            component = parts.COMPONENTS[dec.fault]
+            part = parts.PART_OF[dec.fault]
+            ambiguity = parts.ambiguity(dec.fault, dec.kind_residuals,
+                                        self.dictionary.calibration.get("chi2_scale", 1.0))
+        evidence = dict(dec.evidence)
+        evidence.update(score=round(dec.score, 3), threshold=round(dec.threshold, 3))
+        if dec.switch:
+            evidence["switch"] = dec.switch
+        if dec.severity is not None:
+            evidence["severity_fraction_of_range"] = round(dec.severity, 4)
+        check = None if estimate is None or not dec.anomaly else severity_check(
+            dec.fault, dec.value, estimate)
+        if check is not None:
+            evidence["severity_check"] = check
+        return {
+            "anomaly": dec.anomaly, "fault": dec.fault,
+            "severity": None if dec.value is None else float(f"{dec.value:.6g}"),
+            "unit": dec.unit, "confidence": round(dec.confidence, 4),
+            "parameters": {} if estimate is None else estimate.as_event(self.reference),
+            "soh": round(health, 4),
+            "component": component, "part": part, "ambiguity": ambiguity, "rul": None,
+            "evidence": evidence,
+        }
