@@ -1,8 +1,8 @@
 """JSON text of many rows at once, compiled: floats exactly as ``json.dumps`` writes them.
 
 ``mapr decode --icd`` prints a few hundred thousand engineering values a minute of bus time.
-Python's ``repr`` of a float (what ``json.dumps`` writes) costs about 0.2 µs, as much as the
-rest of the decode; assembling each line from per-value strings costs as much again. Here a
+Python's ``repr`` of a float (what ``json.dumps`` writes) costs as much as the rest of the
+decode (docs/figures.md); assembling each line from per-value strings costs as much again. Here a
 batch of rows is written into one byte buffer by a compiled kernel (:mod:`drivers.jit`),
 each row where the last ended, from a pool of fixed texts (keys, labels, flag lists) and
 numbers.

@@ -11,9 +11,9 @@ block status, gap words, the words themselves) is gathered with numpy by :func:`
 once for all the packets of a batch.
 
 This path needs numpy only: a command that reads a Chapter 10 file starts without
-importing a compiler. The compiled walk it replaced was at most 1.2x faster on a dense
-writer-made file, the same on the real sample, and loading it cost every process about
-0.9 s of CPU (docs/chapter10.md has the figures).
+importing a compiler. The compiled walk it replaced was barely faster, and loading it cost
+every process more CPU than it saved (docs/chapter10.md and docs/figures.md have the
+figures).
 """
 
 from __future__ import annotations

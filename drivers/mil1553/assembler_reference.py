@@ -1,7 +1,7 @@
 """The message grammar in plain Python: the reference the compiled grammar is checked against.
 
 :class:`ReferenceAssembler` is :class:`~drivers.mil1553.assembler.MessageAssembler` with its
-one-bus pass written as readable Python (about 12 µs a message), as the assembler was before
+one-bus pass written as readable Python (slow: docs/figures.md), as the assembler was before
 the grammar was compiled. It returns exactly the same records; the tests compare the two on
 random and adversarial word streams, so the compiled kernel has a specification to meet.
 """

@@ -53,7 +53,7 @@ class Workspace:
     written (the runs' arrays are sized for a change at every sample), 56 MB for random
     bytes; allocated afresh each time, they are returned to the system and faulted
     back in page by page for the next buffer, which cost more than the work done on them
-    (about 3 µs a page on a virtual machine). Arrays taken from here are valid until the
+    (docs/figures.md). Arrays taken from here are valid until the
     same name is taken again.
     """
 

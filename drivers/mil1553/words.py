@@ -3,7 +3,7 @@
 Layouts are declared once, with :mod:`construct`, as bit structures MSB first (bit 15 is the
 first bit on the bus). The same declarations are turned into a shift/mask table at import, so
 the hot path (numpy arrays of thousands of words) uses shifts and masks, and ``construct``
-stays off it: parsing one word with construct costs ~7 µs against ~0.2 µs with shifts.
+stays off it: construct parses a word many times slower than shifts do (docs/figures.md).
 
 >>> str(CommandWord.from_value(0x2822))
 'RT05 R SA01 WC02'

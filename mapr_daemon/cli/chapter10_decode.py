@@ -37,9 +37,8 @@ BATCH_MESSAGES = 32768
 """Messages per batch (the reader's default is 8192): each batch's ICD values cost a dozen
 numpy calls per parameter of each ICD message in it with the ``repr`` writer, and a fixed
 few calls with the compiled one, whatever its size, so larger batches write ``--icd`` values
-faster (0.31 -> 0.29 s CPU for 60 s of bench/chapter10_speed.py's traffic, measured with a
-writer that decoded per ICD message); the lines of one batch are held at once (a few tens
-of MB at this size)."""
+faster (bench/chapter10_speed.py's traffic; docs/figures.md); the lines of one batch are held
+at once (a few tens of MB at this size)."""
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

@@ -1,18 +1,18 @@
 """Engineering values for a whole :class:`~drivers.chapter10.ms1553_batch.Ms1553Batch`.
 
 :meth:`IcdView.values <mapr_daemon.cli.icdview.IcdView.values>` decodes one record at a
-time (one numpy pass per message: fine for a live monitor, 7x the cost of reading for a
-recording). Here the messages of a batch are grouped by ICD message, their data words
-stacked straight from the batch's word array, each group decoded in one call and its text
-written by one ``%`` per message of a format string made once per message layout, each
-distinct number of a column written once, short ones from tables and the rest by ``repr``
-(:mod:`mapr_daemon.cli.icdview_numbers`); the result per message is the same dict, key for
-key.
+time (one numpy pass per message: fine for a live monitor, several times the cost of reading
+for a recording; docs/figures.md). Here the messages of a batch are grouped by ICD message,
+their data words stacked straight from the batch's word array, each group decoded in one
+call and its text written by one ``%`` per message of a format string made once per message
+layout, each distinct number of a column written once, short ones from tables and the rest by
+``repr`` (:mod:`mapr_daemon.cli.icdview_numbers`); the result per message is the same dict,
+key for key.
 
 Once a decode has written enough values for loading numba to pay (:class:`BatchValues`), a
 compiled writer takes over (:mod:`mapr_daemon.cli.icdview_rows`: the whole batch decoded
-and written in two kernel calls: about 2 µs less CPU time per message with values than
-this writer on bench/chapter10_speed.py's traffic); both write the same bytes.
+and written in two kernel calls, cheaper per message than this writer, as
+bench/chapter10_speed.py prints; docs/figures.md); both write the same bytes.
 """
 
 from __future__ import annotations
@@ -34,12 +34,11 @@ from mapr_daemon.icd.values import Series
 
 COMPILED_AFTER = 200_000
 """Messages with values a decode writes with ``repr`` before it turns to the compiled
-writer, unless numba is already loaded: loading it and its kernels costs about 0.42 s of
-CPU once, and the compiled writer saves about 2 µs per such message (bench/chapter10_speed.py's
-ICD traffic, 30 k messages with values: values text 0.033 s against 0.092 s), so it pays
-from about this many on (a fresh ``mapr decode --icd`` of 200 k messages with values took
-the same CPU time, 2.06-2.09 s, with either writer throughout; 7 minutes of a busy bus).
-Traffic whose values repeat favours the ``repr`` writer more."""
+writer, unless numba is already loaded: loading it and its kernels costs a fixed CPU time
+once and the compiled writer saves a little per such message, so it pays from about this many
+on, where a fresh ``mapr decode --icd`` takes the same CPU time with either writer (the
+figures, from bench/chapter10_speed.py: docs/figures.md, "Costs behind the code"). Traffic
+whose values repeat favours the ``repr`` writer more."""
 
 
 class BatchValues:

@@ -13,8 +13,8 @@ record's text into one buffer (:func:`~drivers.jsontext.write_rows`; a record th
 does not describe, an empty line), cut into one string per record of the batch. No numpy
 pass runs per message or parameter.
 
-Loading the kernels costs a process about 0.6 s of CPU once (numba and its code generator),
-so this module is imported only when that pays (see
+Loading the kernels costs a process a fixed CPU time once (numba and its code generator;
+docs/figures.md), so this module is imported only when that pays (see
 :class:`~mapr_daemon.cli.icdview_batch.BatchValues`).
 """
 

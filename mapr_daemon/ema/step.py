@@ -2,8 +2,9 @@
 
 Why compiled: each step depends on the one before (a switched plant: Hall sectors, diode
 events, a saturating voltage loop), so time cannot be vectorised, and the step has ~220 float
-operations. In CPython that is ~3-4 us per 25 us step (6-8x real time for one actuator); numpy
-across runs pays ~1 us per call and ~200 calls per step, cheap only in large batches. Compiled
+operations. In CPython one actuator runs only a few times faster than real time,
+and numpy across runs pays its per-call overhead ~200 times a step, cheap only in large
+batches (docs/figures.md, "Costs behind the code"). Compiled
 (:func:`drivers.jit.kernel`), Python is entered once per chunk of samples for all runs, and the
 loop over runs, samples and steps runs as machine code.
 

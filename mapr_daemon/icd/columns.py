@@ -4,7 +4,7 @@
 :class:`~drivers.mil1553.record.MonitorRecord` objects: right for a live monitor, whose
 records come a few at a time. A Chapter 10 file is read as columns (one array per field, all
 messages of many packets at once), and building a record per message only to stack their
-words back into arrays costs about 5 µs a message, twice what decoding them costs. Here the
+words back into arrays costs more than decoding them (docs/figures.md). Here the
 messages are matched to the table once per distinct pair of command words, each message's
 data words gathered straight from the batch's word array, and each message decoded in one
 call: :func:`decode_columns` returns what ``decode_batch`` returns for the batch's records
@@ -50,7 +50,7 @@ def message_numbers(icd: Icd, batch: Ms1553Batch) -> npt.NDArray[np.int64]:
 
 def distinct(values: npt.NDArray[np.int64]) -> npt.NDArray[np.int64]:
     """The distinct ``values``, sorted: ``np.unique`` without its indices, which imports
-    ``numpy.ma`` on first use (about 13 ms of a short decode's CPU time)."""
+    ``numpy.ma`` on first use, a visible share of a short decode's CPU time (docs/figures.md)."""
     ordered = np.sort(values)
     keep = np.ones(ordered.size, dtype=np.bool_)
     keep[1:] = ordered[1:] != ordered[:-1]

@@ -1,6 +1,7 @@
-"""What a bus engineer types wrong, each answered by one line on stderr and the README's exit
-code (2 bad argument or input, 65 input not there, 69 device unavailable, 78 config error),
-never a hang or a traceback. Each case runs ``mapr`` as a subprocess bounded by a timeout.
+"""What a bus engineer types wrong, each answered by one line on stderr and the exit code of
+docs/cli.md's table (2 bad argument or input, 65 input not there, 69 device unavailable,
+78 config error), never a hang or a traceback. Each case runs ``mapr`` as a subprocess
+bounded by a timeout.
 
 "No libusb" is a machine without the library: a ``sitecustomize`` on the child's path makes
 the library lookup find nothing, as it finds nothing where libusb is not installed.

@@ -218,9 +218,10 @@ LIVES: FloatArray = np.logspace(1.0, 4.3, 331)
 """Lives (flights from 0 to the threshold) of the joint grid: 10 to 20,000 flights."""
 LIFE_SD = 0.7
 """How loosely the fleet prior holds a life nobody stated: sd of ``log(life)`` (a factor of
-two either way at one sd). Measured on kept fleet catalogs with the prior's life off by a
-factor of two either way: the learned spread (0.17) covered the true RUL at 29-68 % of the
-BITs, 0.5 at 74-88 %, 0.8 at 78-87 % (docs/reasoner.md, "The fleet prior's life")."""
+two either way at one sd). Chosen on kept fleet catalogs with the prior's life off by a
+factor of two either way: the learned spread (0.17) covered the true RUL at too few BITs,
+looser ones held it (docs/reasoner-measured.md, "The fleet prior's life: how 0.7 was
+chosen")."""
 
 
 def _joint_draws(shape: str, n: FloatArray, y: FloatArray, w: FloatArray, prior: ShapePrior,
