@@ -111,7 +111,7 @@ class Watch:
 # Layering: every package on a floor, imports only go down, and no module import cycle.
 
 FLOORS: tuple[tuple[str, ...], ...] = (
-    ("errors", "arrays"),
+    ("errors", "arrays", "findings"),
     ("ema", "icd"),
     ("catalog", "reasoner.diagnosis", "reasoner.ekf"),
     ("reasoner.prognosis",),
