@@ -88,11 +88,11 @@ def main() -> None:
                     print(f"flight seed {s} {name}: {len(found)} BITs found (expected 1)")
                     continue
                 event = found[0].decision
-                said = event["fault"] if event["anomaly"] else None
+                said = event.fault if event.anomaly else None
                 truth = None if fault is None else fault.split("=")[0].split("@")[0]
                 ok = said == truth
                 right[name] += ok
-                ev = event["evidence"]
+                ev = event.evidence
                 ratio = ev.get("score", 0.0) / max(ev.get("threshold", 1.0), 1e-9)
                 if fault is None:
                     healthy_worst[name] = max(healthy_worst[name], ratio)

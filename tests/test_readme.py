@@ -24,8 +24,8 @@ def small_dictionary(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A small dictionary (healthy and ESR) in place of `mapr dictionary build`'s, which takes
     minutes; the example reads it as any other."""
     from mapr_daemon.ema.params import default_actuator_path, load_actuator
-    from mapr_daemon.reasoner.training import dictionary_build
     from mapr_daemon.reasoner.diagnosis.dictionary import DictionarySpec
+    from mapr_daemon.reasoner.training import dictionary_build
 
     spec = DictionarySpec(pressures_pa=(1600.0,), nominal_per_pressure=2,
                           severities=(0.25, 0.5, 0.75, 1.0), kinds=("esr",), shorts=(),

@@ -16,8 +16,9 @@ from typing import Any
 
 from mapr_daemon.catalog import episode_store, history
 from mapr_daemon.catalog.episodes import Episode
-from mapr_daemon.catalog.model import BitRecord, Health
+from mapr_daemon.catalog.model import BitRecord
 from mapr_daemon.catalog.report import fmt_time, text_table
+from mapr_daemon.findings import Health
 
 _LATEST = (
     f"SELECT {history.BIT_SELECT}, n, first_ns, first_flight FROM ("

@@ -20,7 +20,8 @@ import sqlite3
 from collections.abc import Sequence
 from typing import Any
 
-from mapr_daemon.catalog.model import BitOutcome, BitRecord, Flight, Health
+from mapr_daemon.catalog.model import BitOutcome, BitRecord, Flight
+from mapr_daemon.findings import Health
 
 BIT_SELECT = ("id, session_id, tail, asset, t_ns, bus_ns, abs_ns, flight, flight_hours, fault, "
               "event_id, wear, mode, soh, rul, rul_low, rul_high, rul_hours, rul_hours_low, "

@@ -19,6 +19,8 @@ import math
 from collections.abc import Mapping
 from typing import Any
 
+from mapr_daemon.findings import Diagnosis, Health
+
 
 @dataclasses.dataclass(frozen=True)
 class Event:
@@ -76,26 +78,25 @@ class Event:
         return 1.0 if self.severity is None else self.severity
 
 
-def event_from_reasoner(decision: Mapping[str, Any], *, t_ns: int, asset: str,
+def event_from_reasoner(decision: Diagnosis, *, t_ns: int, asset: str,
                         rt: int | None = None, rul: Any = None,
                         rul_unit: str | None = "flights", bus_ns: int | None = None,
                         abs_ns: int | None = None) -> Event:
-    """The catalog event for one of the reasoner's JSON-ready events (``Reasoner.event``).
+    """The catalog event for one of the reasoner's diagnoses.
 
-    Its keys: ``fault``, ``severity`` (physical value), ``unit``, ``confidence``,
-    ``parameters``, ``soh``, ``component``, ``part``, ``ambiguity``, ``rul``, ``evidence``
-    (which carries ``switch`` and ``severity_fraction_of_range``). ``component``, ``part``
-    (the replaceable part) and ``ambiguity`` (its members' probabilities) are kept in the
-    stored evidence. ``rul`` (here or in the decision) may be a number,
-    a mapping with ``rul``/``low``/``high`` or an object with those attributes (the
-    reasoner's ``RulEstimate``). Only a mapping is read, so the catalog never imports the
-    reasoner.
+    ``component``, ``part`` (the replaceable part) and ``ambiguity`` (its members'
+    probabilities) are kept in the stored evidence, beside the switch and the severity as a
+    fraction of range. ``rul`` (here or in the diagnosis) may be a number, a mapping with
+    ``rul``/``low``/``high`` or an object with those attributes (the reasoner's
+    ``RulEstimate``); the catalog never imports the reasoner, only the plain records of
+    :mod:`mapr_daemon.findings`.
     """
-    evidence = dict(decision.get("evidence") or {})
-    for key in ("component", "part", "ambiguity"):
-        if decision.get(key) is not None:
-            evidence.setdefault(key, decision[key])
-    estimate = rul if rul is not None else decision.get("rul")
+    evidence = dict(decision.evidence)
+    for key, value in (("component", decision.component), ("part", decision.part),
+                       ("ambiguity", decision.ambiguity)):
+        if value is not None:
+            evidence.setdefault(key, value)
+    estimate = rul if rul is not None else decision.rul
     value = low = high = None
     if isinstance(estimate, Mapping):
         value, low, high = estimate.get("rul"), estimate.get("low"), estimate.get("high")
@@ -106,45 +107,18 @@ def event_from_reasoner(decision: Mapping[str, Any], *, t_ns: int, asset: str,
         value = estimate
     fraction = evidence.get("severity_fraction_of_range")
     return Event(
-        t_ns=int(t_ns), asset=asset, rt=rt, fault=str(decision.get("fault") or "unknown"),
-        confidence=float(decision.get("confidence") or 0.0),
+        t_ns=int(t_ns), asset=asset, rt=rt, fault=decision.fault or "unknown",
+        confidence=float(decision.confidence or 0.0),
         severity=None if fraction is None else float(fraction),
-        severity_value=None if decision.get("severity") is None
-        else float(decision["severity"]),
-        severity_unit=decision.get("unit"), switch=evidence.get("switch"),
-        soh=None if decision.get("soh") is None else float(decision["soh"]),
+        severity_value=decision.severity, severity_unit=decision.unit,
+        switch=evidence.get("switch"), soh=decision.soh,
         rul=None if value is None else float(value),
         rul_low=None if low is None else float(low),
         rul_high=None if high is None else float(high),
         rul_unit=rul_unit if value is not None else None,
-        params=dict(decision.get("parameters") or {}), evidence=evidence,
+        params=dict(decision.parameters), evidence=evidence,
         bus_ns=None if bus_ns is None else int(bus_ns),
         abs_ns=None if abs_ns is None else int(abs_ns))
-
-
-@dataclasses.dataclass(frozen=True)
-class Health:
-    """What an actuator's trend said after one BIT (plain values: the catalog never imports
-    the reasoner). RUL figures are ``inf`` where the trend does not reach the failure
-    threshold within its horizon (stored as NULL, ``note`` says so), None where unknown."""
-
-    soh: float | None
-    """1.0 as commissioned, 0.0 at the leading mode's failure threshold."""
-    mode: str | None = None
-    """The leading fault mode (the part the RUL is of); None when nothing wears."""
-    rul: float | None = None
-    rul_low: float | None = None
-    rul_high: float | None = None
-    """RUL in flights: median and the bounds of a :attr:`interval` interval."""
-    rul_hours: float | None = None
-    rul_hours_low: float | None = None
-    rul_hours_high: float | None = None
-    """The same in flight hours."""
-    note: str | None = None
-    """Why a figure is missing, in words."""
-    modes: Mapping[str, Any] = dataclasses.field(default_factory=dict)
-    """Per trended kind: its degradation, evidence and RUL."""
-    interval: float = 0.9
 
 
 @dataclasses.dataclass(frozen=True)

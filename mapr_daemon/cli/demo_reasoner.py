@@ -20,7 +20,6 @@ import sys
 import time
 from collections.abc import Iterable, Sequence
 from pathlib import Path
-from typing import Any
 
 from drivers.mil1553.record import MonitorRecord
 from mapr_daemon.cli.dictionary import default_spec_path, peak_rss_mb
@@ -28,6 +27,7 @@ from mapr_daemon.daemon.clock import BusClock
 from mapr_daemon.daemon.config import Config, ReasonerConfig
 from mapr_daemon.daemon.pipeline import Batch, build_pipeline
 from mapr_daemon.ema.params import ActuatorParams, load_actuator
+from mapr_daemon.findings import Diagnosis
 from mapr_daemon.reasoner.diagnosis.dictionary import DictionarySpec
 from mapr_daemon.reasoner.training.dictionary_build import build
 
@@ -135,20 +135,21 @@ def diagnose_bits(icd_path: str | Path, records: Sequence[MonitorRecord],
     return build_pipeline(config).process(list(records), BusClock())
 
 
-def describe(event: dict[str, Any]) -> Iterable[str]:
-    """A maintainer's reading of one reasoner event."""
-    evidence = event.get("evidence", {})
+def describe(diagnosis: Diagnosis) -> Iterable[str]:
+    """A maintainer's reading of one diagnosis."""
+    evidence = diagnosis.evidence
     at = evidence.get("bit_bus_time_s")
     head = f"BIT at bus time {at:.3f} s" if isinstance(at, float) else "BIT"
-    if not event.get("anomaly"):
+    if not diagnosis.anomaly:
         yield (f"{head}: nominal (score {evidence.get('score', 0):.0f} below threshold "
                f"{evidence.get('threshold', 0):.0f})")
         return
-    switch = evidence.get("switch")
-    fault = f"{event['fault']}/{switch}" if switch else str(event["fault"])
-    severity = event.get("severity")
-    amount = "" if severity is None else f", severity {severity:.4g} {event.get('unit') or ''}"
-    yield (f"{head}: ANOMALY {fault}{amount}, confidence {event.get('confidence', 0):.2f}, "
-           f"state of health {event.get('soh', 1.0):.2f} ({event.get('component', '')})")
+    switch = diagnosis.switch
+    fault = f"{diagnosis.fault}/{switch}" if switch else str(diagnosis.fault)
+    severity = diagnosis.severity
+    amount = "" if severity is None else f", severity {severity:.4g} {diagnosis.unit or ''}"
+    soh = 1.0 if diagnosis.soh is None else diagnosis.soh
+    yield (f"{head}: ANOMALY {fault}{amount}, confidence {diagnosis.confidence:.2f}, "
+           f"state of health {soh:.2f} ({diagnosis.component or ''})")
     yield (f"    score {evidence.get('score', 0):.0f} vs threshold "
            f"{evidence.get('threshold', 0):.0f}")

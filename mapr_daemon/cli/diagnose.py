@@ -71,8 +71,9 @@ def run(args: argparse.Namespace) -> int:
     for i in range(runs.n) if args.index is None else [args.index]:
         reasoner = unit if unit is not None else Reasoner(d, params)
         channels = {k: v[i] for k, v in runs.channels.items()}
-        event = reasoner.diagnose_or_flag(channels, runs.command_deg,
-                                          float(runs.dynamic_pressure_pa[i]), paper=args.paper)
-        flagged += "error" in event["evidence"]
-        print(json.dumps({"run": i, **event}), flush=True)
+        diagnosis = reasoner.diagnose_or_flag(channels, runs.command_deg,
+                                              float(runs.dynamic_pressure_pa[i]),
+                                              paper=args.paper)
+        flagged += diagnosis.error is not None
+        print(json.dumps({"run": i, **diagnosis.to_json()}), flush=True)
     return exitcodes.DATAERR if flagged else exitcodes.OK

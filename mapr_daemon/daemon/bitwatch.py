@@ -20,7 +20,6 @@ from __future__ import annotations
 import dataclasses
 import logging
 from collections.abc import Mapping
-from typing import Any
 
 import numpy as np
 
@@ -29,6 +28,7 @@ from mapr_daemon.daemon import wiring
 from mapr_daemon.ema.bit import bit_profile
 from mapr_daemon.ema.params import CHANNELS, BitParams
 from mapr_daemon.ema.profile import Profile
+from mapr_daemon.findings import Diagnosis
 from mapr_daemon.icd import Series
 from mapr_daemon.reasoner.reasoner import Reasoner
 
@@ -48,8 +48,8 @@ class BitFound:
     """Time tag of the record that carried the request (the event's bus time)."""
     onset_ns: int
     """Time tag of the BIT record's first sample."""
-    decision: dict[str, Any]
-    """The reasoner's JSON-ready event (``anomaly``, ``fault``, ``evidence``...)."""
+    decision: Diagnosis
+    """The reasoner's diagnosis, its evidence saying where on the bus the BIT was."""
 
 
 class BitWatch:
@@ -211,17 +211,17 @@ class BitWatch:
         return {"commutation_sector": sector[nearest],
                 "inverter_duty": np.where(direction[nearest] > 0.5, 1.0, -1.0) * duty[nearest]}
 
-    def _diagnose(self, onset: int) -> dict[str, Any] | None:
+    def _diagnose(self, onset: int) -> Diagnosis | None:
         self.bits_seen += 1
         self.last_onset = onset
         record = self.record(onset)
         if record is None:
             return None
         channels, q = record
-        event = self.reasoner.diagnose(channels, self.profile.command_deg, q, paper=self.paper)
-        event["evidence"]["bit_bus_time_s"] = round(onset / 1e9, 6)
-        event["evidence"]["dynamic_pressure_pa"] = round(q, 1)
+        diagnosis = self.reasoner.diagnose(channels, self.profile.command_deg, q,
+                                           paper=self.paper).with_evidence(
+            bit_bus_time_s=round(onset / 1e9, 6), dynamic_pressure_pa=round(q, 1))
         log.info("BIT at bus time %.3f s: %s (score %.0f, threshold %.0f)", onset / 1e9,
-                 f"{event['fault']} anomaly" if event["anomaly"] else "nominal",
-                 event["evidence"].get("score", 0.0), event["evidence"].get("threshold", 0.0))
-        return event
+                 f"{diagnosis.fault} anomaly" if diagnosis.anomaly else "nominal",
+                 diagnosis.evidence.get("score", 0.0), diagnosis.evidence.get("threshold", 0.0))
+        return diagnosis

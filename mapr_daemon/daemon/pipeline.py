@@ -171,9 +171,9 @@ class Pipeline:
         else a nominal outcome stamped like an event would be; with its wear estimates."""
         bus = stamp(bit.request_ns)
         absolute = clock.absolute(bus)
-        wear = dict(bit.decision.get("wear") or {})
-        cond = dict(bit.decision.get("conditions") or {})
-        if bit.decision.get("anomaly"):
+        wear = dict(bit.decision.wear or {})
+        cond = dict(bit.decision.conditions or {})
+        if bit.decision.anomaly:
             event = event_from_reasoner(bit.decision, asset=asset.name, rt=asset.rt,
                                         t_ns=time.time_ns() if absolute is None else absolute,
                                         bus_ns=bus, abs_ns=absolute)

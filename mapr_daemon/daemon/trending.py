@@ -25,7 +25,8 @@ import math
 from collections.abc import Mapping, Sequence
 
 from mapr_daemon.catalog import BitOutcome, Event
-from mapr_daemon.catalog.model import BitRecord, Flight, Health
+from mapr_daemon.catalog.model import BitRecord, Flight
+from mapr_daemon.findings import Health
 from mapr_daemon.reasoner.prognosis.assessment import INTERVAL, assess
 from mapr_daemon.reasoner.prognosis.prognostic_model import PrognosticModel
 
@@ -218,10 +219,7 @@ class Trending:
         fault = None if o.event is None else o.event.fault
         h = assess(model, hist.flights, hist.wear, diagnosed=fault, seed=len(hist.flights),
                    conditions=hist.conditions)
-        mean = self.log.mean_hours()
-        rh, rhl, rhh = h.in_hours(mean)
-        return Health(h.soh, h.mode, h.rul, h.rul_low, h.rul_high, rh, rhl, rhh, h.note,
-                      dict(h.modes), INTERVAL)
+        return h.with_hours(self.log.mean_hours(), INTERVAL)
 
 
 def _with_health(event: Event, health: Health | None) -> Event:

@@ -26,8 +26,9 @@ import importlib
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
+    from mapr_daemon.findings import Health
     from mapr_daemon.reasoner.diagnosis.dictionary import Dictionary
-    from mapr_daemon.reasoner.prognosis.assessment import Health, assess
+    from mapr_daemon.reasoner.prognosis.assessment import assess
     from mapr_daemon.reasoner.prognosis.prognostic_model import PrognosticModel
     from mapr_daemon.reasoner.reasoner import Reasoner
 
@@ -35,7 +36,7 @@ _HOMES = {
     "Reasoner": "mapr_daemon.reasoner.reasoner",
     "Dictionary": "mapr_daemon.reasoner.diagnosis.dictionary",
     "PrognosticModel": "mapr_daemon.reasoner.prognosis.prognostic_model",
-    "Health": "mapr_daemon.reasoner.prognosis.assessment",
+    "Health": "mapr_daemon.findings",
     "assess": "mapr_daemon.reasoner.prognosis.assessment",
 }
 

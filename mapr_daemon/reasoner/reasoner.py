@@ -1,22 +1,25 @@
-"""The reasoner's face to the daemon and the CLI: signals of one BIT in, one event out.
+"""The reasoner's face to the daemon and the CLI: signals of one BIT in, one diagnosis out.
 
 >>> # r = Reasoner(Dictionary.load("dictionary.npz"), load_actuator(default_actuator_path()))
->>> # event = r.diagnose(channels, command_deg, dynamic_pressure_pa)   # dict, JSON-ready
+>>> # diagnosis = r.diagnose(channels, command_deg, dynamic_pressure_pa)
 
 ``channels`` maps the ICD's signal names (``phase_a_current_a``, ``position_deg``,
-``dc_bus_voltage_v``, ...) to arrays of one BIT record at the dictionary's sample rate;
-the event has the keys of ``mapr diagnose``: anomaly, fault, severity (physical unit), unit,
-confidence, parameters, soh, component, part (the replaceable part), ambiguity (its members'
-probabilities, :mod:`~.parts`), rul, evidence.
+``dc_bus_voltage_v``, ...) to arrays of one BIT record at the dictionary's sample rate; the
+answer is a :class:`~mapr_daemon.findings.Diagnosis` (anomaly, fault, severity in its physical
+unit, confidence, the EKF's parameters, SoH, component, the replaceable part and its
+ambiguity, evidence), whose :meth:`~mapr_daemon.findings.Diagnosis.to_json` is a line of
+``mapr diagnose``.
 
 A record that cannot be diagnosed (non-finite samples, too short, a numerical failure on its
 data: :data:`RECORD_ERRORS`) raises from :meth:`Reasoner.diagnose`;
-:meth:`Reasoner.diagnose_or_flag` turns that into :func:`error_event` (anomaly undecided,
-confidence 0, ``evidence.error`` naming the error) so a batch goes on with its other records.
+:meth:`Reasoner.diagnose_or_flag` turns that into
+:meth:`~mapr_daemon.findings.Diagnosis.failed` (anomaly undecided, confidence 0,
+``evidence.error`` naming the error) so a batch goes on with its other records.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
@@ -26,9 +29,9 @@ import numpy as np
 from mapr_daemon.arrays import FloatArray
 from mapr_daemon.ema.params import ActuatorParams
 from mapr_daemon.errors import RecordError
+from mapr_daemon.findings import Diagnosis
 from mapr_daemon.reasoner.diagnosis import classifier, parts
 from mapr_daemon.reasoner.diagnosis.dictionary import Dictionary
-from mapr_daemon.reasoner.diagnosis.features import derived_signals, feature_matrix
 from mapr_daemon.reasoner.ekf.estimator import (
     UNITS,
     Confirmation,
@@ -64,17 +67,6 @@ def check_record(channels: Mapping[str, FloatArray]) -> None:
             f"{k} ({n})" for k, n in sorted(bad.items())), field="channels")
 
 
-def error_event(error: BaseException) -> dict[str, Any]:
-    """The event of a record that could not be diagnosed: the keys of any event, anomaly
-    undecided (``None``), confidence 0, and ``evidence.error`` = {type, message}."""
-    return {
-        "anomaly": None, "fault": None, "severity": None, "unit": None, "confidence": 0.0,
-        "parameters": {}, "soh": None, "component": None, "part": None, "ambiguity": None,
-        "rul": None,
-        "evidence": {"error": {"type": type(error).__name__, "message": str(error)}},
-    }
-
-
 class Reasoner:
     """Decides on BIT records against one fault dictionary, for one actuator.
 
@@ -97,18 +89,8 @@ class Reasoner:
         self.confirmation = Confirmation(confirm_after)
 
     def matrix(self, channels: Mapping[str, FloatArray], command_deg: FloatArray) -> FloatArray:
-        """M ``(32, 72)`` of one BIT record."""
-        d = self.dictionary
-        need = int(d.window_starts.max()) + d.window_samples
-        n = int(np.asarray(channels["position_deg"]).shape[-1])
-        if n < need:
-            raise RecordError(f"a BIT record needs {need} samples, got {n}", field="signals")
-        sig = derived_signals({k: np.atleast_2d(np.asarray(v, dtype=np.float64))
-                               for k, v in channels.items()},
-                              np.asarray(command_deg, dtype=np.float64))
-        m: FloatArray = feature_matrix(sig, d.window_starts, d.window_samples,
-                                       d.sample_rate_hz, d.signals)[0]
-        return m
+        """M of one BIT record (:meth:`Dictionary.record_matrix`)."""
+        return self.dictionary.record_matrix(channels, command_deg)
 
     def decide(self, m: FloatArray, dynamic_pressure_pa: float,
                paper: bool = False) -> classifier.Decision:
@@ -117,8 +99,8 @@ class Reasoner:
         return f(self.dictionary, m, float(dynamic_pressure_pa))
 
     def diagnose(self, channels: Mapping[str, FloatArray], command_deg: FloatArray,
-                 dynamic_pressure_pa: float, paper: bool = False) -> dict[str, Any]:
-        """The event for one BIT record; one of :data:`RECORD_ERRORS` if it cannot be
+                 dynamic_pressure_pa: float, paper: bool = False) -> Diagnosis:
+        """The diagnosis of one BIT record; one of :data:`RECORD_ERRORS` if it cannot be
         diagnosed, in which case the adaptation state is left as it was."""
         check_record(channels)
         if not math.isfinite(dynamic_pressure_pa):
@@ -133,30 +115,35 @@ class Reasoner:
         if not (math.isfinite(dec.score) and math.isfinite(dec.confidence)):
             raise RecordError(f"the classifier's statistic is not finite (score {dec.score}, "
                               f"confidence {dec.confidence})", field="classifier")
-        event = self.event(dec, est)
+        diagnosis = self.event(dec, est)
         if est is not None:
-            self._adapt(est, event["evidence"])
+            diagnosis = diagnosis.with_evidence(**self._adapt(est))
         if self.prognostic is not None:
-            event["wear"] = self.prognostic.estimates(self.dictionary, m, dynamic_pressure_pa)
-            event["conditions"] = self.prognostic.bit_conditions(self.dictionary, m,
-                                                                 dynamic_pressure_pa)
-        return event
+            diagnosis = dataclasses.replace(
+                diagnosis,
+                wear=self.prognostic.estimates(self.dictionary, m, dynamic_pressure_pa),
+                conditions=self.prognostic.bit_conditions(self.dictionary, m,
+                                                          dynamic_pressure_pa))
+        return diagnosis
 
     def diagnose_or_flag(self, channels: Mapping[str, FloatArray], command_deg: FloatArray,
-                         dynamic_pressure_pa: float, paper: bool = False) -> dict[str, Any]:
-        """:meth:`diagnose`, or :func:`error_event` when the record cannot be diagnosed."""
+                         dynamic_pressure_pa: float, paper: bool = False) -> Diagnosis:
+        """:meth:`diagnose`, or :meth:`Diagnosis.failed` when the record cannot be
+        diagnosed."""
         try:
             return self.diagnose(channels, command_deg, dynamic_pressure_pa, paper)
         except RECORD_ERRORS as error:
-            return error_event(error)
+            return Diagnosis.failed(error)
 
-    def _adapt(self, est: Estimate, evidence: dict[str, Any]) -> None:
-        """Record the changes from the reference; adapt it to what is now confirmed."""
+    def _adapt(self, est: Estimate) -> dict[str, Any]:
+        """Adapt the reference to what is now confirmed; the evidence that says so (the
+        changes from the reference, and the adaptation if there was one)."""
         changes = self.reference.changed(est)
-        evidence["parameter_changes"] = {k: float(f"{v:.4g}") for k, v in changes.items()}
+        evidence: dict[str, Any] = {
+            "parameter_changes": {k: float(f"{v:.4g}") for k, v in changes.items()}}
         confirmed = self.confirmation.observe(changes, est)
         if not confirmed:
-            return
+            return evidence
         before = {k: self.reference.value[k] for k in confirmed}
         self.reference.adapt(confirmed)
         evidence["model_adaptation"] = {
@@ -165,10 +152,11 @@ class Reasoner:
             "parameters": {k: {"from": float(f"{before[k]:.6g}"),
                                "to": float(f"{v:.6g}"), "unit": UNITS[k]}
                            for k, v in confirmed.items()}}
+        return evidence
 
     def event(self, dec: classifier.Decision,
-              estimate: Estimate | None = None) -> dict[str, Any]:
-        """A decision as the JSON-ready event of ``mapr diagnose``.
+              estimate: Estimate | None = None) -> Diagnosis:
+        """A classifier's decision as a diagnosis.
 
         ``parameters`` holds the EKF's estimates (value, sd, unit, reference value), and
         ``evidence.severity_check`` compares the classifier's severity with the EKF where the
@@ -197,12 +185,10 @@ class Reasoner:
             dec.fault, dec.value, estimate)
         if check is not None:
             evidence["severity_check"] = check
-        return {
-            "anomaly": dec.anomaly, "fault": dec.fault,
-            "severity": None if dec.value is None else float(f"{dec.value:.6g}"),
-            "unit": dec.unit, "confidence": round(dec.confidence, 4),
-            "parameters": {} if estimate is None else estimate.as_event(self.reference),
-            "soh": round(health, 4),
-            "component": component, "part": part, "ambiguity": ambiguity, "rul": None,
-            "evidence": evidence,
-        }
+        return Diagnosis(
+            anomaly=dec.anomaly, fault=dec.fault,
+            severity=None if dec.value is None else float(f"{dec.value:.6g}"),
+            unit=dec.unit, confidence=round(dec.confidence, 4),
+            parameters={} if estimate is None else estimate.as_event(self.reference),
+            soh=round(health, 4), component=component, part=part, ambiguity=ambiguity,
+            evidence=evidence)

@@ -179,15 +179,16 @@ def test_corrupted_schema_page_is_one_line_naming_the_file(filled: Path) -> None
 
 def test_a_reasoner_event_becomes_a_catalog_event(catalog_path: Path) -> None:
     from mapr_daemon.catalog import event_from_reasoner
+    from mapr_daemon.findings import Diagnosis
 
     decision = {"anomaly": True, "fault": "short", "severity": None, "unit": None,
                 "confidence": 0.97, "parameters": {"esr_ohm": 0.06}, "soh": 0.0,
                 "component": "inverter", "rul": None,
                 "evidence": {"score": 9.1, "threshold": 1.0, "switch": "B_low"}}
-    short = event_from_reasoner(decision, t_ns=T0, asset="EMA1", rt=5)
+    short = event_from_reasoner(Diagnosis.from_json(decision), t_ns=T0, asset="EMA1", rt=5)
     esr = event_from_reasoner(
-        {**decision, "fault": "esr", "severity": 0.45, "unit": "ohm", "soh": 0.6,
-         "evidence": {"severity_fraction_of_range": 0.42}},
+        Diagnosis.from_json({**decision, "fault": "esr", "severity": 0.45, "unit": "ohm",
+                             "soh": 0.6, "evidence": {"severity_fraction_of_range": 0.42}}),
         t_ns=T0 + 1, asset="EMA1", rul={"rul": 120.0, "low": 80.0, "high": 150.0})
     assert (short.switch, short.severity, short.severity_rank) == ("B_low", None, 1.0)
     assert short.evidence["component"] == "inverter" and short.rul is None

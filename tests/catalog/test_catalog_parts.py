@@ -6,6 +6,7 @@ from pathlib import Path
 
 from mapr_daemon.catalog import CatalogReader, CatalogWriter, event_from_reasoner
 from mapr_daemon.catalog.report import event_detail
+from mapr_daemon.findings import Diagnosis
 
 from .conftest import T0
 
@@ -16,11 +17,11 @@ AMBIGUITY = {"part": "SMPS switches", "part_probability": 1.0,
              "rule": "members with probability >= 0.05 given the part"}
 
 
-def _decision(**extra: object) -> dict[str, object]:
-    return {"anomaly": True, "fault": "smps_ron_high", "severity": 0.4, "unit": "ohm",
-            "confidence": 0.5, "parameters": {}, "soh": 0.0,
-            "component": "smps_high_side_mosfet", "rul": None,
-            "evidence": {"severity_fraction_of_range": 0.3}, **extra}
+def _decision(**extra: object) -> Diagnosis:
+    return Diagnosis.from_json({
+        "anomaly": True, "fault": "smps_ron_high", "severity": 0.4, "unit": "ohm",
+        "confidence": 0.5, "parameters": {}, "soh": 0.0, "component": "smps_high_side_mosfet",
+        "rul": None, "evidence": {"severity_fraction_of_range": 0.3}, **extra})
 
 
 def test_part_and_ambiguity_are_stored_and_shown(catalog_path: Path) -> None:

@@ -7,8 +7,9 @@ from __future__ import annotations
 from pathlib import Path
 
 from mapr_daemon.catalog import BitOutcome, CatalogReader, CatalogWriter, Event
-from mapr_daemon.catalog.model import Flight, Health
+from mapr_daemon.catalog.model import Flight
 from mapr_daemon.catalog.recordings import DONE, RecordingRow, store_recording
+from mapr_daemon.findings import Health
 
 from .conftest import HOUR, T0
 

@@ -99,14 +99,14 @@ def test_healthy_bus_flown_bits_score_below_the_dictionarys_own_threshold(
                                   load_actuator(default_actuator_path())))
         events = [bit.decision for bit in watch.feed(SignalStream(ICD).feed(aircraft_records[1]))]
         assert len(events) == 1
-        assert events[0]["anomaly"] is False, events[0]["evidence"]
-        scores.append(events[0]["evidence"]["score"])
+        assert events[0].anomaly is False, events[0].evidence
+        scores.append(events[0].evidence["score"])
     opened = fly("open=A_high", seed=5)[1]
     watch = BitWatch(Reasoner(Dictionary.load(dictionary), load_actuator(default_actuator_path())))
     (bit,) = watch.feed(SignalStream(ICD).feed(opened))
     event = bit.decision
-    assert event["anomaly"] is True and event["fault"] == "open"
-    assert event["evidence"]["score"] > 10 * max(scores)
+    assert event.anomaly is True and event.fault == "open"
+    assert event.evidence["score"] > 10 * max(scores)
 
 
 def test_a_reasoner_failure_costs_the_bit_not_the_watcher(
@@ -147,4 +147,4 @@ def test_a_batch_longer_than_the_watchers_memory_keeps_its_bit(
     (alone,) = watcher().feed(series)
     (in_long,) = watcher().feed(long_batch)
     assert (in_long.request_ns, in_long.onset_ns) == (alone.request_ns, alone.onset_ns)
-    assert in_long.decision["evidence"]["score"] == alone.decision["evidence"]["score"]
+    assert in_long.decision.evidence["score"] == alone.decision.evidence["score"]

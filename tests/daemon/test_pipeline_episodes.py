@@ -11,12 +11,13 @@ from mapr_daemon.daemon.bitwatch import BitFound
 from mapr_daemon.daemon.clock import BusClock
 from mapr_daemon.daemon.config import Config, load_config, parse
 from mapr_daemon.daemon.pipeline import build_pipeline
+from mapr_daemon.findings import Diagnosis
 from mapr_daemon.icd.yamlsrc import load_text
 
 T0 = 1_778_300_000_000_000_000
-ESR = {"anomaly": True, "fault": "esr", "confidence": 0.9, "severity": 0.3, "unit": "ohm",
-       "part": "SMPS output capacitor", "evidence": {"severity_fraction_of_range": 0.55}}
-NOMINAL = {"anomaly": False, "fault": None, "confidence": 0.97, "evidence": {}}
+ESR = Diagnosis(anomaly=True, fault="esr", confidence=0.9, severity=0.3, unit="ohm",
+                part="SMPS output capacitor", evidence={"severity_fraction_of_range": 0.55})
+NOMINAL = Diagnosis(anomaly=False, fault=None, severity=None, unit=None, confidence=0.97)
 
 
 def test_nominal_bits_reach_the_writer_and_close_the_episode(tmp_path: Path) -> None:

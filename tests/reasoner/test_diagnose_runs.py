@@ -124,13 +124,13 @@ def test_the_reasoner_flags_a_short_or_overflowing_record_and_keeps_its_state(
     before = dict(r.reference.value)
     short = {k: v[:40] for k, v in _held(bench, 0).items()}
     event = r.diagnose_or_flag(short, cmd[:40], q)
-    assert event["anomaly"] is None and event["confidence"] == 0.0
-    assert event["evidence"]["error"]["type"] == "RecordError"
-    assert "samples" in event["evidence"]["error"]["message"]
+    assert event.anomaly is None and event.confidence == 0.0
+    assert event.evidence["error"]["type"] == "RecordError"
+    assert "samples" in event.evidence["error"]["message"]
     huge = _held(bench, 0)
     huge["position_deg"][1000:1100] = 1e30  # finite, but the filter overflows on it
     event = r.diagnose_or_flag(huge, cmd, q)
-    assert event["anomaly"] is None and "error" in event["evidence"]
+    assert event.anomaly is None and "error" in event.evidence
     assert r.reference.value == before and r.confirmation.pending() == {}
     with pytest.raises(RecordError):
         r.diagnose(huge, cmd, q)

@@ -5,11 +5,11 @@ change from the adapted model."""
 from __future__ import annotations
 
 import dataclasses
-from typing import Any
 
 import pytest
 
 from mapr_daemon.ema.faults import Fault, FaultSet
+from mapr_daemon.findings import Diagnosis
 from mapr_daemon.reasoner.ekf.estimator import Confirmation, Estimate
 from mapr_daemon.reasoner.reasoner import Reasoner
 from mapr_daemon.reasoner.training.corpus import Runs, simulate_bit
@@ -31,7 +31,7 @@ def records(bench: Bench) -> Records:
     return Records(simulate_bit(bench.params, fs, qs, [603, 604, 605, 607]))
 
 
-def _diagnose(r: Reasoner, runs: Runs, i: int) -> dict[str, Any]:
+def _diagnose(r: Reasoner, runs: Runs, i: int) -> Diagnosis:
     ch = {k: v[i] for k, v in runs.channels.items()}
     return r.diagnose(ch, runs.command_deg, float(runs.dynamic_pressure_pa[i]))
 
@@ -40,8 +40,8 @@ def test_a_change_seen_on_three_consecutive_bits_adapts_the_reference(
         bench: Bench, records: Records) -> None:
     r = Reasoner(bench.dictionary, bench.params, confirm_after=3)
     events = [_diagnose(r, records.runs, i) for i in range(4)]
-    ev = [e["evidence"] for e in events]
-    coulomb = [e["parameters"]["coulomb"]["value"] for e in events]
+    ev = [e.evidence for e in events]
+    coulomb = [e.parameters["coulomb"]["value"] for e in events]
     # x3 friction: the Coulomb term is reported changed from the nominal model each time
     for i in range(3):
         assert "coulomb" in ev[i]["parameter_changes"], i
@@ -54,7 +54,7 @@ def test_a_change_seen_on_three_consecutive_bits_adapts_the_reference(
     assert step["to"] == pytest.approx(sum(coulomb[:3]) / 3, rel=1e-4)
     assert r.reference.value["coulomb"] == pytest.approx(step["to"])
     # the next record (x5) is measured from the adapted model, not from nominal
-    after = events[3]["parameters"]["coulomb"]
+    after = events[3].parameters["coulomb"]
     assert after["reference"] == pytest.approx(step["to"], rel=1e-4)
     change = ev[3]["parameter_changes"].get("coulomb")
     if change is not None:

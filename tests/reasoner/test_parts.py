@@ -10,6 +10,7 @@ import pytest
 
 from mapr_daemon.ema.faults import PARAMETRIC, TERMINAL, FaultSet, at_severity
 from mapr_daemon.ema.params import ActuatorParams, default_actuator_path, load_actuator
+from mapr_daemon.findings import Diagnosis
 from mapr_daemon.reasoner.diagnosis import parts
 from mapr_daemon.reasoner.diagnosis.dictionary import Dictionary, DictionarySpec
 from mapr_daemon.reasoner.reasoner import Reasoner
@@ -53,7 +54,7 @@ def smps() -> Smps:
     return Smps(params, d, held)
 
 
-def _event(s: Smps, i: int) -> dict[str, object]:
+def _event(s: Smps, i: int) -> Diagnosis:
     ch = {k: v[i] for k, v in s.held.channels.items()}
     return Reasoner(s.dictionary, s.params).diagnose(ch, s.held.command_deg,
                                                      float(s.held.dynamic_pressure_pa[i]))
@@ -69,24 +70,24 @@ def test_every_fault_mode_belongs_to_one_part() -> None:
 @pytest.mark.parametrize("i", [0, 1])
 def test_a_low_side_ron_event_names_the_switch_pair_and_both_members(smps: Smps, i: int) -> None:
     e = _event(smps, i)
-    assert e["anomaly"] is True and e["part"] == "SMPS switches"
-    amb = e["ambiguity"]
+    assert e.anomaly is True and e.part == "SMPS switches"
+    amb = e.ambiguity
     assert isinstance(amb, dict) and amb["part"] == "SMPS switches"
     probs = {m["fault"]: m["probability"] for m in amb["members"]}
     assert set(probs) == {"smps_ron_high", "smps_ron_low"}
     assert all(0.0 <= p <= 1.0 for p in probs.values())
     assert sum(probs.values()) == pytest.approx(1.0, abs=2e-4)
-    assert e["fault"] == amb["members"][0]["fault"]  # the event names the most probable
+    assert e.fault == amb["members"][0]["fault"]  # the event names the most probable
     assert amb["group"] == [m for m, p in sorted(probs.items(), key=lambda kv: -kv[1])
                             if p >= parts.NEGLIGIBLE]
     assert amb["ambiguous"] == (len(amb["group"]) > 1)
-    assert e["component"] == parts.COMPONENTS[str(e["fault"])]
+    assert e.component == parts.COMPONENTS[str(e.fault)]
 
 
 def test_a_capacitance_event_states_no_ambiguity(smps: Smps) -> None:
     e = _event(smps, 2)
-    assert e["fault"] == "capacitance" and e["part"] == "SMPS output capacitor"
-    amb = e["ambiguity"]
+    assert e.fault == "capacitance" and e.part == "SMPS output capacitor"
+    amb = e.ambiguity
     assert isinstance(amb, dict)
     assert amb["group"] == ["capacitance"] and amb["ambiguous"] is False
     assert [m["fault"] for m in amb["members"]] == ["capacitance", "esr"]

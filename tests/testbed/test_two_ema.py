@@ -107,7 +107,7 @@ def test_each_bit_is_found_with_its_assets_wiring(
         record = watch.record(bit.onset_ns)   # every channel on the bus for the whole BIT
         assert record is not None and record[0]["phase_a_current_a"].size == \
             watch.profile.n_samples
-        assert bit.decision["evidence"]["bit_bus_time_s"] == round(bit.onset_ns / 1e9, 6)
+        assert bit.decision.evidence["bit_bus_time_s"] == round(bit.onset_ns / 1e9, 6)
 
 
 def test_the_example_config_flies_two_emas_and_old_configs_one(tmp_path: Path) -> None:

@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -34,8 +35,9 @@ import numpy as np
 import yaml
 
 from mapr_daemon.arrays import FloatArray
-from mapr_daemon.errors import ConfigError
+from mapr_daemon.errors import ConfigError, RecordError
 from mapr_daemon.reasoner.diagnosis.fault_models import FaultModels
+from mapr_daemon.reasoner.diagnosis.features import derived_signals, feature_matrix
 from mapr_daemon.reasoner.diagnosis.healthy_model import HealthyModel, pressure_weights
 
 FORMAT = "mapr-dictionary/4"
@@ -161,6 +163,21 @@ class Dictionary:
     def paper_rows(self) -> int:
         """M's first rows, the paper's corner windows (the rest tile the record)."""
         return min(32, int(self.window_starts.size))
+
+    def record_matrix(self, channels: Mapping[str, FloatArray],
+                      command_deg: FloatArray) -> FloatArray:
+        """M ``(W, C)`` of one BIT record, read with this dictionary's windows and signals;
+        RecordError if the record is shorter than its last window."""
+        need = int(self.window_starts.max()) + self.window_samples
+        n = int(np.asarray(channels["position_deg"]).shape[-1])
+        if n < need:
+            raise RecordError(f"a BIT record needs {need} samples, got {n}", field="signals")
+        sig = derived_signals({k: np.atleast_2d(np.asarray(v, dtype=np.float64))
+                               for k, v in channels.items()},
+                              np.asarray(command_deg, dtype=np.float64))
+        m: FloatArray = feature_matrix(sig, self.window_starts, self.window_samples,
+                                       self.sample_rate_hz, self.signals)[0]
+        return m
 
     def save(self, path: str | Path) -> None:
         """Write the versioned ``.npz``."""

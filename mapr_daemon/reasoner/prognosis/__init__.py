@@ -8,7 +8,8 @@ failure thresholds. :mod:`.prognostic_model` is the file that holds an actuator 
 estimators, noise and priors (built by :mod:`mapr_daemon.reasoner.training.prognosis_build`).
 """
 
-from mapr_daemon.reasoner.prognosis.assessment import INTERVAL, Health, assess
+from mapr_daemon.findings import Health
+from mapr_daemon.reasoner.prognosis.assessment import INTERVAL, assess
 from mapr_daemon.reasoner.prognosis.prognostic_model import AGING_KINDS, PrognosticModel
 from mapr_daemon.reasoner.prognosis.rul import RulEstimate
 

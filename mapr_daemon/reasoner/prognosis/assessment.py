@@ -36,13 +36,13 @@ A shorted or open switch (a terminal fault) is SoH 0 and RUL 0 at once.
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from mapr_daemon.findings import Health
 from mapr_daemon.reasoner.prognosis import trend
 from mapr_daemon.reasoner.prognosis.rul import RulEstimate
 from mapr_daemon.reasoner.prognosis.wear_noise import scaled_rows
@@ -62,33 +62,6 @@ HORIZON_LIVES = 3.0
 INTERVAL = 0.90
 """Coverage of the stated RUL interval (its 5 % and 95 % points)."""
 TERMINAL = ("short", "open")
-
-
-@dataclasses.dataclass(frozen=True)
-class Health:
-    """One actuator's health after one BIT."""
-
-    soh: float
-    mode: str | None
-    """The leading fault mode (the kind the RUL is of); None when nothing wears measurably."""
-    rul: float | None = None
-    rul_low: float | None = None
-    rul_high: float | None = None
-    """RUL in flights: median and the :data:`INTERVAL` bounds (``inf`` beyond the horizon);
-    all None with no leading mode or too few BITs."""
-    note: str | None = None
-    """Why there is no RUL, in words."""
-    modes: Mapping[str, Mapping[str, Any]] = dataclasses.field(default_factory=dict)
-    """Per trended kind: current degradation ``h``, its z, evidenced, and its RUL (``rul``,
-    ``low``, ``high`` in flights, None beyond the horizon; absent with BITs on fewer than
-    three flights), stated whether or not the kind is evidenced."""
-
-    def in_hours(self, hours_per_flight: float | None) -> tuple[float | None, ...]:
-        """(rul, low, high) in flight hours, None where unknown."""
-        if hours_per_flight is None or not math.isfinite(hours_per_flight):
-            return None, None, None
-        return tuple(None if v is None else v * hours_per_flight
-                     for v in (self.rul, self.rul_low, self.rul_high))
 
 
 def assess(model: PrognosticModel, flights: Sequence[float],

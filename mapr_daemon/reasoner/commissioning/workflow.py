@@ -1,0 +1,132 @@
+"""The commissioning workflow: identify a unit from its healthy BITs, write what was found,
+build its dictionary and calibrate it to the unit — what ``mapr commission`` runs.
+
+In one place so that a script, a notebook or a later in-service step can run the same steps
+the CLI does: :func:`read_bit_files` turns ``.npz`` run files into BIT records (a file of no
+BITs skipped with its reason), :func:`commission` does the rest and writes, into one folder,
+``actuator.yaml`` (the identified actuator, loadable like any actuator file),
+``commissioning.json`` (what was identified, with sd, from which BITs) and ``dictionary.npz``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import zipfile
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from mapr_daemon.ema.dump import write_actuator
+from mapr_daemon.ema.params import ActuatorParams
+from mapr_daemon.errors import ConfigError
+from mapr_daemon.reasoner.commissioning.bits import BitRecord, from_runs
+from mapr_daemon.reasoner.commissioning.calibrate import MIN_BITS, calibrate_unit
+from mapr_daemon.reasoner.commissioning.identify import Identification, identify
+from mapr_daemon.reasoner.commissioning.prior import Tolerance
+from mapr_daemon.reasoner.commissioning.record import CommissioningRecord, write_record
+from mapr_daemon.reasoner.diagnosis.dictionary import DictionarySpec
+from mapr_daemon.reasoner.training.corpus import from_npz
+from mapr_daemon.reasoner.training.dictionary_build import build
+
+ACTUATOR_FILE = "actuator.yaml"
+RECORD_FILE = "commissioning.json"
+DICTIONARY_FILE = "dictionary.npz"
+
+Say = Callable[[str], None]
+"""Where the workflow's one-line reports go (the CLI prefixes them and prints to stderr)."""
+
+
+@dataclasses.dataclass(frozen=True)
+class Commissioned:
+    """What one commissioning did and wrote."""
+
+    identification: Identification
+    record: CommissioningRecord
+    folder: Path
+    dictionary: str | None
+    """The dictionary's file name in :attr:`folder`; None when none was built."""
+
+    @property
+    def files(self) -> list[Path]:
+        """Every file written, in the order written."""
+        return [self.folder / ACTUATOR_FILE, self.folder / RECORD_FILE] + \
+            ([self.folder / self.dictionary] if self.dictionary else [])
+
+
+def read_bit_files(paths: Sequence[Path]) -> tuple[list[BitRecord], list[tuple[str, str]]]:
+    """Every run of every ``.npz`` file as a BIT record, and the files skipped with why (a
+    file of no BITs). An unreadable file or one that is not a run file raises OSError."""
+    records: list[BitRecord] = []
+    skipped: list[tuple[str, str]] = []
+    for path in paths:
+        try:
+            runs = from_npz(path)
+        except ConfigError as error:
+            skipped.append((str(path), error.detail))
+            continue
+        except (KeyError, ValueError, zipfile.BadZipFile) as error:
+            raise OSError(f"{path}: not a mapr simulate run file ({error})") from None
+        records += from_runs(runs, str(path))
+    return records, skipped
+
+
+def identification_notes(ident: Identification) -> dict[str, str]:
+    """Per identified parameter, the comment written beside it in ``actuator.yaml``."""
+    out = {}
+    for e in ident.estimates:
+        if e.identifiable:
+            out[e.path] = (f"identified: data sheet {e.datasheet:.6g}, "
+                           f"sd {100 * e.sd_rel:.2g} %")
+        else:
+            out[e.path] = (f"data sheet (not identifiable: sd {100 * e.sd_rel:.2g} % of "
+                           f"{100 * e.prior_sd_rel:.2g} % prior)")
+    return out
+
+
+def unit_dictionary(params: ActuatorParams, spec: DictionarySpec, out: Path,
+                    bits: Sequence[BitRecord], say: Say) -> tuple[str, dict[str, Any]]:
+    """Build the dictionary on the identified actuator, calibrate it to the unit's own BITs
+    (``bits``, those the identification used; :func:`~.calibrate.calibrate_unit`) and save
+    it; its file name and what the calibration did."""
+    d = build(params, spec)
+    if len(bits) < MIN_BITS:
+        reason = (f"{len(bits)} BITs: calibrating the dictionary to the unit needs at least "
+                  f"{MIN_BITS}; the dictionary is the identified model's alone")
+        say(reason)
+        d.save(out / DICTIONARY_FILE)
+        return DICTIONARY_FILE, {"skipped": reason}
+    m = np.stack([d.record_matrix(b.channels, b.command_deg) for b in bits])
+    q = np.array([b.dynamic_pressure_pa for b in bits])
+    d, report = calibrate_unit(d, m, q)
+    d.save(out / DICTIONARY_FILE)
+    say(f"dictionary calibrated to the unit on {report.bits} BITs: its cells sit "
+        f"{report.offset_rms:.1f} healthy spreads (rms) from the model's, "
+        f"{report.widened_cells} cells scatter more than twice the model's; thresholds "
+        + ", ".join(f"{k} {a:.3g} -> {b:.3g}" for k, (a, b) in report.thresholds.items()))
+    return DICTIONARY_FILE, report.as_dict()
+
+
+def commission(params: ActuatorParams, datasheet: str, records: Sequence[BitRecord],
+               tolerances: tuple[Tolerance, ...], out: Path, spec: DictionarySpec | None,
+               say: Say, progress: Say | None = None) -> Commissioned:
+    """Identify ``params`` (the data sheet read from ``datasheet``) from ``records``, write
+    the identified actuator and the record into ``out`` and, with a ``spec``, the unit's
+    calibrated dictionary. ConfigError (``field="bits"``) when no BIT can be used."""
+    ident = identify(params, list(records), tolerances, progress=progress)
+    for name, reason in ident.skipped:
+        say(f"skipped {name}: {reason}")
+    out.mkdir(parents=True, exist_ok=True)
+    used = {(b.source, b.index) for b in ident.bits}
+    header = (f"{params.name}, identified by mapr commission from {len(ident.bits)} healthy "
+              f"BITs\n(data sheet {datasheet}; record {RECORD_FILE})")
+    write_actuator(out / ACTUATOR_FILE, ident.params, header, identification_notes(ident))
+    dictionary = calibration = None
+    if spec is not None:
+        dictionary, calibration = unit_dictionary(
+            ident.params, spec, out, [r for r in records if (r.source, r.index) in used], say)
+    record = CommissioningRecord.of(ident, tolerances, datasheet, ACTUATOR_FILE, dictionary,
+                                    calibration)
+    write_record(out / RECORD_FILE, record)
+    return Commissioned(ident, record, out, dictionary)
