@@ -22,12 +22,13 @@ from collections.abc import Iterator
 from types import TracebackType
 from typing import Any
 
-from mapr_daemon.catalog import episode_store, health_view, history, rt_stats
+from mapr_daemon.catalog import episode_store, history, rt_stats
 from mapr_daemon.catalog.connect import describe, open_reader
 from mapr_daemon.catalog.episodes import Episode
-from mapr_daemon.catalog.health_view import ActuatorHealth
 from mapr_daemon.catalog.model import BitRecord, Event, EventFilter, Flight, Gap, Session, StatsRow
 from mapr_daemon.errors import CatalogError
+from mapr_daemon.views import health as health_view
+from mapr_daemon.views.health import ActuatorHealth
 
 _EVENT_COLUMNS = ("id, session_id, t_ns, asset, rt, fault, switch, severity, severity_value, "
                   "severity_unit, confidence, params, soh, rul, rul_low, rul_high, rul_unit, "

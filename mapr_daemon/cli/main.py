@@ -94,7 +94,7 @@ def build_parser(commands: Iterable[str] | None = None) -> argparse.ArgumentPars
     subparsers.required = True
     for name, summary in SUBCOMMANDS.items():
         if name in wanted:
-            module = importlib.import_module(MODULES.get(name, f"mapr_daemon.cli.{name}"))
+            module = importlib.import_module(MODULES.get(name, f"mapr_daemon.cli.commands.{name}"))
             module.add_subparser(subparsers)
         else:
             subparsers.add_parser(name, help=summary, add_help=False)

@@ -95,7 +95,7 @@ def _dictionary(params: ActuatorParams, spec_path: Path | None, out: Path,
     calibrate_unit`) and save it; returns its file name and what the calibration did."""
     import numpy as np
 
-    from mapr_daemon.cli.dictionary import default_spec_path
+    from mapr_daemon.cli.commands.dictionary import default_spec_path
     from mapr_daemon.reasoner.adapt import MIN_BITS, calibrate_unit
     from mapr_daemon.reasoner.build import build
     from mapr_daemon.reasoner.dictionary import DictionarySpec

@@ -18,9 +18,9 @@ from collections.abc import Iterable, Sequence
 from typing import IO, Any
 
 from mapr_daemon.catalog.episodes import Episode
-from mapr_daemon.catalog.health_view import bit_json
 from mapr_daemon.catalog.model import BitRecord, Event
-from mapr_daemon.catalog.report import episode_json, event_json, fmt_time
+from mapr_daemon.views.health import bit_json
+from mapr_daemon.views.text import episode_json, event_json, fmt_time
 
 BIT_COLUMNS = ("id", "session_id", "tail", "asset", "time_utc", "t_ns", "bus_ns", "abs_ns",
                "flight", "flight_hours", "fault", "event_id", "soh", "mode", "rul", "rul_low",

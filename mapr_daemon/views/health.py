@@ -17,7 +17,7 @@ from typing import Any
 from mapr_daemon.catalog import episode_store, history
 from mapr_daemon.catalog.episodes import Episode
 from mapr_daemon.catalog.model import BitRecord, Health
-from mapr_daemon.catalog.report import fmt_time, text_table
+from mapr_daemon.views.text import fmt_time, text_table
 
 _LATEST = (
     f"SELECT {history.BIT_SELECT}, n, first_ns, first_flight FROM ("

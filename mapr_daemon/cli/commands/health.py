@@ -35,8 +35,8 @@ def add_subparser(subparsers: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from mapr_daemon.catalog import CatalogReader, default_path
-    from mapr_daemon.catalog.health_view import health_table
     from mapr_daemon.errors import CatalogError
+    from mapr_daemon.views.health import health_table
 
     path = args.catalog or default_path()
     try:

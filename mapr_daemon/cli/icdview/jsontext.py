@@ -36,7 +36,8 @@ the cached kernels copying the old size while the buffers are sized for the new 
 written past their end): such a change must come with one here, which renews this file's
 cache."""
 if COPY_BLOCK != WRITTEN_FOR_BLOCK:
-    raise ImportError(f"drivers/jsontext.py is written for {WRITTEN_FOR_BLOCK}-byte copies, "
+    raise ImportError("mapr_daemon/cli/icdview/jsontext.py is written for "
+                      f"{WRITTEN_FOR_BLOCK}-byte copies, "
                       f"drivers/jit.py copies {COPY_BLOCK}: change both (and clear the "
                       "kernel cache)")
 

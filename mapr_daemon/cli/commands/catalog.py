@@ -36,12 +36,12 @@ from mapr_daemon.catalog import (
     EventFilter,
     acknowledge,
     default_path,
-    health_view,
-    report,
 )
 from mapr_daemon.catalog.model import BitRecord, Event
 from mapr_daemon.cli import exitcodes
 from mapr_daemon.errors import CatalogError, EpisodeError
+from mapr_daemon.views import health as health_view
+from mapr_daemon.views import text as report
 
 DEFAULT_LIMIT = 50
 
@@ -224,7 +224,7 @@ def run_export(reader: CatalogReader, args: argparse.Namespace) -> int:
 
 def _export(reader: CatalogReader, args: argparse.Namespace, events: Iterable[Event],
             out: IO[str]) -> int:
-    from mapr_daemon.catalog import export
+    from mapr_daemon.views import export
 
     if args.what == "bits":
         records = [r for r in reader.bits(args.asset)
@@ -275,7 +275,7 @@ def run_trend(reader: CatalogReader, args: argparse.Namespace) -> int:
         print(report.trend_table(events))
     if args.plot:
         try:
-            from mapr_daemon.catalog.plot import draw
+            from mapr_daemon.views.plot import draw
             draw(records, name, args.plot, hours=args.hours)
         except ImportError:
             print("mapr catalog trend: --plot needs matplotlib (pip install matplotlib)",

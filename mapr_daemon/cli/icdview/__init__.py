@@ -1,0 +1,1 @@
+"""Engineering values next to raw words (``decode --icd``, ``monitor --icd``)."""

@@ -1,0 +1,1 @@
+"""Code the tests and the benches share that the product does not use."""
