@@ -22,13 +22,12 @@ from collections.abc import Iterator
 from types import TracebackType
 from typing import Any
 
-from mapr_daemon.catalog import episode_store, history, rt_stats
+from mapr_daemon.catalog import actuators, episode_store, history, rt_stats
+from mapr_daemon.catalog.actuators import ActuatorHealth
 from mapr_daemon.catalog.connect import describe, open_reader
 from mapr_daemon.catalog.episodes import Episode
 from mapr_daemon.catalog.model import BitRecord, Event, EventFilter, Flight, Gap, Session, StatsRow
 from mapr_daemon.errors import CatalogError
-from mapr_daemon.views import health as health_view
-from mapr_daemon.views.health import ActuatorHealth
 
 _EVENT_COLUMNS = ("id, session_id, t_ns, asset, rt, fault, switch, severity, severity_value, "
                   "severity_unit, confidence, params, soh, rul, rul_low, rul_high, rul_unit, "
@@ -179,7 +178,7 @@ class CatalogReader:
         if self.schema_version < BITS_SINCE:
             return []
         result: list[ActuatorHealth] = self._read(
-            health_view.load, self.schema_version >= episode_store.EPISODES_SINCE)
+            actuators.load, self.schema_version >= episode_store.EPISODES_SINCE)
         return result
 
     # --- sessions, statistics, gaps ------------------------------------------------------

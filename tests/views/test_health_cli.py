@@ -52,7 +52,7 @@ def test_health_of_an_empty_catalog_and_a_missing_one(tmp_path: Path) -> None:
 
 
 def test_a_fleet_asset_carrying_its_tail_is_not_named_twice() -> None:
-    from mapr_daemon.views.health import display_name
+    from mapr_daemon.catalog.actuators import display_name
 
     assert display_name("N101", "EMA1") == "N101/EMA1"
     assert display_name("N101", "N101/EMA1") == "N101/EMA1"
