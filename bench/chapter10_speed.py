@@ -59,9 +59,9 @@ from drivers.chapter10.reader import Chapter10Reader
 from drivers.chapter10.walker import PacketWalker
 from drivers.chapter10.writer import Chapter10Writer
 from drivers.mil1553.record import MonitorRecord, TransferFormat
-from mapr_daemon.cli.chapter10_decode import BATCH_MESSAGES
-from mapr_daemon.cli.icdview import IcdView
+from mapr_daemon.cli.icdview.view import IcdView
 from mapr_daemon.cli.main import main as mapr
+from mapr_daemon.cli.traffic.chapter10_decode import BATCH_MESSAGES
 from mapr_daemon.icd import load_icd
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -154,7 +154,7 @@ def decode(*argv: str) -> int:
 def values_writer(after: int) -> Iterator[None]:
     """``decode --icd`` in this process with the compiled values writer from ``after``
     messages with values on (0: always; huge: never), whether numba is loaded or not."""
-    import mapr_daemon.cli.icdview_batch as batch_module
+    import mapr_daemon.cli.icdview.batch as batch_module
 
     saved = batch_module.COMPILED_AFTER, batch_module._numba_loaded
     batch_module.COMPILED_AFTER, batch_module._numba_loaded = after, lambda: False
@@ -188,7 +188,7 @@ def icd_parts(path: Path) -> dict[str, float]:
     """CPU s of the parts of ``decode --icd`` (compiled writer) on ``path``, each the best
     of ``--runs``: reading the batches, their values text (and the same by the ``repr``
     writer), their JSON lines without and with the values, joining the lines."""
-    from mapr_daemon.cli.icdview_batch import BatchValues, batch_values_json
+    from mapr_daemon.cli.icdview.batch import BatchValues, batch_values_json
 
     batches = [b.ms1553 for b in Chapter10Reader(path).batches(BATCH_MESSAGES)
                if b.ms1553 is not None]

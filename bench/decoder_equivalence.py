@@ -16,7 +16,7 @@ The captures:
 * ``--random`` random ones: dual-bus traffic at 10-200 MS/s (contiguous words and gaps) with
   jitter up to ±200 ns, dead bands, bit-rate errors, one-sample glitches, encoder faults
   (parity, missing transitions, bit counts, inverted syncs) and bursts of random bytes; the
-  integrity campaign's damaged words (every kind of :mod:`drivers.mil1553.corruption`);
+  integrity campaign's damaged words (every kind of :mod:`tests.support.corruption`);
   random bytes alone; each fed in a random chunking (a few large chunks, or many small ones).
 
 Prints the seed, the number of captures and feeds compared, and each capture that differs
@@ -38,6 +38,7 @@ import numpy as np
 import numpy.typing as npt
 
 sys.path.insert(0, str(Path(__file__).parent))
+sys.path.append(str(Path(__file__).resolve().parents[1]))  # tests.support
 
 ROOT = Path(__file__).resolve().parent.parent
 CHUNK = 1 << 20
@@ -93,7 +94,7 @@ def traffic_case(rng: np.random.Generator) -> tuple[str, npt.NDArray[np.uint8], 
 
 def damaged_case(rng: np.random.Generator) -> tuple[str, npt.NDArray[np.uint8], float]:
     """The integrity campaign's slotted, damaged words."""
-    from drivers.mil1553.corruption import KINDS, damaged_words
+    from tests.support.corruption import KINDS, damaged_words
 
     kind = KINDS[int(rng.integers(len(KINDS)))]
     rate = float(rng.uniform(10e6, 200e6))

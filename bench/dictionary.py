@@ -70,7 +70,7 @@ def _child(case: str, workers: int | None, one_core: bool) -> dict[str, Any]:
     out: dict[str, Any] = {"warm_s": warm, "workers": n_workers}
     t0, c0 = time.perf_counter(), os.times()
     if case == "default":
-        from mapr_daemon.cli.dictionary import default_spec_path
+        from mapr_daemon.cli.commands.dictionary import default_spec_path
         from mapr_daemon.ema.params import default_actuator_path, load_actuator
         from mapr_daemon.reasoner.diagnosis.dictionary import DictionarySpec
         from mapr_daemon.reasoner.training.dictionary_build import build

@@ -62,8 +62,8 @@ def archive(root: Path, spec: FleetSpec, jobs: int) -> dict[str, object]:
 
 
 def default_dictionary() -> Path:
-    from mapr_daemon.cli.demo_reasoner import cached_dictionary
     from mapr_daemon.ema.params import default_actuator_path, load_actuator
+    from mapr_daemon.testbed.demo_reasoner import cached_dictionary
 
     actuator = default_actuator_path()
     return cached_dictionary(load_actuator(actuator), Path(actuator))

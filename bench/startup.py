@@ -67,8 +67,9 @@ import contextlib, io, sys, time
 t0 = time.process_time()
 import numpy
 t1 = time.process_time()
-import drivers.chapter10.ms1553_json, drivers.chapter10.reader, mapr_daemon.cli.decode
-import mapr_daemon.cli.decode_filter, mapr_daemon.cli.decode_text, mapr_daemon.cli.icdview
+import drivers.chapter10.ms1553_json, drivers.chapter10.reader, mapr_daemon.cli.commands.decode
+import mapr_daemon.cli.traffic.decode_filter, mapr_daemon.cli.traffic.decode_text
+import mapr_daemon.cli.icdview.view
 from mapr_daemon.cli.main import main
 t2 = time.process_time()
 with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
@@ -104,7 +105,7 @@ def main() -> None:
     bare = [import_seconds("mapr_daemon") for _ in range(args.runs)]
     print(f"  {'(mapr_daemon package alone)':<36} {spread(bare)}")
     for name in SUBCOMMANDS:
-        module = MODULES.get(name, f"mapr_daemon.cli.{name}")
+        module = MODULES.get(name, f"mapr_daemon.cli.commands.{name}")
         times = [import_seconds(module) for _ in range(args.runs)]
         print(f"  {module:<36} {spread(times)}")
     print()

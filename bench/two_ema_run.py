@@ -64,8 +64,8 @@ class Outcome:
 
 def cached_models(asset: str, actuator: Path) -> tuple[Path, Path]:
     """``mapr demo``'s cached dictionary and prognostic model for this actuator at its rate."""
-    from mapr_daemon.cli.demo_reasoner import cached_models as cached
     from mapr_daemon.ema.params import load_actuator, with_sample_rate
+    from mapr_daemon.testbed.demo_reasoner import cached_models as cached
     return cached(with_sample_rate(load_actuator(actuator), RATES[asset]), actuator)
 
 
@@ -131,7 +131,7 @@ def replay(config: Path, recording: Path, catalog: Path) -> None:
 def read(catalog: Path) -> tuple[list[tuple[str, str | None, int | None]],
                                  dict[str, list[str]], dict[str, int], dict[str, str]]:
     """Events (asset, fault, bus_ns), open episodes' modes, BIT counts, last health."""
-    from mapr_daemon.catalog.health_view import fmt_rul, fmt_soh
+    from mapr_daemon.views.health import fmt_rul, fmt_soh
     with CatalogReader(catalog) as reader:
         events = sorted(((e.asset, e.fault, e.bus_ns) for e in reader.events()),
                         key=lambda e: (e[2] or 0, e[0]))

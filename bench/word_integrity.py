@@ -5,7 +5,7 @@
                                    [--clean-jitter-ns 150,100] [--dead-band-ns 0] [--seed N]
 
 Sends ``--words`` corrupted words, split evenly over every corruption kind of
-:mod:`drivers.mil1553.corruption` and every sample rate, each word with every zero crossing
+:mod:`tests.support.corruption` and every sample rate, each word with every zero crossing
 displaced by up to ±``--jitter-ns`` (the standard's receiver tolerance), and ``--clean-words``
 undamaged words at the lowest rate given (the minimum supported rate) for each jitter of
 ``--clean-jitter-ns`` (the standard's limit, and the ±100 ns that rate decodes exactly).
@@ -26,11 +26,12 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).parent))
+sys.path.append(str(Path(__file__).resolve().parents[1]))  # tests.support
 
 from seeds import fresh
 
-from drivers.mil1553.corruption import KINDS, classify, damaged_words
 from drivers.mil1553.decoder import decode_capture
+from tests.support.corruption import KINDS, classify, damaged_words
 
 BATCH = 20_000
 """Words per capture: 0.5 s of line, 52 MB of samples at 100 MS/s."""

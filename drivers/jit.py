@@ -160,7 +160,7 @@ def inline_kernel(function: Function) -> Function:
 
 COPY_BLOCK = 32
 """Bytes :func:`copy_block` copies. Kernels that call it are written for this number
-(:mod:`drivers.jsontext` checks it at import)."""
+(:mod:`mapr_daemon.cli.icdview.jsontext` checks it at import)."""
 
 
 @intrinsic

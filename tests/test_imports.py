@@ -111,14 +111,14 @@ class Watch:
 # Layering: every package on a floor, imports only go down, and no module import cycle.
 
 FLOORS: tuple[tuple[str, ...], ...] = (
-    ("errors", "arrays", "findings"),
+    ("errors", "arrays", "findings", "utc"),
     ("ema", "icd"),
     ("catalog", "reasoner.diagnosis", "reasoner.ekf"),
     ("reasoner.prognosis",),
     ("reasoner.training",),
     ("reasoner.commissioning",),
     ("reasoner",),
-    ("daemon",),
+    ("daemon", "views"),
     ("fleet",),
     ("cli",),
     ("testbed",),

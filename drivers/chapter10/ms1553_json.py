@@ -10,7 +10,7 @@ pieces, byte for byte what ``json.dumps`` gives:
 * words are turned into text once per batch, and each line is one f-string over slices.
 
 ``values`` (engineering values from an ICD) come as text too, ready to put before the
-closing brace (:mod:`mapr_daemon.cli.icdview_batch`).
+closing brace (:mod:`mapr_daemon.cli.icdview.batch`).
 """
 
 from __future__ import annotations

@@ -6,7 +6,7 @@ is measured, and one pass applies the grammar of the ten transfer formats: a com
 RT-RT) with the BC's data, then, within the no-response time-out, each expected RT response
 (status word, data). That pass is a compiled kernel (:mod:`drivers.mil1553.grammar`) that
 returns message boundaries as numbers; Python only builds the records from them.
-:mod:`drivers.mil1553.assembler_reference` keeps the same grammar in plain Python as its
+:mod:`tests.support.assembler_reference` keeps the same grammar in plain Python as its
 specification. Everything found wrong is named in the record's
 ``errors``; nothing is dropped: words that fit no message become a record of their own
 (``UNKNOWN``, ``orphan_words``).

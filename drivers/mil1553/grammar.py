@@ -2,7 +2,7 @@
 
 :func:`parse_bus` walks one bus's words (sorted by time) and splits them into messages by the
 ten transfer formats and the bus timing rules, exactly as
-:mod:`drivers.mil1553.assembler_reference` does in Python, at a small fraction of the cost
+:mod:`tests.support.assembler_reference` does in Python, at a small fraction of the cost
 (that grammar took most of the monitor's CPU; docs/figures.md). It returns numbers only,
 one row of :data:`MESSAGE_COLUMNS` per message; the assembler builds the records from them.
 

@@ -22,9 +22,9 @@ from typing import Any
 
 from mapr_daemon.catalog.connect import BUSY_TIMEOUT_MS, describe
 from mapr_daemon.catalog.episodes import Episode
-from mapr_daemon.catalog.report import fmt_time
 from mapr_daemon.catalog.schema import check_readable
 from mapr_daemon.errors import CatalogError, EpisodeError
+from mapr_daemon.utc import fmt_time
 
 EPISODES_SINCE = 4
 """Schema version that added the ``episodes`` table and ``events.episode_id``."""

@@ -22,10 +22,10 @@ from collections.abc import Iterator
 from types import TracebackType
 from typing import Any
 
-from mapr_daemon.catalog import episode_store, health_view, history, rt_stats
+from mapr_daemon.catalog import actuators, episode_store, history, rt_stats
+from mapr_daemon.catalog.actuators import ActuatorHealth
 from mapr_daemon.catalog.connect import describe, open_reader
 from mapr_daemon.catalog.episodes import Episode
-from mapr_daemon.catalog.health_view import ActuatorHealth
 from mapr_daemon.catalog.model import BitRecord, Event, EventFilter, Flight, Gap, Session, StatsRow
 from mapr_daemon.errors import CatalogError
 
@@ -178,7 +178,7 @@ class CatalogReader:
         if self.schema_version < BITS_SINCE:
             return []
         result: list[ActuatorHealth] = self._read(
-            health_view.load, self.schema_version >= episode_store.EPISODES_SINCE)
+            actuators.load, self.schema_version >= episode_store.EPISODES_SINCE)
         return result
 
     # --- sessions, statistics, gaps ------------------------------------------------------

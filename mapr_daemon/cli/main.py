@@ -1,6 +1,7 @@
 """Entry point of the ``mapr`` command.
 
-Subcommands live in sibling modules named in :data:`SUBCOMMANDS`; each exposes
+Subcommands live in :mod:`mapr_daemon.cli.commands`, one module each, named in
+:data:`SUBCOMMANDS` (helpers they share are in ``cli/`` and its packages); each exposes
 ``add_subparser(subparsers)`` and sets ``func(args) -> int`` on its parser. Errors from the
 :mod:`drivers.errors` tree become one line on stderr and a distinct exit code; nothing else
 is swallowed.
@@ -12,7 +13,7 @@ light MAPR modules at its top. Numerical and hardware work (numpy-heavy pipeline
 kernels, scipy, filterpy, matplotlib, libusb, pyserial) is imported inside the function that
 runs it. To add a subcommand ``foo``:
 
-1. write ``mapr_daemon/cli/foo.py`` with ``add_subparser(subparsers)`` declaring every
+1. write ``mapr_daemon/cli/commands/foo.py`` with ``add_subparser(subparsers)`` declaring every
    argument (validated by ``type=``/``choices=`` so a bad one exits 2 before any work) and
    ``parser.set_defaults(func=run)``;
 2. in ``run(args)``, import what the command needs, then do it; return an exit code from
@@ -63,13 +64,13 @@ SUBCOMMANDS: dict[str, str] = {
     "devices": "list attached interface cards",
     "completion": "print a bash or zsh completion script",
 }
-"""Modules of :mod:`mapr_daemon.cli` that add a subcommand -> their one-line help, in help
-order."""
+"""Modules of :mod:`mapr_daemon.cli.commands` that add a subcommand -> their one-line help,
+in help order."""
 MODULES: dict[str, str] = {
     "demo": "mapr_daemon.testbed.cli_demo",
     "simulate": "mapr_daemon.testbed.cli_simulate",
 }
-"""Subcommands whose module is not ``mapr_daemon.cli.<name>``: the simulator's front ends
+"""Subcommands whose module is not ``mapr_daemon.cli.commands.<name>``: the simulator's front ends
 live in :mod:`mapr_daemon.testbed` (nothing outside it imports the simulator)."""
 
 
@@ -94,7 +95,7 @@ def build_parser(commands: Iterable[str] | None = None) -> argparse.ArgumentPars
     subparsers.required = True
     for name, summary in SUBCOMMANDS.items():
         if name in wanted:
-            module = importlib.import_module(MODULES.get(name, f"mapr_daemon.cli.{name}"))
+            module = importlib.import_module(MODULES.get(name, f"mapr_daemon.cli.commands.{name}"))
             module.add_subparser(subparsers)
         else:
             subparsers.add_parser(name, help=summary, add_help=False)

@@ -40,7 +40,7 @@ import numpy as np
 
 from drivers.mil1553.record import MonitorRecord
 from mapr_daemon.cli import exitcodes
-from mapr_daemon.cli.render import record_line
+from mapr_daemon.cli.traffic.render import record_line
 from mapr_daemon.daemon.config import DEFAULT_ICD
 from mapr_daemon.daemon.wiring import DEFAULT_SIGNALS, TWO_EMA_ELEVATOR_SIGNALS
 from mapr_daemon.ema.bit import bit_profile
@@ -56,7 +56,7 @@ from mapr_daemon.icd import Series, collect, format_values, load_icd
 
 if TYPE_CHECKING:
     from drivers.backends.loopback import Injection
-    from mapr_daemon.cli.demo_health import DemoAsset
+    from mapr_daemon.testbed.demo_health import DemoAsset
 
 DEFAULT_FAULT = "esr@0.6"
 TWO_EMA_ICD = DEFAULT_ICD.with_name("ema-testbed-two-ema.yaml")
@@ -77,8 +77,8 @@ class Ema:
 
     def asset(self) -> DemoAsset:
         """Its daemon asset: the files given, else the cached ones (built if missing)."""
-        from mapr_daemon.cli.demo_health import DemoAsset
-        from mapr_daemon.cli.demo_reasoner import cached_models
+        from mapr_daemon.testbed.demo_health import DemoAsset
+        from mapr_daemon.testbed.demo_reasoner import cached_models
         dictionary, prognosis = self.dictionary, self.prognosis
         if dictionary is None:
             dictionary, cached = cached_models(self.params, self.actuator)
@@ -231,10 +231,10 @@ def diagnose(args: argparse.Namespace, records: list[MonitorRecord], flown: list
     """The daemon's path on the demo's traffic: BITs -> pipeline (one asset per EMA) ->
     catalog -> each actuator's diagnosis and health."""
     from drivers.errors import MaprError
-    from mapr_daemon.catalog.health_view import health_table
-    from mapr_daemon.cli.demo_health import demo_config, diagnose_into_catalog
-    from mapr_daemon.cli.demo_reasoner import cache_dir, describe
     from mapr_daemon.errors import CatalogError
+    from mapr_daemon.testbed.demo_health import demo_config, diagnose_into_catalog
+    from mapr_daemon.testbed.demo_reasoner import cache_dir, describe
+    from mapr_daemon.views.health import health_table
 
     print()
     needs = max(bit_needs_s(e.params) for e in flown)

@@ -5,8 +5,8 @@ from __future__ import annotations
 from pathlib import Path
 
 from mapr_daemon.catalog import CatalogReader, CatalogWriter, event_from_reasoner
-from mapr_daemon.catalog.report import event_detail
 from mapr_daemon.findings import Diagnosis
+from mapr_daemon.views.text import event_detail
 
 from .conftest import T0
 

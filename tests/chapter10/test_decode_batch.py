@@ -16,7 +16,7 @@ import pytest
 from drivers.chapter10.reader import Chapter10Reader
 from drivers.chapter10.writer import Chapter10Writer
 from drivers.mil1553.record import MonitorRecord, TransferFormat
-from mapr_daemon.cli.icdview import IcdView
+from mapr_daemon.cli.icdview.view import IcdView
 from mapr_daemon.cli.main import main
 
 from .conftest import SAMPLE
@@ -91,7 +91,7 @@ def test_json_lines_are_byte_identical(traffic: Path) -> None:
 def values_writer(request: pytest.FixtureRequest, monkeypatch: pytest.MonkeyPatch) -> str:
     """``decode --icd`` in this process with the ``repr`` values writer throughout, or the
     compiled one from the first message on."""
-    import mapr_daemon.cli.icdview_batch as batch_module
+    import mapr_daemon.cli.icdview.batch as batch_module
 
     compiled = request.param == "compiled"
     monkeypatch.setattr(batch_module, "COMPILED_AFTER", 0 if compiled else 10**12)
@@ -126,7 +126,7 @@ def values_both_ways(path: Path, compiled: bool = False
     """Per message of ``path`` (the testbed table): the values text the batch writer gives
     (the compiled one if ``compiled``), and ``json.dumps`` of :meth:`IcdView.values` of its
     record (None for both where the table describes nothing)."""
-    from mapr_daemon.cli.icdview_batch import batch_values_json
+    from mapr_daemon.cli.icdview.batch import batch_values_json
 
     view = IcdView(str(ICD))
     assert view.icd is not None
@@ -155,7 +155,7 @@ def test_a_long_decode_turns_to_the_compiled_writer(traffic: Path,
                                                     monkeypatch: pytest.MonkeyPatch) -> None:
     """A process without numba writes with ``repr`` until COMPILED_AFTER messages have
     values, then with the compiled writer; the text is the same either way."""
-    import mapr_daemon.cli.icdview_batch as batch_module
+    import mapr_daemon.cli.icdview.batch as batch_module
 
     calls: list[bool] = []
     batch_texts = batch_module._batch_texts

@@ -16,8 +16,8 @@ import pytest
 
 from drivers.chapter10.writer import Chapter10Writer
 from drivers.mil1553.record import MonitorRecord, TransferFormat
-from mapr_daemon.cli.icdview import IcdView
-from mapr_daemon.cli.icdview_numbers import number_parts
+from mapr_daemon.cli.icdview.numbers import number_parts
+from mapr_daemon.cli.icdview.view import IcdView
 
 from .test_decode_batch import ICD, values_both_ways
 

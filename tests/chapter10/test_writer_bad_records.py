@@ -9,7 +9,7 @@ from pathlib import Path
 from drivers.chapter10.reader import Chapter10Reader
 from drivers.chapter10.writer import Chapter10Writer
 from drivers.mil1553.record import MonitorRecord, TransferFormat
-from mapr_daemon.cli.record import summary_line
+from mapr_daemon.cli.commands.record import summary_line
 from mapr_daemon.daemon.recorder import SessionRecorder
 
 WILD_NS = 10**20

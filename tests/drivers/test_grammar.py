@@ -8,11 +8,11 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from drivers.mil1553.assembler import MessageAssembler
-from drivers.mil1553.assembler_reference import ReferenceAssembler
 from drivers.mil1553.record import MonitorRecord
 from drivers.mil1553.timing import BusTiming
 from drivers.mil1553.wordbatch import WordBatch, empty_words
 from drivers.mil1553.words import CommandWord, StatusWord
+from tests.support.assembler_reference import ReferenceAssembler
 
 # Idle times between words (ns) around every threshold the grammar tests: contiguous, the
 # break, early/late response, the time-out, the intermessage gap; and overlapping words.

@@ -1,6 +1,6 @@
 """Word integrity: a word the decoder reports clean is the word that was sent.
 
-Random words x every corruption of drivers.mil1553.corruption x supported sample rates, every
+Random words x every corruption of tests.support.corruption x supported sample rates, every
 crossing jittered at the standard's limit (±150 ns): never clean and wrong. Clean words at the
 minimum supported rate: all exact. Below it, captures are refused. Deterministic (hypothesis
 derandomized); bench/word_integrity.py runs the same at 10^7 words.
@@ -14,7 +14,6 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from drivers.errors import CaptureFormatError, SampleRateError
-from drivers.mil1553.corruption import ALWAYS_INVALID, KINDS, classify, damaged_words
 from drivers.mil1553.decoder import (
     MAX_DECODE_RATE_HZ,
     MIN_DECODE_RATE_HZ,
@@ -23,6 +22,7 @@ from drivers.mil1553.decoder import (
 )
 from drivers.mil1553.encoder import encode_words
 from drivers.mil1553.wordbatch import error_names, make_words
+from tests.support.corruption import ALWAYS_INVALID, KINDS, classify, damaged_words
 
 
 def fixed(examples: int) -> settings:

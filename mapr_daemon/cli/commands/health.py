@@ -35,8 +35,8 @@ def add_subparser(subparsers: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from mapr_daemon.catalog import CatalogReader, default_path
-    from mapr_daemon.catalog.health_view import health_table
     from mapr_daemon.errors import CatalogError
+    from mapr_daemon.views import health_json, health_table
 
     path = args.catalog or default_path()
     try:
@@ -47,7 +47,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"mapr health: {where}{error.detail}", file=sys.stderr)
         return exitcodes.NOINPUT
     if args.json:
-        json.dump([r.as_dict() for r in rows], sys.stdout, indent=1, sort_keys=True)
+        json.dump([health_json(r) for r in rows], sys.stdout, indent=1, sort_keys=True)
         sys.stdout.write("\n")
     elif not rows:
         print(f"no BIT history in {path} yet (the daemon, replay or fleet writes it)")

@@ -2,7 +2,7 @@
 
 A 1553 message prints as for a capture (:meth:`MonitorRecord.to_json`, plus ``values`` with
 ``--icd``; written a batch at a time by :mod:`drivers.chapter10.ms1553_json` and
-:mod:`mapr_daemon.cli.icdview_batch`, byte for byte the same), with two more keys:
+:mod:`mapr_daemon.cli.icdview.batch`, byte for byte the same), with two more keys:
 ``channel`` (the Chapter 10 channel ID) and, once the file has given a time packet, ``time``
 (absolute, ISO 8601). An ARINC 429 word prints as::
 
@@ -11,7 +11,7 @@ A 1553 message prints as for a capture (:meth:`MonitorRecord.to_json`, plus ``va
 
 With a filter (``--rt``, ``--sa``, ``--tr``, ``--format``, ``--errors``, ``--error``,
 ``--from``, ``--to``) or ``--text``, only 1553 messages print (filtered as numpy masks on each
-batch; see :mod:`mapr_daemon.cli.decode_filter` and :mod:`mapr_daemon.cli.decode_text`).
+batch; see :mod:`.decode_filter` and :mod:`.decode_text`).
 
 Damaged packets are skipped and named on stderr with their file offset; decoding goes on.
 """
@@ -28,9 +28,9 @@ from mapr_daemon.cli.validate import bounded_int
 
 if TYPE_CHECKING:
     from drivers.chapter10.reader import Chapter10Reader
-    from mapr_daemon.cli.decode_filter import DecodeFilter
-    from mapr_daemon.cli.icdview import IcdView
-    from mapr_daemon.cli.icdview_batch import BatchValues
+    from mapr_daemon.cli.icdview.batch import BatchValues
+    from mapr_daemon.cli.icdview.view import IcdView
+    from mapr_daemon.cli.traffic.decode_filter import DecodeFilter
 
 
 BATCH_MESSAGES = 32768
@@ -65,8 +65,8 @@ def decode_chapter10(args: argparse.Namespace, view: IcdView,
         return exitcodes.USAGE
     from drivers.chapter10.ms1553_json import json_lines
     from drivers.chapter10.reader import Chapter10Reader
-    from mapr_daemon.cli.decode_filter import DecodeFilter
-    from mapr_daemon.cli.decode_text import HEADER, text_lines
+    from mapr_daemon.cli.traffic.decode_filter import DecodeFilter
+    from mapr_daemon.cli.traffic.decode_text import HEADER, text_lines
     wanted = wanted or DecodeFilter()
     text = bool(getattr(args, "text", False))
     only_1553 = wanted.active or text
@@ -88,7 +88,7 @@ def decode_chapter10(args: argparse.Namespace, view: IcdView,
                 values = None
                 if view.icd is not None:   # the table code only when there is a table
                     if batch_values is None:
-                        from mapr_daemon.cli.icdview_batch import BatchValues
+                        from mapr_daemon.cli.icdview.batch import BatchValues
 
                         batch_values = BatchValues(view.icd)
                     values = batch_values(messages)

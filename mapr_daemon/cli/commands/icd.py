@@ -93,8 +93,8 @@ def run_dump(args: argparse.Namespace) -> int:
 
 def run_discover(args: argparse.Namespace) -> int:
     from drivers.rtstats import TrafficStatistics
-    from mapr_daemon.cli.monitor import parse_option
-    from mapr_daemon.cli.traffic_source import backend_batches, file_batches
+    from mapr_daemon.cli.commands.monitor import parse_option
+    from mapr_daemon.cli.traffic.source import backend_batches, file_batches
     from mapr_daemon.icd.discover import skeleton_yaml
 
     prog = "mapr icd discover"

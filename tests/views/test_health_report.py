@@ -9,8 +9,8 @@ from pathlib import Path
 
 import pytest
 
-from .health_data import write_health_catalog
-from .test_catalog_cli import mapr
+from tests.catalog.health_data import write_health_catalog
+from tests.catalog.test_catalog_cli import mapr
 
 BROWSER = shutil.which("chromium") or shutil.which("chromium-browser")
 

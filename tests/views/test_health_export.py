@@ -7,8 +7,8 @@ import io
 import json
 from pathlib import Path
 
-from .health_data import write_health_catalog
-from .test_catalog_cli import mapr
+from tests.catalog.health_data import write_health_catalog
+from tests.catalog.test_catalog_cli import mapr
 
 
 def _csv(text: str) -> list[dict[str, str]]:

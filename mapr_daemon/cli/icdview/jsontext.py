@@ -28,6 +28,7 @@ import numpy as np
 import numpy.typing as npt
 
 from drivers.jit import COPY_BLOCK, copy_block, inline_kernel, kernel
+from mapr_daemon.arrays import FloatArray
 
 WRITTEN_FOR_BLOCK = 32
 """The :data:`~drivers.jit.COPY_BLOCK` this file's kernels were compiled for. numba caches a
@@ -36,12 +37,12 @@ the cached kernels copying the old size while the buffers are sized for the new 
 written past their end): such a change must come with one here, which renews this file's
 cache."""
 if COPY_BLOCK != WRITTEN_FOR_BLOCK:
-    raise ImportError(f"drivers/jsontext.py is written for {WRITTEN_FOR_BLOCK}-byte copies, "
+    raise ImportError("mapr_daemon/cli/icdview/jsontext.py is written for "
+                      f"{WRITTEN_FOR_BLOCK}-byte copies, "
                       f"drivers/jit.py copies {COPY_BLOCK}: change both (and clear the "
                       "kernel cache)")
 
 IntArray = npt.NDArray[np.int64]
-FloatArray = npt.NDArray[np.float64]
 
 _POWERS = np.array([10.0 ** d for d in range(21)])
 """Exact powers of ten (all below 2**53)."""

@@ -98,9 +98,9 @@ def parse_option(text: str) -> tuple[str, Any]:
 def run(args: argparse.Namespace) -> int:
     from drivers.monitor import MonitorFilter, open_monitor
     from drivers.rtstats import TrafficStatistics
-    from mapr_daemon.cli.icdview import IcdView
-    from mapr_daemon.cli.render import record_json, record_line
-    from mapr_daemon.cli.traffic_source import bounded, print_stats
+    from mapr_daemon.cli.icdview.view import IcdView
+    from mapr_daemon.cli.traffic.render import record_json, record_line
+    from mapr_daemon.cli.traffic.source import bounded, print_stats
 
     view = IcdView(args.icd)
     options = dict(args.option)

@@ -8,7 +8,7 @@ import json
 import numpy as np
 
 from drivers.jit import COPY_BLOCK
-from drivers.jsontext import NUMBER_BYTES, TextPool, shortest_decimals, write_rows
+from mapr_daemon.cli.icdview.jsontext import NUMBER_BYTES, TextPool, shortest_decimals, write_rows
 
 SEED = 20261125
 

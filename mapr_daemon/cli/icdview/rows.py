@@ -1,21 +1,24 @@
-"""The compiled writer of :mod:`mapr_daemon.cli.icdview_batch`: a whole batch's values text
+"""The compiled writer of :mod:`mapr_daemon.cli.icdview.batch`: a whole batch's values text
 in two kernel calls, numbers as ``json.dumps`` writes them.
 
 The table is flattened once (:mod:`mapr_daemon.icd.flatdecode`) and its fixed texts put in
-a :class:`~drivers.jsontext.TextPool`: per cell of each message, the text before it (the
+a :class:`~mapr_daemon.cli.icdview.jsontext.TextPool`: per cell of each message, the text before it
+(the
 message's head, the field's key and bracket, the separator), per message the text after
 its last cell, per field its key in the flags, labels, the flag lists of every flag byte.
 Per batch: one kernel decodes every cell of every record the table describes
 (:func:`~mapr_daemon.icd.flatdecode.decode_cells`),
-:func:`~drivers.jsontext.shortest_decimals` finds each number's text, ``repr`` writes the
+:func:`~mapr_daemon.cli.icdview.jsontext.shortest_decimals` finds each number's text, ``repr``
+writes the
 few it cannot (NaN, infinities, -0.0, tiny or huge magnitudes), and one kernel writes every
-record's text into one buffer (:func:`~drivers.jsontext.write_rows`; a record the table
+record's text into one buffer (:func:`~mapr_daemon.cli.icdview.jsontext.write_rows`; a record the
+table
 does not describe, an empty line), cut into one string per record of the batch. No numpy
 pass runs per message or parameter.
 
 Loading the kernels costs a process a fixed CPU time once (numba and its code generator;
 docs/figures.md), so this module is imported only when that pays (see
-:class:`~mapr_daemon.cli.icdview_batch.BatchValues`).
+:class:`~mapr_daemon.cli.icdview.batch.BatchValues`).
 """
 
 from __future__ import annotations
@@ -28,7 +31,7 @@ import numpy.typing as npt
 
 from drivers.chapter10.ms1553_batch import Ms1553Batch
 from drivers.jit import COPY_BLOCK
-from drivers.jsontext import NUMBER_BYTES, TextPool, shortest_decimals, write_rows
+from mapr_daemon.cli.icdview.jsontext import NUMBER_BYTES, TextPool, shortest_decimals, write_rows
 from mapr_daemon.icd import Icd
 from mapr_daemon.icd.flags import FLAG_NAMES, flag_names
 from mapr_daemon.icd.flatdecode import FlatTable, decode_cells, flatten
@@ -50,7 +53,7 @@ class CompiledRows:
         self.heads = pool.add_all(heads)
         leads: list[str] = []
         """Per cell of the table, the text before it in a record's text (see
-        :func:`~drivers.jsontext.write_rows`)."""
+        :func:`~mapr_daemon.cli.icdview.jsontext.write_rows`)."""
         cell_key: list[int] = []
         closes: list[str] = []
         fixed: list[int] = []

@@ -31,13 +31,13 @@ from collections.abc import Iterable
 from contextlib import ExitStack
 from typing import IO, Any
 
+from mapr_daemon import utc, views
 from mapr_daemon.catalog import (
     CatalogReader,
     EventFilter,
     acknowledge,
     default_path,
-    health_view,
-    report,
+    display_name,
 )
 from mapr_daemon.catalog.model import BitRecord, Event
 from mapr_daemon.cli import exitcodes
@@ -48,7 +48,7 @@ DEFAULT_LIMIT = 50
 
 def _time(text: str) -> int:
     try:
-        return report.parse_time(text, time.time_ns())
+        return utc.parse_time(text, time.time_ns())
     except ValueError as error:
         raise argparse.ArgumentTypeError(str(error)) from None
 
@@ -182,11 +182,11 @@ def run_list(reader: CatalogReader, args: argparse.Namespace) -> int:
     limit = args.limit if args.limit > 0 else None
     events = reader.events(_filter(args), limit=limit)
     if _wants_json(args):
-        _print_json([report.event_json(e) for e in events])
+        _print_json([views.event_json(e) for e in events])
     elif not events:
         print(f"no events in {reader.path} match")
     else:
-        print(report.events_table(events))
+        print(views.events_table(events))
         if limit is not None and len(events) == limit:
             print(f"(newest {limit} shown; --limit 0 for all)")
     return exitcodes.OK
@@ -199,10 +199,10 @@ def run_show(reader: CatalogReader, args: argparse.Namespace) -> int:
         return exitcodes.USAGE
     session = reader.session(event.session_id) if event.session_id is not None else None
     if _wants_json(args):
-        _print_json({**report.event_json(event),
+        _print_json({**views.event_json(event),
                      "session": None if session is None else dataclasses.asdict(session)})
     else:
-        print(report.event_detail(event, session))
+        print(views.event_detail(event, session))
     return exitcodes.OK
 
 
@@ -224,19 +224,17 @@ def run_export(reader: CatalogReader, args: argparse.Namespace) -> int:
 
 def _export(reader: CatalogReader, args: argparse.Namespace, events: Iterable[Event],
             out: IO[str]) -> int:
-    from mapr_daemon.catalog import export
-
     if args.what == "bits":
         records = [r for r in reader.bits(args.asset)
                    if (args.since is None or r.t_ns >= args.since)
                    and (args.until is None or r.t_ns < args.until)
                    and (args.fault is None or r.fault == args.fault)]
-        return export.write_bits(records, args.format, out)
+        return views.write_bits(records, args.format, out)
     if args.what == "episodes":
-        return export.write_episodes(reader.episodes(asset=args.asset), args.format, out)
+        return views.write_episodes(reader.episodes(asset=args.asset), args.format, out)
     if args.format == "jsonl":
-        return export.write_events_jsonl(events, out)
-    write = report.write_csv if args.format == "csv" else report.write_json
+        return views.write_events_jsonl(events, out)
+    write = views.write_csv if args.format == "csv" else views.write_json
     return write(events, out)
 
 
@@ -251,7 +249,7 @@ def _history(reader: CatalogReader, args: argparse.Namespace) -> tuple[str, list
     records = [r for r in records if (args.since is None or r.t_ns >= args.since)
                and (args.until is None or r.t_ns < args.until)]
     tails = {r.tail for r in records}
-    name = health_view.display_name(tails.pop(), asset) if len(tails) == 1 else asset
+    name = display_name(tails.pop(), asset) if len(tails) == 1 else asset
     return name, records
 
 
@@ -259,12 +257,12 @@ def run_trend(reader: CatalogReader, args: argparse.Namespace) -> int:
     name, records = _history(reader, args)
     events = [] if records else reader.trend(args.asset, args.since, args.until)
     if records and _wants_json(args):
-        _print_json([{"time_utc": report.fmt_time(r.t_ns), **health_view.bit_json(r)}
+        _print_json([{"time_utc": utc.fmt_time(r.t_ns), **views.bit_json(r)}
                      for r in records])
     elif records:
-        print(health_view.bits_table(records))
+        print(views.bits_table(records))
     elif _wants_json(args):
-        _print_json([{"time_utc": report.fmt_time(e.t_ns), "t_ns": e.t_ns, "id": e.id,
+        _print_json([{"time_utc": utc.fmt_time(e.t_ns), "t_ns": e.t_ns, "id": e.id,
                       "fault": e.fault, "severity": e.severity, "soh": e.soh, "rul": e.rul,
                       "rul_low": e.rul_low, "rul_high": e.rul_high, "rul_unit": e.rul_unit}
                      for e in events])
@@ -272,10 +270,10 @@ def run_trend(reader: CatalogReader, args: argparse.Namespace) -> int:
         known = ", ".join(reader.assets()) or "none"
         print(f"no SoH/RUL for {args.asset} in {reader.path} (assets: {known})")
     else:
-        print(report.trend_table(events))
+        print(views.trend_table(events))
     if args.plot:
         try:
-            from mapr_daemon.catalog.plot import draw
+            from mapr_daemon.views.plot import draw
             draw(records, name, args.plot, hours=args.hours)
         except ImportError:
             print("mapr catalog trend: --plot needs matplotlib (pip install matplotlib)",
@@ -295,23 +293,23 @@ def run_stats(reader: CatalogReader, args: argparse.Namespace) -> int:
         _print_json({"intervals": [r.as_dict() for r in rows],
                      "gaps": [g.as_dict() for g in gaps]})
         return exitcodes.OK
-    print(report.stats_table(rows) if rows else "no bus statistics in range")
+    print(views.stats_table(rows) if rows else "no bus statistics in range")
     if gaps:
         print()
-        print(report.gaps_table(gaps))
+        print(views.gaps_table(gaps))
     return exitcodes.OK
 
 
 def run_episodes(reader: CatalogReader, args: argparse.Namespace) -> int:
     episodes = reader.episodes(open_only=args.open, asset=args.actuator)
     if _wants_json(args):
-        _print_json([report.episode_json(ep) for ep in episodes])
+        _print_json([views.episode_json(ep) for ep in episodes])
     elif not episodes:
         which = "open " if args.open else ""
         whose = f" for {args.actuator}" if args.actuator else ""
         print(f"no {which}fault episodes{whose} in {reader.path}")
     else:
-        print(report.episodes_table(episodes))
+        print(views.episodes_table(episodes))
     return exitcodes.OK
 
 
@@ -328,10 +326,10 @@ def run_ack(args: argparse.Namespace) -> int:
         print(f"mapr catalog ack: {where}{error.detail}", file=sys.stderr)
         return exitcodes.NOINPUT
     if _wants_json(args):
-        _print_json(report.episode_json(episode))
+        _print_json(views.episode_json(episode))
     else:
         print(f"episode {episode.id} ({episode.asset}, {episode.part}) acknowledged by "
-              f"{episode.acked_by} at {report.fmt_time(episode.acked_ns)}")
+              f"{episode.acked_by} at {utc.fmt_time(episode.acked_ns)}")
     return exitcodes.OK
 
 
@@ -340,5 +338,5 @@ def _run_rt_stats(reader: CatalogReader, args: argparse.Namespace) -> int:
     if _wants_json(args):
         _print_json({"rt_sa": [r.as_dict() for r in rows]})
         return exitcodes.OK
-    print(report.rt_stats_table(rows) if rows else "no per-RT/SA statistics in range")
+    print(views.rt_stats_table(rows) if rows else "no per-RT/SA statistics in range")
     return exitcodes.OK

@@ -17,7 +17,7 @@ from pathlib import Path
 
 from drivers.mil1553.record import MonitorRecord
 from mapr_daemon.catalog import CatalogReader, CatalogWriter
-from mapr_daemon.catalog.health_view import ActuatorHealth
+from mapr_daemon.catalog.actuators import ActuatorHealth
 from mapr_daemon.daemon.bitwatch import BitFound
 from mapr_daemon.daemon.clock import BusClock
 from mapr_daemon.daemon.config import AssetConfig, Config

@@ -22,7 +22,7 @@ from collections.abc import Iterable, Sequence
 from pathlib import Path
 
 from drivers.mil1553.record import MonitorRecord
-from mapr_daemon.cli.dictionary import default_spec_path, peak_rss_mb
+from mapr_daemon.cli.commands.dictionary import default_spec_path, peak_rss_mb
 from mapr_daemon.daemon.clock import BusClock
 from mapr_daemon.daemon.config import Config, ReasonerConfig
 from mapr_daemon.daemon.pipeline import Batch, build_pipeline

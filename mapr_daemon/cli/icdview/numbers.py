@@ -2,7 +2,7 @@
 ``repr`` per number where the number is short.
 
 A value's text is given in two parts, to be written one after the other (the ``repr`` writer
-of :mod:`mapr_daemon.cli.icdview_batch` joins them, once per distinct value of a column):
+of :mod:`mapr_daemon.cli.icdview.batch` joins them, once per distinct value of a column):
 most engineering values of a 1553 bus are a 16-bit field times a decimal LSB, whose shortest
 decimal has at most 4 places and an integer part below 10 000; for those both parts come
 from tables made once (the signed integer part; the point and the places), indexed with

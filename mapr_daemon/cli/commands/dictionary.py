@@ -23,7 +23,7 @@ from mapr_daemon.reasoner.diagnosis.dictionary import DictionarySpec
 
 def default_spec_path() -> Path:
     """The shipped dictionary spec."""
-    return Path(__file__).resolve().parents[2] / "configs" / "reasoner" / "dictionary.yaml"
+    return Path(__file__).resolve().parents[3] / "configs" / "reasoner" / "dictionary.yaml"
 
 
 def add_subparser(subparsers: Any) -> None:

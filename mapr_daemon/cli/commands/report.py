@@ -34,8 +34,8 @@ def add_subparser(subparsers: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from mapr_daemon.catalog import CatalogReader, default_path
-    from mapr_daemon.catalog.html_report import build
     from mapr_daemon.errors import CatalogError
+    from mapr_daemon.views.html_report import build
 
     path = args.catalog or default_path()
     try:

@@ -7,8 +7,8 @@ from pathlib import Path
 
 import pytest
 
-from .health_data import write_health_catalog
-from .test_catalog_cli import mapr
+from tests.catalog.health_data import write_health_catalog
+from tests.catalog.test_catalog_cli import mapr
 
 
 def test_trend_lists_every_bit_by_flight_with_health(tmp_path: Path) -> None:

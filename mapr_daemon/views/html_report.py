@@ -16,15 +16,11 @@ import html
 from collections.abc import Iterable, Sequence
 from typing import Any
 
-from mapr_daemon.catalog.health_view import (
-    ActuatorHealth,
-    episode_names,
-    fmt_episodes,
-    fmt_rul,
-    fmt_soh,
-)
+from mapr_daemon.catalog.actuators import ActuatorHealth, episode_names
 from mapr_daemon.catalog.reader import CatalogReader
-from mapr_daemon.catalog.report import fault_name, fmt_severity, fmt_time, fmt_trend
+from mapr_daemon.utc import fmt_time
+from mapr_daemon.views.health import fmt_episodes, fmt_rul, fmt_soh
+from mapr_daemon.views.text import fault_name, fmt_severity, fmt_trend
 
 CSS = """
 body{font-family:system-ui,Helvetica,Arial,sans-serif;margin:24px;color:#1b1b1b;max-width:1100px}
@@ -55,7 +51,7 @@ def _grade(soh: float | None) -> str:
 
 def _plot(reader: CatalogReader, a: ActuatorHealth) -> str:
     try:
-        from mapr_daemon.catalog.plot import png_bytes
+        from mapr_daemon.views.plot import png_bytes
     except ImportError:  # pragma: no cover - matplotlib is an optional extra
         return '<p class="muted">(trend plot needs matplotlib)</p>'
     try:

@@ -25,8 +25,9 @@ import json
 import sys
 from typing import TYPE_CHECKING, Any, TextIO
 
-from mapr_daemon.cli import chapter10_decode, exitcodes
-from mapr_daemon.cli.traffic_source import positive_seconds
+from mapr_daemon.cli import exitcodes
+from mapr_daemon.cli.traffic import chapter10_decode
+from mapr_daemon.cli.traffic.source import positive_seconds
 
 if TYPE_CHECKING:
     from drivers.mil1553.record import MonitorRecord
@@ -63,7 +64,7 @@ def add_subparser(subparsers: Any) -> None:
 
 
 def add_filter_arguments(parser: argparse.ArgumentParser) -> None:
-    """Monitor's filters, with lists and ranges (:mod:`mapr_daemon.cli.decode_filter`)."""
+    """Monitor's filters, with lists and ranges (:mod:`mapr_daemon.cli.traffic.decode_filter`)."""
     group = parser.add_argument_group("filters (lists and ranges: --rt 1-4,7)")
     group.add_argument("--rt", metavar="LIST", help="remote terminal addresses, 0-31 (either "
                                                     "terminal of an RT-RT transfer)")
@@ -94,15 +95,15 @@ def _channels(text: str) -> list[str]:
 
 def run(args: argparse.Namespace) -> int:
     if args.stats:
-        from mapr_daemon.cli.traffic_source import run_decode_stats
+        from mapr_daemon.cli.traffic.source import run_decode_stats
 
         return run_decode_stats(args)
 
     # imported here, not at the top, so that `mapr decode --help` starts at once; the
     # bit-level decoder (numba kernels) only for a capture, not for a Chapter 10 file
     from drivers.chapter10.walker import looks_like_chapter10
-    from mapr_daemon.cli.decode_filter import FilterError, filter_from_args
-    from mapr_daemon.cli.icdview import IcdView
+    from mapr_daemon.cli.icdview.view import IcdView
+    from mapr_daemon.cli.traffic.decode_filter import FilterError, filter_from_args
 
     try:
         wanted = filter_from_args(args)
@@ -124,9 +125,9 @@ def run(args: argparse.Namespace) -> int:
     from drivers.capturefile import open_capture
     from drivers.errors import CaptureFormatError
     from drivers.pipeline import SamplePipeline
-    from mapr_daemon.cli.render import record_json
+    from mapr_daemon.cli.traffic.render import record_json
     check_capture_file(args.capture, args.samplerate, rate_hint="--samplerate HZ")
-    from mapr_daemon.cli.decode_text import HEADER, record_text
+    from mapr_daemon.cli.traffic.decode_text import HEADER, record_text
     source = open_capture(args.capture, args.samplerate, args.channels)
     pipeline = SamplePipeline(source.sample_rate)
     out = sys.stdout

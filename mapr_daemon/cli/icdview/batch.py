@@ -6,11 +6,11 @@ for a recording; docs/figures.md). Here the messages of a batch are grouped by I
 their data words stacked straight from the batch's word array, each group decoded in one
 call and its text written by one ``%`` per message of a format string made once per message
 layout, each distinct number of a column written once, short ones from tables and the rest by
-``repr`` (:mod:`mapr_daemon.cli.icdview_numbers`); the result per message is the same dict,
+``repr`` (:mod:`mapr_daemon.cli.icdview.numbers`); the result per message is the same dict,
 key for key.
 
 Once a decode has written enough values for loading numba to pay (:class:`BatchValues`), a
-compiled writer takes over (:mod:`mapr_daemon.cli.icdview_rows`: the whole batch decoded
+compiled writer takes over (:mod:`mapr_daemon.cli.icdview.rows`: the whole batch decoded
 and written in two kernel calls, cheaper per message than this writer, as
 bench/chapter10_speed.py prints; docs/figures.md); both write the same bytes.
 """
@@ -25,7 +25,7 @@ import numpy as np
 import numpy.typing as npt
 
 from drivers.chapter10.ms1553_batch import Ms1553Batch
-from mapr_daemon.cli.icdview_numbers import number_parts
+from mapr_daemon.cli.icdview.numbers import number_parts
 from mapr_daemon.icd import Icd
 from mapr_daemon.icd.columns import distinct, message_numbers, stacked_series
 from mapr_daemon.icd.flags import flag_names
@@ -66,7 +66,7 @@ def _batch_texts(icd: Icd, batch: Ms1553Batch, compiled: bool, lead: str
     does not describe it, written by the compiled writer if ``compiled``; and how many
     messages the table describes."""
     if compiled:
-        from mapr_daemon.cli.icdview_rows import compiled_rows
+        from mapr_daemon.cli.icdview.rows import compiled_rows
 
         names = message_numbers(icd, batch)
         return (compiled_rows(icd, lead).texts(batch, names),
@@ -87,7 +87,7 @@ def batch_values_json(icd: Icd, batch: Ms1553Batch, compiled: bool = False
                       ) -> list[str | None]:
     """Per message: the JSON text of ``{"message": name, parameter: value..., "flags":
     {...}}`` (what ``json.dumps`` of :meth:`IcdView.values` gives), or None; written by
-    the compiled writer (:mod:`mapr_daemon.cli.icdview_rows`) if ``compiled``."""
+    the compiled writer (:mod:`mapr_daemon.cli.icdview.rows`) if ``compiled``."""
     texts, _ = _batch_texts(icd, batch, compiled, "")
     return [text or None for text in texts]   # a described message's text is never empty
 
@@ -189,7 +189,7 @@ def _numbers(series: Series) -> list[str]:
     """The values of ``series`` as ``json.dumps`` writes them (an enumeration's label,
     quoted, where it has one for the raw code). Bus data repeats (codes, settled or slow
     signals, the same raw word read again), so each distinct value is written once
-    (:func:`~mapr_daemon.cli.icdview_numbers.number_parts`, its two parts joined):
+    (:func:`~mapr_daemon.cli.icdview.numbers.number_parts`, its two parts joined):
     distinct by its bits (the same bits, the same text; 0.0 and -0.0 apart), its text
     then repeated by index."""
     bits, inverse = np.unique(series.value.view(np.int64), return_inverse=True)

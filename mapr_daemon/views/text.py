@@ -1,56 +1,21 @@
-"""Catalog rows as text a maintainer reads at a glance, as CSV and JSON, and time parsing.
+"""Catalog rows as text a maintainer reads at a glance, and as JSON-ready dicts.
 
-Times are shown in UTC with a ``Z`` (``2026-05-09 04:13:20Z``), the way flight logs are kept;
-``--since``/``--until`` read the same form, an ISO date, or an age (``90m``, ``2h``, ``7d``).
+Times are shown in UTC with a ``Z`` (``2026-05-09 04:13:20Z``, :func:`mapr_daemon.utc.fmt_time`),
+the way flight logs are kept.
 Severity shows as the share of the fault's range with the physical value beside it
 (``42% (0.449 ohm)``); a shorted or open switch shows as ``terminal``.
 """
 
 from __future__ import annotations
 
-import csv
-import datetime as dt
 import json
-import re
 from collections.abc import Iterable, Sequence
-from typing import IO, Any
+from typing import Any
 
 from mapr_daemon.catalog.episodes import Episode
 from mapr_daemon.catalog.model import Event, Gap, Session, StatsRow
 from mapr_daemon.catalog.rt_stats import RtStatsRow
-
-_AGE = re.compile(r"^\s*(\d+(?:\.\d+)?)\s*([smhdw])\s*$")
-_UNIT_S = {"s": 1, "m": 60, "h": 3600, "d": 86400, "w": 604800}
-
-CSV_COLUMNS = ("id", "time_utc", "t_ns", "asset", "rt", "fault", "switch", "severity",
-               "severity_value", "severity_unit", "confidence", "soh", "rul", "rul_low",
-               "rul_high", "rul_unit", "session_id", "params", "evidence", "bus_ns", "abs_ns",
-               "episode_id")
-
-
-def parse_time(text: str, now_ns: int) -> int:
-    """``2026-05-09``, ``2026-05-09T12:00``, ``...Z``/``+02:00``, ``now`` or an age such as
-    ``2h`` (that long before ``now_ns``) -> epoch ns. Naive times are UTC. ValueError else."""
-    if text.strip().lower() == "now":
-        return now_ns
-    age = _AGE.match(text)
-    if age:
-        return now_ns - int(float(age.group(1)) * _UNIT_S[age.group(2)] * 1e9)
-    try:
-        when = dt.datetime.fromisoformat(text.strip().replace("Z", "+00:00"))
-    except ValueError:
-        raise ValueError(f"{text!r} is not a time (try 2026-05-09, 2026-05-09T14:30Z, "
-                         "2h or 7d)") from None
-    if when.tzinfo is None:
-        when = when.replace(tzinfo=dt.UTC)
-    return int(when.timestamp()) * 1_000_000_000 + when.microsecond * 1000
-
-
-def fmt_time(t_ns: int | None) -> str:
-    if t_ns is None:
-        return "-"
-    when = dt.datetime.fromtimestamp(t_ns // 1_000_000_000, tz=dt.UTC)
-    return when.strftime("%Y-%m-%d %H:%M:%SZ")
+from mapr_daemon.utc import fmt_time
 
 
 def fmt_duration(ns: int) -> str:
@@ -217,28 +182,3 @@ def episode_json(ep: Episode) -> dict[str, Any]:
 
 def event_json(e: Event) -> dict[str, Any]:
     return {"time_utc": fmt_time(e.t_ns), **e.as_dict()}
-
-
-def write_csv(events: Iterable[Event], out: IO[str]) -> int:
-    """One row per event, ``params``/``evidence`` as JSON text; returns the row count."""
-    writer = csv.writer(out, lineterminator="\n")
-    writer.writerow(CSV_COLUMNS)
-    n = 0
-    for e in events:
-        d = event_json(e)
-        d["params"] = json.dumps(d["params"], sort_keys=True)
-        d["evidence"] = json.dumps(d["evidence"], sort_keys=True)
-        writer.writerow(["" if d[c] is None else d[c] for c in CSV_COLUMNS])
-        n += 1
-    return n
-
-
-def write_json(events: Iterable[Event], out: IO[str]) -> int:
-    """A JSON array, streamed one event per line (no need to hold a million in memory)."""
-    n = 0
-    out.write("[")
-    for e in events:
-        out.write(("\n" if n == 0 else ",\n") + json.dumps(event_json(e), sort_keys=True))
-        n += 1
-    out.write("\n]\n" if n else "]\n")
-    return n

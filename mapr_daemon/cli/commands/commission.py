@@ -50,7 +50,7 @@ def _say(message: str) -> None:
 def run(args: argparse.Namespace) -> int:
     """Read the BIT files, run the commissioning workflow
     (:func:`~mapr_daemon.reasoner.commissioning.workflow.commission`), print its table."""
-    from mapr_daemon.cli.dictionary import default_spec_path
+    from mapr_daemon.cli.commands.dictionary import default_spec_path
     from mapr_daemon.reasoner.commissioning.prior import default_tolerances_path, load_tolerances
     from mapr_daemon.reasoner.commissioning.workflow import commission, read_bit_files
     from mapr_daemon.reasoner.diagnosis.dictionary import DictionarySpec

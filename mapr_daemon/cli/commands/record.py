@@ -23,7 +23,7 @@ from typing import TYPE_CHECKING, Any
 
 from drivers.backends import available_backends
 from mapr_daemon.cli import exitcodes
-from mapr_daemon.cli.monitor import parse_option
+from mapr_daemon.cli.commands.monitor import parse_option
 from mapr_daemon.cli.validate import positive_int, positive_seconds
 
 if TYPE_CHECKING:

@@ -6,9 +6,8 @@ import json
 from pathlib import Path
 
 from mapr_daemon.catalog import CatalogWriter
-
-from .health_data import write_health_catalog
-from .test_catalog_cli import mapr
+from tests.catalog.health_data import write_health_catalog
+from tests.catalog.test_catalog_cli import mapr
 
 
 def test_health_lines_name_soh_mode_rul_episodes_and_service(tmp_path: Path) -> None:
@@ -53,7 +52,7 @@ def test_health_of_an_empty_catalog_and_a_missing_one(tmp_path: Path) -> None:
 
 
 def test_a_fleet_asset_carrying_its_tail_is_not_named_twice() -> None:
-    from mapr_daemon.catalog.health_view import display_name
+    from mapr_daemon.catalog.actuators import display_name
 
     assert display_name("N101", "EMA1") == "N101/EMA1"
     assert display_name("N101", "N101/EMA1") == "N101/EMA1"

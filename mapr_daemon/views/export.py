@@ -18,10 +18,16 @@ from collections.abc import Iterable, Sequence
 from typing import IO, Any
 
 from mapr_daemon.catalog.episodes import Episode
-from mapr_daemon.catalog.health_view import bit_json
 from mapr_daemon.catalog.model import BitRecord, Event
-from mapr_daemon.catalog.report import episode_json, event_json, fmt_time
+from mapr_daemon.utc import fmt_time
+from mapr_daemon.views.health import bit_json
+from mapr_daemon.views.text import episode_json, event_json
 
+CSV_COLUMNS = ("id", "time_utc", "t_ns", "asset", "rt", "fault", "switch", "severity",
+               "severity_value", "severity_unit", "confidence", "soh", "rul", "rul_low",
+               "rul_high", "rul_unit", "session_id", "params", "evidence", "bus_ns", "abs_ns",
+               "episode_id")
+"""Events' CSV header (``catalog export --what events --format csv``), unchanged since v1."""
 BIT_COLUMNS = ("id", "session_id", "tail", "asset", "time_utc", "t_ns", "bus_ns", "abs_ns",
                "flight", "flight_hours", "fault", "event_id", "soh", "mode", "rul", "rul_low",
                "rul_high", "rul_hours", "rul_hours_low", "rul_hours_high", "interval", "note")
@@ -109,3 +115,28 @@ def write_episodes(episodes: Sequence[Episode], fmt: str, out: IO[str]) -> int:
 def write_events_jsonl(events: Iterable[Event], out: IO[str]) -> int:
     """Events as JSON lines (streamed)."""
     return _write_jsonl((event_json(e) for e in events), out)
+
+
+def write_csv(events: Iterable[Event], out: IO[str]) -> int:
+    """One row per event, ``params``/``evidence`` as JSON text; returns the row count."""
+    writer = csv.writer(out, lineterminator="\n")
+    writer.writerow(CSV_COLUMNS)
+    n = 0
+    for e in events:
+        d = event_json(e)
+        d["params"] = json.dumps(d["params"], sort_keys=True)
+        d["evidence"] = json.dumps(d["evidence"], sort_keys=True)
+        writer.writerow(["" if d[c] is None else d[c] for c in CSV_COLUMNS])
+        n += 1
+    return n
+
+
+def write_json(events: Iterable[Event], out: IO[str]) -> int:
+    """A JSON array, streamed one event per line (no need to hold a million in memory)."""
+    n = 0
+    out.write("[")
+    for e in events:
+        out.write(("\n" if n == 0 else ",\n") + json.dumps(event_json(e), sort_keys=True))
+        n += 1
+    out.write("\n]\n" if n else "]\n")
+    return n
