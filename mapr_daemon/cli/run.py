@@ -34,10 +34,10 @@ def add_subparser(subparsers: Any) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from mapr_daemon.daemon import logs
-    from mapr_daemon.daemon.config import load_config
-    from mapr_daemon.daemon.pipeline import build_pipeline
-    from mapr_daemon.daemon.service import Service
+    from mapr_daemon.pipeline.pipeline import build_pipeline
+    from mapr_daemon.service import logs
+    from mapr_daemon.service.config import load_config
+    from mapr_daemon.service.service import Service
 
     log = logs.setup("info")
     try:

@@ -24,15 +24,15 @@ from typing import Any
 
 from drivers.backends.loopback import LoopbackMonitor
 from drivers.monitor import MonitorFilter
-from mapr_daemon.daemon.config import DEFAULT_ICD, AssetConfig, TestbedActuator, TestbedConfig
-from mapr_daemon.daemon.filler import fill_schedule
 from mapr_daemon.ema.faults import FaultSet, parse_fault
 from mapr_daemon.ema.params import ActuatorParams, load_actuator, with_sample_rate
 from mapr_daemon.ema.profile import Profile, condition
 from mapr_daemon.errors import ConfigError
 from mapr_daemon.icd import Icd, load_icd
+from mapr_daemon.service.config import DEFAULT_ICD, AssetConfig, TestbedActuator, TestbedConfig
 from mapr_daemon.testbed.aircraft import Aircraft
 from mapr_daemon.testbed.ema_terminal import TerminalNames
+from mapr_daemon.testbed.filler import fill_schedule
 from mapr_daemon.testbed.profiles import steady_profile
 
 RATE_HZ = 2000.0

@@ -9,10 +9,10 @@ from pathlib import Path
 import pytest
 
 from drivers.monitor import available_backends, backend_class, open_monitor
-from mapr_daemon.daemon import source
-from mapr_daemon.daemon.config import Config, TestbedActuator, TestbedConfig
 from mapr_daemon.errors import ConfigError
 from mapr_daemon.icd import load_icd
+from mapr_daemon.service import source
+from mapr_daemon.service.config import Config, TestbedActuator, TestbedConfig
 
 ROOT = Path(__file__).resolve().parents[2]
 TWO = ROOT / "configs" / "icd" / "ema-testbed-two-ema.yaml"

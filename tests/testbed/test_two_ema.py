@@ -11,15 +11,15 @@ import pytest
 
 from drivers.backends.loopback import LoopbackMonitor
 from drivers.mil1553.record import MonitorRecord
-from mapr_daemon.daemon import wiring
-from mapr_daemon.daemon.bitwatch import BitWatch
-from mapr_daemon.daemon.config import load_config
 from mapr_daemon.ema.faults import FaultSet, parse_fault
 from mapr_daemon.ema.params import ActuatorParams, load_actuator, with_sample_rate
 from mapr_daemon.icd import SignalStream, load_icd
+from mapr_daemon.pipeline import wiring
+from mapr_daemon.pipeline.bitwatch import BitWatch
 from mapr_daemon.reasoner import build
 from mapr_daemon.reasoner.dictionary import DictionarySpec
 from mapr_daemon.reasoner.events import Reasoner
+from mapr_daemon.service.config import load_config
 from mapr_daemon.testbed.aircraft import FAST_CHANNELS, POWER_CHANNELS, Aircraft
 from mapr_daemon.testbed.profiles import steady_profile
 

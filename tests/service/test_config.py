@@ -9,9 +9,9 @@ from pathlib import Path
 
 import pytest
 
-from mapr_daemon.daemon.config import Config, load_config, parse
 from mapr_daemon.errors import ConfigError
 from mapr_daemon.icd.yamlsrc import load_text
+from mapr_daemon.service.config import Config, load_config, parse
 
 ROOT = Path(__file__).resolve().parents[2]
 ICD = ROOT / "configs" / "icd" / "ema-testbed.yaml"
@@ -75,8 +75,8 @@ def test_relative_paths_follow_the_file(tmp_path: Path) -> None:
 def test_the_default_wiring_reads_what_the_testbed_aircraft_sends() -> None:
     """The default ``assets[0].signals`` names the shipped ICD's signals, and maps each
     sample-block signal to the plant channel the simulated EMA fills it from."""
-    from mapr_daemon.daemon.wiring import DEFAULT_SIGNALS, not_in_icd, problems
     from mapr_daemon.icd import load_icd
+    from mapr_daemon.pipeline.wiring import DEFAULT_SIGNALS, not_in_icd, problems
     from mapr_daemon.testbed.aircraft import FAST_CHANNELS, POWER_CHANNELS, SLOW_CHANNELS
 
     assert problems(DEFAULT_SIGNALS) == []
@@ -86,8 +86,8 @@ def test_the_default_wiring_reads_what_the_testbed_aircraft_sends() -> None:
 
 
 def test_signals_missing_from_the_icd_stop_the_daemon_at_start(tmp_path: Path) -> None:
-    from mapr_daemon.daemon.pipeline import build_pipeline
-    from mapr_daemon.daemon.wiring import DEFAULT_SIGNALS
+    from mapr_daemon.pipeline.pipeline import build_pipeline
+    from mapr_daemon.pipeline.wiring import DEFAULT_SIGNALS
 
     signals = {("phase_i_a" if k == "phase_current_a" else k): v
                for k, v in DEFAULT_SIGNALS.items()}

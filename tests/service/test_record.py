@@ -12,11 +12,11 @@ from typing import TYPE_CHECKING
 from drivers.chapter10.tmats import TAIL_ATTRIBUTE
 from drivers.mil1553.record import MonitorRecord
 from drivers.monitor import open_monitor
-from mapr_daemon.daemon.config import Config, TestbedConfig
-from mapr_daemon.daemon.recorder import SessionRecorder
-from mapr_daemon.daemon.source import monitor_factory
 from mapr_daemon.fleet.archive import discover
 from mapr_daemon.icd import load_icd
+from mapr_daemon.service.config import Config, TestbedConfig
+from mapr_daemon.service.recorder import SessionRecorder
+from mapr_daemon.service.source import monitor_factory
 
 if TYPE_CHECKING:   # the fixture's class; pytest loads conftest itself
     from tests.daemon.conftest import Daemon

@@ -33,16 +33,17 @@ from typing import TYPE_CHECKING, Any
 from drivers.mil1553.record import MonitorRecord
 from mapr_daemon.catalog import BitOutcome, Event, event_from_reasoner
 from mapr_daemon.catalog.model import BitRecord, Flight
-from mapr_daemon.daemon import source, wiring
-from mapr_daemon.daemon.bitwatch import BitFound, BitWatch
-from mapr_daemon.daemon.clock import BusClock, stamp, traffic_span
-from mapr_daemon.daemon.config import AssetConfig, Config
 from mapr_daemon.errors import ConfigError
 from mapr_daemon.icd import Icd, Series, SignalStream, load_icd
+from mapr_daemon.pipeline import wiring
+from mapr_daemon.pipeline.bitwatch import BitFound, BitWatch
+from mapr_daemon.pipeline.clock import BusClock, stamp, traffic_span
+from mapr_daemon.service import source
+from mapr_daemon.service.config import AssetConfig, Config
 
 if TYPE_CHECKING:
     from drivers.chapter10.ms1553_batch import Ms1553Batch
-    from mapr_daemon.daemon.trending import Trending
+    from mapr_daemon.pipeline.trending import Trending
     from mapr_daemon.reasoner.wear_model import PrognosticModel
 
 
@@ -111,7 +112,7 @@ class Pipeline:
         """Continue the trend from the catalog's history (this aircraft's rows)."""
         if self.trending is None:
             return
-        from mapr_daemon.daemon.trending import Trending, history_from_bits
+        from mapr_daemon.pipeline.trending import Trending, history_from_bits
         self.trending = Trending(self.trending.tail, self.config.aircraft.flight_gap_s,
                                  self.trending.models, history_from_bits(bits), flights)
 
@@ -210,7 +211,7 @@ def build_pipeline(config: Config, *, trend: bool = True) -> Pipeline:
         models[asset.name] = model
     trending = None
     if trend and models:
-        from mapr_daemon.daemon.trending import Trending
+        from mapr_daemon.pipeline.trending import Trending
         trending = Trending(config.aircraft.tail, config.aircraft.flight_gap_s, models)
     return Pipeline(config, icd, SignalStream(icd), watched, trending)
 

@@ -24,11 +24,11 @@ from typing import Any
 
 import numpy as np
 
-from mapr_daemon.daemon import wiring
 from mapr_daemon.ema.bit import bit_profile
 from mapr_daemon.ema.params import CHANNELS, BitParams
 from mapr_daemon.ema.profile import Profile
 from mapr_daemon.icd import Series
+from mapr_daemon.pipeline import wiring
 from mapr_daemon.reasoner.events import Reasoner
 from mapr_daemon.reasoner.features import FloatArray
 

@@ -17,8 +17,8 @@ from typing import Any
 from drivers.errors import BackendUnavailable
 from drivers.monitor import BusMonitor, backend_class, open_monitor
 from mapr_daemon import TESTBED_BACKEND
-from mapr_daemon.daemon.config import Config
 from mapr_daemon.icd import Icd
+from mapr_daemon.service.config import Config
 
 LOOPBACK = "loopback"
 """The daemon config's name for the testbed aircraft on the loopback bus."""

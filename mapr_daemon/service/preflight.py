@@ -33,7 +33,7 @@ from mapr_daemon.icd.yamlsrc import Node
 
 if TYPE_CHECKING:
     from drivers.monitor import BusMonitor
-    from mapr_daemon.daemon.config import Config
+    from mapr_daemon.service.config import Config
 
 FILE_BACKENDS = ("capture", "chapter10")
 """Backends that read a file named by their ``path`` option."""

@@ -21,11 +21,11 @@ from typing import Any
 from drivers.chapter10.tmats import SEPARATORS as TMATS_SEPARATORS
 from drivers.monitor import available_backends
 from mapr_daemon.catalog import default_path as default_catalog_path
-from mapr_daemon.daemon import wiring
-from mapr_daemon.daemon.preflight import check as preflight_check
 from mapr_daemon.ema.params import default_actuator_path
 from mapr_daemon.errors import ConfigError
 from mapr_daemon.icd.yamlsrc import Node, load_file
+from mapr_daemon.pipeline import wiring
+from mapr_daemon.service.preflight import check as preflight_check
 
 REPO_CONFIGS = Path(__file__).resolve().parents[2] / "configs"
 """``configs/`` of a source checkout (the default ICD lives there)."""

@@ -5,9 +5,9 @@ from __future__ import annotations
 from collections import Counter
 from pathlib import Path
 
-from mapr_daemon.daemon.config import Config, TestbedConfig
-from mapr_daemon.daemon.source import monitor_factory
 from mapr_daemon.icd import load_icd
+from mapr_daemon.service.config import Config, TestbedConfig
+from mapr_daemon.service.source import monitor_factory
 
 ROOT = Path(__file__).resolve().parents[2]
 ICD = ROOT / "configs" / "icd" / "ema-testbed.yaml"

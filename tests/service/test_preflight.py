@@ -10,8 +10,8 @@ from pathlib import Path
 import pytest
 
 from mapr_daemon.cli import exitcodes
-from mapr_daemon.daemon.config import load_config
 from mapr_daemon.errors import ConfigError
+from mapr_daemon.service.config import load_config
 
 ROOT = Path(__file__).resolve().parents[2]
 

@@ -31,15 +31,15 @@ from drivers.monitor import BusStatistics
 from drivers.rtstats import TrafficStatistics
 from mapr_daemon import __version__
 from mapr_daemon.catalog import CatalogWriter
-from mapr_daemon.daemon import source
-from mapr_daemon.daemon.clock import BusClock
-from mapr_daemon.daemon.config import Config, load_config
-from mapr_daemon.daemon.notify import Notifier
-from mapr_daemon.daemon.pipeline import Pipeline, build_pipeline
-from mapr_daemon.daemon.reader import BusReader, Item
-from mapr_daemon.daemon.recorder import SessionRecorder
-from mapr_daemon.daemon.wakeup import Doorbell, SignalPipe
 from mapr_daemon.errors import CatalogError, ConfigError
+from mapr_daemon.pipeline.clock import BusClock
+from mapr_daemon.pipeline.pipeline import Pipeline, build_pipeline
+from mapr_daemon.service import source
+from mapr_daemon.service.config import Config, load_config
+from mapr_daemon.service.notify import Notifier
+from mapr_daemon.service.reader import BusReader, Item
+from mapr_daemon.service.recorder import SessionRecorder
+from mapr_daemon.service.wakeup import Doorbell, SignalPipe
 
 log = logging.getLogger("mapr")
 TURN_S = 0.05
