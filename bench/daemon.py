@@ -43,7 +43,6 @@ from mapr_daemon.service.config import (
     CatalogConfig,
     Config,
     ReasonerConfig,
-    TestbedConfig,
 )
 from mapr_daemon.service.notify import Notifier
 from mapr_daemon.service.service import Service
@@ -75,7 +74,7 @@ def small_dictionary(folder: Path) -> Path:
 def record_bus(path: Path, seconds: float) -> tuple[int, float, float]:
     """Fly the testbed with filler traffic for ``seconds`` of bus time into ``path``;
     returns (messages, bus seconds, bus load %)."""
-    config = Config(icd=str(ICD), testbed=TestbedConfig(realtime=False, duration_s=seconds,
+    config = Config(icd=str(ICD), testbed=dict(realtime=False, duration_s=seconds,
                                                         fill_bus=True, fault="open=A_high"))
     messages, first, last = 0, None, 0
     with monitor_factory(config, load_icd(ICD))() as monitor, Chapter10Writer(path) as writer:

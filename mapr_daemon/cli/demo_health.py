@@ -21,7 +21,8 @@ from mapr_daemon.catalog.health_view import ActuatorHealth
 from mapr_daemon.pipeline.bitwatch import BitFound
 from mapr_daemon.pipeline.clock import BusClock
 from mapr_daemon.pipeline.pipeline import Batch, build_pipeline
-from mapr_daemon.service.config import AssetConfig, Config
+from mapr_daemon.pipeline.settings import AssetConfig
+from mapr_daemon.service.config import Config
 
 
 @dataclasses.dataclass(frozen=True)

@@ -26,9 +26,10 @@ from mapr_daemon.cli.dictionary import default_spec_path, peak_rss_mb
 from mapr_daemon.ema.params import ActuatorParams, load_actuator
 from mapr_daemon.pipeline.clock import BusClock
 from mapr_daemon.pipeline.pipeline import Batch, build_pipeline
+from mapr_daemon.pipeline.settings import ReasonerConfig
 from mapr_daemon.reasoner.build import build
 from mapr_daemon.reasoner.dictionary import DictionarySpec
-from mapr_daemon.service.config import Config, ReasonerConfig
+from mapr_daemon.service.config import Config
 
 PACKAGE = Path(__file__).resolve().parents[1]
 MODEL_SOURCES = ("ema", "reasoner", "testbed")

@@ -35,8 +35,9 @@ from mapr_daemon.errors import CatalogError, ConfigError
 from mapr_daemon.pipeline.clock import BusClock
 from mapr_daemon.pipeline.pipeline import Pipeline, build_pipeline
 from mapr_daemon.service import source
-from mapr_daemon.service.config import Config, load_config
+from mapr_daemon.service.config import Config
 from mapr_daemon.service.notify import Notifier
+from mapr_daemon.service.preflight import load_checked
 from mapr_daemon.service.reader import BusReader, Item
 from mapr_daemon.service.recorder import SessionRecorder
 from mapr_daemon.service.wakeup import Doorbell, SignalPipe
@@ -46,13 +47,23 @@ TURN_S = 0.05
 """Longest the loop handles queued work before it looks at signals and timers again."""
 
 
+def prepare(config: Config) -> Pipeline:
+    """The pipeline ``config`` builds, with its backend's options checked as opening would
+    check them (the testbed's ``testbed:`` section too): every config error at start."""
+    pipe = build_pipeline(config)
+    source.check(config, pipe.icd)
+    return pipe
+
+
 class Service:
     """One run of the daemon (see the module docstring). ``run()`` returns the exit code."""
 
     def __init__(self, config: Config, config_path: str | None,
                  notifier: Notifier | None = None) -> None:
         self.config_path = config_path
-        self.pipe: Pipeline = build_pipeline(config)
+        self.config = config
+        """The running configuration (swapped with :attr:`pipe` by a reload)."""
+        self.pipe: Pipeline = prepare(config)
         self.clock = BusClock("recording" if config.backend.name == "chapter10" else "live")
         """The session's bus -> absolute time (kept across reloads: one session)."""
         self.notifier = notifier or Notifier.from_environment()
@@ -90,7 +101,7 @@ class Service:
 
     # --- lifetime --------------------------------------------------------------------------
     def _start_reader(self) -> None:
-        cfg = self.pipe.config
+        cfg = self.config
         self.reader = BusReader(source.monitor_factory(cfg, self.pipe.icd), self.queue,
                                 retry_initial_s=cfg.backend.retry_initial_s,
                                 retry_max_s=cfg.backend.retry_max_s, wait_s=cfg.queue_wait_s,
@@ -113,7 +124,7 @@ class Service:
     def run(self) -> int:
         """Monitor until SIGTERM or SIGINT, then flush and return 0. Call it from the main
         thread: signals arrive through a self-pipe (:mod:`.wakeup`)."""
-        cfg = self.pipe.config
+        cfg = self.config
         signals = SignalPipe()
         selector = selectors.DefaultSelector()
         selector.register(signals, selectors.EVENT_READ, "signals")
@@ -180,10 +191,10 @@ class Service:
     def _timers(self) -> None:
         now = time.monotonic()
         if now >= self._next_status:
-            self._next_status = now + self.pipe.config.status_interval_s
+            self._next_status = now + self.config.status_interval_s
             self._status()
         if now >= self._next_stats:
-            self._next_stats = now + self.pipe.config.catalog.stats_interval_s
+            self._next_stats = now + self.config.catalog.stats_interval_s
             self._flush_stats()
         if self._reader_alive() and self.notifier.watchdog_due():
             self.notifier.watchdog()
@@ -335,13 +346,13 @@ class Service:
         """SIGHUP: new config and ICD, or the old ones kept (and the error logged)."""
         self.notifier.reloading()
         try:
-            config = load_config(self.config_path, preflight=True)
-            pipe = build_pipeline(config)
+            config = load_checked(self.config_path)
+            pipe = prepare(config)
         except (ConfigError, BackendUnavailable) as error:
             log.error("reload failed, keeping the running configuration: %s", error)
             self.notifier.notify("READY=1", f"STATUS={self._status_text()}")
             return
-        old = self.pipe.config
+        old = self.config
         if config.catalog.path != old.catalog.path:
             log.warning("catalog.path changed: takes effect at the next restart")
         if config.record != old.record:
@@ -354,7 +365,7 @@ class Service:
             pipe.resume(*self.catalog.history(config.aircraft.tail))
         except CatalogError as error:
             log.error("catalog: %s (the trends restart empty)", error)
-        self.pipe = pipe
+        self.pipe, self.config = pipe, config
         if restart:
             self._start_reader()
         log.info("reloaded %s (config %s)", self.config_path or "the defaults",

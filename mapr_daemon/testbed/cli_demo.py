@@ -51,8 +51,8 @@ from mapr_daemon.ema.params import (
 )
 from mapr_daemon.ema.profile import CONDITIONS
 from mapr_daemon.icd import Series, collect, format_values, load_icd
+from mapr_daemon.pipeline.settings import DEFAULT_ICD
 from mapr_daemon.pipeline.wiring import DEFAULT_SIGNALS, TWO_EMA_ELEVATOR_SIGNALS
-from mapr_daemon.service.config import DEFAULT_ICD
 
 if TYPE_CHECKING:
     from drivers.backends.loopback import Injection

@@ -18,7 +18,8 @@ from mapr_daemon.fleet.archive import discover
 from mapr_daemon.fleet.config import FleetConfig
 from mapr_daemon.fleet.runner import FleetRun, RunSummary
 from mapr_daemon.fleet.task import TaskResult
-from mapr_daemon.service.config import Config, ReasonerConfig
+from mapr_daemon.pipeline.settings import ReasonerConfig
+from mapr_daemon.service.config import Config
 
 ROOT = Path(__file__).resolve().parents[2]
 

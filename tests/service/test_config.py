@@ -12,6 +12,7 @@ import pytest
 from mapr_daemon.errors import ConfigError
 from mapr_daemon.icd.yamlsrc import load_text
 from mapr_daemon.service.config import Config, load_config, parse
+from mapr_daemon.testbed.config import TestbedConfig, parse_section
 
 ROOT = Path(__file__).resolve().parents[2]
 ICD = ROOT / "configs" / "icd" / "ema-testbed.yaml"
@@ -22,7 +23,9 @@ SHIPPED = ROOT / "configs" / "mapr.yaml"
 def test_shipped_config_is_the_defaults() -> None:
     shipped = load_config(SHIPPED)
     assert Path(shipped.icd) == ICD
-    assert dataclasses.replace(shipped, source=None, icd=Config().icd) == Config()
+    assert dataclasses.replace(shipped, source=None, icd=Config().icd, testbed={}) == Config()
+    # the testbed: section is the simulator's to read; it too shows the defaults
+    assert parse_section(shipped.testbed, shipped.source) == TestbedConfig()
 
 
 def test_check_accepts_the_shipped_config() -> None:
@@ -99,3 +102,30 @@ def test_signals_missing_from_the_icd_stop_the_daemon_at_start(tmp_path: Path) -
         build_pipeline(config)
     assert str(caught.value) == ("x.yaml: assets[0].signals: not in the ICD ema-testbed: "
                                  "phase_i_a")
+
+
+def test_the_old_name_of_the_testbed_is_read_as_it_with_a_deprecation_warning(
+        tmp_path: Path, caplog: pytest.LogCaptureFixture) -> None:
+    path = tmp_path / "old.yaml"
+    path.write_text(f"icd: {ICD}\nbackend:\n  name: loopback\n", encoding="utf-8")
+    with caplog.at_level("WARNING", logger="mapr"):
+        config = load_config(path)
+    assert config.backend.name == "testbed"
+    assert [r.getMessage() for r in caplog.records] == [
+        f"{path}:3: backend.name: 'loopback' is deprecated in a daemon config, write 'testbed' "
+        "(the simulated aircraft)"]
+
+
+def test_the_testbed_section_is_checked_by_the_simulator_with_file_and_line(
+        tmp_path: Path) -> None:
+    from mapr_daemon.service import source
+
+    path = tmp_path / "bad.yaml"
+    path.write_text(f"icd: {ICD}\ntestbed:\n  profile: bit\n  actuators:\n"
+                    "    - {name: EMA1, rt: 5, actuator: a.yaml}\n"
+                    "    - {name: EMA2, rt: 5, actuator: b.yaml}\n", encoding="utf-8")
+    config = load_config(path)   # the service does not read the simulator's section
+    with pytest.raises(ConfigError) as error:
+        source.check(config)
+    assert str(error.value) == (f"{path}:6: testbed.actuators[1].rt: expected a free RT "
+                                "address 0..30, got 5")

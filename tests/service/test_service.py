@@ -105,7 +105,7 @@ def run_config(tmp_path: Path, text: str) -> subprocess.CompletedProcess[str]:
 
 
 def test_config_error_exits_78_with_file_line_and_field(tmp_path: Path) -> None:
-    done = run_config(tmp_path, f"icd: {ICD}\nbackend:\n  name: loopback\n"
+    done = run_config(tmp_path, f"icd: {ICD}\nbackend:\n  name: testbed\n"
                                 "  retry_initial_s: fast\n")
     assert done.returncode == 78
     lines = done.stderr.strip().splitlines()
