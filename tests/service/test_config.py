@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import dataclasses
+import logging
 import subprocess
 import sys
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -18,6 +20,18 @@ ROOT = Path(__file__).resolve().parents[2]
 ICD = ROOT / "configs" / "icd" / "ema-testbed.yaml"
 
 SHIPPED = ROOT / "configs" / "mapr.yaml"
+
+
+@pytest.fixture
+def mapr_log(caplog: pytest.LogCaptureFixture) -> Iterator[pytest.LogCaptureFixture]:
+    """``caplog`` on the ``mapr`` logger itself: the daemon's logging setup, run by other
+    tests in this process, stops it propagating to the root logger caplog listens on."""
+    logger = logging.getLogger("mapr")
+    logger.addHandler(caplog.handler)
+    try:
+        yield caplog
+    finally:
+        logger.removeHandler(caplog.handler)
 
 
 def test_shipped_config_is_the_defaults() -> None:
@@ -105,15 +119,15 @@ def test_signals_missing_from_the_icd_stop_the_daemon_at_start(tmp_path: Path) -
 
 
 def test_the_old_name_of_the_testbed_is_read_as_it_with_a_deprecation_warning(
-        tmp_path: Path, caplog: pytest.LogCaptureFixture) -> None:
+        tmp_path: Path, mapr_log: pytest.LogCaptureFixture) -> None:
     path = tmp_path / "old.yaml"
     path.write_text(f"icd: {ICD}\nbackend:\n  name: loopback\n", encoding="utf-8")
-    with caplog.at_level("WARNING", logger="mapr"):
+    with mapr_log.at_level("WARNING", logger="mapr"):
         config = load_config(path)
     assert config.backend.name == "testbed"
-    assert [r.getMessage() for r in caplog.records] == [
+    assert {r.getMessage() for r in mapr_log.records} == {
         f"{path}:3: backend.name: 'loopback' is deprecated in a daemon config, write 'testbed' "
-        "(the simulated aircraft)"]
+        "(the simulated aircraft)"}
 
 
 def test_the_testbed_section_is_checked_by_the_simulator_with_file_and_line(

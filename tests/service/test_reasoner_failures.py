@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import logging
 import sqlite3
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -15,9 +16,21 @@ from mapr_daemon.service.reader import Item
 from mapr_daemon.service.service import Service
 
 
+@pytest.fixture
+def mapr_log(caplog: pytest.LogCaptureFixture) -> Iterator[pytest.LogCaptureFixture]:
+    """``caplog`` on the ``mapr`` logger itself: the daemon's logging setup, run by other
+    tests in this process, stops it propagating to the root logger caplog listens on."""
+    logger = logging.getLogger("mapr")
+    logger.addHandler(caplog.handler)
+    try:
+        yield caplog
+    finally:
+        logger.removeHandler(caplog.handler)
+
+
 def test_a_reasoner_failure_is_counted_and_logged_not_a_gap(
         tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
-        caplog: pytest.LogCaptureFixture) -> None:
+        mapr_log: pytest.LogCaptureFixture) -> None:
     path = tmp_path / "catalog.sqlite"
     service = Service(Config(catalog=CatalogConfig(path=str(path))), None)
     service.catalog.open_session(backend="testbed", config_hash="x")
@@ -25,12 +38,12 @@ def test_a_reasoner_failure_is_counted_and_logged_not_a_gap(
                                             "EMA1")], True)
     monkeypatch.setattr(service.pipe, "process", lambda records, clock: failed)
     service.ready = True   # past the first decoded message
-    with caplog.at_level(logging.ERROR, logger="mapr"):
+    with mapr_log.at_level(logging.ERROR, logger="mapr"):
         service._handle(Item("records"))
         service._handle(Item("records"))
     assert service.reasoner_failures == 2
     assert "reasoner failure on a BIT of EMA1 at bus time 3.000 s: ValueError: bad window " \
-           "(2 reasoner failures)" in caplog.text
+           "(2 reasoner failures)" in mapr_log.text
     assert "2 reasoner failures" in service._status_text()
     service.catalog.close("test")
     service.doorbell.close()

@@ -57,16 +57,28 @@ def stored(path: str) -> list[int]:
         return [row[0] for row in conn.execute("SELECT t_ns FROM events ORDER BY id")]
 
 
+@pytest.fixture
+def mapr_log(caplog: pytest.LogCaptureFixture) -> Iterator[pytest.LogCaptureFixture]:
+    """``caplog`` on the ``mapr`` logger itself: the daemon's logging setup, run by other
+    tests in this process, stops it propagating to the root logger caplog listens on."""
+    logger = logging.getLogger("mapr")
+    logger.addHandler(caplog.handler)
+    try:
+        yield caplog
+    finally:
+        logger.removeHandler(caplog.handler)
+
+
 def test_writes_held_while_the_catalog_is_locked_arrive_once_in_order(
-        writer: CatalogWriter, caplog: pytest.LogCaptureFixture) -> None:
+        writer: CatalogWriter, mapr_log: pytest.LogCaptureFixture) -> None:
     clock = Clock()
     spool = CatalogSpool(writer.add_bits, clock=clock)
     assert [w.ids for w in spool.submit(bits(0, 2))] == [[1]]   # writable: written at once
 
     other = lock(writer.path)
-    with caplog.at_level(logging.ERROR, logger="mapr"):
+    with mapr_log.at_level(logging.ERROR, logger="mapr"):
         assert spool.submit(bits(2, 4)) == []
-    assert "BITs (2 events) held, retrying in 0.5 s" in caplog.text
+    assert "BITs (2 events) held, retrying in 0.5 s" in mapr_log.text
     assert spool.due_in() == 0.5
     assert spool.submit(bits(6, 2)) == []         # queued behind, not tried before its turn
     assert spool.retry() == []
@@ -89,15 +101,15 @@ def test_writes_held_while_the_catalog_is_locked_arrive_once_in_order(
 
 
 def test_beyond_its_bound_the_spool_drops_the_oldest_and_says_so(
-        writer: CatalogWriter, caplog: pytest.LogCaptureFixture) -> None:
+        writer: CatalogWriter, mapr_log: pytest.LogCaptureFixture) -> None:
     clock = Clock()
     spool = CatalogSpool(writer.add_bits, bound_bits=5, clock=clock)
     other = lock(writer.path)
-    with caplog.at_level(logging.ERROR, logger="mapr"):
+    with mapr_log.at_level(logging.ERROR, logger="mapr"):
         spool.submit(bits(0, 4))
         spool.submit(bits(4, 2))
     assert "catalog spool full (5 BITs): dropped the oldest batch, 4 BITs and 2 events " \
-           "never written" in caplog.text
+           "never written" in mapr_log.text
     assert (spool.dropped_bits, spool.dropped_events) == (4, 2)
     other.execute("ROLLBACK")
     other.close()
