@@ -57,7 +57,7 @@ def test_ready_status_watchdog_then_sigterm_closes_the_session(
     (stopped, reason, backend, digest, version), = rows(
         catalog, "SELECT stopped_ns, stop_reason, backend, config_hash, software_version "
                  "FROM sessions")
-    assert stopped is not None and reason == "SIGTERM" and backend == "loopback"
+    assert stopped is not None and reason == "SIGTERM" and backend == "testbed"
     assert digest and version
     stats = rows(catalog, "SELECT bus, messages, load_percent FROM bus_stats")
     assert stats and all(int(str(m)) > 0 for _, m, _ in stats)
