@@ -5,7 +5,7 @@
 1. Records ``--seconds`` of the testbed aircraft's bus with filler traffic (``testbed.fill_bus``:
    ~93 % bus load, the BIT flown every 2 s) to a Chapter 10 file. The simulated aircraft is
    slower than real time on a small machine, so the bus is recorded first and not timed.
-2. Runs the daemon on that recording — :class:`~mapr_daemon.daemon.service.Service`, the
+2. Runs the daemon on that recording — :class:`~mapr_daemon.service.service.Service`, the
    object ``mapr run`` runs, in this process's main thread: backend ``chapter10`` -> bus
    reader thread -> bounded queue -> ICD -> BIT watcher and reasoner -> SQLite catalog — twice:
 
@@ -36,18 +36,17 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from drivers.chapter10.writer import Chapter10Writer
-from mapr_daemon.daemon import logs
-from mapr_daemon.daemon.config import (
+from mapr_daemon.icd import load_icd
+from mapr_daemon.service import logs
+from mapr_daemon.service.config import (
     BackendConfig,
     CatalogConfig,
     Config,
     ReasonerConfig,
-    TestbedConfig,
 )
-from mapr_daemon.daemon.notify import Notifier
-from mapr_daemon.daemon.service import Service
-from mapr_daemon.daemon.source import monitor_factory
-from mapr_daemon.icd import load_icd
+from mapr_daemon.service.notify import Notifier
+from mapr_daemon.service.service import Service
+from mapr_daemon.service.source import monitor_factory
 
 ROOT = Path(__file__).resolve().parents[1]
 ICD = ROOT / "configs" / "icd" / "ema-testbed.yaml"
@@ -75,7 +74,7 @@ def small_dictionary(folder: Path) -> Path:
 def record_bus(path: Path, seconds: float) -> tuple[int, float, float]:
     """Fly the testbed with filler traffic for ``seconds`` of bus time into ``path``;
     returns (messages, bus seconds, bus load %)."""
-    config = Config(icd=str(ICD), testbed=TestbedConfig(realtime=False, duration_s=seconds,
+    config = Config(icd=str(ICD), testbed=dict(realtime=False, duration_s=seconds,
                                                         fill_bus=True, fault="open=A_high"))
     messages, first, last = 0, None, 0
     with monitor_factory(config, load_icd(ICD))() as monitor, Chapter10Writer(path) as writer:

@@ -38,10 +38,11 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 
 from mapr_daemon.catalog import CatalogWriter
-from mapr_daemon.daemon.config import AssetConfig, Config, ReasonerConfig
 from mapr_daemon.fleet.archive import discover
 from mapr_daemon.fleet.config import FleetConfig
 from mapr_daemon.fleet.runner import FleetRun, close_client, local_client
+from mapr_daemon.pipeline.settings import AssetConfig, ReasonerConfig
+from mapr_daemon.service.config import Config
 from mapr_daemon.testbed.fleet import MANIFEST, FleetSpec, generate
 
 

@@ -22,11 +22,11 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from bench.seeds import fresh
 from drivers.backends.loopback import LoopbackMonitor
-from mapr_daemon.daemon import wiring
-from mapr_daemon.daemon.bitwatch import BitWatch
 from mapr_daemon.ema.faults import FaultSet, parse_fault
 from mapr_daemon.ema.params import ActuatorParams, load_actuator, with_sample_rate
 from mapr_daemon.icd import SignalStream, load_icd
+from mapr_daemon.pipeline import wiring
+from mapr_daemon.pipeline.bitwatch import BitWatch
 from mapr_daemon.reasoner.diagnosis.dictionary import DictionarySpec
 from mapr_daemon.reasoner.reasoner import Reasoner
 from mapr_daemon.reasoner.training import dictionary_build

@@ -3,7 +3,7 @@
 Importing it registers MAPR's own bus-monitor backend with the drivers' registry, by name
 only (nothing is imported until it is opened): ``testbed``, the simulated aircraft on the
 loopback bus (:mod:`mapr_daemon.testbed.backend`), which the daemon opens for
-``backend.name: loopback`` as it opens any backend.
+``backend.name: testbed`` (its default) as it opens any backend.
 """
 
 from importlib.metadata import PackageNotFoundError, version

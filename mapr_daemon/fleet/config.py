@@ -11,7 +11,7 @@
         assets: [{name: EMA1, rt: 7, actuator: actuators/elevator-uav.yaml}]
         reasoner: {dictionary: elevator.npz}
 
-Each section is read by the daemon's own parser (:func:`mapr_daemon.daemon.config.parse`),
+Each section is read by the daemon's own parser (:func:`mapr_daemon.service.config.parse`),
 so every key, default and check is the daemon's and an error names ``file:line: field``. A
 tail's section replaces the default for that tail (it does not merge with it). Relative paths
 are resolved against the file's directory; workers of a cluster must see the same paths.
@@ -22,9 +22,9 @@ from __future__ import annotations
 import dataclasses
 import os
 
-from mapr_daemon.daemon.config import Config, parse
 from mapr_daemon.errors import ConfigError
 from mapr_daemon.icd.yamlsrc import Node, load_file
+from mapr_daemon.service.config import Config, parse
 
 KEYS = ("default", "tails")
 

@@ -31,10 +31,10 @@ import traceback
 from drivers.chapter10.reader import Chapter10Reader
 from drivers.errors import MaprError
 from mapr_daemon.catalog import BitOutcome
-from mapr_daemon.daemon.clock import BusClock
-from mapr_daemon.daemon.config import Config
-from mapr_daemon.daemon.pipeline import Pipeline, build_pipeline
 from mapr_daemon.fleet.archive import Recording
+from mapr_daemon.pipeline.clock import BusClock
+from mapr_daemon.pipeline.pipeline import Pipeline, build_pipeline
+from mapr_daemon.service.config import Config
 
 BATCH = 8192
 """Messages read and handed to :meth:`Pipeline.process` at a time: consecutive packets
@@ -93,9 +93,9 @@ def _fresh(config: Config) -> Pipeline:
     cached = _PIPELINES.get(key)
     if cached is None:
         cached = _PIPELINES[key] = build_pipeline(config, trend=False)
-    from mapr_daemon.daemon.bitwatch import BitWatch
-    from mapr_daemon.daemon.pipeline import Watched
     from mapr_daemon.icd import SignalStream
+    from mapr_daemon.pipeline.bitwatch import BitWatch
+    from mapr_daemon.pipeline.pipeline import Watched
     from mapr_daemon.reasoner.reasoner import Reasoner
     watched = []
     for w in cached.watched:

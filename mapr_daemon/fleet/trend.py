@@ -12,7 +12,7 @@ for each recording declares its flight and hours and trends its outcomes
 stored with the flights in the recording's one transaction.
 
 The expensive part of a pipeline (ICD, dictionary, prognostic models) is built once per
-configuration; a tail gets its own :class:`~mapr_daemon.daemon.trending.Trending` on it.
+configuration; a tail gets its own :class:`~mapr_daemon.pipeline.trending.Trending` on it.
 """
 
 from __future__ import annotations
@@ -23,10 +23,10 @@ from collections.abc import Sequence
 from mapr_daemon.catalog import BitOutcome
 from mapr_daemon.catalog.model import Flight
 from mapr_daemon.catalog.writer import CatalogWriter
-from mapr_daemon.daemon.config import Config
-from mapr_daemon.daemon.pipeline import Pipeline, build_pipeline
-from mapr_daemon.daemon.trending import Trending
 from mapr_daemon.fleet.config import FleetConfig
+from mapr_daemon.pipeline.pipeline import Pipeline, build_pipeline
+from mapr_daemon.pipeline.trending import Trending
+from mapr_daemon.service.config import Config
 
 
 class FleetTrend:

@@ -2,8 +2,9 @@
 
 Registered by name in the drivers' backend registry (:mod:`mapr_daemon`'s import does it,
 without importing this module), so the daemon opens it as it opens any backend, with
-``open_monitor("testbed", testbed=..., icd=..., assets=...)``: the daemon config's
-``testbed:`` section, its ICD and its ``assets:``. That is how ``mapr run`` without a config
+``open_monitor("testbed", testbed=..., config_file=..., icd=..., assets=...)``: the daemon
+config's ``testbed:`` section as written (read here, :mod:`.config`), the file it is in, its
+ICD and its ``assets:``. That is how ``mapr run`` without a config
 file is the embedded demo of the real service, and no production module imports the
 simulator.
 
@@ -24,15 +25,17 @@ from typing import Any
 
 from drivers.backends.loopback import LoopbackMonitor
 from drivers.monitor import MonitorFilter
-from mapr_daemon.daemon.config import DEFAULT_ICD, AssetConfig, TestbedActuator, TestbedConfig
-from mapr_daemon.daemon.filler import fill_schedule
 from mapr_daemon.ema.faults import FaultSet, parse_fault
 from mapr_daemon.ema.params import ActuatorParams, load_actuator, with_sample_rate
 from mapr_daemon.ema.profile import Profile, condition
 from mapr_daemon.errors import ConfigError
 from mapr_daemon.icd import Icd, load_icd
+from mapr_daemon.icd.yamlsrc import Node
+from mapr_daemon.pipeline.settings import DEFAULT_ICD, AssetConfig
 from mapr_daemon.testbed.aircraft import Aircraft
+from mapr_daemon.testbed.config import TestbedActuator, TestbedConfig, parse_section
 from mapr_daemon.testbed.ema_terminal import TerminalNames
+from mapr_daemon.testbed.filler import fill_schedule
 from mapr_daemon.testbed.profiles import steady_profile
 
 RATE_HZ = 2000.0
@@ -44,12 +47,16 @@ BIT_EVERY_S = 2.0
 Flown = tuple[TestbedActuator, ActuatorParams, FaultSet]
 
 
-def testbed_config(testbed: TestbedConfig | Mapping[str, Any] | None) -> TestbedConfig:
-    """The ``testbed:`` section from the config's dataclass or its plain-dict form."""
+def testbed_config(testbed: TestbedConfig | Mapping[str, Any] | None,
+                   config_file: str | None = None) -> TestbedConfig:
+    """The ``testbed:`` section: as read from the daemon config ``config_file`` (checked key
+    by key, errors ``file:line: field: problem``), or its dataclass or plain-dict form."""
     if testbed is None:
         return TestbedConfig()
     if isinstance(testbed, TestbedConfig):
         return testbed
+    if isinstance(testbed, Node):
+        return parse_section(testbed, config_file)
     if not isinstance(testbed, Mapping):
         raise ConfigError(f"testbed options: expected a mapping, got {testbed!r}",
                           field="testbed")
@@ -73,9 +80,10 @@ bus's options too, and go to it."""
 def section(testbed: TestbedConfig | Mapping[str, Any] | None,
             options: dict[str, Any]) -> TestbedConfig:
     """The section, with any of its keys given as options of their own (taken out of
-    ``options``) overriding it."""
+    ``options``) overriding it; ``options``' ``config_file`` (taken out too) is the daemon
+    config the section was read from."""
     flat = {k: options.pop(k) for k in list(options) if k in SECTION_KEYS}
-    base = testbed_config(testbed)
+    base = testbed_config(testbed, options.pop("config_file", None))
     if not flat:
         return base
     return testbed_config({**dataclasses.asdict(base), **flat})
@@ -138,10 +146,11 @@ def _icd(icd: Icd | str | None) -> Icd:
 class TestbedMonitor(LoopbackMonitor):
     """A loopback bus with the simulated aircraft on it.
 
-    Options: ``testbed`` (the daemon config's ``testbed:`` section, as its dataclass or a
-    dict), ``icd`` (an :class:`~mapr_daemon.icd.Icd` or a path; default the shipped
-    ``configs/icd/ema-testbed.yaml``), ``assets`` (the config's
-    ``assets:``, for the single-EMA default); any other option goes to
+    Options: ``testbed`` (the daemon config's ``testbed:`` section, as read from the file
+    named by ``config_file``, as its dataclass or as a dict), ``icd`` (an
+    :class:`~mapr_daemon.icd.Icd` or a path; default the shipped
+    ``configs/icd/ema-testbed.yaml``), ``assets`` (the config's ``assets:``, for the
+    single-EMA default); any other option goes to
     :class:`~drivers.backends.loopback.LoopbackMonitor` and overrides the section's
     ``realtime``, ``bit_level`` and ``seed``. The section's other keys may also be given
     as options of their own (:data:`SECTION_KEYS`), which override it.

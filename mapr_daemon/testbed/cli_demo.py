@@ -41,8 +41,6 @@ import numpy as np
 from drivers.mil1553.record import MonitorRecord
 from mapr_daemon.cli import exitcodes
 from mapr_daemon.cli.traffic.render import record_line
-from mapr_daemon.daemon.config import DEFAULT_ICD
-from mapr_daemon.daemon.wiring import DEFAULT_SIGNALS, TWO_EMA_ELEVATOR_SIGNALS
 from mapr_daemon.ema.bit import bit_profile
 from mapr_daemon.ema.faults import FaultSet, parse_fault
 from mapr_daemon.ema.params import (
@@ -53,6 +51,8 @@ from mapr_daemon.ema.params import (
 )
 from mapr_daemon.ema.profile import CONDITIONS
 from mapr_daemon.icd import Series, collect, format_values, load_icd
+from mapr_daemon.pipeline.settings import DEFAULT_ICD
+from mapr_daemon.pipeline.wiring import DEFAULT_SIGNALS, TWO_EMA_ELEVATOR_SIGNALS
 
 if TYPE_CHECKING:
     from drivers.backends.loopback import Injection

@@ -1,9 +1,9 @@
 """The demo's diagnosis of several actuators: the daemon's pipeline, the catalog, the health.
 
 ``mapr demo`` flies two EMAs on one bus. What it does with their traffic is what the daemon
-does: a :class:`~mapr_daemon.daemon.config.Config` with one asset per EMA (its RT, data sheet,
+does: a :class:`~mapr_daemon.service.config.Config` with one asset per EMA (its RT, data sheet,
 wiring, dictionary and prognostic model) goes to
-:func:`~mapr_daemon.daemon.pipeline.build_pipeline`; each actuator's trend continues from the
+:func:`~mapr_daemon.pipeline.pipeline.build_pipeline`; each actuator's trend continues from the
 demo catalog's history (so successive demo runs are successive flights); the BITs go into the
 catalog with their fault episodes and health, and each actuator's health is read back from
 the catalog as ``mapr health`` reads it.
@@ -18,10 +18,11 @@ from pathlib import Path
 from drivers.mil1553.record import MonitorRecord
 from mapr_daemon.catalog import CatalogReader, CatalogWriter
 from mapr_daemon.catalog.actuators import ActuatorHealth
-from mapr_daemon.daemon.bitwatch import BitFound
-from mapr_daemon.daemon.clock import BusClock
-from mapr_daemon.daemon.config import AssetConfig, Config
-from mapr_daemon.daemon.pipeline import Batch, build_pipeline
+from mapr_daemon.pipeline.bitwatch import BitFound
+from mapr_daemon.pipeline.clock import BusClock
+from mapr_daemon.pipeline.pipeline import Batch, build_pipeline
+from mapr_daemon.pipeline.settings import AssetConfig
+from mapr_daemon.service.config import Config
 
 
 @dataclasses.dataclass(frozen=True)

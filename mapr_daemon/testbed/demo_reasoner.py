@@ -23,13 +23,14 @@ from pathlib import Path
 
 from drivers.mil1553.record import MonitorRecord
 from mapr_daemon.cli.commands.dictionary import default_spec_path, peak_rss_mb
-from mapr_daemon.daemon.clock import BusClock
-from mapr_daemon.daemon.config import Config, ReasonerConfig
-from mapr_daemon.daemon.pipeline import Batch, build_pipeline
 from mapr_daemon.ema.params import ActuatorParams, load_actuator
 from mapr_daemon.findings import Diagnosis
+from mapr_daemon.pipeline.clock import BusClock
+from mapr_daemon.pipeline.pipeline import Batch, build_pipeline
+from mapr_daemon.pipeline.settings import ReasonerConfig
 from mapr_daemon.reasoner.diagnosis.dictionary import DictionarySpec
 from mapr_daemon.reasoner.training.dictionary_build import build
+from mapr_daemon.service.config import Config
 
 PACKAGE = Path(__file__).resolve().parents[1]
 MODEL_SOURCES = ("ema", "reasoner", "testbed")
@@ -129,7 +130,7 @@ def cached_models(params: ActuatorParams, actuator_path: Path,
 def diagnose_bits(icd_path: str | Path, records: Sequence[MonitorRecord],
                   dictionary_path: Path) -> Batch:
     """Every BIT in the traffic, cut out, decided and stamped by the daemon's own path
-    (:mod:`mapr_daemon.daemon.pipeline`, the default asset: EMA1 on RT 5, the shipped
+    (:mod:`mapr_daemon.pipeline.pipeline`, the default asset: EMA1 on RT 5, the shipped
     actuator file and wiring)."""
     config = Config(icd=str(icd_path), reasoner=ReasonerConfig(dictionary=str(dictionary_path)))
     return build_pipeline(config).process(list(records), BusClock())

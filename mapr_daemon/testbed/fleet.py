@@ -44,11 +44,11 @@ import numpy as np
 
 from drivers.chapter10.writer import Chapter10Writer
 from drivers.monitor import open_monitor
-from mapr_daemon.daemon.config import DEFAULT_ICD
 from mapr_daemon.ema.degradation import Trajectory, trajectory
 from mapr_daemon.ema.faults import FaultSet
 from mapr_daemon.ema.params import default_actuator_path, load_actuator, with_sample_rate
 from mapr_daemon.icd import load_icd
+from mapr_daemon.pipeline.settings import DEFAULT_ICD
 from mapr_daemon.testbed.aircraft import Aircraft
 from mapr_daemon.testbed.backend import RATE_HZ
 from mapr_daemon.testbed.profiles import steady_profile

@@ -22,8 +22,8 @@ from drivers.backends.serial_card import serial_cards
 from drivers.mil1553.wordbatch import SYNC_CMD, SYNC_DATA
 from drivers.monitor import open_monitor
 from mapr_daemon.cli.main import main
-from mapr_daemon.daemon.config import parse
 from mapr_daemon.icd.yamlsrc import load_text
+from mapr_daemon.service.config import parse
 
 from .card_emulators import Fx2Backend, SerialCard
 

@@ -104,14 +104,15 @@ def bit_flight(dictionary: Path, tmp_path_factory: pytest.TempPathFactory
     daemon's path (:class:`Pipeline`, a session clock anchored where the recording starts)
     makes of the live records, with a threshold so low that every BIT is reported."""
     from drivers.chapter10.writer import Chapter10Writer
-    from mapr_daemon.daemon.clock import BusClock
-    from mapr_daemon.daemon.config import Config, ReasonerConfig, TestbedConfig
-    from mapr_daemon.daemon.pipeline import build_pipeline
-    from mapr_daemon.daemon.source import monitor_factory
     from mapr_daemon.icd import load_icd
+    from mapr_daemon.pipeline.clock import BusClock
+    from mapr_daemon.pipeline.pipeline import build_pipeline
+    from mapr_daemon.pipeline.settings import ReasonerConfig
+    from mapr_daemon.service.config import Config
+    from mapr_daemon.service.source import monitor_factory
 
     config = Config(icd=str(ICD),
-                    testbed=TestbedConfig(seed=3, realtime=False, duration_s=1.7,
+                    testbed=dict(seed=3, realtime=False, duration_s=1.7,
                                           fault="friction@0.8"),
                     reasoner=ReasonerConfig(dictionary=str(dictionary), threshold=1e-9))
     with monitor_factory(config, load_icd(ICD))() as monitor:

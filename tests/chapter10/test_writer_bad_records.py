@@ -10,7 +10,7 @@ from drivers.chapter10.reader import Chapter10Reader
 from drivers.chapter10.writer import Chapter10Writer
 from drivers.mil1553.record import MonitorRecord, TransferFormat
 from mapr_daemon.cli.commands.record import summary_line
-from mapr_daemon.daemon.recorder import SessionRecorder
+from mapr_daemon.service.recorder import SessionRecorder
 
 WILD_NS = 10**20
 """A time tag some 3,000 years after the start: its time packet's year would pass 3999."""

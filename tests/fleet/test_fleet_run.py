@@ -14,11 +14,12 @@ from typing import Any
 
 from mapr_daemon.catalog import CatalogWriter
 from mapr_daemon.cli import exitcodes
-from mapr_daemon.daemon.config import Config, ReasonerConfig
 from mapr_daemon.fleet.archive import discover
 from mapr_daemon.fleet.config import FleetConfig
 from mapr_daemon.fleet.runner import FleetRun, RunSummary
 from mapr_daemon.fleet.task import TaskResult
+from mapr_daemon.pipeline.settings import ReasonerConfig
+from mapr_daemon.service.config import Config
 
 ROOT = Path(__file__).resolve().parents[2]
 

@@ -16,10 +16,11 @@ from typing import Any
 import pytest
 
 from mapr_daemon.catalog import CatalogWriter
-from mapr_daemon.daemon.config import AssetConfig, Config, ReasonerConfig
 from mapr_daemon.fleet.archive import discover
 from mapr_daemon.fleet.config import FleetConfig
 from mapr_daemon.fleet.runner import FleetRun, RunSummary
+from mapr_daemon.pipeline.settings import AssetConfig, ReasonerConfig
+from mapr_daemon.service.config import Config
 from mapr_daemon.testbed.fleet import FleetSpec, generate
 
 ROOT = Path(__file__).resolve().parents[2]

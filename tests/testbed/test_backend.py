@@ -9,10 +9,11 @@ from pathlib import Path
 import pytest
 
 from drivers.monitor import available_backends, backend_class, open_monitor
-from mapr_daemon.daemon import source
-from mapr_daemon.daemon.config import Config, TestbedActuator, TestbedConfig
 from mapr_daemon.errors import ConfigError
 from mapr_daemon.icd import load_icd
+from mapr_daemon.service import source
+from mapr_daemon.service.config import Config
+from mapr_daemon.testbed.config import TestbedActuator, TestbedConfig
 
 ROOT = Path(__file__).resolve().parents[2]
 TWO = ROOT / "configs" / "icd" / "ema-testbed-two-ema.yaml"
@@ -36,9 +37,9 @@ def test_opened_by_name_with_plain_options_it_flies_the_aircraft() -> None:
 def test_the_daemon_opens_two_emas_through_the_registry() -> None:
     testbed = TestbedConfig(**QUICK, actuators=(
         TestbedActuator("EMA1", 5, AILERON), TestbedActuator("EMA2", 7, ELEVATOR, "esr=0.6")))
-    config = dataclasses.replace(Config(), icd=str(TWO), testbed=testbed)
+    config = dataclasses.replace(Config(), icd=str(TWO), testbed=dataclasses.asdict(testbed))
     source.check(config)
-    assert source.backend_name(config) == "testbed"   # the config says loopback
+    assert config.backend.name == "testbed"   # the default
     with source.monitor_factory(config, load_icd(TWO))() as monitor:
         records = list(monitor)
     assert {r.rt for r in records} == {5, 6, 7}
@@ -50,7 +51,7 @@ def test_the_daemon_opens_two_emas_through_the_registry() -> None:
 ])
 def test_a_bad_testbed_is_a_config_error_at_start(actuators: tuple[TestbedActuator, ...],
                                                   problem: str) -> None:
-    config = dataclasses.replace(Config(), testbed=TestbedConfig(**QUICK, actuators=actuators))
+    config = dataclasses.replace(Config(), testbed=dict(**QUICK, actuators=actuators))
     with pytest.raises(ConfigError, match=problem):
         source.check(config)
 

@@ -11,16 +11,17 @@ import pytest
 
 from drivers.backends.loopback import LoopbackMonitor
 from drivers.mil1553.record import MonitorRecord
-from mapr_daemon.daemon import wiring
-from mapr_daemon.daemon.bitwatch import BitWatch
-from mapr_daemon.daemon.config import load_config
 from mapr_daemon.ema.faults import FaultSet, parse_fault
 from mapr_daemon.ema.params import ActuatorParams, load_actuator, with_sample_rate
 from mapr_daemon.icd import SignalStream, load_icd
+from mapr_daemon.pipeline import wiring
+from mapr_daemon.pipeline.bitwatch import BitWatch
 from mapr_daemon.reasoner.diagnosis.dictionary import DictionarySpec
 from mapr_daemon.reasoner.reasoner import Reasoner
 from mapr_daemon.reasoner.training import dictionary_build
+from mapr_daemon.service.config import load_config
 from mapr_daemon.testbed.aircraft import FAST_CHANNELS, POWER_CHANNELS, Aircraft
+from mapr_daemon.testbed.config import parse_section
 from mapr_daemon.testbed.profiles import steady_profile
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -121,11 +122,11 @@ def test_the_example_config_flies_two_emas_and_old_configs_one(tmp_path: Path) -
     for sub in ("icd", "actuators"):
         (copy.parent / sub).symlink_to(ROOT / "configs" / sub)
     config = load_config(copy)
-    flown = config.testbed.flown(config.assets)
+    flown = parse_section(config.testbed, config.source).flown(config.assets)
     assert [(a.name, a.rt, Path(a.actuator).name, a.fault) for a in flown] == [
         ("EMA1", 5, "aileron-uav.yaml", None), ("EMA2", 7, "elevator-uav.yaml", "esr=0.6")]
     assert [a.signals for a in config.assets] == [wiring.DEFAULT_SIGNALS,
                                                   wiring.TWO_EMA_ELEVATOR_SIGNALS]
     single = load_config(ROOT / "configs" / "mapr.yaml")
-    (one,) = single.testbed.flown(single.assets)
+    (one,) = parse_section(single.testbed, single.source).flown(single.assets)
     assert (one.name, one.rt, one.fault, one.seed) == ("EMA1", 5, None, 1)

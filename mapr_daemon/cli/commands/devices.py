@@ -53,7 +53,7 @@ def usb_settings(args: argparse.Namespace) -> dict[str, Any]:
     settings: dict[str, Any] = {"ids": list(fx2.FX2LAFW_IDS), "bare_ids": list(fx2.BARE_IDS),
                                 "firmware": None}
     if args.config:
-        from mapr_daemon.daemon.config import load_config
+        from mapr_daemon.service.config import load_config
         config = load_config(args.config)
         if config.backend.name == "usb":
             options = config.backend.options

@@ -74,8 +74,8 @@ def add_subparser(subparsers: Any) -> None:
 
 
 def _configs(args: argparse.Namespace) -> Any:
-    from mapr_daemon.daemon.config import Config, load_config
     from mapr_daemon.fleet.config import FleetConfig, load_fleet_config
+    from mapr_daemon.service.config import Config, load_config
 
     fleet = load_fleet_config(args.config) if args.config else FleetConfig(load_config(None))
 
@@ -99,10 +99,10 @@ def _configs(args: argparse.Namespace) -> Any:
 
 def run(args: argparse.Namespace) -> int:
     from mapr_daemon.catalog import CatalogWriter
-    from mapr_daemon.daemon.pipeline import build_pipeline
     from mapr_daemon.fleet.archive import DEFAULT_PATTERN, discover
     from mapr_daemon.fleet.progress import FleetProgress
     from mapr_daemon.fleet.runner import FleetRun, close_client, local_client
+    from mapr_daemon.pipeline.pipeline import build_pipeline
 
     if args.workers is not None and args.workers < 1:
         print(f"mapr fleet: --workers must be 1 or more, not {args.workers}", file=sys.stderr)

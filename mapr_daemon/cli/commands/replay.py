@@ -12,7 +12,7 @@ reasoner -> fault catalog, as in ``mapr run``, in one catalog session (backend
 summary to stdout at the end. With ``--diagnose``, a recording holding none of the ICD's
 actuator signals says so instead of diagnosing nothing in silence. Damaged packets are
 skipped, named on stderr and recorded as catalog gaps. Each batch goes through the daemon's
-own path (:meth:`mapr_daemon.daemon.pipeline.Pipeline.process`), so events carry the same
+own path (:meth:`mapr_daemon.pipeline.pipeline.Pipeline.process`), so events carry the same
 fields and stamps as the daemon wrote for that traffic: bus time, and the recording's absolute
 time when its time packets give a full date (``t_ns`` falls back to the replay's wall clock
 when they do not). Each event's evidence also names the recording.
@@ -38,8 +38,8 @@ from mapr_daemon.errors import CatalogError, ConfigError
 if TYPE_CHECKING:
     from drivers.mil1553.record import MonitorRecord
     from mapr_daemon.catalog import CatalogWriter
-    from mapr_daemon.daemon.config import Config
-    from mapr_daemon.daemon.pipeline import Batch, Pipeline
+    from mapr_daemon.pipeline.pipeline import Batch, Pipeline
+    from mapr_daemon.service.config import Config
 
 BATCH = 1024
 """Records handed to the ICD and reasoner at a time when paced (``--speed``)."""
@@ -115,8 +115,8 @@ def _size(n: int) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
-    from mapr_daemon.daemon.config import load_config
-    from mapr_daemon.daemon.pipeline import build_pipeline
+    from mapr_daemon.pipeline.pipeline import build_pipeline
+    from mapr_daemon.service.config import load_config
 
     path = Path(args.recording)
     if args.flight_hours is not None and (args.flight is None or not args.flight_hours > 0
@@ -154,7 +154,7 @@ def run(args: argparse.Namespace) -> int:
         config, icd=args.icd or config.icd, reasoner=reasoner, aircraft=aircraft,
         catalog=dataclasses.replace(config.catalog, path=args.catalog or config.catalog.path),
         backend=dataclasses.replace(config.backend, name="chapter10", options=options))
-    from mapr_daemon.daemon import logs
+    from mapr_daemon.service import logs
     logs.setup("warning")
     pipe = build_pipeline(config)
     try:
@@ -186,7 +186,7 @@ class Replay:
         self.pipe, self.catalog, self.config, self.path = pipe, catalog, config, path
         from drivers.backends.chapter10 import Chapter10Monitor
         from drivers.monitor import BusStatistics, open_monitor
-        from mapr_daemon.daemon.clock import BusClock
+        from mapr_daemon.pipeline.clock import BusClock
         self.stats = BusStatistics()
         self.events = 0
         self.error_messages = 0

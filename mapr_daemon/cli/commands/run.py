@@ -34,17 +34,16 @@ def add_subparser(subparsers: Any) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from mapr_daemon.daemon import logs
-    from mapr_daemon.daemon.config import load_config
-    from mapr_daemon.daemon.pipeline import build_pipeline
-    from mapr_daemon.daemon.service import Service
+    from mapr_daemon.service import logs
+    from mapr_daemon.service.preflight import load_checked
+    from mapr_daemon.service.service import Service, prepare
 
     log = logs.setup("info")
     try:
-        config = load_config(args.config, preflight=True)
+        config = load_checked(args.config)
         logs.setup(config.log_level)
         if args.check:
-            build_pipeline(config)
+            prepare(config)
             log.info("%s: OK (config %s)", args.config or "defaults", config.digest())
             return exitcodes.OK
         service = Service(config, args.config)

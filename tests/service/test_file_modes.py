@@ -14,7 +14,7 @@ import pytest
 from drivers.chapter10.writer import Chapter10Writer
 from drivers.mil1553.record import MonitorRecord, TransferFormat
 from mapr_daemon.catalog import CatalogWriter
-from mapr_daemon.daemon.recorder import SessionRecorder
+from mapr_daemon.service.recorder import SessionRecorder
 
 
 def mode(path: Path) -> int:

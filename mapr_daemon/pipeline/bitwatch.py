@@ -24,12 +24,12 @@ from collections.abc import Mapping
 import numpy as np
 
 from mapr_daemon.arrays import FloatArray
-from mapr_daemon.daemon import wiring
 from mapr_daemon.ema.bit import bit_profile
 from mapr_daemon.ema.params import CHANNELS, BitParams
 from mapr_daemon.ema.profile import Profile
 from mapr_daemon.findings import Diagnosis
 from mapr_daemon.icd import Series
+from mapr_daemon.pipeline import wiring
 from mapr_daemon.reasoner.reasoner import Reasoner
 
 log = logging.getLogger("mapr.reasoner")

@@ -5,7 +5,7 @@
 and what it logs, and stops it with a real SIGTERM. The session-scoped ``dictionary`` is a
 small fault dictionary (healthy, ESR, friction, phase-A high-side short and open; ~15 s),
 decided with the dictionary's own threshold: a bus-flown BIT scores like the dictionary's
-simulated ones (tests/daemon/test_bit_on_bus.py).
+simulated ones (tests/pipeline/test_bit_on_bus.py).
 """
 
 from __future__ import annotations

@@ -12,11 +12,11 @@ from typing import TYPE_CHECKING
 from drivers.chapter10.tmats import TAIL_ATTRIBUTE
 from drivers.mil1553.record import MonitorRecord
 from drivers.monitor import open_monitor
-from mapr_daemon.daemon.config import Config, TestbedConfig
-from mapr_daemon.daemon.recorder import SessionRecorder
-from mapr_daemon.daemon.source import monitor_factory
 from mapr_daemon.fleet.archive import discover
 from mapr_daemon.icd import load_icd
+from mapr_daemon.service.config import Config
+from mapr_daemon.service.recorder import SessionRecorder
+from mapr_daemon.service.source import monitor_factory
 
 if TYPE_CHECKING:   # the fixture's class; pytest loads conftest itself
     from tests.daemon.conftest import Daemon
@@ -52,7 +52,7 @@ def test_the_daemon_records_what_it_sees_and_closes_on_sigterm(
     assert f"recorded {seen} messages to {file}" in daemon.log
 
     recorded = replay(file)
-    config = Config(icd=str(ICD), testbed=TestbedConfig(realtime=False, duration_s=0.6,
+    config = Config(icd=str(ICD), testbed=dict(realtime=False, duration_s=0.6,
                                                         seed=4))
     with monitor_factory(config, load_icd(ICD))() as monitor:
         flown = list(monitor)
@@ -68,7 +68,7 @@ def test_the_daemon_records_what_it_sees_and_closes_on_sigterm(
 def test_each_file_names_the_configured_tail_and_none_without_one(tmp_path: Path) -> None:
     """Every part of a session carries ``aircraft.tail`` as ``G\\TA``; a daemon with no
     tail writes none, and the fleet reader falls back to the path."""
-    config = Config(icd=str(ICD), testbed=TestbedConfig(realtime=False, duration_s=0.1))
+    config = Config(icd=str(ICD), testbed=dict(realtime=False, duration_s=0.1))
     with monitor_factory(config, load_icd(ICD))() as monitor:
         flown = list(monitor)
     later = [dataclasses.replace(r, t_ns=r.t_ns + 2_000_000_000,
@@ -91,7 +91,7 @@ def test_each_file_names_the_configured_tail_and_none_without_one(tmp_path: Path
 
 def test_wall_clock_time_tags_are_rebased_and_a_restarted_bus_starts_a_new_part(
         tmp_path: Path) -> None:
-    config = Config(icd=str(ICD), testbed=TestbedConfig(realtime=False, duration_s=0.3))
+    config = Config(icd=str(ICD), testbed=dict(realtime=False, duration_s=0.3))
     with monitor_factory(config, load_icd(ICD))() as monitor:
         flown = list(monitor)
     epoch = 1_778_300_000_250_000_000   # 2026-05-09T04:13:20.25Z, as a serial card stamps

@@ -34,7 +34,7 @@ from pathlib import Path
 
 from drivers.chapter10.writer import Chapter10Writer
 from drivers.mil1553.record import MonitorRecord
-from mapr_daemon.daemon.clock import BACKWARDS_NS, WALL_CLOCK_NS, BusClock
+from mapr_daemon.pipeline.clock import BACKWARDS_NS, WALL_CLOCK_NS, BusClock
 
 log = logging.getLogger("mapr.record")
 

@@ -10,8 +10,9 @@ from pathlib import Path
 import pytest
 
 from mapr_daemon.cli import exitcodes
-from mapr_daemon.daemon.config import load_config
 from mapr_daemon.errors import ConfigError
+from mapr_daemon.service.config import load_config
+from mapr_daemon.service.preflight import load_checked
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -25,7 +26,7 @@ def write(tmp_path: Path, text: str) -> Path:
 def problem(tmp_path: Path, text: str) -> str:
     config = write(tmp_path, text)
     with pytest.raises(ConfigError) as caught:
-        load_config(config, preflight=True)
+        load_checked(config)
     return str(caught.value).replace(str(config), "CONFIG").replace(str(tmp_path), "TMP")
 
 
@@ -142,7 +143,7 @@ def test_usable_paths_pass(tmp_path: Path) -> None:
     config = write(tmp_path, f"backend:\n  name: chapter10\n  options: {{path: {recording}}}\n"
                              f"record:\n  path: {tmp_path / 'new' / 'flights'}\n"
                              f"catalog:\n  path: {tmp_path / 'catalog.db'}\n")
-    assert load_config(config, preflight=True).record.path == str(tmp_path / "new" / "flights")
+    assert load_checked(config).record.path == str(tmp_path / "new" / "flights")
 
 
 def test_replay_reads_a_config_whose_backend_file_is_elsewhere(tmp_path: Path) -> None:

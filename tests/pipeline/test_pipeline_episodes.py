@@ -1,18 +1,18 @@
 """The daemon's path from diagnosed BITs to fault episodes, without flying: the pipeline's
 catalog outcome of each BIT (an event, or nominal) and the writer's episodes from them.
-(tests/daemon/test_end_to_end.py flies the testbed and replays its recording.)"""
+(tests/service/test_end_to_end.py flies the testbed and replays its recording.)"""
 
 from __future__ import annotations
 
 from pathlib import Path
 
 from mapr_daemon.catalog import CatalogReader, CatalogWriter
-from mapr_daemon.daemon.bitwatch import BitFound
-from mapr_daemon.daemon.clock import BusClock
-from mapr_daemon.daemon.config import Config, load_config, parse
-from mapr_daemon.daemon.pipeline import build_pipeline
 from mapr_daemon.findings import Diagnosis
 from mapr_daemon.icd.yamlsrc import load_text
+from mapr_daemon.pipeline.bitwatch import BitFound
+from mapr_daemon.pipeline.clock import BusClock
+from mapr_daemon.pipeline.pipeline import build_pipeline
+from mapr_daemon.service.config import Config, load_config, parse
 
 T0 = 1_778_300_000_000_000_000
 ESR = Diagnosis(anomaly=True, fault="esr", confidence=0.9, severity=0.3, unit="ohm",

@@ -5,16 +5,16 @@ from __future__ import annotations
 from collections import Counter
 from pathlib import Path
 
-from mapr_daemon.daemon.config import Config, TestbedConfig
-from mapr_daemon.daemon.source import monitor_factory
 from mapr_daemon.icd import load_icd
+from mapr_daemon.service.config import Config
+from mapr_daemon.service.source import monitor_factory
 
 ROOT = Path(__file__).resolve().parents[2]
 ICD = ROOT / "configs" / "icd" / "ema-testbed.yaml"
 
 
 def fly(fill: bool) -> tuple[Counter[tuple[int, int]], float, int]:
-    config = Config(icd=str(ICD), testbed=TestbedConfig(realtime=False, duration_s=0.5,
+    config = Config(icd=str(ICD), testbed=dict(realtime=False, duration_s=0.5,
                                                         fill_bus=fill))
     with monitor_factory(config, load_icd(ICD))() as monitor:
         records = list(monitor)

@@ -57,7 +57,7 @@ def test_ready_status_watchdog_then_sigterm_closes_the_session(
     (stopped, reason, backend, digest, version), = rows(
         catalog, "SELECT stopped_ns, stop_reason, backend, config_hash, software_version "
                  "FROM sessions")
-    assert stopped is not None and reason == "SIGTERM" and backend == "loopback"
+    assert stopped is not None and reason == "SIGTERM" and backend == "testbed"
     assert digest and version
     stats = rows(catalog, "SELECT bus, messages, load_percent FROM bus_stats")
     assert stats and all(int(str(m)) > 0 for _, m, _ in stats)
@@ -105,7 +105,7 @@ def run_config(tmp_path: Path, text: str) -> subprocess.CompletedProcess[str]:
 
 
 def test_config_error_exits_78_with_file_line_and_field(tmp_path: Path) -> None:
-    done = run_config(tmp_path, f"icd: {ICD}\nbackend:\n  name: loopback\n"
+    done = run_config(tmp_path, f"icd: {ICD}\nbackend:\n  name: testbed\n"
                                 "  retry_initial_s: fast\n")
     assert done.returncode == 78
     lines = done.stderr.strip().splitlines()

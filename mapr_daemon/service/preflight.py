@@ -15,8 +15,9 @@ that can never open on this machine (its Python module or its system library, e.
 is missing) is a :class:`~drivers.errors.BackendUnavailable` naming the same (exit 69).
 
 These checks look at the filesystem, so they are not part of parsing: ``mapr replay`` and
-``mapr devices`` read the same config but never open its backend or its recording
-directory.
+``mapr devices`` read the same config (:func:`~mapr_daemon.service.config.load_config`) but
+never open its backend or its recording directory; the daemon loads its config with
+:func:`load_checked`.
 """
 
 from __future__ import annotations
@@ -28,15 +29,29 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from drivers.errors import BackendOptionError, BackendUnavailable
+from mapr_daemon import TESTBED_BACKEND
 from mapr_daemon.errors import ConfigError
 from mapr_daemon.icd.yamlsrc import Node
+from mapr_daemon.service.config import Config, parse, read
 
 if TYPE_CHECKING:
     from drivers.monitor import BusMonitor
-    from mapr_daemon.daemon.config import Config
 
 FILE_BACKENDS = ("capture", "chapter10")
 """Backends that read a file named by their ``path`` option."""
+
+
+def load_checked(path: str | os.PathLike[str] | None) -> Config:
+    """The daemon's config in ``path`` (None: the built-in defaults), parsed and then checked
+    against this machine (:func:`check`): what ``mapr run``, its ``--check`` and a SIGHUP
+    reload load. ConfigError (exit 78) or BackendUnavailable (exit 69)."""
+    if path is None:
+        return Config()
+    text_path = os.fspath(path)
+    raw = read(text_path)
+    config = parse(raw, text_path)
+    check(config, raw, text_path)
+    return config
 
 
 def check(config: Config, raw: Any, path: str) -> None:
@@ -69,7 +84,7 @@ def _backend(config: Config, node: Node | None, path: str) -> None:
     cls = _loadable(config, node, path)
     if backend.name in FILE_BACKENDS:
         _file_backend(config, where, path)
-    if backend.name != "loopback":  # loopback's options are the testbed's, checked there
+    if backend.name != TESTBED_BACKEND:  # its options are the testbed's, checked there
         _options(config, cls, node, where, path)
 
 

@@ -33,16 +33,16 @@ from typing import TYPE_CHECKING, Any
 from drivers.mil1553.record import MonitorRecord
 from mapr_daemon.catalog import BitOutcome, Event, event_from_reasoner
 from mapr_daemon.catalog.model import BitRecord, Flight
-from mapr_daemon.daemon import source, wiring
-from mapr_daemon.daemon.bitwatch import BitFound, BitWatch
-from mapr_daemon.daemon.clock import BusClock, stamp, traffic_span
-from mapr_daemon.daemon.config import AssetConfig, Config
 from mapr_daemon.errors import ConfigError
 from mapr_daemon.icd import Icd, Series, SignalStream, load_icd
+from mapr_daemon.pipeline import wiring
+from mapr_daemon.pipeline.bitwatch import BitFound, BitWatch
+from mapr_daemon.pipeline.clock import BusClock, stamp, traffic_span
+from mapr_daemon.pipeline.settings import AssetConfig, PipelineConfig
 
 if TYPE_CHECKING:
     from drivers.chapter10.ms1553_batch import Ms1553Batch
-    from mapr_daemon.daemon.trending import Trending
+    from mapr_daemon.pipeline.trending import Trending
     from mapr_daemon.reasoner.prognosis.prognostic_model import PrognosticModel
 
 
@@ -88,7 +88,7 @@ class Watched:
 class Pipeline:
     """What a config builds and a reload swaps as one: the ICD, decoder and reasoners."""
 
-    config: Config
+    config: PipelineConfig
     icd: Icd
     stream: SignalStream
     watched: list[Watched]
@@ -111,7 +111,7 @@ class Pipeline:
         """Continue the trend from the catalog's history (this aircraft's rows)."""
         if self.trending is None:
             return
-        from mapr_daemon.daemon.trending import Trending, history_from_bits
+        from mapr_daemon.pipeline.trending import Trending, history_from_bits
         self.trending = Trending(self.trending.tail, self.config.aircraft.flight_gap_s,
                                  self.trending.models, history_from_bits(bits), flights)
 
@@ -183,7 +183,7 @@ class Pipeline:
                           wear=wear, conditions=cond, bus_ns=bus, abs_ns=absolute)
 
 
-def build_pipeline(config: Config, *, trend: bool = True) -> Pipeline:
+def build_pipeline(config: PipelineConfig, *, trend: bool = True) -> Pipeline:
     """Load the ICD and, for every asset with a dictionary, its actuator file, dictionary and
     prognostic model; ConfigError (file:line: field) if any is wrong or an asset's signals
     are not in the ICD. ``trend=False``: no flights or trend (:meth:`Pipeline.trend`)."""
@@ -192,7 +192,6 @@ def build_pipeline(config: Config, *, trend: bool = True) -> Pipeline:
     except OSError as error:
         raise ConfigError(f"cannot read the ICD {config.icd}: {error.strerror}", path=config.source,
                           field="icd") from None
-    source.check(config)
     watched: list[Watched] = []
     models: dict[str, PrognosticModel | None] = {}
     loaded: dict[str, Any] = {}
@@ -210,12 +209,12 @@ def build_pipeline(config: Config, *, trend: bool = True) -> Pipeline:
         models[asset.name] = model
     trending = None
     if trend and models:
-        from mapr_daemon.daemon.trending import Trending
+        from mapr_daemon.pipeline.trending import Trending
         trending = Trending(config.aircraft.tail, config.aircraft.flight_gap_s, models)
     return Pipeline(config, icd, SignalStream(icd), watched, trending)
 
 
-def _reasoner(config: Config, asset: AssetConfig, i: int, path: str, loaded: dict[str, Any]
+def _reasoner(config: PipelineConfig, asset: AssetConfig, i: int, path: str, loaded: dict[str, Any]
               ) -> tuple[BitWatch, PrognosticModel | None]:
     """One asset's BIT watch (its own reasoner: adaptation state is per unit) and model;
     files shared by several assets are read once (``loaded``)."""

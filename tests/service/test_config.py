@@ -3,15 +3,18 @@
 from __future__ import annotations
 
 import dataclasses
+import logging
 import subprocess
 import sys
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
 
-from mapr_daemon.daemon.config import Config, load_config, parse
 from mapr_daemon.errors import ConfigError
 from mapr_daemon.icd.yamlsrc import load_text
+from mapr_daemon.service.config import Config, load_config, parse
+from mapr_daemon.testbed.config import TestbedConfig, parse_section
 
 ROOT = Path(__file__).resolve().parents[2]
 ICD = ROOT / "configs" / "icd" / "ema-testbed.yaml"
@@ -19,10 +22,24 @@ ICD = ROOT / "configs" / "icd" / "ema-testbed.yaml"
 SHIPPED = ROOT / "configs" / "mapr.yaml"
 
 
+@pytest.fixture
+def mapr_log(caplog: pytest.LogCaptureFixture) -> Iterator[pytest.LogCaptureFixture]:
+    """``caplog`` on the ``mapr`` logger itself: the daemon's logging setup, run by other
+    tests in this process, stops it propagating to the root logger caplog listens on."""
+    logger = logging.getLogger("mapr")
+    logger.addHandler(caplog.handler)
+    try:
+        yield caplog
+    finally:
+        logger.removeHandler(caplog.handler)
+
+
 def test_shipped_config_is_the_defaults() -> None:
     shipped = load_config(SHIPPED)
     assert Path(shipped.icd) == ICD
-    assert dataclasses.replace(shipped, source=None, icd=Config().icd) == Config()
+    assert dataclasses.replace(shipped, source=None, icd=Config().icd, testbed={}) == Config()
+    # the testbed: section is the simulator's to read; it too shows the defaults
+    assert parse_section(shipped.testbed, shipped.source) == TestbedConfig()
 
 
 def test_check_accepts_the_shipped_config() -> None:
@@ -75,8 +92,8 @@ def test_relative_paths_follow_the_file(tmp_path: Path) -> None:
 def test_the_default_wiring_reads_what_the_testbed_aircraft_sends() -> None:
     """The default ``assets[0].signals`` names the shipped ICD's signals, and maps each
     sample-block signal to the plant channel the simulated EMA fills it from."""
-    from mapr_daemon.daemon.wiring import DEFAULT_SIGNALS, not_in_icd, problems
     from mapr_daemon.icd import load_icd
+    from mapr_daemon.pipeline.wiring import DEFAULT_SIGNALS, not_in_icd, problems
     from mapr_daemon.testbed.aircraft import FAST_CHANNELS, POWER_CHANNELS, SLOW_CHANNELS
 
     assert problems(DEFAULT_SIGNALS) == []
@@ -86,8 +103,8 @@ def test_the_default_wiring_reads_what_the_testbed_aircraft_sends() -> None:
 
 
 def test_signals_missing_from_the_icd_stop_the_daemon_at_start(tmp_path: Path) -> None:
-    from mapr_daemon.daemon.pipeline import build_pipeline
-    from mapr_daemon.daemon.wiring import DEFAULT_SIGNALS
+    from mapr_daemon.pipeline.pipeline import build_pipeline
+    from mapr_daemon.pipeline.wiring import DEFAULT_SIGNALS
 
     signals = {("phase_i_a" if k == "phase_current_a" else k): v
                for k, v in DEFAULT_SIGNALS.items()}
@@ -99,3 +116,30 @@ def test_signals_missing_from_the_icd_stop_the_daemon_at_start(tmp_path: Path) -
         build_pipeline(config)
     assert str(caught.value) == ("x.yaml: assets[0].signals: not in the ICD ema-testbed: "
                                  "phase_i_a")
+
+
+def test_the_old_name_of_the_testbed_is_read_as_it_with_a_deprecation_warning(
+        tmp_path: Path, mapr_log: pytest.LogCaptureFixture) -> None:
+    path = tmp_path / "old.yaml"
+    path.write_text(f"icd: {ICD}\nbackend:\n  name: loopback\n", encoding="utf-8")
+    with mapr_log.at_level("WARNING", logger="mapr"):
+        config = load_config(path)
+    assert config.backend.name == "testbed"
+    assert {r.getMessage() for r in mapr_log.records} == {
+        f"{path}:3: backend.name: 'loopback' is deprecated in a daemon config, write 'testbed' "
+        "(the simulated aircraft)"}
+
+
+def test_the_testbed_section_is_checked_by_the_simulator_with_file_and_line(
+        tmp_path: Path) -> None:
+    from mapr_daemon.service import source
+
+    path = tmp_path / "bad.yaml"
+    path.write_text(f"icd: {ICD}\ntestbed:\n  profile: bit\n  actuators:\n"
+                    "    - {name: EMA1, rt: 5, actuator: a.yaml}\n"
+                    "    - {name: EMA2, rt: 5, actuator: b.yaml}\n", encoding="utf-8")
+    config = load_config(path)   # the service does not read the simulator's section
+    with pytest.raises(ConfigError) as error:
+        source.check(config)
+    assert str(error.value) == (f"{path}:6: testbed.actuators[1].rt: expected a free RT "
+                                "address 0..30, got 5")

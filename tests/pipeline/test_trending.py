@@ -12,9 +12,9 @@ import pytest
 
 from mapr_daemon.catalog import BitOutcome, CatalogWriter, Event
 from mapr_daemon.catalog.model import BitRecord
-from mapr_daemon.daemon.trending import AssetHistory, FlightLog, Trending, history_from_bits
 from mapr_daemon.ema.params import default_actuator_path, load_actuator
 from mapr_daemon.errors import ConfigError
+from mapr_daemon.pipeline.trending import AssetHistory, FlightLog, Trending, history_from_bits
 from mapr_daemon.reasoner.prognosis import trend
 from mapr_daemon.reasoner.prognosis.prognostic_model import PrognosticModel
 from mapr_daemon.reasoner.training.rul_scoring import learn_prior

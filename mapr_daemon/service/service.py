@@ -13,7 +13,10 @@ The loop sleeps in ``select()`` until the reader rings its doorbell, a signal ar
 the self-pipe (:mod:`.wakeup`) or a timer is due — no polling. SIGTERM/SIGINT flush and close
 the session (exit 0 well within a second); SIGHUP reloads the config and ICD, keeping the old
 ones if the new ones are invalid. A failing backend becomes a catalog gap and a retry, never
-an exit; a reasoner that falls behind becomes a log line, a STATUS and a catalog gap.
+an exit; a reasoner that falls behind becomes a log line, a STATUS and a catalog gap. A
+catalog write that fails keeps its BITs in memory and retries them (:mod:`.spool`); a BIT the
+reasoner fails on is counted and logged as a reasoner failure (monitoring went on: it is no
+gap).
 """
 
 from __future__ import annotations
@@ -31,19 +34,29 @@ from drivers.monitor import BusStatistics
 from drivers.rtstats import TrafficStatistics
 from mapr_daemon import __version__
 from mapr_daemon.catalog import CatalogWriter
-from mapr_daemon.daemon import source
-from mapr_daemon.daemon.clock import BusClock
-from mapr_daemon.daemon.config import Config, load_config
-from mapr_daemon.daemon.notify import Notifier
-from mapr_daemon.daemon.pipeline import Pipeline, build_pipeline
-from mapr_daemon.daemon.reader import BusReader, Item
-from mapr_daemon.daemon.recorder import SessionRecorder
-from mapr_daemon.daemon.wakeup import Doorbell, SignalPipe
 from mapr_daemon.errors import CatalogError, ConfigError
+from mapr_daemon.pipeline.clock import BusClock
+from mapr_daemon.pipeline.pipeline import Pipeline, build_pipeline
+from mapr_daemon.service import source
+from mapr_daemon.service.config import Config
+from mapr_daemon.service.notify import Notifier
+from mapr_daemon.service.preflight import load_checked
+from mapr_daemon.service.reader import BusReader, Item
+from mapr_daemon.service.recorder import SessionRecorder
+from mapr_daemon.service.spool import CatalogSpool, Written
+from mapr_daemon.service.wakeup import Doorbell, SignalPipe
 
 log = logging.getLogger("mapr")
 TURN_S = 0.05
 """Longest the loop handles queued work before it looks at signals and timers again."""
+
+
+def prepare(config: Config) -> Pipeline:
+    """The pipeline ``config`` builds, with its backend's options checked as opening would
+    check them (the testbed's ``testbed:`` section too): every config error at start."""
+    pipe = build_pipeline(config)
+    source.check(config, pipe.icd)
+    return pipe
 
 
 class Service:
@@ -52,7 +65,9 @@ class Service:
     def __init__(self, config: Config, config_path: str | None,
                  notifier: Notifier | None = None) -> None:
         self.config_path = config_path
-        self.pipe: Pipeline = build_pipeline(config)
+        self.config = config
+        """The running configuration (swapped with :attr:`pipe` by a reload)."""
+        self.pipe: Pipeline = prepare(config)
         self.clock = BusClock("recording" if config.backend.name == "chapter10" else "live")
         """The session's bus -> absolute time (kept across reloads: one session)."""
         self.notifier = notifier or Notifier.from_environment()
@@ -62,6 +77,8 @@ class Service:
                 clear_after=config.catalog.episode_clear_bits)
         except CatalogError as error:
             raise ConfigError(str(error), path=config.source, field="catalog.path") from None
+        self.spool = CatalogSpool(self.catalog.add_bits)
+        """Diagnosed BITs on their way to the catalog, held while it cannot be written."""
         self.queue: queue.Queue[Item] = queue.Queue(maxsize=config.queue_batches)
         self.doorbell = Doorbell()
         self.reader: BusReader | None = None
@@ -70,6 +87,8 @@ class Service:
         self.reload_wanted = False
         self.ready = False
         self.messages = self.errors = self.events = 0
+        self.reasoner_failures = 0
+        """BITs the reasoner failed on (skipped: their actuator was not diagnosed then)."""
         self.dropped = 0
         """Messages the bus reader dropped because the queue stayed full (all readers)."""
         self.queue_peak = 0
@@ -90,7 +109,7 @@ class Service:
 
     # --- lifetime --------------------------------------------------------------------------
     def _start_reader(self) -> None:
-        cfg = self.pipe.config
+        cfg = self.config
         self.reader = BusReader(source.monitor_factory(cfg, self.pipe.icd), self.queue,
                                 retry_initial_s=cfg.backend.retry_initial_s,
                                 retry_max_s=cfg.backend.retry_max_s, wait_s=cfg.queue_wait_s,
@@ -113,7 +132,7 @@ class Service:
     def run(self) -> int:
         """Monitor until SIGTERM or SIGINT, then flush and return 0. Call it from the main
         thread: signals arrive through a self-pipe (:mod:`.wakeup`)."""
-        cfg = self.pipe.config
+        cfg = self.config
         signals = SignalPipe()
         selector = selectors.DefaultSelector()
         selector.register(signals, selectors.EVENT_READ, "signals")
@@ -147,6 +166,7 @@ class Service:
                     self.reload()
                 backlog = self._work(TURN_S)
                 self._check_dropped()
+                self._written(self.spool.retry())
                 self._timers()
                 timeout = 0.0 if backlog else self._until_due()
         finally:
@@ -180,10 +200,10 @@ class Service:
     def _timers(self) -> None:
         now = time.monotonic()
         if now >= self._next_status:
-            self._next_status = now + self.pipe.config.status_interval_s
+            self._next_status = now + self.config.status_interval_s
             self._status()
         if now >= self._next_stats:
-            self._next_stats = now + self.pipe.config.catalog.stats_interval_s
+            self._next_stats = now + self.config.catalog.stats_interval_s
             self._flush_stats()
         if self._reader_alive() and self.notifier.watchdog_due():
             self.notifier.watchdog()
@@ -195,6 +215,9 @@ class Service:
         """Seconds the loop may sleep before a timer is due (a signal or work wakes it
         sooner). The watchdog counts only while the reader lives: it is not pinged then."""
         due = [self._next_status, self._next_stats]
+        retry = self.spool.due_in()
+        if retry is not None:
+            due.append(time.monotonic() + retry)
         watchdog = self.notifier.watchdog_next()
         if watchdog is not None and self._reader_alive():
             due.append(watchdog)
@@ -207,6 +230,10 @@ class Service:
         self._stop_reader()
         if self.recorder is not None:
             self.recorder.close()
+        self._written(self.spool.flush())   # a last try for what is held
+        if self.spool.held_bits:
+            log.error("stopping with the catalog unwritable: %d BITs (%d events) not written",
+                      self.spool.held_bits, self.spool.held_events)
         try:
             self._flush_stats()
             if self.gap_id is not None:
@@ -217,8 +244,10 @@ class Service:
         self.notifier.close()
         self.doorbell.close()
         log.info("stopped: %d messages, %d errors, %d events; queue peak %d/%d batches, "
-                 "%d messages dropped", self.messages, self.errors, self.events,
-                 self.queue_peak, self.queue.maxsize, self.dropped)
+                 "%d messages dropped; %d reasoner failures; %d BITs (%d events) dropped "
+                 "from the catalog spool", self.messages, self.errors, self.events,
+                 self.queue_peak, self.queue.maxsize, self.dropped, self.reasoner_failures,
+                 self.spool.dropped_bits, self.spool.dropped_events)
 
     # --- work ------------------------------------------------------------------------------
     def _handle(self, item: Item) -> None:
@@ -257,17 +286,21 @@ class Service:
             self.state = "monitoring"
             self.notifier.ready(self._status_text())
             log.info("ready: backend open, first message decoded")
-        for failure in batch.failures:  # logged by the watcher
-            at = time.time_ns() if failure.abs_ns is None else failure.abs_ns
-            self._catalog(self.catalog.record_gap, at, at,
-                          f"reasoner failed on a BIT: {failure.error}")
+        for failure in batch.failures:  # its traceback logged by the watcher
+            self.reasoner_failures += 1
+            log.error("reasoner failure on a BIT of %s at bus time %.3f s: %s "
+                      "(%d reasoner failures)", failure.asset or "?", failure.bus_ns / 1e9,
+                      failure.error, self.reasoner_failures)
         if batch.outcomes:  # the events, and every BIT's effect on the fault episodes
-            ids = self._catalog(self.catalog.add_bits, batch.outcomes, batch.flights)
-            if ids:
-                self.events += len(ids)
-                for event_id, event in zip(ids, batch.events, strict=True):
-                    log.warning("event %d written: %s %s, fault %s, confidence %.2f", event_id,
-                                event.asset, "anomaly", event.fault, event.confidence)
+            self._written(self.spool.submit(batch.outcomes, batch.flights))
+
+    def _written(self, batches: list[Written]) -> None:
+        """Count and log the events of batches the catalog took."""
+        for batch in batches:
+            self.events += len(batch.ids)
+            for event_id, event in zip(batch.ids, batch.events, strict=True):
+                log.warning("event %d written: %s %s, fault %s, confidence %.2f", event_id,
+                            event.asset, "anomaly", event.fault, event.confidence)
 
     def _catalog(self, method: Any, *args: Any) -> Any:
         """A catalog write; a failure is logged and the daemon goes on."""
@@ -318,9 +351,13 @@ class Service:
         self.interval_start = end
 
     def _status_text(self) -> str:
+        held = self.spool.held_bits
         return (f"{self.state}: {self.rate:.0f} msg/s, {self.messages} messages, "
                 f"{self.errors} errors, {self.events} events, "
-                f"queue peak {self.queue_peak}/{self.queue.maxsize}")
+                f"queue peak {self.queue_peak}/{self.queue.maxsize}"
+                + (f", {self.reasoner_failures} reasoner failures"
+                   if self.reasoner_failures else "")
+                + (f", {held} BITs held for the catalog" if held else ""))
 
     def _status(self) -> None:
         now = time.monotonic()
@@ -335,13 +372,13 @@ class Service:
         """SIGHUP: new config and ICD, or the old ones kept (and the error logged)."""
         self.notifier.reloading()
         try:
-            config = load_config(self.config_path, preflight=True)
-            pipe = build_pipeline(config)
+            config = load_checked(self.config_path)
+            pipe = prepare(config)
         except (ConfigError, BackendUnavailable) as error:
             log.error("reload failed, keeping the running configuration: %s", error)
             self.notifier.notify("READY=1", f"STATUS={self._status_text()}")
             return
-        old = self.pipe.config
+        old = self.config
         if config.catalog.path != old.catalog.path:
             log.warning("catalog.path changed: takes effect at the next restart")
         if config.record != old.record:
@@ -354,7 +391,7 @@ class Service:
             pipe.resume(*self.catalog.history(config.aircraft.tail))
         except CatalogError as error:
             log.error("catalog: %s (the trends restart empty)", error)
-        self.pipe = pipe
+        self.pipe, self.config = pipe, config
         if restart:
             self._start_reader()
         log.info("reloaded %s (config %s)", self.config_path or "the defaults",

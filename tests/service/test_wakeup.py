@@ -7,7 +7,7 @@ import selectors
 import signal
 import threading
 
-from mapr_daemon.daemon.wakeup import Doorbell, SignalPipe
+from mapr_daemon.service.wakeup import Doorbell, SignalPipe
 
 
 def test_signals_arrive_in_order_through_the_pipe_and_handlers_are_restored() -> None:

@@ -1,0 +1,51 @@
+"""A BIT the reasoner fails on is a reasoner failure, counted and logged: not a monitoring
+gap (the bus was monitored all along)."""
+
+from __future__ import annotations
+
+import logging
+import sqlite3
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+
+from mapr_daemon.pipeline.pipeline import Batch, Failure
+from mapr_daemon.service.config import CatalogConfig, Config
+from mapr_daemon.service.reader import Item
+from mapr_daemon.service.service import Service
+
+
+@pytest.fixture
+def mapr_log(caplog: pytest.LogCaptureFixture) -> Iterator[pytest.LogCaptureFixture]:
+    """``caplog`` on the ``mapr`` logger itself: the daemon's logging setup, run by other
+    tests in this process, stops it propagating to the root logger caplog listens on."""
+    logger = logging.getLogger("mapr")
+    logger.addHandler(caplog.handler)
+    try:
+        yield caplog
+    finally:
+        logger.removeHandler(caplog.handler)
+
+
+def test_a_reasoner_failure_is_counted_and_logged_not_a_gap(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+        mapr_log: pytest.LogCaptureFixture) -> None:
+    path = tmp_path / "catalog.sqlite"
+    service = Service(Config(catalog=CatalogConfig(path=str(path))), None)
+    service.catalog.open_session(backend="testbed", config_hash="x")
+    failed = Batch({}, [], [], [], [Failure(3_000_000_000, None, "ValueError: bad window",
+                                            "EMA1")], True)
+    monkeypatch.setattr(service.pipe, "process", lambda records, clock: failed)
+    service.ready = True   # past the first decoded message
+    with mapr_log.at_level(logging.ERROR, logger="mapr"):
+        service._handle(Item("records"))
+        service._handle(Item("records"))
+    assert service.reasoner_failures == 2
+    assert "reasoner failure on a BIT of EMA1 at bus time 3.000 s: ValueError: bad window " \
+           "(2 reasoner failures)" in mapr_log.text
+    assert "2 reasoner failures" in service._status_text()
+    service.catalog.close("test")
+    service.doorbell.close()
+    with sqlite3.connect(path) as conn:
+        assert conn.execute("SELECT count(*) FROM gaps").fetchone()[0] == 0
