@@ -79,7 +79,9 @@ class MessageAssembler:
     def __init__(self, timing: BusTiming | None = None, *, time_tags: bool = True) -> None:
         self.timing = timing or BusTiming()
         self.time_tags = time_tags
-        """False for word cards without time tags: response times are then not judged."""
+        """False for word cards without time tags: response times are then not judged, nor
+        is a both-buses overlap (host arrival times say nothing about microseconds: under
+        load a retry on bus B arrives in the host time of the message it retried)."""
         self._pending: dict[int, WordBatch] = {0: empty_words(), 1: empty_words()}
         self._previous_end: dict[int, int | None] = {0: None, 1: None}
         self._superseded = {0: False, 1: False}
@@ -124,7 +126,7 @@ class MessageAssembler:
         bus A's then, from that index, bus B's.
 
         Each record is tested against the other bus's last 64 spans (the recent ones, then
-        this call's), as one numpy comparison per bus."""
+        this call's), as one numpy comparison per bus; not at all without time tags."""
         span = np.fromiter(chain.from_iterable(map(_SPAN, records)), dtype=np.int64,
                            count=2 * len(records)).reshape(-1, 2)
         if first_b is None:
@@ -135,6 +137,8 @@ class MessageAssembler:
         if (order[1:] < order[:-1]).any():
             records.sort(key=_BY_TIME)  # the same stable order, merged in C
             span, on_a = span[order], on_a[order]
+        if not self.time_tags:
+            return records
         t, end = span[:, 0], span[:, 1]
         spans = {}
         for bus, mine in (("A", on_a), ("B", ~on_a)):

@@ -177,6 +177,18 @@ def test_both_buses_active_at_once() -> None:
     assert all("both_buses_active" in r.errors for r in records)
 
 
+def test_without_time_tags_an_overlap_is_not_judged() -> None:
+    """A word card without time tags (the serial card) places words in host time: an overlap
+    there says nothing about the bus, as a response time says nothing (under load a retry on
+    bus B arrived in the host time of the message it retried and was flagged)."""
+    bus = Bus().cmd(5, True, 1, 2).status(5).data(1, 2)
+    bus.t = 1_000 + 30_000
+    bus.cmd(6, True, 31, 2, idle_us=0, bus=1).status(6, bus=1)
+    assembler = MessageAssembler(time_tags=False)
+    records = assembler.feed(bus.words()) + assembler.flush()
+    assert len(records) == 2 and all(r.errors == () for r in records)
+
+
 def traffic(seed: int, messages: int) -> np.ndarray:
     rng = np.random.default_rng(seed)
     bus = Bus()
