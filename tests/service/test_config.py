@@ -3,10 +3,8 @@
 from __future__ import annotations
 
 import dataclasses
-import logging
 import subprocess
 import sys
-from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -20,18 +18,6 @@ ROOT = Path(__file__).resolve().parents[2]
 ICD = ROOT / "configs" / "icd" / "ema-testbed.yaml"
 
 SHIPPED = ROOT / "configs" / "mapr.yaml"
-
-
-@pytest.fixture
-def mapr_log(caplog: pytest.LogCaptureFixture) -> Iterator[pytest.LogCaptureFixture]:
-    """``caplog`` on the ``mapr`` logger itself: the daemon's logging setup, run by other
-    tests in this process, stops it propagating to the root logger caplog listens on."""
-    logger = logging.getLogger("mapr")
-    logger.addHandler(caplog.handler)
-    try:
-        yield caplog
-    finally:
-        logger.removeHandler(caplog.handler)
 
 
 def test_shipped_config_is_the_defaults() -> None:

@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import logging
 import sqlite3
-from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -14,18 +13,6 @@ from mapr_daemon.pipeline.pipeline import Batch, Failure
 from mapr_daemon.service.config import CatalogConfig, Config
 from mapr_daemon.service.reader import Item
 from mapr_daemon.service.service import Service
-
-
-@pytest.fixture
-def mapr_log(caplog: pytest.LogCaptureFixture) -> Iterator[pytest.LogCaptureFixture]:
-    """``caplog`` on the ``mapr`` logger itself: the daemon's logging setup, run by other
-    tests in this process, stops it propagating to the root logger caplog listens on."""
-    logger = logging.getLogger("mapr")
-    logger.addHandler(caplog.handler)
-    try:
-        yield caplog
-    finally:
-        logger.removeHandler(caplog.handler)
 
 
 def test_a_reasoner_failure_is_counted_and_logged_not_a_gap(

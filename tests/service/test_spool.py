@@ -57,18 +57,6 @@ def stored(path: str) -> list[int]:
         return [row[0] for row in conn.execute("SELECT t_ns FROM events ORDER BY id")]
 
 
-@pytest.fixture
-def mapr_log(caplog: pytest.LogCaptureFixture) -> Iterator[pytest.LogCaptureFixture]:
-    """``caplog`` on the ``mapr`` logger itself: the daemon's logging setup, run by other
-    tests in this process, stops it propagating to the root logger caplog listens on."""
-    logger = logging.getLogger("mapr")
-    logger.addHandler(caplog.handler)
-    try:
-        yield caplog
-    finally:
-        logger.removeHandler(caplog.handler)
-
-
 def test_writes_held_while_the_catalog_is_locked_arrive_once_in_order(
         writer: CatalogWriter, mapr_log: pytest.LogCaptureFixture) -> None:
     clock = Clock()
