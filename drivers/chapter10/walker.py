@@ -136,12 +136,14 @@ class PacketWalker:
     """
 
     def __init__(self, path: str | Path, data_types: frozenset[int] | None = None,
-                 raw_types: frozenset[int] = frozenset()) -> None:
+                 raw_types: frozenset[int] = frozenset(), name: str | None = None) -> None:
         self.path = Path(path)
+        self.name = str(self.path) if name is None else name
+        """What messages call the input (``stdin`` for a stream spooled to ``path``)."""
         try:
             self._file: BinaryIO = self.path.open("rb")
         except OSError as error:
-            raise CaptureFormatError(f"{self.path}: cannot open: {error.strerror}") from error
+            raise CaptureFormatError(f"{self.name}: cannot open: {error.strerror}") from error
         self.size = self.path.stat().st_size
         self.position = 0
         self.data_types = data_types
@@ -154,6 +156,9 @@ class PacketWalker:
         """Valid packet headers met (of any type)."""
         self.first_rtc: int | None = None
         """The relative time counter of the file's first valid packet."""
+        self.types_seen: dict[int, set[int]] = {}
+        """Data type -> channel IDs of the whole packets met so far (read or passed over):
+        what the recording holds, for saying so when it holds nothing asked for."""
 
     def close(self) -> None:
         self._file.close()
@@ -204,6 +209,7 @@ class PacketWalker:
                 continue
             pos = next_pos
             self.position = pos
+            self.types_seen.setdefault(header.data_type, set()).add(header.channel_id)
             if self.data_types is not None and header.data_type not in self.data_types:
                 continue
             handler = TYPES.get(header.data_type)
