@@ -133,3 +133,32 @@ def test_errors_on_stdin_name_stdin(tmp_path: Path) -> None:
     cut.write_bytes(path.read_bytes()[:-100])
     run = _mapr("decode", "-", stdin=cut)
     assert "mapr decode: stdin: offset" in run.stderr
+
+
+def _cut_recording(tmp_path: Path, cut_packet: int) -> tuple[Path, int]:
+    """Ten packets of 81 messages on channel 3; packet ``cut_packet`` (-1: the last) cut 7
+    bytes into its 42nd message, the packets after it kept. Returns the file and the offset
+    of the cut packet."""
+    records = _records(3)[:810]
+    packets = [ms1553_packet(3, i, records[i * 81:(i + 1) * 81]) for i in range(10)]
+    message_bytes = 14 + 2 * (WC + 2)
+    index = cut_packet % 10
+    packets[index] = packets[index][:24 + 4 + 41 * message_bytes + 7]
+    head = _packets([])
+    offset = sum(map(len, head + packets[:index]))
+    return _write(tmp_path / "cut.c10", head + packets), offset
+
+
+@pytest.mark.parametrize("where", [-1, 4], ids=["end of file", "mid-file"])
+def test_a_cut_packet_keeps_every_whole_message(tmp_path: Path, where: int) -> None:
+    path, offset = _cut_recording(tmp_path, where)
+    reader = Chapter10Reader(path)
+    out = sum(len(batch.records) for batch in reader)
+    assert out == 9 * 81 + 41   # pychapter10 stops at the cut packet's start
+    assert len(reader.issues) == 1
+    issue = reader.issues[0]
+    assert issue.offset == offset
+    assert "cut short" in issue.text and "41 whole 1553 messages" in issue.text
+    run = _mapr("decode", str(path), "--text")
+    assert run.stdout.count("\n") == 1 + 9 * 81 + 41
+    assert run.stderr.count("\n") == 1 and f"offset {offset}:" in run.stderr
