@@ -22,7 +22,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import numpy.typing as npt
@@ -31,8 +31,11 @@ from drivers.mil1553.modecodes import MODE_CODES
 from drivers.mil1553.record import MESSAGE_ERROR_NAMES, MonitorRecord
 from drivers.mil1553.wordbatch import WORD_TIME_NS
 
+if TYPE_CHECKING:
+    from drivers.chapter10.ms1553_batch import Ms1553Batch
+
 __all__ = ["ERROR_CLASSES", "KEYS", "RecordArrays", "RtSaRow", "TrafficStatistics",
-           "WindowLoad", "key_of_command", "record_arrays"]
+           "WindowLoad", "batch_arrays", "key_of_command", "record_arrays"]
 
 ERROR_CLASSES: tuple[str, ...] = (*MESSAGE_ERROR_NAMES, "other")
 """Error classes counted; a name the record module does not list counts as ``other``."""
@@ -89,6 +92,29 @@ def record_arrays(records: Sequence[MonitorRecord]) -> RecordArrays:
         gap1=col([r.gaps_ns[1] if len(r.gaps_ns) > 1 else -1 for r in records]),
         errors=col([_mask(r.errors) if r.errors else 0 for r in records]),
     )
+
+
+_BUS_NAMES = np.asarray(["A", "B"], dtype=np.str_)
+
+
+def batch_arrays(batch: Ms1553Batch) -> RecordArrays:
+    """The columns of a Chapter 10 batch, straight from its arrays (no record objects): the
+    same values :func:`record_arrays` gives for ``batch.records()``. The batch's error bits
+    are over :data:`~drivers.mil1553.record.MESSAGE_ERROR_NAMES`, the first bits of
+    :data:`ERROR_CLASSES`, so they carry over as they are."""
+    n_status = batch.n_status
+    gaps = batch.gaps_ns
+    width = gaps.shape[1] if gaps.ndim == 2 else 0
+    gap0 = np.where(n_status > 0, gaps[:, 0], -1) if width > 0 else np.full(len(batch), -1)
+    gap1 = np.where(n_status > 1, gaps[:, 1], -1) if width > 1 else np.full(len(batch), -1)
+    return RecordArrays(
+        t_ns=batch.t_ns.astype(np.int64, copy=False),
+        bus=_BUS_NAMES[batch.bus.astype(np.int64)],
+        command=batch.command.astype(np.int64, copy=False),
+        command2=batch.command2.astype(np.int64, copy=False),
+        words=(1 + (batch.command2 >= 0) + batch.data_count + n_status).astype(np.int64),
+        gap0=gap0.astype(np.int64, copy=False), gap1=gap1.astype(np.int64, copy=False),
+        errors=batch.errors.astype(np.int64, copy=False))
 
 
 @dataclass(frozen=True, slots=True)

@@ -85,7 +85,10 @@ def walk_packet(item: RawPacket, parts: Parts, found: list[ReadIssue], timebase:
     start = HEADER_BYTES + (SECONDARY_HEADER_BYTES if header.secondary_header else 0)
     csdw = int.from_bytes(item.raw[start:start + 4], "little")
     count = csdw & 0xFFFFFF
-    body = np.frombuffer(item.raw, np.uint8, header.data_length - 4, start + 4)
+    held = header.data_length - 4
+    if item.cut:   # only the bytes before the cut, an even number (messages are 16-bit)
+        held = max(0, min(held, len(item.raw) - start - 4)) & ~1
+    body = np.frombuffer(item.raw, np.uint8, held, start + 4)
     size = body.size
     half = np.frombuffer(item.raw, "<u2", size // 2, start + 4).astype(np.uint16, copy=False)
     at = np.asarray(_chain(half.data, size, count), np.int64)
@@ -102,6 +105,8 @@ def walk_packet(item: RawPacket, parts: Parts, found: list[ReadIssue], timebase:
                                                "are not supported; the packet's time is used"))
     for number in np.flatnonzero(cut | bad).tolist():
         n_bytes = int(length[number])
+        if cut[number] and item.cut:
+            continue   # the packet's cut, reported once below
         if cut[number]:
             held = size - int(at[number]) - IPH_BYTES
             issues.append(ReadIssue(header.offset, f"1553 message {number + 1} cut short "
@@ -113,7 +118,11 @@ def walk_packet(item: RawPacket, parts: Parts, found: list[ReadIssue], timebase:
                                                    "skipped"))
     keep = ~(cut | bad)
     kept = int(np.count_nonzero(keep))
-    if kept < count and not issues and not (at.size and cut[-1]):
+    if item.cut:
+        issues.append(ReadIssue(header.offset, f"{item.cut}: the {kept} whole 1553 messages "
+                                               f"before the cut read, {count - kept} of the "
+                                               f"{count} it announces lost"))
+    elif kept < count and not issues and not (at.size and cut[-1]):
         issues.append(ReadIssue(header.offset, f"1553 packet announces {count} messages "
                                                f"but holds {kept}"))
     found += issues

@@ -76,12 +76,15 @@ class Chapter10Reader:
 
     def __init__(self, path: str | Path, *, channels: Collection[int] | None = None,
                  arinc429: bool = True, year: int | None = None,
-                 timing: BusTiming | None = None, batched: bool = True) -> None:
+                 timing: BusTiming | None = None, batched: bool = True,
+                 name: str | None = None) -> None:
         types = {TIME_F1, MS1553_F1} | ({ARINC429_F0} if arinc429 else set())
         self.batched = batched
         self.walker = PacketWalker(path, frozenset(types),
-                                   frozenset({MS1553_F1}) if batched else frozenset())
+                                   frozenset({MS1553_F1}) if batched else frozenset(), name)
         self.path = self.walker.path
+        self.name = self.walker.name
+        """What messages call the input: the path, or ``stdin`` for a spooled stream."""
         self.channels = None if channels is None else frozenset(channels)
         self.timebase = Timebase(year)
         self.timing = timing
@@ -90,6 +93,7 @@ class Chapter10Reader:
         """1553 channel IDs met so far (read or not)."""
         self.arinc429_channels_seen: set[int] = set()
         """ARINC 429 channel IDs met so far (read or not)."""
+
 
     @property
     def issues(self) -> list[ReadIssue]:
@@ -191,5 +195,5 @@ class Chapter10Reader:
             if done is not None:
                 yield done
         if self.walker.headers_seen == 0:
-            raise CaptureFormatError(f"{self.path}: not a Chapter 10 file (no valid packet "
+            raise CaptureFormatError(f"{self.name}: not a Chapter 10 file (no valid packet "
                                      "header found)")

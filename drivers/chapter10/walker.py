@@ -126,6 +126,12 @@ class RawPacket:
     packet: Any
     """The pychapter10 packet object (``MS1553F1``, ``TimeF1``, ``ARINC429F0`` ...); None
     for the walker's ``raw_types``."""
+    cut: str = ""
+    """Where and how a packet of the ``raw_types`` was cut short ("" for a whole packet):
+    ``raw`` then holds only the bytes up to the cut (the end of the file, or the next packet
+    header), and its reader keeps every message wholly before the cut and reports the cut
+    once. No data checksum vouches for such a packet; its headers and lengths still must
+    agree."""
 
 
 class PacketWalker:
@@ -136,12 +142,14 @@ class PacketWalker:
     """
 
     def __init__(self, path: str | Path, data_types: frozenset[int] | None = None,
-                 raw_types: frozenset[int] = frozenset()) -> None:
+                 raw_types: frozenset[int] = frozenset(), name: str | None = None) -> None:
         self.path = Path(path)
+        self.name = str(self.path) if name is None else name
+        """What messages call the input (``stdin`` for a stream spooled to ``path``)."""
         try:
             self._file: BinaryIO = self.path.open("rb")
         except OSError as error:
-            raise CaptureFormatError(f"{self.path}: cannot open: {error.strerror}") from error
+            raise CaptureFormatError(f"{self.name}: cannot open: {error.strerror}") from error
         self.size = self.path.stat().st_size
         self.position = 0
         self.data_types = data_types
@@ -154,6 +162,9 @@ class PacketWalker:
         """Valid packet headers met (of any type)."""
         self.first_rtc: int | None = None
         """The relative time counter of the file's first valid packet."""
+        self.types_seen: dict[int, set[int]] = {}
+        """Data type -> channel IDs of the whole packets met so far (read or passed over):
+        what the recording holds, for saying so when it holds nothing asked for."""
 
     def close(self) -> None:
         self._file.close()
@@ -184,6 +195,16 @@ class PacketWalker:
             if len(raw) < header.packet_length:
                 # a cut last packet, or a damaged length: a valid header further on says which
                 following = self._next_header(pos + HEADER_BYTES)
+                where = ("at the end of the file" if following >= self.size else
+                         f"by the packet header at offset {following}")
+                kept = self._cut(header, raw[:following - pos], where)
+                if kept is not None:
+                    yield kept
+                    if following >= self.size:
+                        self.position = self.size
+                        return
+                    pos = following
+                    continue
                 if following < self.size:
                     self._issue(pos, f"packet length {header.packet_length} runs past the end "
                                      f"of the file, but a packet header follows at offset "
@@ -198,12 +219,21 @@ class PacketWalker:
                 return
             next_pos = pos + header.packet_length
             if not _data_checksum_ok(header, raw):
+                following = self._next_header(pos + HEADER_BYTES)  # it may be a cut packet
+                if following < next_pos:
+                    kept = self._cut(header, raw[:following - pos],
+                                     f"by the packet header at offset {following}")
+                    if kept is not None:
+                        yield kept
+                        pos = following
+                        continue
                 self._issue(pos, f"data checksum mismatch (type 0x{header.data_type:02X}, "
                                  f"channel {header.channel_id}); packet skipped")
-                pos = self._next_header(pos + HEADER_BYTES)  # it may be a cut packet
+                pos = following
                 continue
             pos = next_pos
             self.position = pos
+            self.types_seen.setdefault(header.data_type, set()).add(header.channel_id)
             if self.data_types is not None and header.data_type not in self.data_types:
                 continue
             handler = TYPES.get(header.data_type)
@@ -235,6 +265,20 @@ class PacketWalker:
                 continue
             self.packets_read += 1
             yield RawPacket(header, raw, packet)
+
+    def _cut(self, header: Header, raw: bytes, where: str) -> RawPacket | None:
+        """A packet cut short ``where`` as a :attr:`RawPacket.cut` one, when it is of the
+        ``raw_types`` (whose reader keeps its whole messages) and holds its
+        channel-specific word; None otherwise (the caller skips and reports it)."""
+        body = HEADER_BYTES + CSDW_BYTES
+        if (header.data_type not in self.raw_types or header.secondary_header
+                or len(raw) < body or header.data_length < CSDW_BYTES):
+            return None
+        self.packets_read += 1
+        self.types_seen.setdefault(header.data_type, set()).add(header.channel_id)
+        return RawPacket(header, raw, None, cut=(
+            f"packet (type 0x{header.data_type:02X}, channel {header.channel_id}) cut short "
+            f"{where} ({len(raw)} of {header.packet_length} bytes)"))
 
     def _issue(self, offset: int, text: str) -> None:
         self.issues.append(ReadIssue(offset, text))

@@ -72,8 +72,9 @@ def test_a_packet_cut_short_mid_file_loses_only_itself(c10: Any, tmp_path: Path)
     path.write_bytes(a + b[:30] + c)
     data, issues = read(path)
     assert data == [0x100, 0x102]
-    assert issues == [f"offset {len(a)}: data checksum mismatch (type 0x19, channel 1); "
-                      "packet skipped"]
+    assert issues == [f"offset {len(a)}: packet (type 0x19, channel 1) cut short by the "
+                      f"packet header at offset {len(a) + 30} (30 of {len(b)} bytes): the 0 "
+                      "whole 1553 messages before the cut read, 1 of the 1 it announces lost"]
 
 
 def test_a_truncated_last_packet_is_reported(c10: Any, tmp_path: Path) -> None:
@@ -82,8 +83,9 @@ def test_a_truncated_last_packet_is_reported(c10: Any, tmp_path: Path) -> None:
     path.write_bytes(a + b + c[:-8])
     data, issues = read(path)
     assert data == [0x100, 0x101]
-    assert issues == [f"offset {len(a) + len(b)}: truncated packet (type 0x19, "
-                      f"{len(c) - 8} of {len(c)} bytes at the end of the file)"]
+    assert issues == [f"offset {len(a) + len(b)}: packet (type 0x19, channel 1) cut short "
+                      f"at the end of the file ({len(c) - 8} of {len(c)} bytes): the 0 whole "
+                      "1553 messages before the cut read, 1 of the 1 it announces lost"]
     path.write_bytes(a + b + c[:10])
     assert read(path)[1] == [f"offset {len(a) + len(b)}: truncated packet header (10 bytes at "
                              "the end of the file)"]

@@ -117,7 +117,7 @@ def test_a_chapter10_channel_not_in_the_recording_is_exit_65_listing_those_that_
                                     status=(5 << 11,), end_ns=1_000_000 * i + 60_000)
                       for i in range(1, 3)])
     line = one_line(mapr("decode", str(recording), "--c10-channel", "99"), 65,
-                    "channel 99 not in the recording", "1553 3")
+                    "channel 99 not in the recording", "1553 channel 3")
     assert line.startswith(f"mapr decode: {recording}")
     kept = mapr("decode", str(recording), "--c10-channel", "3")
     assert kept.returncode == 0 and len(kept.stdout.splitlines()) == 2

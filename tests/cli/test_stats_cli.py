@@ -26,23 +26,23 @@ def test_decode_stats_counts_every_message_of_the_sample_recording() -> None:
         pytest.skip(f"the sample Chapter 10 recording is not at {SAMPLE}")
     messages = mapr("decode", str(SAMPLE))
     assert messages.returncode == 0, messages.stderr
-    expected: Counter[tuple[int, str, int, int | None]] = Counter()
-    errors: Counter[tuple[int, str, int, int | None]] = Counter()
+    expected: Counter[tuple[int, int, str, int, int | None]] = Counter()
+    errors: Counter[tuple[int, int, str, int, int | None]] = Counter()
     for line in messages.stdout.splitlines():
         m = json.loads(line)
         if m.get("kind") == "arinc429" or "rt" not in m:
             continue
-        key = (m["rt"], m["tr"], m["sa"], m.get("mode_code"))
+        key = (m["channel"], m["rt"], m["tr"], m["sa"], m.get("mode_code"))
         expected[key] += 1
         errors[key] += len(m["errors"])
         if "rt2" in m:
-            expected[(m["rt2"], "T", m["sa2"], None)] += 1
+            expected[(m["channel"], m["rt2"], "T", m["sa2"], None)] += 1
     result = mapr("decode", str(SAMPLE), "--stats", "json")
     assert result.returncode == 0, result.stderr
     lines = [json.loads(x) for x in result.stdout.splitlines()]
     rows = [x for x in lines if x["kind"] == "rtsa"]
-    got = Counter({(r["rt"], r["tr"], r["sa"], r.get("mode_code")): r["messages"]
-                   for r in rows})
+    got = Counter({(r["channel"], r["rt"], r["tr"], r["sa"], r.get("mode_code")):
+                   r["messages"] for r in rows})   # each 1553 channel a bus of its own
     assert got == expected
     assert sum(sum(r["errors"].values()) for r in rows) == sum(errors.values()) > 0
     loads = [x for x in lines if x["kind"] == "bus_load"]

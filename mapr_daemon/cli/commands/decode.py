@@ -101,9 +101,9 @@ def run(args: argparse.Namespace) -> int:
 
     # imported here, not at the top, so that `mapr decode --help` starts at once; the
     # bit-level decoder (numba kernels) only for a capture, not for a Chapter 10 file
-    from drivers.chapter10.walker import looks_like_chapter10
     from mapr_daemon.cli.icdview.view import IcdView
     from mapr_daemon.cli.traffic.decode_filter import FilterError, filter_from_args
+    from mapr_daemon.cli.traffic.source import chapter10_input
 
     try:
         wanted = filter_from_args(args)
@@ -119,8 +119,9 @@ def run(args: argparse.Namespace) -> int:
               file=sys.stderr)
         return exitcodes.USAGE
     view = IcdView(args.icd)
-    if args.capture != "-" and looks_like_chapter10(args.capture):
-        return chapter10_decode.decode_chapter10(args, view, wanted)
+    found = chapter10_input(args.capture)
+    if found is not None:
+        return chapter10_decode.decode_chapter10(args, view, wanted, source=found)
     from drivers.backends.capture import check_capture_file
     from drivers.capturefile import open_capture
     from drivers.errors import CaptureFormatError

@@ -14,6 +14,7 @@ With a filter (``--rt``, ``--sa``, ``--tr``, ``--format``, ``--errors``, ``--err
 batch; see :mod:`.decode_filter` and :mod:`.decode_text`).
 
 Damaged packets are skipped and named on stderr with their file offset; decoding goes on.
+With ``--text`` a ``ch`` column gives each message's channel (each 1553 channel is a bus).
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ import sys
 from typing import TYPE_CHECKING, TextIO
 
 from mapr_daemon.cli import exitcodes
+from mapr_daemon.cli.traffic.source import Chapter10Input, add_c10_channel_argument, what_it_holds
 from mapr_daemon.cli.validate import bounded_int
 
 if TYPE_CHECKING:
@@ -44,19 +46,18 @@ at once (a few tens of MB at this size)."""
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """The options that apply to Chapter 10 files only."""
     group = parser.add_argument_group("Chapter 10 recordings")
-    group.add_argument("--c10-channel", type=bounded_int(1, 0xFFFF, "channel ID"),
-                       action="append", dest="c10_channels",
-                       metavar="ID", help="read only this channel ID (repeat for more; "
-                                          "default: every 1553 and ARINC 429 channel)")
+    add_c10_channel_argument(group, "read only this channel ID (repeat for more; default: "
+                                    "every 1553 and ARINC 429 channel)")
     group.add_argument("--year", type=bounded_int(1970, 2199, "year"), default=None,
                        help="year of day-of-year time packets (for the absolute 'time')")
 
 
 def decode_chapter10(args: argparse.Namespace, view: IcdView,
                      wanted: DecodeFilter | None = None, out: TextIO | None = None,
-                     err: TextIO | None = None) -> int:
+                     err: TextIO | None = None, source: Chapter10Input | None = None) -> int:
     """Print the file's 1553 messages (those ``wanted`` keeps; all by default) and ARINC
-    429 words (not with a filter or ``--text``); issues go to ``err``."""
+    429 words (not with a filter or ``--text``); issues go to ``err``. ``source``: the
+    recording as found (a stream spooled, named ``stdin``); default ``args.capture``."""
     out = out or sys.stdout
     err = err or sys.stderr
     if args.words:
@@ -66,16 +67,20 @@ def decode_chapter10(args: argparse.Namespace, view: IcdView,
     from drivers.chapter10.ms1553_json import json_lines
     from drivers.chapter10.reader import Chapter10Reader
     from mapr_daemon.cli.traffic.decode_filter import DecodeFilter
-    from mapr_daemon.cli.traffic.decode_text import HEADER, text_lines
+    from mapr_daemon.cli.traffic.decode_text import CHANNEL_HEADER, text_lines
     wanted = wanted or DecodeFilter()
     text = bool(getattr(args, "text", False))
     only_1553 = wanted.active or text
-    reader = Chapter10Reader(args.capture, channels=args.c10_channels, year=args.year,
-                             arinc429=not only_1553)
+    source = source or Chapter10Input(args.capture, args.capture)
+    try:
+        reader = Chapter10Reader(source.path, channels=args.c10_channels, year=args.year,
+                                 arinc429=not only_1553, name=source.name)
+    finally:
+        source.done_opening()
     reported = 0
     batch_values: BatchValues | None = None
     if text:
-        out.write(HEADER)
+        out.write(CHANNEL_HEADER)
     try:
         for batch in reader.batches(BATCH_MESSAGES):
             messages = batch.ms1553
@@ -83,7 +88,7 @@ def decode_chapter10(args: argparse.Namespace, view: IcdView,
                 messages = messages.take(wanted.mask(messages))
             lines: list[str] = []
             if messages is not None and text:
-                lines = text_lines(messages)
+                lines = text_lines(messages, channel=True)
             elif messages is not None:
                 values = None
                 if view.icd is not None:   # the table code only when there is a table
@@ -107,25 +112,12 @@ def decode_chapter10(args: argparse.Namespace, view: IcdView,
         reader.close()
     _report(reader, reported, err)
     out.flush()
-    return _missing_channels(args.c10_channels, reader, err)
-
-
-def _missing_channels(wanted: list[int] | None, reader: Chapter10Reader, err: TextIO) -> int:
-    """Exit code 65 and one line when a ``--c10-channel`` is not in the recording (saying
-    which are), so a typo is not an empty decode; 0 otherwise."""
-    seen = reader.channels_seen | reader.arinc429_channels_seen
-    absent = sorted(set(wanted or ()) - seen)
-    if not absent:
-        return exitcodes.OK
-    held = "; ".join(f"{kind} {', '.join(map(str, sorted(ids)))}" for kind, ids in (
-        ("1553", reader.channels_seen), ("ARINC 429", reader.arinc429_channels_seen)) if ids)
-    err.write(f"mapr decode: {reader.path}: channel {', '.join(map(str, absent))} not in the "
-              f"recording (its channels: {held or 'none'})\n")
-    return exitcodes.DATAERR
+    return what_it_holds(reader, args.c10_channels, "mapr decode", err=err,
+                         other_data=not only_1553)
 
 
 def _report(reader: Chapter10Reader, reported: int, err: TextIO) -> int:
     issues = reader.issues
     for issue in issues[reported:]:
-        err.write(f"mapr decode: {reader.path}: {issue}\n")
+        err.write(f"mapr decode: {reader.name}: {issue}\n")
     return len(issues)

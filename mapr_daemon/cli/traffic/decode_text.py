@@ -21,6 +21,10 @@ from drivers.mil1553.words import MODE_SUBADDRESSES
 
 HEADER = f"{'time_s':>12} bus {'format':<18} {'RT-SA':<11} T/R {'wc':>3} {'status':<9} " \
          "data / errors\n"
+CHANNEL_HEADER = f"{'time_s':>12} {'ch':>5} bus {'format':<18} {'RT-SA':<11} T/R {'wc':>3} " \
+                 f"{'status':<9} data / errors\n"
+"""The header of a Chapter 10 recording's lines: ``ch``, the channel ID, after the time
+(each 1553 channel is a bus of its own; a capture has one, and no column)."""
 _HEX = [f"{i:04X}" for i in range(1 << 16)]
 
 
@@ -39,10 +43,14 @@ def _row(t_ns: int, bus: str, fmt: str, command: int, command2: int, status: lis
     return line.rstrip() + "\n"
 
 
-def text_lines(batch: Ms1553Batch) -> list[str]:
-    """The batch's messages, one line each."""
+def text_lines(batch: Ms1553Batch, *, channel: bool = False) -> list[str]:
+    """The batch's messages, one line each (``channel``: with the channel column of
+    :data:`CHANNEL_HEADER` after the time)."""
     words = batch.words.tolist()
     kept = batch.n_status.tolist()
+    if channel:
+        return [f"{line[:12]} {ch:>5}{line[12:]}" for line, ch in zip(
+            text_lines(batch), batch.channel.tolist(), strict=True)]
     return [_row(t, "B" if bus else "A", str(FORMATS[fmt]), cmd, cmd2, status[:k],
                  words[start:start + count], error_names(errors))
             for t, bus, fmt, cmd, cmd2, status, k, start, count, errors in zip(

@@ -10,15 +10,20 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 import time
 from collections.abc import Iterator, Sequence
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, TextIO
 
+from mapr_daemon.cli import exitcodes
+
 if TYPE_CHECKING:   # imported where used: registering the subcommands stays light
+    from drivers.chapter10.reader import Chapter10Reader
     from drivers.mil1553.record import MonitorRecord
     from drivers.monitor import BusMonitor
-    from drivers.rtstats import TrafficStatistics
+    from drivers.rtstats import RecordArrays, TrafficStatistics
 
 BATCH = 4096
 """Records per batch read from a live backend."""
@@ -33,6 +38,150 @@ def positive_seconds(text: str) -> float:
     if not value > 0:
         raise argparse.ArgumentTypeError(f"must be above 0 s, got {text}")
     return value
+
+
+def add_c10_channel_argument(parser: Any, help_text: str = "read only this 1553 channel ID "
+                             "(repeat for more; default: every channel)") -> None:
+    """``--c10-channel ID`` (repeatable, into ``args.c10_channels``): the one option every
+    command that reads a Chapter 10 recording takes to pick its buses."""
+    from mapr_daemon.cli.validate import bounded_int
+
+    parser.add_argument("--c10-channel", type=bounded_int(1, 0xFFFF, "channel ID"),
+                        action="append", dest="c10_channels", metavar="ID", help=help_text)
+
+
+@dataclass(frozen=True, slots=True)
+class Chapter10Input:
+    """A Chapter 10 recording to read: ``path`` is a file (for a stream, a spooled copy the
+    reader opens and :meth:`done_opening` removes), ``name`` what messages call it (the path
+    given, or ``stdin``)."""
+
+    path: str
+    name: str
+    spooled: bool = False
+
+    def done_opening(self) -> None:
+        """Remove a spooled copy once the reader holds it open (it reads on from the open
+        file; nothing is left behind whatever happens next)."""
+        if self.spooled:
+            os.unlink(self.path)
+
+
+def chapter10_input(path: str) -> Chapter10Input | None:
+    """``path`` as a Chapter 10 input, or None when it is not one (then it is a capture).
+
+    A regular file is recognised by :func:`~drivers.chapter10.walker.looks_like_chapter10`.
+    ``-`` (stdin) is peeked at: when its first bytes are a valid packet header (sync pattern
+    0xEB25) it is spooled to a temporary file, since the reader seeks to resynchronize after
+    damage; otherwise it is left unread for the capture path. A pipe or device named by path
+    (``/dev/stdin``, a FIFO) cannot be peeked at: it is spooled, then recognised. Raises
+    :class:`~drivers.errors.CaptureFormatError` naming the input when it cannot be read."""
+    import stat
+
+    from drivers.chapter10.walker import HEADER_BYTES, Header, looks_like_chapter10, parse_header
+    from drivers.errors import CaptureFormatError
+
+    if path == "-":
+        stream = sys.stdin.buffer
+        try:
+            head = stream.peek(HEADER_BYTES)[:HEADER_BYTES] if hasattr(stream, "peek") else b""
+        except OSError as error:
+            raise CaptureFormatError(f"stdin: cannot read: {error.strerror or error}") from error
+        if len(head) < HEADER_BYTES or not isinstance(parse_header(head, 0), Header):
+            return None
+        return _spool(stream, "stdin")
+    try:
+        mode = os.stat(path).st_mode
+    except OSError:
+        return None   # the capture path says it is not there, naming it
+    if stat.S_ISREG(mode):
+        return Chapter10Input(path, path) if looks_like_chapter10(path) else None
+    try:
+        with open(path, "rb") as stream:
+            spooled = _spool(stream, path)
+    except OSError as error:
+        raise CaptureFormatError(f"{path}: cannot read: {error.strerror or error}") from error
+    if looks_like_chapter10(spooled.path):
+        return spooled
+    spooled.done_opening()   # read once, gone: a raw capture streams on '-' instead
+    raise CaptureFormatError(f"{path}: not a Chapter 10 stream (no packet header at its "
+                             "start); a raw capture streams on '-'")
+
+
+def _spool(stream: Any, name: str) -> Chapter10Input:
+    """Copy a stream to a temporary file (the reader seeks; a pipe cannot)."""
+    import shutil
+    import tempfile
+
+    from drivers.errors import CaptureFormatError
+
+    with tempfile.NamedTemporaryFile("wb", prefix="mapr-c10-", suffix=".c10",
+                                     delete=False) as copy:
+        try:
+            shutil.copyfileobj(stream, copy, 1 << 20)
+        except OSError as error:
+            copy.close()
+            os.unlink(copy.name)
+            raise CaptureFormatError(f"{name}: cannot read: {error.strerror or error}"
+                                     ) from error
+    return Chapter10Input(copy.name, name, spooled=True)
+
+
+def open_chapter10(path: str, channels: Sequence[int] | None, year: int | None, *,
+                   arinc429: bool = False) -> Chapter10Reader | None:
+    """A reader of ``path`` when it is a Chapter 10 recording (a file, ``-`` or a pipe),
+    else None (a capture). The reader's ``name`` is what messages call the input."""
+    from drivers.chapter10.reader import Chapter10Reader
+
+    found = chapter10_input(path)
+    if found is None:
+        return None
+    try:
+        return Chapter10Reader(found.path, channels=channels, year=year, arinc429=arinc429,
+                               name=found.name)
+    finally:
+        found.done_opening()
+
+
+_TYPE_NAMES = {0x01: "TMATS", 0x11: "time", 0x19: "1553", 0x38: "ARINC 429"}
+
+
+def holdings(reader: Chapter10Reader) -> str:
+    """What the recording held, by packet type and channel: ``TMATS channel 0; time channel
+    2; video (0x40) channels 3, 4`` (``nothing readable`` when no whole packet was met)."""
+    from chapter10.c10 import TYPES
+
+    parts = []
+    for data_type, ids in sorted(reader.walker.types_seen.items()):
+        name = _TYPE_NAMES.get(data_type)
+        if name is None:
+            handler = TYPES.get(data_type)
+            name = f"{handler.__name__ if handler else 'type'} (0x{data_type:02X})"
+        word = "channel" if len(ids) == 1 else "channels"
+        parts.append(f"{name} {word} {', '.join(map(str, sorted(ids)))}")
+    return "; ".join(parts) or "nothing readable"
+
+
+def what_it_holds(reader: Chapter10Reader, wanted: Sequence[int] | None, prog: str, *,
+                  err: TextIO | None = None, other_data: bool = False) -> int:
+    """Exit code 65 and one line when a recording held no 1553 data, or none on an asked
+    ``--c10-channel``, naming what it does hold (packet types and channels), so an empty
+    output is never mistaken for a quiet bus; 0 otherwise. ``other_data``: the command also
+    read ARINC 429 words, so a channel of those counts as there."""
+    err = err or sys.stderr
+    have = set(reader.channels_seen)
+    if other_data:
+        have |= reader.arinc429_channels_seen
+    absent = sorted(set(wanted or ()) - have)
+    if absent:
+        err.write(f"{prog}: {reader.name}: channel {', '.join(map(str, absent))} not in the "
+                  f"recording (it holds: {holdings(reader)})\n")
+        return exitcodes.DATAERR
+    if not reader.channels_seen and not (other_data and reader.arinc429_channels_seen):
+        err.write(f"{prog}: {reader.name}: no MIL-STD-1553 data in the recording (it holds: "
+                  f"{holdings(reader)})\n")
+        return exitcodes.DATAERR
+    return exitcodes.OK
 
 
 def file_batches(path: str, *, samplerate: float | None = None,
@@ -66,6 +215,37 @@ def file_batches(path: str, *, samplerate: float | None = None,
     for chunk in source.chunks:
         yield pipeline.feed(chunk)
     yield pipeline.flush()
+
+
+def channel_arrays(reader: Chapter10Reader, err: TextIO | None = None, prog: str = "mapr"
+                   ) -> Iterator[tuple[int, RecordArrays]]:
+    """A Chapter 10 recording's 1553 messages as statistics columns, one channel at a time:
+    (channel ID, columns) per channel of each batch. Each 1553 channel of a recording is a
+    bus of its own, so its messages are counted apart (merging them would add the loads of
+    eight buses into one and multiply every rate by the number of channels carrying it).
+    Stays in numpy: no record objects. Damaged packets are named on ``err`` as they come."""
+    import numpy as np
+
+    from drivers.rtstats import batch_arrays
+
+    err = err or sys.stderr
+    reported = 0
+    try:
+        for batch in reader.batches():
+            messages = batch.ms1553
+            if messages is not None and len(messages):
+                ids = np.unique(messages.channel)
+                for channel in ids.tolist():
+                    part = messages if ids.size == 1 else messages.take(
+                        messages.channel == channel)
+                    yield int(channel), batch_arrays(part)
+            for issue in reader.issues[reported:]:
+                err.write(f"{prog}: {reader.path}: {issue}\n")
+            reported = len(reader.issues)
+    finally:
+        reader.close()
+    for issue in reader.issues[reported:]:
+        err.write(f"{prog}: {reader.path}: {issue}\n")
 
 
 def backend_batches(backend: str, options: dict[str, Any], *, count: int | None,
@@ -112,15 +292,41 @@ def print_stats(stats: TrafficStatistics, *, as_json: bool, out: TextIO) -> None
         out.write(stats.table() + "\n")
 
 
-def run_decode_stats(args: Any) -> int:
-    """``mapr decode FILE --stats [text|json]``: statistics instead of the messages."""
-    from drivers.rtstats import TrafficStatistics
-    from mapr_daemon.cli import exitcodes
+def print_channel_stats(per_channel: dict[int, TrafficStatistics], *, as_json: bool,
+                        out: TextIO) -> None:
+    """Statistics of a Chapter 10 recording, one 1553 channel (one bus) after the other: a
+    ``channel N`` heading before each table, or a ``"channel"`` key on each JSON line."""
+    for channel in sorted(per_channel):
+        stats = per_channel[channel]
+        if as_json:
+            for line in stats.json_lines():
+                out.write(json.dumps({"channel": channel, **line}) + "\n")
+        else:
+            if channel != min(per_channel):
+                out.write("\n")
+            out.write(f"channel {channel} (1553)\n{stats.table()}\n")
 
-    stats = TrafficStatistics(window_ns=round(args.stats_window * 1e9))
+
+def run_decode_stats(args: Any) -> int:
+    """``mapr decode FILE --stats [text|json]``: statistics instead of the messages (per
+    1553 channel for a Chapter 10 recording)."""
+    from drivers.rtstats import TrafficStatistics
+
+    window_ns = round(args.stats_window * 1e9)
+    reader = open_chapter10(args.capture, args.c10_channels, args.year)
+    if reader is not None:
+        per_channel: dict[int, TrafficStatistics] = {}
+        for channel, arrays in channel_arrays(reader, prog="mapr decode"):
+            if channel not in per_channel:
+                per_channel[channel] = TrafficStatistics(window_ns=window_ns)
+            per_channel[channel].add_arrays(arrays)
+        print_channel_stats(per_channel, as_json=args.stats == "json", out=sys.stdout)
+        sys.stdout.flush()
+        return what_it_holds(reader, args.c10_channels, "mapr decode")
+    stats = TrafficStatistics(window_ns=window_ns)
     for batch in file_batches(args.capture, samplerate=args.samplerate, channels=args.channels,
                               c10_channels=args.c10_channels, year=args.year):
         stats.add_batch(batch)
     print_stats(stats, as_json=args.stats == "json", out=sys.stdout)
     sys.stdout.flush()
-    return exitcodes.OK
+    return int(exitcodes.OK)
