@@ -89,6 +89,15 @@ class Plant:
             ch0=p.surface.ch0, ch_delta=p.surface.ch_delta_per_rad,
             r_loop_nom=2.0 * p.motor.resistance_ohm + 2.0 * p.inverter.ron_ohm)
 
+    @property
+    def viscous_max(self) -> float:
+        """The largest viscous ratio the model's integration holds: the per-sample decay
+        ``g = 1 - dt/J*B_nom*viscous`` must stay in [0, 1]. Beyond it the explicit step
+        overshoots (``g < 0``: the speed flips sign each sample), and past ``g = -1`` it grows
+        without bound, so ``F`` and then ``P`` overflow. Physically it is friction that stops
+        the motor within one 0.5 ms sample, far beyond any unit."""
+        return self.j_eq / (self.dt * self.viscous_nom)
+
 
 @dataclasses.dataclass(frozen=True)
 class Blocks:
@@ -243,6 +252,20 @@ def _integrate(drive: FloatArray, sgn: FloatArray, dt: float, dt_j: float, bn: f
     f[1, 1] = gp
     f[1, 2] = w2
     f[1, 3] = w3
+
+
+def project(plant: Plant, x: FloatArray) -> None:
+    """In place: the friction ratios into the model's domain, ``0 <= coulomb`` and
+    ``0 <= viscous <= plant.viscous_max``.
+
+    Why: the filter's update is linear and knows no domain; a block's innovation can carry
+    viscous friction past the explicit integration's stability bound, where the model itself
+    (not the data) drives the estimate to the bound (``g = -1``) and past it to overflow.
+    Projecting the estimate onto the constraints (the projected Kalman filter) leaves ``P``
+    as it is: a valid covariance for the constrained estimate is no larger than this one.
+    """
+    x[2] = min(max(x[2], 0.0), plant.viscous_max)
+    x[3] = max(x[3], 0.0)
 
 
 def measure(x: FloatArray, b: Blocks, k: int) -> tuple[FloatArray, FloatArray, FloatArray]:
