@@ -12,10 +12,10 @@ only propagate the covariance (its ``predict_x`` is replaced by a no-op on our i
 Numerical health: filterpy's update is in Joseph form; after every step ``P`` is symmetrised,
 and a parameter whose variance grew above its prior (long stretches without motion make
 friction unobservable) is scaled back by a congruence, which keeps ``P`` positive definite
-and bounded over hours. After every update the friction ratios are projected into the
-model's domain (:func:`~mapr_daemon.reasoner.ekf.model.project`: non-negative, viscous below
-the integration's stability bound), since an estimate past that bound is pulled by the model
-itself to ``g = -1`` and beyond, where ``F`` and ``P`` overflow.
+and bounded over hours. After every update viscous friction is projected into the band
+the model's integration holds (:func:`~mapr_daemon.reasoner.ekf.model.project`), since an
+estimate past that bound is pulled by the model itself to ``g = -1`` and beyond, where ``F``
+and ``P`` overflow.
 
 :class:`Reference` holds the reference model's parameters; :meth:`Reference.adapt` moves it to
 confirmed estimates, so later detections measure change from the adapted model::

@@ -255,17 +255,18 @@ def _integrate(drive: FloatArray, sgn: FloatArray, dt: float, dt_j: float, bn: f
 
 
 def project(plant: Plant, x: FloatArray) -> None:
-    """In place: the friction ratios into the model's domain, ``0 <= coulomb`` and
-    ``0 <= viscous <= plant.viscous_max``.
+    """In place: viscous friction into the band the model's integration holds,
+    ``|viscous| <= plant.viscous_max`` (per-sample decay ``g`` in [0, 2]).
 
-    Why: the filter's update is linear and knows no domain; a block's innovation can carry
-    viscous friction past the explicit integration's stability bound, where the model itself
-    (not the data) drives the estimate to the bound (``g = -1``) and past it to overflow.
-    Projecting the estimate onto the constraints (the projected Kalman filter) leaves ``P``
-    as it is: a valid covariance for the constrained estimate is no larger than this one.
+    Why: the filter's update is linear and knows no domain; a block's innovation, or an
+    adapted reference, can carry viscous friction past the explicit integration's stability
+    bound, where the model itself (not the data) drives the estimate to ``g = -1`` and past
+    it to overflow of ``F`` and ``P`` (and a very negative one grows ``g**20`` per block the
+    same way). Projecting the estimate onto the band (the projected Kalman filter) leaves
+    ``P`` as it is. Inside the band nothing changes: a healthy BIT's estimate, negative
+    transients included, is not touched (Coulomb friction enters linearly and is left alone).
     """
-    x[2] = min(max(x[2], 0.0), plant.viscous_max)
-    x[3] = max(x[3], 0.0)
+    x[2] = min(max(x[2], -plant.viscous_max), plant.viscous_max)
 
 
 def measure(x: FloatArray, b: Blocks, k: int) -> tuple[FloatArray, FloatArray, FloatArray]:
