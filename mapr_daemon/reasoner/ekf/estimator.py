@@ -12,7 +12,10 @@ only propagate the covariance (its ``predict_x`` is replaced by a no-op on our i
 Numerical health: filterpy's update is in Joseph form; after every step ``P`` is symmetrised,
 and a parameter whose variance grew above its prior (long stretches without motion make
 friction unobservable) is scaled back by a congruence, which keeps ``P`` positive definite
-and bounded over hours.
+and bounded over hours. After every update viscous friction is projected into the band
+the model's integration holds (:func:`~mapr_daemon.reasoner.ekf.model.project`), since an
+estimate past that bound is pulled by the model itself to ``g = -1`` and beyond, where ``F``
+and ``P`` overflow.
 
 :class:`Reference` holds the reference model's parameters; :meth:`Reference.adapt` moves it to
 confirmed estimates, so later detections measure change from the adapted model::
@@ -90,6 +93,7 @@ class ParameterEstimator:
         x = np.zeros(len(em.STATE))
         for k, name in enumerate(em.STATE):
             x[k] = self.reference.value.get(name, 0.0)
+        em.project(self.plant, x)
         self.kf.x = x.reshape(-1, 1)
         self.kf.P = np.diag(self.p_cap.copy())
 
@@ -116,6 +120,8 @@ class ParameterEstimator:
                                   field="estimator") from error
             self._health()
             x = kf.x.reshape(-1).copy()
+            em.project(self.plant, x)
+            kf.x = x.reshape(-1, 1)
             self.steps += 1
         return self.estimate()
 

@@ -89,6 +89,15 @@ class Plant:
             ch0=p.surface.ch0, ch_delta=p.surface.ch_delta_per_rad,
             r_loop_nom=2.0 * p.motor.resistance_ohm + 2.0 * p.inverter.ron_ohm)
 
+    @property
+    def viscous_max(self) -> float:
+        """The largest viscous ratio the model's integration holds: the per-sample decay
+        ``g = 1 - dt/J*B_nom*viscous`` must stay in [0, 1]. Beyond it the explicit step
+        overshoots (``g < 0``: the speed flips sign each sample), and past ``g = -1`` it grows
+        without bound, so ``F`` and then ``P`` overflow. Physically it is friction that stops
+        the motor within one 0.5 ms sample, far beyond any unit."""
+        return self.j_eq / (self.dt * self.viscous_nom)
+
 
 @dataclasses.dataclass(frozen=True)
 class Blocks:
@@ -243,6 +252,21 @@ def _integrate(drive: FloatArray, sgn: FloatArray, dt: float, dt_j: float, bn: f
     f[1, 1] = gp
     f[1, 2] = w2
     f[1, 3] = w3
+
+
+def project(plant: Plant, x: FloatArray) -> None:
+    """In place: viscous friction into the band the model's integration holds,
+    ``|viscous| <= plant.viscous_max`` (per-sample decay ``g`` in [0, 2]).
+
+    Why: the filter's update is linear and knows no domain; a block's innovation, or an
+    adapted reference, can carry viscous friction past the explicit integration's stability
+    bound, where the model itself (not the data) drives the estimate to ``g = -1`` and past
+    it to overflow of ``F`` and ``P`` (and a very negative one grows ``g**20`` per block the
+    same way). Projecting the estimate onto the band (the projected Kalman filter) leaves
+    ``P`` as it is. Inside the band nothing changes: a healthy BIT's estimate, negative
+    transients included, is not touched (Coulomb friction enters linearly and is left alone).
+    """
+    x[2] = min(max(x[2], -plant.viscous_max), plant.viscous_max)
 
 
 def measure(x: FloatArray, b: Blocks, k: int) -> tuple[FloatArray, FloatArray, FloatArray]:
