@@ -28,6 +28,7 @@ from typing import TYPE_CHECKING, Any, TextIO
 from mapr_daemon.cli import exitcodes
 from mapr_daemon.cli.traffic import chapter10_decode
 from mapr_daemon.cli.traffic.source import positive_seconds
+from mapr_daemon.cli.validate import add_filter_arguments
 
 if TYPE_CHECKING:
     from drivers.mil1553.record import MonitorRecord
@@ -61,24 +62,6 @@ def add_subparser(subparsers: Any) -> None:
     add_filter_arguments(parser)
     chapter10_decode.add_arguments(parser)
     parser.set_defaults(func=run)
-
-
-def add_filter_arguments(parser: argparse.ArgumentParser) -> None:
-    """Monitor's filters, with lists and ranges (:mod:`mapr_daemon.cli.traffic.decode_filter`)."""
-    group = parser.add_argument_group("filters (lists and ranges: --rt 1-4,7)")
-    group.add_argument("--rt", metavar="LIST", help="remote terminal addresses, 0-31 (either "
-                                                    "terminal of an RT-RT transfer)")
-    group.add_argument("--sa", metavar="LIST", help="subaddresses, 0-31")
-    group.add_argument("--tr", metavar="T|R", help="transmit or receive command")
-    group.add_argument("--format", dest="fmt", metavar="LIST",
-                       help="transfer formats, e.g. BC_RT,RT_RT")
-    group.add_argument("--errors", action="store_true", help="only messages with errors")
-    group.add_argument("--error", metavar="LIST",
-                       help="only messages with one of these errors, e.g. no_response")
-    group.add_argument("--from", dest="t_from", metavar="SECONDS",
-                       help="only messages starting at or after this bus time")
-    group.add_argument("--to", dest="t_to", metavar="SECONDS",
-                       help="only messages starting before this bus time")
 
 
 def _rate(text: str) -> float:
