@@ -110,7 +110,8 @@ def run_discover(args: argparse.Namespace) -> int:
             return exitcodes.USAGE
     stats = TrafficStatistics()
     if args.source is not None:
-        batches = file_batches(args.source, samplerate=args.samplerate)
+        batches = file_batches(args.source, samplerate=args.samplerate,
+                               err_prefix="mapr icd discover")
         where = args.source
     else:
         batches = backend_batches(args.backend, dict(args.option),

@@ -38,7 +38,8 @@ def positive_seconds(text: str) -> float:
 def file_batches(path: str, *, samplerate: float | None = None,
                  channels: Sequence[str] | None = None,
                  c10_channels: Sequence[int] | None = None, year: int | None = None,
-                 err: TextIO | None = None) -> Iterator[list[MonitorRecord]]:
+                 err: TextIO | None = None, err_prefix: str = "mapr"
+                 ) -> Iterator[list[MonitorRecord]]:
     """The 1553 records of a Chapter 10 recording or a capture file, a batch at a time.
 
     Damaged Chapter 10 packets are named on ``err`` (stderr) and skipped, as ``decode`` does.
@@ -56,7 +57,7 @@ def file_batches(path: str, *, samplerate: float | None = None,
         finally:
             reader.close()
         for issue in reader.issues:
-            err.write(f"mapr: {path}: {issue}\n")
+            err.write(f"{err_prefix}: {path}: {issue}\n")
         return
     from drivers.capturefile import open_capture
     from drivers.pipeline import SamplePipeline
@@ -113,14 +114,20 @@ def print_stats(stats: TrafficStatistics, *, as_json: bool, out: TextIO) -> None
 
 
 def run_decode_stats(args: Any) -> int:
-    """``mapr decode FILE --stats [text|json]``: statistics instead of the messages."""
+    """``mapr decode FILE --stats [text|json]``: statistics instead of the messages, of the
+    messages the filter flags keep (rows: the sides they select; load: of those messages)."""
     from drivers.rtstats import TrafficStatistics
     from mapr_daemon.cli import exitcodes
+    from mapr_daemon.cli.traffic.decode_filter import filter_from_args
 
+    wanted = filter_from_args(args)   # checked by the subcommand's validate hook already
     stats = TrafficStatistics(window_ns=round(args.stats_window * 1e9))
+    if wanted.active:
+        stats.sides = (wanted.rts, wanted.sas, wanted.transmit)
     for batch in file_batches(args.capture, samplerate=args.samplerate, channels=args.channels,
-                              c10_channels=args.c10_channels, year=args.year):
-        stats.add_batch(batch)
+                              c10_channels=args.c10_channels, year=args.year,
+                              err_prefix="mapr decode"):
+        stats.add_batch([r for r in batch if wanted.matches(r)] if wanted.active else batch)
     print_stats(stats, as_json=args.stats == "json", out=sys.stdout)
     sys.stdout.flush()
     return exitcodes.OK
