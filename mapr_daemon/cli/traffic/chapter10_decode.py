@@ -23,7 +23,7 @@ import json
 import sys
 from typing import TYPE_CHECKING, TextIO
 
-from mapr_daemon.cli import exitcodes
+from mapr_daemon.cli import exitcodes, notes
 from mapr_daemon.cli.validate import bounded_int
 
 if TYPE_CHECKING:
@@ -127,5 +127,8 @@ def _missing_channels(wanted: list[int] | None, reader: Chapter10Reader, err: Te
 def _report(reader: Chapter10Reader, reported: int, err: TextIO) -> int:
     issues = reader.issues
     for issue in issues[reported:]:
-        err.write(f"mapr decode: {reader.path}: {issue}\n")
+        if err is sys.stderr:   # the command's warnings: collapsed, silenced by -q
+            notes.warn(f"{reader.path}: {issue}")
+        else:
+            err.write(f"mapr decode: {reader.path}: {issue}\n")
     return len(issues)

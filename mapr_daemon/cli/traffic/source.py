@@ -45,6 +45,7 @@ def file_batches(path: str, *, samplerate: float | None = None,
     Damaged Chapter 10 packets are named on ``err`` (stderr) and skipped, as ``decode`` does.
     """
     from drivers.chapter10.walker import looks_like_chapter10
+    from mapr_daemon.cli import notes
 
     err = err or sys.stderr
     if path != "-" and looks_like_chapter10(path):
@@ -57,7 +58,10 @@ def file_batches(path: str, *, samplerate: float | None = None,
         finally:
             reader.close()
         for issue in reader.issues:
-            err.write(f"{err_prefix}: {path}: {issue}\n")
+            if err is sys.stderr:   # the command's warnings: collapsed, silenced by -q
+                notes.warn(f"{path}: {issue}")
+            else:
+                err.write(f"{err_prefix}: {path}: {issue}\n")
         return
     from drivers.capturefile import open_capture
     from drivers.pipeline import SamplePipeline
