@@ -157,6 +157,14 @@ class CatalogReader:
         except sqlite3.DatabaseError as error:
             raise CatalogError(f"read failed: {describe(error)}", path=self.path) from error
 
+    def actuators(self) -> list[tuple[str, str]]:
+        """(tail, asset) of every actuator with a BIT history or an event, sorted (tail ''
+        for a catalog without tails); what a name on the command line must pick one of."""
+        if self.schema_version < BITS_SINCE:
+            return [("", a) for a in self.assets()]
+        result: list[tuple[str, str]] = self._read(history.assets)
+        return result
+
     def bits(self, asset: str | None = None, tail: str | None = None) -> list[BitRecord]:
         """BIT history (all actuators or one), oldest first; empty before schema v5."""
         if self.schema_version < BITS_SINCE:
