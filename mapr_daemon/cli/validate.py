@@ -205,13 +205,3 @@ def add_filter_arguments(parser: argparse.ArgumentParser) -> None:
     group.add_argument("--to", dest="t_to", metavar="SECONDS",
                        help="only messages starting before this bus time")
 
-
-def filter_problem(args: argparse.Namespace) -> str | None:
-    """The filter flags' problem as one line (a ``validate=`` hook), or None."""
-    from mapr_daemon.cli.traffic.decode_filter import FilterError, filter_from_args
-
-    try:
-        filter_from_args(args)
-    except FilterError as error:
-        return str(error)
-    return None

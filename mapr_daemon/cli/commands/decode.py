@@ -28,7 +28,7 @@ from typing import TYPE_CHECKING, Any, TextIO
 from mapr_daemon.cli import exitcodes
 from mapr_daemon.cli.traffic import chapter10_decode
 from mapr_daemon.cli.traffic.source import positive_seconds
-from mapr_daemon.cli.validate import add_filter_arguments, filter_problem
+from mapr_daemon.cli.validate import add_filter_arguments
 
 if TYPE_CHECKING:
     from drivers.mil1553.record import MonitorRecord
@@ -70,6 +70,8 @@ def validate(args: argparse.Namespace) -> str | None:
     match, as one line (exit 2 before the file is read)."""
     if args.stats == "json" and args.text:
         return "--stats json and --text ask for two formats; --stats alone prints the table"
+    from mapr_daemon.cli.traffic.decode_filter import filter_problem
+
     return filter_problem(args)
 
 

@@ -29,7 +29,6 @@ from mapr_daemon.cli import exitcodes
 from mapr_daemon.cli.validate import (
     add_backend_options,
     add_filter_arguments,
-    filter_problem,
     non_negative_seconds,
     parse_option,
     positive_int,
@@ -65,6 +64,8 @@ def add_subparser(subparsers: Any) -> None:
 def validate(args: argparse.Namespace) -> str | None:
     """A filter value that is malformed or can never match, as one line (or None): checked
     before the backend opens, so a typo is an error instead of a silent bus."""
+    from mapr_daemon.cli.traffic.decode_filter import filter_problem
+
     return filter_problem(args)
 
 

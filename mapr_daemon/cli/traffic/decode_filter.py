@@ -162,3 +162,13 @@ def _seconds(flag: str, text: str | None) -> int | None:
     if not np.isfinite(value):
         raise FilterError(f"{flag} {text}: allowed a finite number of seconds")
     return round(value * 1e9)
+
+
+def filter_problem(args: argparse.Namespace) -> str | None:
+    """The filter flags' problem as one line (for a subcommand's ``validate=`` hook), or
+    None when :func:`filter_from_args` takes them."""
+    try:
+        filter_from_args(args)
+    except FilterError as error:
+        return str(error)
+    return None
