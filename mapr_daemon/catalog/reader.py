@@ -65,8 +65,11 @@ def _where(flt: EventFilter) -> tuple[str, list[Any]]:
         clauses.append("t_ns < ?")
         values.append(int(flt.until_ns))
     if flt.asset is not None:
-        clauses.append("asset = ?")
-        values.append(flt.asset)
+        # a fleet run keeps events under TAIL/ASSET: a bare name finds them on every tail
+        # (TAIL/ASSET names one), as `catalog trend` and `health` name actuators
+        clauses.append("(asset = ? OR (instr(asset, '/') > 0 "
+                       "AND substr(asset, instr(asset, '/') + 1) = ?))")
+        values += [flt.asset, flt.asset]
     if flt.fault is not None:
         clauses.append("fault = ?")
         values.append(flt.fault)

@@ -88,3 +88,23 @@ def test_export_json_writes_json(catalog: str, tmp_path: Path) -> None:
                                     for line in lines)
     code, _, err = mapr("catalog", "export", "--json", "--format", "csv", "--catalog", catalog)
     assert code == 2 and "--json and --format csv" in err
+
+
+def test_list_asset_finds_a_fleet_run_s_events(tmp_path: Path) -> None:
+    """A fleet run keeps events under ``TAIL/ASSET``: ``--asset EMA1`` finds them on every
+    tail, ``--asset N901/EMA1`` on one."""
+    from mapr_daemon.catalog import Event
+
+    path = tmp_path / "events.sqlite"
+    with CatalogWriter(path) as writer:
+        writer.open_session(backend="chapter10", config_hash="f1ee7", started_ns=T0)
+        writer.add_events(Event(t_ns=T0 + i, asset=name, fault="esr", confidence=0.9,
+                                severity=0.5)
+                          for i, name in enumerate(("N900/EMA1", "N901/EMA1", "N901/EMA2",
+                                                    "EMA1")))
+    code, out, _ = mapr("catalog", "list", "--asset", "EMA1", "--json", "--catalog", str(path))
+    assert code == 0
+    assert sorted(e["asset"] for e in json.loads(out)) == ["EMA1", "N900/EMA1", "N901/EMA1"]
+    code, out, _ = mapr("catalog", "list", "--asset", "N901/EMA1", "--json",
+                        "--catalog", str(path))
+    assert [e["asset"] for e in json.loads(out)] == ["N901/EMA1"]
