@@ -164,3 +164,46 @@ def test_monitor_and_decode_write_rt_rt_the_same_way(recording: Path) -> None:
     assert "RT_RT        RT05 R SA03 WC02 < RT06 T SA01 WC02 " in out.splitlines()[0]
     code, out, _ = mapr("decode", "--text", "--rt", "6", "--tr", "T", str(recording))
     assert out.splitlines()[1].split()[3] == "05-03<06-01"
+
+
+@pytest.mark.parametrize(("flags", "rows"), [
+    (["--rt", "5"], ["RT05 R SA03", "RT05 T SA02", "RT05 T SA04"]),
+    (["--rt", "5", "--tr", "T"], ["RT05 T SA02", "RT05 T SA04"]),
+    (["--rt", "6", "--tr", "T"], ["RT06 T SA01"]),
+    (["--rt", "5", "--sa", "2"], ["RT05 T SA02"]),
+    (["--sa", "2", "--tr", "R"], ["RT06 R SA02"]),
+])
+def test_catalog_stats_by_rt_selects_the_same_sides(flags: list[str], rows: list[str],
+                                                    tmp_path: Path) -> None:
+    """The catalog's per-RT/SA rows, filtered with decode's definitions: each row is a side,
+    and its count is what ``decode`` prints with the same flags when one row is left."""
+    import dataclasses
+
+    from drivers.rtstats import TrafficStatistics
+    from mapr_daemon.catalog import CatalogWriter
+
+    stats = TrafficStatistics()
+    stats.add_batch(traffic())
+    path = tmp_path / "c.sqlite"
+    with CatalogWriter(path) as writer:
+        writer.open_session(backend="chapter10", config_hash="cafe", started_ns=10**18)
+        writer.add_rt_stats(10**18, 10**18 + 10**9,
+                            [dataclasses.asdict(r) for r in stats.rows()])
+    code, out, _ = mapr("catalog", "--catalog", str(path), "--json", "stats", "--by-rt",
+                        *flags)
+    assert code == exitcodes.OK
+    got = json.loads(out)["rt_sa"]
+    assert [f"RT{r['rt']:02d} {r['tr']} SA{r['sa']:02d}" for r in got] == rows
+    kept = dict(CASES_BY_FLAGS).get(tuple(flags))
+    if kept is not None:
+        assert sum(r["messages"] for r in got) == _count(kept)
+
+
+def test_catalog_stats_side_flags_need_by_rt(tmp_path: Path) -> None:
+    from mapr_daemon.catalog import CatalogWriter
+
+    path = tmp_path / "c.sqlite"
+    with CatalogWriter(path) as writer:
+        writer.open_session(backend="chapter10", config_hash="cafe", started_ns=10**18)
+    code, _, err = mapr("catalog", "--catalog", str(path), "stats", "--rt", "5")
+    assert code == exitcodes.USAGE and "--by-rt" in err

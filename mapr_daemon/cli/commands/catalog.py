@@ -134,6 +134,10 @@ def add_subparser(subparsers: Any) -> None:
     p.add_argument("--by-rt", action="store_true",
                    help="per RT / direction / subaddress and mode code over the range "
                         "(both buses), instead of per interval")
+    p.add_argument("--rt", metavar="LIST", help="with --by-rt: only these terminals (1-4,7)")
+    p.add_argument("--sa", metavar="LIST", help="with --by-rt: only their subaddresses")
+    p.add_argument("--tr", metavar="T|R", help="with --by-rt: only the side where the "
+                                                "terminal transmits (T) or receives (R)")
     p.add_argument("--limit", type=int, default=DEFAULT_LIMIT,
                    help=f"the last N intervals (default {DEFAULT_LIMIT}; 0: all)")
     p.set_defaults(func=run, action_func=run_stats)
@@ -320,6 +324,13 @@ def run_trend(reader: CatalogReader, args: argparse.Namespace) -> int:
 
 
 def run_stats(reader: CatalogReader, args: argparse.Namespace) -> int:
+    if args.tr is not None and args.tr.upper() not in ("T", "R"):
+        print(f"mapr catalog stats: error: --tr {args.tr}: allowed T or R", file=sys.stderr)
+        return exitcodes.USAGE
+    if not args.by_rt and (args.rt or args.sa or args.tr):
+        print("mapr catalog stats: error: --rt, --sa and --tr select rows of --by-rt",
+              file=sys.stderr)
+        return exitcodes.USAGE
     if args.by_rt:
         return _run_rt_stats(reader, args)
     rows = reader.stats(args.since, args.until, args.bus,
@@ -370,7 +381,18 @@ def run_ack(args: argparse.Namespace) -> int:
 
 
 def _run_rt_stats(reader: CatalogReader, args: argparse.Namespace) -> int:
-    rows = reader.rt_stats(args.since, args.until)
+    from drivers.mil1553.sides import side_matches
+    from mapr_daemon.cli.traffic.decode_filter import FilterError, address_set
+
+    try:
+        rts, sas = address_set("--rt", args.rt), address_set("--sa", args.sa)
+    except FilterError as error:
+        print(f"mapr catalog stats: error: {error}", file=sys.stderr)
+        return exitcodes.USAGE
+    transmit = None if args.tr is None else args.tr.upper() == "T"
+    # the rows are sides (RT, T/R, SA): the same selection as decode's and monitor's filters
+    rows = [r for r in reader.rt_stats(args.since, args.until)
+            if side_matches(r.rt << 11 | (r.tr == "T") << 10 | r.sa << 5, rts, sas, transmit)]
     if _wants_json(args):
         _print_json({"rt_sa": [r.as_dict() for r in rows]})
         return exitcodes.OK

@@ -172,3 +172,9 @@ def filter_problem(args: argparse.Namespace) -> str | None:
     except FilterError as error:
         return str(error)
     return None
+
+
+def address_set(flag: str, text: str | None) -> frozenset[int] | None:
+    """``--rt``/``--sa`` values (``5``, ``1-4,7``: 0-31) as a set, None when not given;
+    :class:`FilterError` naming the flag otherwise."""
+    return _numbers(flag, text)
