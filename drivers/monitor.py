@@ -41,6 +41,7 @@ from drivers.errors import (
     MonitorClosed,
 )
 from drivers.mil1553.record import MonitorRecord, TransferFormat
+from drivers.mil1553.sides import message_matches
 from drivers.mil1553.wordbatch import WORD_TIME_NS
 from drivers.rtstats import TrafficStatistics
 
@@ -55,29 +56,46 @@ class MonitorFilter:
     """Which records to keep. Every field given must match (AND); a monitor keeps a record
     that matches any of its filters (OR), or every record when it has none.
 
-    ``error`` is True (any error), False (clean only) or an error name.
+    ``rt``, ``sa`` and ``tr`` select one terminal's side of a message
+    (:mod:`drivers.mil1553.sides`): an RT-RT transfer matches ``rt=2, tr="T"`` when RT 2
+    transmits in it, and ``rt=5, sa=2`` only when RT 5's own subaddress is 2. ``rt``, ``sa``
+    and ``format`` take one value or a set of them. ``error`` is True (any error), False
+    (clean only), an error name or a set of them (any of them). ``start_ns``/``end_ns``
+    keep messages starting in ``[start_ns, end_ns)`` of bus time.
     """
 
-    rt: int | None = None
-    sa: int | None = None
+    rt: int | frozenset[int] | None = None
+    sa: int | frozenset[int] | None = None
     tr: str | None = None
-    format: str | None = None
-    error: bool | str | None = None
+    format: str | frozenset[str] | None = None
+    error: bool | str | frozenset[str] | None = None
+    start_ns: int | None = None
+    end_ns: int | None = None
 
     def matches(self, record: MonitorRecord) -> bool:
-        if self.rt is not None and self.rt not in (record.rt, record.rt2):
+        transmit = None if self.tr is None else self.tr.upper() == "T"
+        if not message_matches(record.command, record.command2, _as_set(self.rt),
+                               _as_set(self.sa), transmit):
             return False
-        if self.sa is not None and self.sa not in (record.sa, record.sa2):
-            return False
-        if self.tr is not None and record.tr != self.tr.upper():
-            return False
-        if self.format is not None and str(record.format) != self.format.upper():
-            return False
+        if self.format is not None:
+            formats = {self.format} if isinstance(self.format, str) else self.format
+            if str(record.format) not in {f.upper() for f in formats}:
+                return False
         if self.error is True and not record.errors:
             return False
         if self.error is False and record.errors:
             return False
-        return not (isinstance(self.error, str) and self.error not in record.errors)
+        if isinstance(self.error, str) and self.error not in record.errors:
+            return False
+        if isinstance(self.error, frozenset) and not self.error.intersection(record.errors):
+            return False
+        if self.start_ns is not None and record.t_ns < self.start_ns:
+            return False
+        return self.end_ns is None or record.t_ns < self.end_ns
+
+
+def _as_set(value: int | frozenset[int] | None) -> frozenset[int] | None:
+    return frozenset((value,)) if isinstance(value, int) else value
 
 
 @dataclass
@@ -301,7 +319,7 @@ def check_options(name: str, cls: type[BusMonitor], config: dict[str, Any]) -> N
                                  f"(its options: {takes})", option=unknown[0])
     missing = [p.name for p in params if p.default is p.empty and p.name not in config]
     if missing:
-        hint = " ".join(f"-o {m}=VALUE" for m in missing)
+        hint = " ".join(f"-O {m}=VALUE" for m in missing)
         raise BackendOptionError(f"backend {name!r} needs option {', '.join(missing)} "
                                  f"({hint} on the command line, backend.options in a config)",
                                  option=missing[0])

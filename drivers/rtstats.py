@@ -29,6 +29,7 @@ import numpy.typing as npt
 
 from drivers.mil1553.modecodes import MODE_CODES
 from drivers.mil1553.record import MESSAGE_ERROR_NAMES, MonitorRecord
+from drivers.mil1553.sides import side_matches
 from drivers.mil1553.wordbatch import WORD_TIME_NS
 
 if TYPE_CHECKING:
@@ -228,6 +229,10 @@ class TrafficStatistics:
     """Start of the first record seen, on any bus."""
     seen_to_ns: int = np.iinfo(np.int64).min
     """End of the last word seen (start + words x 20 µs), on any bus."""
+    sides: tuple[frozenset[int] | None, frozenset[int] | None, bool | None] | None = None
+    """Rows to show, when set: (terminals, subaddresses, transmit) of the sides a filter
+    selects (:func:`drivers.mil1553.sides.side_matches`), so that ``--rt 2 --tr T --stats``
+    lists ``RT02 T`` only, with as many messages as the same filter prints."""
 
     def __post_init__(self) -> None:
         if self.window_ns <= 0:
@@ -314,6 +319,8 @@ class TrafficStatistics:
             return out
         span = int(self.last_ns[seen].max() - self.first_ns[seen].min())
         for key in seen.tolist():
+            if self.sides is not None and not side_matches(key, *self.sides):
+                continue
             rt, tr, sa = key >> 11, "T" if key >> 10 & 1 else "R", key >> 5 & 31
             mode = sa in (0, 31)
             n = int(self.messages[key])

@@ -4,7 +4,7 @@ The hardware backends enumerate what is plugged in (:func:`~drivers.backends.ser
 serial_cards`, :func:`~drivers.backends.usb_card.usb_cards`) and describe each card as an
 :class:`AttachedCard`: what the operating system calls it, its USB identity, its state, a
 problem if one stands in the way (permissions, a missing firmware), and the backend options
-that open exactly this card — printed both as ``mapr monitor -o key=value`` arguments and as
+that open exactly this card — printed both as ``mapr monitor -O key=value`` arguments and as
 the daemon config's ``backend:`` line, so a user can copy either.
 """
 
@@ -45,7 +45,7 @@ class AttachedCard:
 
     def monitor_args(self) -> str:
         """The ``mapr monitor`` arguments that open this card."""
-        options = " ".join(f"-o {key}={value}" for key, value in self.options.items())
+        options = " ".join(f"-O {key}={value}" for key, value in self.options.items())
         return f"--backend {self.backend}" + (f" {options}" if options else "")
 
     def config_line(self) -> str:

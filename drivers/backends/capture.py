@@ -57,7 +57,7 @@ class CaptureMonitor(BusMonitor):
                  timing: BusTiming | None = None,
                  filters: Sequence[MonitorFilter] | None = None, **config: Any) -> None:
         super().__init__(filters=filters, **config)
-        check_capture_file(path, sample_rate, rate_hint="-o sample_rate=HZ (e.g. 10e6)")
+        check_capture_file(path, sample_rate, rate_hint="-O sample_rate=HZ (e.g. 10e6)")
         self.source = open_capture(path, sample_rate, channels)
         self.pipeline = SamplePipeline(self.source.sample_rate, timing=timing)
         self.realtime = realtime

@@ -48,7 +48,7 @@ Device = Any
 
 
 def parse_ids(value: Any) -> list[tuple[int, int]]:
-    """USB IDs from an option: ``"1d50:608c,0925:3881"`` (as ``-o ids=...`` gives it), a
+    """USB IDs from an option: ``"1d50:608c,0925:3881"`` (as ``-O ids=...`` gives it), a
     list of such strings, or a list of (vendor, product) integer pairs (as in YAML)."""
     items = value.split(",") if isinstance(value, str) else list(value)
     out = []

@@ -65,8 +65,11 @@ def _where(flt: EventFilter) -> tuple[str, list[Any]]:
         clauses.append("t_ns < ?")
         values.append(int(flt.until_ns))
     if flt.asset is not None:
-        clauses.append("asset = ?")
-        values.append(flt.asset)
+        # a fleet run keeps events under TAIL/ASSET: a bare name finds them on every tail
+        # (TAIL/ASSET names one), as `catalog trend` and `health` name actuators
+        clauses.append("(asset = ? OR (instr(asset, '/') > 0 "
+                       "AND substr(asset, instr(asset, '/') + 1) = ?))")
+        values += [flt.asset, flt.asset]
     if flt.fault is not None:
         clauses.append("fault = ?")
         values.append(flt.fault)
@@ -156,6 +159,14 @@ class CatalogReader:
             return work(self._conn, *args)
         except sqlite3.DatabaseError as error:
             raise CatalogError(f"read failed: {describe(error)}", path=self.path) from error
+
+    def actuators(self) -> list[tuple[str, str]]:
+        """(tail, asset) of every actuator with a BIT history or an event, sorted (tail ''
+        for a catalog without tails); what a name on the command line must pick one of."""
+        if self.schema_version < BITS_SINCE:
+            return [("", a) for a in self.assets()]
+        result: list[tuple[str, str]] = self._read(history.assets)
+        return result
 
     def bits(self, asset: str | None = None, tail: str | None = None) -> list[BitRecord]:
         """BIT history (all actuators or one), oldest first; empty before schema v5."""

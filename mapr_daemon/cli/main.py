@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import logging
 import sys
 from collections.abc import Iterable, Sequence
 from typing import NoReturn
@@ -39,7 +40,7 @@ from drivers.errors import (
     MaprError,
 )
 from mapr_daemon import __version__
-from mapr_daemon.cli import exitcodes
+from mapr_daemon.cli import exitcodes, notes
 from mapr_daemon.errors import ConfigError, RecordError
 
 SUBCOMMANDS: dict[str, str] = {
@@ -99,7 +100,37 @@ def build_parser(commands: Iterable[str] | None = None) -> argparse.ArgumentPars
             module.add_subparser(subparsers)
         else:
             subparsers.add_parser(name, help=summary, add_help=False)
+    _add_quiet(parser, top=True)
     return parser
+
+
+def _add_quiet(parser: argparse.ArgumentParser, *, top: bool) -> None:
+    """``-q/--quiet`` on ``parser`` and every subcommand under it (wherever a user puts it,
+    ``mapr -q decode`` or ``mapr catalog list -q``), unless a command already has one."""
+    if not any("-q" in a.option_strings for a in parser._actions):
+        parser.add_argument("-q", "--quiet", action="store_true",
+                            default=False if top else argparse.SUPPRESS,
+                            help="no warnings on stderr (errors still)")
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for sub in action.choices.values():
+                if sub.add_help:   # not a placeholder
+                    _add_quiet(sub, top=False)
+
+
+def innermost(parser: argparse.ArgumentParser, args: argparse.Namespace
+              ) -> argparse.ArgumentParser:
+    """The (sub)subcommand parser ``args`` came through, to name it in an error."""
+    while True:
+        chosen = None
+        for action in parser._actions:
+            if isinstance(action, argparse._SubParsersAction):
+                name = getattr(args, action.dest, None) if action.dest != "==SUPPRESS==" \
+                    else None
+                chosen = action.choices.get(name) if isinstance(name, str) else None
+        if chosen is None:
+            return parser
+        parser = chosen
 
 
 def named_command(argv: Sequence[str]) -> list[str]:
@@ -129,7 +160,24 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Run ``mapr``; returns the exit code (also used by the console script)."""
     words = list(sys.argv[1:] if argv is None else argv)
     parser = build_parser(named_command(words))
-    args = parser.parse_args(words)
+    args, extra = parser.parse_known_args(words)
+    if extra:   # named by the subcommand that refused it, not by plain `mapr`
+        innermost(parser, args).error(f"unrecognized arguments: {' '.join(extra)}")
+    notes.current = notes.Notes(args.command, quiet=bool(getattr(args, "quiet", False)))
+    handler = None
+    if args.command != "run":   # the daemon configures its own logging
+        handler = notes.NotesHandler(notes.current)
+        logging.getLogger().addHandler(handler)
+    try:
+        return _run(args)
+    finally:
+        notes.current.finish()
+        if handler is not None:
+            logging.getLogger().removeHandler(handler)
+
+
+def _run(args: argparse.Namespace) -> int:
+    """Validate and run the parsed subcommand, turning expected errors into exit codes."""
     validate = getattr(args, "validate", None)
     problem = validate(args) if validate is not None else None
     if problem:

@@ -73,7 +73,7 @@ def testbed_config(testbed: TestbedConfig | Mapping[str, Any] | None,
 SECTION_KEYS = frozenset(f.name for f in dataclasses.fields(TestbedConfig)) - {
     "realtime", "bit_level", "seed"}
 """Keys of the ``testbed:`` section that may also be given as options of their own
-(``mapr monitor --backend testbed -o duration_s=1``); the three left out are the loopback
+(``mapr monitor --backend testbed -O duration_s=1``); the three left out are the loopback
 bus's options too, and go to it."""
 
 

@@ -131,13 +131,16 @@ def check_errors_detected(factory: MonitorFactory) -> None:
 
 
 def check_filters_and_statistics(factory: MonitorFactory) -> None:
-    """Filters keep only what they name; statistics count every record, filtered or not."""
+    """Filters keep only what they name (``rt=12, tr="T"``: messages in which RT 12 transmits,
+    as the receive command's or an RT-RT transfer's transmit command); statistics count
+    every record, filtered or not."""
     setup = Setup(one_per_frame(FORMATS), reference_terminals(), 10,
                   filters=[MonitorFilter(rt=12, tr="T")])
     with factory(setup) as monitor:
         records = list(monitor)
         stats = monitor.stats
-    assert records and all(12 in (r.rt, r.rt2) and r.tr == "T" for r in records)
+    assert records and all(any(w is not None and w >> 11 & 31 == 12 and w >> 10 & 1
+                               for w in (r.command, r.command2)) for r in records)
     assert stats.messages["A"] == 10
     assert stats.as_dict()["A"]["errors"] == {}
 

@@ -95,7 +95,7 @@ def test_a_serial_card_by_serial_number_opens_with_what_is_printed(
     ports.append(port(pts, serial_number="FT4ZQ1"))
     (found,) = devices(capsys)["cards"]
     assert found["backend"] == "serial" and found["usb_id"] == "0403:6014"
-    assert found["monitor_args"] == "--backend serial -o serial_number=FT4ZQ1"
+    assert found["monitor_args"] == "--backend serial -O serial_number=FT4ZQ1"
     assert found["problem"] is None
     config = parse(load_text(f"{found['config_line']}\n", "mapr.yaml"), "mapr.yaml")
     assert config.backend.name == "serial"

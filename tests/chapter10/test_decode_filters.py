@@ -39,18 +39,32 @@ def _records(path: Path) -> list[MonitorRecord]:
     return [r for b in Chapter10Reader(path, batched=False) for r in b.records]
 
 
+def _sides(r: MonitorRecord) -> list[tuple[int, str, int]]:
+    """A record's sides: (terminal, T/R, subaddress) of each command word."""
+    return [(w >> 11 & 31, "T" if w >> 10 & 1 else "R", w >> 5 & 31)
+            for w in (r.command, r.command2) if w is not None]
+
+
+def _side(r: MonitorRecord, rts: set[int] | None = None, tr: str | None = None,
+          sas: set[int] | None = None) -> bool:
+    return any((rts is None or rt in rts) and (tr is None or t == tr)
+               and (sas is None or sa in sas) for rt, t, sa in _sides(r))
+
+
 CASES = [
-    (["--rt", "5"], lambda r: 5 in (r.rt, r.rt2)),
-    (["--rt", "1-4,30"], lambda r: bool({1, 2, 3, 4, 30} & {r.rt, r.rt2})),
-    (["--sa", "0,31"], lambda r: bool({0, 31} & {r.sa, r.sa2})),
-    (["--tr", "t"], lambda r: r.tr == "T"),
+    (["--rt", "5"], lambda r: _side(r, {5})),
+    (["--rt", "1-4,30"], lambda r: _side(r, {1, 2, 3, 4, 30})),
+    (["--sa", "0,31"], lambda r: _side(r, sas={0, 31})),
+    (["--tr", "t"], lambda r: _side(r, tr="T")),
+    (["--rt", "5", "--tr", "T"], lambda r: _side(r, {5}, "T")),
+    (["--rt", "5", "--tr", "R", "--sa", "1-10"], lambda r: _side(r, {5}, "R", set(range(1, 11)))),
     (["--format", "RT_RT,bcast_mode"], lambda r: str(r.format) in ("RT_RT", "BCAST_MODE")),
     (["--errors"], lambda r: bool(r.errors)),
     (["--error", "no_response,wrong_rt_address"],
      lambda r: bool({"no_response", "wrong_rt_address"} & set(r.errors))),
     (["--from", "0.5", "--to", "1.5"], lambda r: 500_000_000 <= r.t_ns < 1_500_000_000),
     (["--rt", "0-15", "--tr", "R", "--errors"],
-     lambda r: bool(set(range(16)) & {r.rt, r.rt2}) and r.tr == "R" and bool(r.errors)),
+     lambda r: _side(r, set(range(16)), "R") and bool(r.errors)),
 ]
 
 
@@ -74,6 +88,8 @@ def test_filters_keep_what_a_per_record_test_keeps(flags: list[str], keep: objec
     (["--error", "nosucherr"], "--error nosucherr: allowed no_response"),
     (["--from", "2", "--to", "1"], "--to 1: must be later than --from 2"),
     (["--from", "soon"], "--from soon: allowed a number of seconds"),
+    (["--format", "MODE", "--sa", "5"], "--sa 5 can never match"),
+    (["--format", "RT_BC,BC_RT", "--sa", "0"], "carries mode codes only"),
 ])
 def test_a_filter_that_cannot_match_is_one_line_and_exit_2(flags: list[str], named: str,
                                                             tmp_path: Path) -> None:

@@ -44,7 +44,7 @@ def _summary(text: str) -> tuple[int, int, int, int, str]:
 def test_records_a_bounded_source_to_its_end(tmp_path: Path,
                                              capsys: pytest.CaptureFixture[str]) -> None:
     out = tmp_path / "loop.c10"
-    code = main(["record", "--backend", "loopback", "-o", "frames=200", "-o", "bit_level=false",
+    code = main(["record", "--backend", "loopback", "-O", "frames=200", "-O", "bit_level=false",
                  str(out)])
     assert code == exitcodes.OK
     messages, errors, packets, size, path = _summary(capsys.readouterr().out)
@@ -58,7 +58,7 @@ def test_records_a_bounded_source_to_its_end(tmp_path: Path,
 def test_count_stops_after_that_many_messages(tmp_path: Path,
                                               capsys: pytest.CaptureFixture[str]) -> None:
     out = tmp_path / "count.c10"
-    assert main(["record", "--backend", "loopback", "-o", "bit_level=false", "--count", "25",
+    assert main(["record", "--backend", "loopback", "-O", "bit_level=false", "--count", "25",
                  str(out)]) == exitcodes.OK
     assert _summary(capsys.readouterr().out)[0] == 25
     assert _in_file(out)[0] == 25
@@ -67,7 +67,7 @@ def test_count_stops_after_that_many_messages(tmp_path: Path,
 def test_duration_stops_a_live_source(tmp_path: Path,
                                       capsys: pytest.CaptureFixture[str]) -> None:
     out = tmp_path / "duration.c10"
-    assert main(["record", "--backend", "loopback", "-o", "realtime=true", "-o",
+    assert main(["record", "--backend", "loopback", "-O", "realtime=true", "-O",
                  "bit_level=false", "--duration", "0.5", str(out)]) == exitcodes.OK
     messages = _summary(capsys.readouterr().out)[0]
     assert messages > 0
@@ -76,14 +76,14 @@ def test_duration_stops_a_live_source(tmp_path: Path,
 
 def test_channel_option_sets_the_1553_and_time_channels(tmp_path: Path) -> None:
     out = tmp_path / "channel.c10"
-    assert main(["record", "--backend", "loopback", "-o", "frames=10", "-o", "bit_level=false",
+    assert main(["record", "--backend", "loopback", "-O", "frames=10", "-O", "bit_level=false",
                  "--channel", "9", str(out)]) == exitcodes.OK
     assert _in_file(out)[2] == {0, 9, 10}
     assert any(isinstance(p, TimeF1) and p.channel_id == 10 for p in C10(str(out)))
 
 
 @pytest.mark.parametrize(("argv", "code", "message"), [
-    (["--backend", "loopback", "-o", "nosuch=1"], exitcodes.USAGE, "unknown option"),
+    (["--backend", "loopback", "-O", "nosuch=1"], exitcodes.USAGE, "unknown option"),
 ])
 def test_a_backend_that_cannot_be_opened_is_one_line(tmp_path: Path, argv: list[str],
                                                      code: int, message: str,
@@ -117,7 +117,7 @@ def test_a_signal_stops_recording_with_every_message_in_the_file(tmp_path: Path,
     out = tmp_path / "signal.c10"
     process = subprocess.Popen(
         [sys.executable, "-m", "mapr_daemon.cli.main", "record", "--backend", "loopback",
-         "-o", "realtime=true", "-o", "bit_level=false", str(out)],
+         "-O", "realtime=true", "-O", "bit_level=false", str(out)],
         cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         deadline = time.monotonic() + 60
@@ -151,10 +151,10 @@ def test_a_recording_made_with_a_tail_is_read_back_with_that_tail(
 
     out = tmp_path / "box7" / "rec-0003.c10"
     out.parent.mkdir()
-    assert main(["record", "--backend", "loopback", "-o", "bit_level=false", "--count", "25",
+    assert main(["record", "--backend", "loopback", "-O", "bit_level=false", "--count", "25",
                  "--tail", "N777AB", str(out)]) == exitcodes.OK
     plain = tmp_path / "box7" / "rec-0004.c10"
-    assert main(["record", "--backend", "loopback", "-o", "bit_level=false", "--count", "25",
+    assert main(["record", "--backend", "loopback", "-O", "bit_level=false", "--count", "25",
                  str(plain)]) == exitcodes.OK
     found, bad = discover([tmp_path], tail_tmats=TAIL_ATTRIBUTE)
     assert [(r.tail, r.flight) for r in found] == [("N777AB", 3), ("box7", 4)] and not bad
@@ -164,6 +164,6 @@ def test_a_recording_made_with_a_tail_is_read_back_with_that_tail(
 def test_a_tail_tmats_cannot_hold_is_refused_before_the_file(
         tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     out = tmp_path / "bad.c10"
-    assert main(["record", "--backend", "loopback", "-o", "bit_level=false", "--count", "5",
+    assert main(["record", "--backend", "loopback", "-O", "bit_level=false", "--count", "5",
                  "--tail", "N1;G\\PN:X", str(out)]) == exitcodes.USAGE
     assert "--tail" in capsys.readouterr().err and not out.exists()

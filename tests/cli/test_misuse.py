@@ -56,9 +56,10 @@ def one_line(result: subprocess.CompletedProcess[str], code: int, *words: str) -
 @pytest.mark.parametrize(("args", "words"), [
     (["--rt", "40"], ["--rt", "0-31", "40"]),
     (["--sa", "-1"], ["--sa", "0-31", "-1"]),
-    (["--format", "XYZ"], ["--format", "'XYZ'", "BC_RT"]),
-    (["--error", "nosucherr"], ["--error", "'nosucherr'", "parity"]),
-    (["--tr", "X"], ["--tr", "'T'"]),
+    (["--format", "XYZ"], ["--format XYZ", "BC_RT"]),
+    (["--error", "nosucherr"], ["--error nosucherr", "parity"]),
+    (["--tr", "X"], ["--tr X", "T or R"]),
+    (["--rt", "5,40"], ["--rt 40", "0-31"]),
     (["--format", "MODE", "--sa", "5"], ["--format MODE", "--sa 5", "never match"]),
     (["--format", "bc_rt", "--tr", "T"], ["--format BC_RT", "--tr T", "never match"]),
     (["--format", "BCAST_BC_RT", "--rt", "4"], ["broadcast", "--rt 4", "never match"]),
@@ -81,12 +82,12 @@ def test_record_bad_channel_and_backend_are_exit_2(tmp_path: Path) -> None:
 
 
 def test_backend_options_it_does_not_take_or_lacks_are_exit_2() -> None:
-    one_line(mapr("monitor", "--backend", "capture", "-o", "bogus=1"), 2,
+    one_line(mapr("monitor", "--backend", "capture", "-O", "bogus=1"), 2,
              "unknown option bogus", "path", "sample_rate")
     line = one_line(mapr("monitor", "--backend", "chapter10"), 2, "needs option path",
-                    "-o path=")
+                    "-O path=")
     assert "__init__" not in line
-    one_line(mapr("monitor", "--backend", "chapter10", "-o", "path=x.c10", "-o", "speed=-1"),
+    one_line(mapr("monitor", "--backend", "chapter10", "-O", "path=x.c10", "-O", "speed=-1"),
              2, "speed")
 
 
@@ -94,7 +95,7 @@ def test_random_bytes_named_c10_are_not_a_chapter10_file(tmp_path: Path) -> None
     fake = tmp_path / "flight.c10"
     fake.write_bytes(os.urandom(4096))
     for result in (mapr("decode", str(fake)),
-                   mapr("monitor", "--backend", "capture", "-o", f"path={fake}")):
+                   mapr("monitor", "--backend", "capture", "-O", f"path={fake}")):
         line = one_line(result, 2, str(fake), "not a Chapter 10 file")
         assert "samplerate" not in line and "sample_rate" not in line
 
@@ -103,8 +104,8 @@ def test_a_raw_capture_without_its_rate_names_the_flag_of_that_command(tmp_path:
                                                                         ) -> None:
     raw = tmp_path / "bus.bin"
     raw.write_bytes(bytes(4096))
-    assert "-o sample_rate=" in one_line(
-        mapr("monitor", "--backend", "capture", "-o", f"path={raw}"), 2, str(raw))
+    assert "-O sample_rate=" in one_line(
+        mapr("monitor", "--backend", "capture", "-O", f"path={raw}"), 2, str(raw))
     assert "--samplerate" in one_line(mapr("decode", str(raw)), 2, str(raw))
 
 
@@ -125,9 +126,9 @@ def test_a_chapter10_channel_not_in_the_recording_is_exit_65_listing_those_that_
 
 def test_a_missing_serial_port_is_exit_69(tmp_path: Path) -> None:
     port = tmp_path / "ttyUSB9"
-    one_line(mapr("monitor", "--backend", "serial", "-o", f"port={port}"), 69, str(port))
+    one_line(mapr("monitor", "--backend", "serial", "-O", f"port={port}"), 69, str(port))
     out = tmp_path / "x.c10"
-    one_line(mapr("record", "--backend", "serial", "-o", f"port={port}", str(out)), 69,
+    one_line(mapr("record", "--backend", "serial", "-O", f"port={port}", str(out)), 69,
              str(port))
     assert not out.exists()
 

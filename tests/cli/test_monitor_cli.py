@@ -27,7 +27,7 @@ def test_decode_prints_one_json_object_per_message() -> None:
 
 
 def test_monitor_text_filters_and_stats() -> None:
-    result = mapr("monitor", "--backend", "capture", "-o", f"path={RAW}", "-o",
+    result = mapr("monitor", "--backend", "capture", "-O", f"path={RAW}", "-O",
                   "sample_rate=10e6", "--error", "parity", "--stats")
     assert result.returncode == 0, result.stderr
     lines = result.stdout.splitlines()
@@ -36,7 +36,7 @@ def test_monitor_text_filters_and_stats() -> None:
 
 
 def test_monitor_json_count() -> None:
-    result = mapr("monitor", "--backend", "capture", "-o", f"path={RAW}", "-o",
+    result = mapr("monitor", "--backend", "capture", "-O", f"path={RAW}", "-O",
                   "sample_rate=10e6", "--json", "--count", "2")
     assert result.returncode == 0, result.stderr
     assert [json.loads(x)["format"] for x in result.stdout.splitlines()] == ["BC_RT", "RT_BC"]
@@ -45,7 +45,7 @@ def test_monitor_json_count() -> None:
 def test_monitor_unknown_backend_or_option() -> None:
     bad = mapr("monitor", "--backend", "nosuch")
     assert bad.returncode == 2 and "invalid choice: 'nosuch'" in bad.stderr  # a bad argument
-    option = mapr("monitor", "--backend", "capture", "-o", "bogus=1")
+    option = mapr("monitor", "--backend", "capture", "-O", "bogus=1")
     assert option.returncode == 2 and len(option.stderr.strip().splitlines()) == 1
 
 
@@ -69,7 +69,7 @@ def test_decode_with_the_message_table_adds_engineering_values() -> None:
 
 
 def test_monitor_with_the_message_table_shows_values_with_units() -> None:
-    result = mapr("monitor", "--backend", "capture", "-o", f"path={EMA}", "--icd", ICD,
+    result = mapr("monitor", "--backend", "capture", "-O", f"path={EMA}", "--icd", ICD,
                   "--rt", "6")
     assert result.returncode == 0, result.stderr
     assert "adc_air_data: pressure_altitude=1500.00000 m" in result.stdout

@@ -65,7 +65,7 @@ def test_decode_stats_window_must_be_positive() -> None:
 
 
 def test_monitor_stats_json_lines_follow_the_messages() -> None:
-    result = mapr("monitor", "--backend", "capture", "-o", f"path={RAW}", "-o",
+    result = mapr("monitor", "--backend", "capture", "-O", f"path={RAW}", "-O",
                   "sample_rate=10e6", "--json", "--stats")
     assert result.returncode == 0, result.stderr
     lines = [json.loads(x) for x in result.stdout.splitlines()]

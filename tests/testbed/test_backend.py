@@ -57,7 +57,7 @@ def test_a_bad_testbed_is_a_config_error_at_start(actuators: tuple[TestbedActuat
 
 
 def test_section_keys_are_options_of_their_own_and_bad_ones_are_config_errors() -> None:
-    """What ``mapr monitor --backend testbed -o duration_s=0.05`` passes."""
+    """What ``mapr monitor --backend testbed -O duration_s=0.05`` passes."""
     with open_monitor("testbed", duration_s=0.05, realtime=False, bit_level=False) as monitor:
         assert sum(1 for r in monitor if r.rt == 5 and r.sa == 10) == 25
     with pytest.raises(ConfigError, match="expected a mapping"):

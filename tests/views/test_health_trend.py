@@ -30,7 +30,11 @@ def test_trend_plot_is_drawn_in_flights_hours_and_without_data(tmp_path: Path) -
     import matplotlib.image as mpimg
 
     path = write_health_catalog(tmp_path / "c.sqlite")
-    for asset, extra in (("EMA1", []), ("EMA1", ["--hours"]), ("EMA2", []), ("EMA7", [])):
+    unknown = mapr("catalog", "trend", "EMA7", "--plot", str(tmp_path / "EMA7.png"),
+                   "--catalog", str(path))
+    assert unknown.returncode == 2 and "no actuator EMA7" in unknown.stderr
+    assert "N101/EMA1, N101/EMA2" in unknown.stderr and not (tmp_path / "EMA7.png").exists()
+    for asset, extra in (("EMA1", []), ("EMA1", ["--hours"]), ("EMA2", [])):
         png = tmp_path / f"{asset}{len(extra)}.png"
         done = mapr("catalog", "trend", asset, "--plot", str(png), "--catalog", str(path),
                     *extra)

@@ -6,7 +6,7 @@
     mapr catalog export --what bits --format csv -o bits.csv   (or episodes; --format jsonl)
     mapr catalog trend EMA1 --plot ema1.png            (--hours: x in flight hours)
     mapr catalog stats --since 2h
-    mapr catalog episodes --open --actuator EMA1
+    mapr catalog episodes --open --asset EMA1
     mapr catalog ack 3 --by "J. Smith" --note "capacitor replaced, WO 4711"
 
 The catalog is ``--catalog PATH``, else ``$MAPR_CATALOG``, else /var/lib/mapr/catalog.sqlite
@@ -111,14 +111,16 @@ def add_subparser(subparsers: Any) -> None:
                    help="events (default), bits (every BIT with its health and wear) or "
                         "episodes; bits take --asset/--fault/--since/--until, episodes "
                         "--asset")
-    p.add_argument("--format", choices=["csv", "json", "jsonl"], default="csv",
-                   help="csv (flat; events keep params/evidence as JSON text), jsonl (one "
-                        "record a line) or json (events: one array; else as jsonl)")
+    p.add_argument("--format", choices=["csv", "json", "jsonl"], default=None,
+                   help="csv (the default; flat, events keep params/evidence as JSON text), "
+                        "jsonl (one record a line) or json (events: one array; else as "
+                        "jsonl); --json is --format json")
     p.add_argument("-o", "--output", metavar="FILE", help="write here (default stdout)")
     p.set_defaults(func=run, action_func=run_export)
 
     p = actions.add_parser("trend", parents=[common], help="SoH and RUL of one asset over time")
-    p.add_argument("asset")
+    p.add_argument("asset", metavar="ACTUATOR",
+                   help="TAIL/ACTUATOR (e.g. N900/EMA1), or a name only one aircraft has")
     _time_range(p)
     p.add_argument("--tail", help="only this aircraft's actuator of that name")
     p.add_argument("--plot", metavar="PNG", help="also draw it into this PNG (matplotlib)")
@@ -132,6 +134,10 @@ def add_subparser(subparsers: Any) -> None:
     p.add_argument("--by-rt", action="store_true",
                    help="per RT / direction / subaddress and mode code over the range "
                         "(both buses), instead of per interval")
+    p.add_argument("--rt", metavar="LIST", help="with --by-rt: only these terminals (1-4,7)")
+    p.add_argument("--sa", metavar="LIST", help="with --by-rt: only their subaddresses")
+    p.add_argument("--tr", metavar="T|R", help="with --by-rt: only the side where the "
+                                                "terminal transmits (T) or receives (R)")
     p.add_argument("--limit", type=int, default=DEFAULT_LIMIT,
                    help=f"the last N intervals (default {DEFAULT_LIMIT}; 0: all)")
     p.set_defaults(func=run, action_func=run_stats)
@@ -140,7 +146,9 @@ def add_subparser(subparsers: Any) -> None:
     p = actions.add_parser("episodes", parents=[common],
                            help="fault episodes, most recently active first")
     p.add_argument("--open", action="store_true", help="only the open ones")
-    p.add_argument("--actuator", metavar="NAME", help="only this actuator (e.g. EMA1)")
+    p.add_argument("--asset", metavar="NAME", help="only this asset (e.g. EMA1)")
+    # the old name, kept working (hidden): `list` and `export` always said --asset
+    p.add_argument("--actuator", dest="asset", help=argparse.SUPPRESS)
     p.set_defaults(func=run, action_func=run_episodes)
 
     p = actions.add_parser("ack", parents=[common],
@@ -207,6 +215,11 @@ def run_show(reader: CatalogReader, args: argparse.Namespace) -> int:
 
 
 def run_export(reader: CatalogReader, args: argparse.Namespace) -> int:
+    if _wants_json(args) and args.format not in (None, "json"):
+        print(f"mapr catalog export: error: --json and --format {args.format} ask for two "
+              "formats (see mapr catalog export --help)", file=sys.stderr)
+        return exitcodes.USAGE
+    args.format = args.format or ("json" if _wants_json(args) else "csv")
     events = reader.iter_events(_filter(args), newest_first=False)
     with ExitStack() as stack:
         out: IO[str] = sys.stdout
@@ -253,7 +266,34 @@ def _history(reader: CatalogReader, args: argparse.Namespace) -> tuple[str, list
     return name, records
 
 
+def which_actuator(reader: CatalogReader, asset: str, tail: str | None) -> str | None:
+    """Why ``asset`` (``TAIL/ACTUATOR`` or a bare name, with ``--tail``) does not name
+    exactly one actuator of the catalog, or None when it does: a bare name on several tails
+    would merge their histories into one trend, an unknown name would print nothing."""
+    known = reader.actuators()
+    if tail is None and "/" in asset and (asset.split("/", 1)[0], asset.split("/", 1)[1]) in \
+            known:
+        return None
+    if tail is not None:
+        if (tail, asset) in known:
+            return None
+    else:
+        tails = sorted({t for t, a in known if a == asset})
+        if len(tails) > 1:
+            names = ", ".join(display_name(t, asset) for t in tails)
+            return (f"{asset} is on {len(tails)} aircraft: {names}; name one as "
+                    "TAIL/ACTUATOR")
+        if tails or any(display_name(t, a) == asset for t, a in known):
+            return None
+    listed = ", ".join(display_name(t, a) for t, a in known) or "none"
+    return f"no actuator {display_name(tail or '', asset)} in {reader.path} (actuators: {listed})"
+
+
 def run_trend(reader: CatalogReader, args: argparse.Namespace) -> int:
+    problem = which_actuator(reader, args.asset, args.tail)
+    if problem:
+        print(f"mapr catalog trend: error: {problem}", file=sys.stderr)
+        return exitcodes.USAGE
     name, records = _history(reader, args)
     events = [] if records else reader.trend(args.asset, args.since, args.until)
     if records and _wants_json(args):
@@ -284,6 +324,13 @@ def run_trend(reader: CatalogReader, args: argparse.Namespace) -> int:
 
 
 def run_stats(reader: CatalogReader, args: argparse.Namespace) -> int:
+    if args.tr is not None and args.tr.upper() not in ("T", "R"):
+        print(f"mapr catalog stats: error: --tr {args.tr}: allowed T or R", file=sys.stderr)
+        return exitcodes.USAGE
+    if not args.by_rt and (args.rt or args.sa or args.tr):
+        print("mapr catalog stats: error: --rt, --sa and --tr select rows of --by-rt",
+              file=sys.stderr)
+        return exitcodes.USAGE
     if args.by_rt:
         return _run_rt_stats(reader, args)
     rows = reader.stats(args.since, args.until, args.bus,
@@ -301,12 +348,12 @@ def run_stats(reader: CatalogReader, args: argparse.Namespace) -> int:
 
 
 def run_episodes(reader: CatalogReader, args: argparse.Namespace) -> int:
-    episodes = reader.episodes(open_only=args.open, asset=args.actuator)
+    episodes = reader.episodes(open_only=args.open, asset=args.asset)
     if _wants_json(args):
         _print_json([views.episode_json(ep) for ep in episodes])
     elif not episodes:
         which = "open " if args.open else ""
-        whose = f" for {args.actuator}" if args.actuator else ""
+        whose = f" for {args.asset}" if args.asset else ""
         print(f"no {which}fault episodes{whose} in {reader.path}")
     else:
         print(views.episodes_table(episodes))
@@ -334,7 +381,18 @@ def run_ack(args: argparse.Namespace) -> int:
 
 
 def _run_rt_stats(reader: CatalogReader, args: argparse.Namespace) -> int:
-    rows = reader.rt_stats(args.since, args.until)
+    from drivers.mil1553.sides import side_matches
+    from mapr_daemon.cli.traffic.decode_filter import FilterError, address_set
+
+    try:
+        rts, sas = address_set("--rt", args.rt), address_set("--sa", args.sa)
+    except FilterError as error:
+        print(f"mapr catalog stats: error: {error}", file=sys.stderr)
+        return exitcodes.USAGE
+    transmit = None if args.tr is None else args.tr.upper() == "T"
+    # the rows are sides (RT, T/R, SA): the same selection as decode's and monitor's filters
+    rows = [r for r in reader.rt_stats(args.since, args.until)
+            if side_matches(r.rt << 11 | (r.tr == "T") << 10 | r.sa << 5, rts, sas, transmit)]
     if _wants_json(args):
         _print_json({"rt_sa": [r.as_dict() for r in rows]})
         return exitcodes.OK

@@ -73,14 +73,16 @@ def bash_script(parser: argparse.ArgumentParser) -> str:
                  and not isinstance(a, argparse._SubParsersAction) for c in a.choices]
         if fixed:
             positional.append(f'        "{path}") subs="{_words(fixed)}" ;;')
-        flags = [s for a in each._actions for s in a.option_strings]
+        flags = [s for a in each._actions if a.help != argparse.SUPPRESS
+                 for s in a.option_strings]
         options.append(f'        "{path}") opts="{_words(sorted(flags))}" ;;')
         for action in each._actions:
             if not action.option_strings or action.nargs == 0:
                 continue
             pattern = "|".join(f'"{path} {s}"' for s in action.option_strings)
-            if action.choices is not None:
-                choices.append(f'        {pattern}) words="{_words(action.choices)}" ;;')
+            offered = getattr(action, "completions", None) or action.choices
+            if offered is not None:
+                choices.append(f'        {pattern}) words="{_words(offered)}" ;;')
             else:
                 valued.append(f"        {pattern}) return ;;")
     lines = [

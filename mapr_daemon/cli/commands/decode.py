@@ -28,6 +28,7 @@ from typing import TYPE_CHECKING, Any, TextIO
 from mapr_daemon.cli import exitcodes
 from mapr_daemon.cli.traffic import chapter10_decode
 from mapr_daemon.cli.traffic.source import positive_seconds
+from mapr_daemon.cli.validate import add_filter_arguments
 
 if TYPE_CHECKING:
     from drivers.mil1553.record import MonitorRecord
@@ -51,8 +52,9 @@ def add_subparser(subparsers: Any) -> None:
                         help="print one JSON object per word (the codec's output)")
     parser.add_argument("--icd", metavar="FILE", help="message table: add engineering values")
     parser.add_argument("--stats", nargs="?", const="text", choices=["text", "json"],
-                        help="print per-RT/SA statistics and windowed bus load instead of the "
-                             "messages: a table (default) or JSON lines")
+                        help="print per-RT/SA statistics and windowed bus load of the "
+                             "messages the filters keep, instead of the messages: a table "
+                             "(default; also with --text) or JSON lines")
     parser.add_argument("--stats-window", type=positive_seconds, default=1.0, metavar="S",
                         help="bus-load window for --stats, in seconds (default 1)")
     parser.add_argument("--text", action="store_true",
@@ -60,25 +62,17 @@ def add_subparser(subparsers: Any) -> None:
                              "data in hex, errors) instead of JSON lines")
     add_filter_arguments(parser)
     chapter10_decode.add_arguments(parser)
-    parser.set_defaults(func=run)
+    parser.set_defaults(func=run, validate=validate)
 
 
-def add_filter_arguments(parser: argparse.ArgumentParser) -> None:
-    """Monitor's filters, with lists and ranges (:mod:`mapr_daemon.cli.traffic.decode_filter`)."""
-    group = parser.add_argument_group("filters (lists and ranges: --rt 1-4,7)")
-    group.add_argument("--rt", metavar="LIST", help="remote terminal addresses, 0-31 (either "
-                                                    "terminal of an RT-RT transfer)")
-    group.add_argument("--sa", metavar="LIST", help="subaddresses, 0-31")
-    group.add_argument("--tr", metavar="T|R", help="transmit or receive command")
-    group.add_argument("--format", dest="fmt", metavar="LIST",
-                       help="transfer formats, e.g. BC_RT,RT_RT")
-    group.add_argument("--errors", action="store_true", help="only messages with errors")
-    group.add_argument("--error", metavar="LIST",
-                       help="only messages with one of these errors, e.g. no_response")
-    group.add_argument("--from", dest="t_from", metavar="SECONDS",
-                       help="only messages starting at or after this bus time")
-    group.add_argument("--to", dest="t_to", metavar="SECONDS",
-                       help="only messages starting before this bus time")
+def validate(args: argparse.Namespace) -> str | None:
+    """Flags that contradict each other, or a filter value that is malformed or can never
+    match, as one line (exit 2 before the file is read)."""
+    if args.stats == "json" and args.text:
+        return "--stats json and --text ask for two formats; --stats alone prints the table"
+    from mapr_daemon.cli.traffic.decode_filter import filter_problem
+
+    return filter_problem(args)
 
 
 def _rate(text: str) -> float:

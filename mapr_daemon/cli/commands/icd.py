@@ -16,6 +16,7 @@ import argparse
 import sys
 
 from mapr_daemon.cli import exitcodes
+from mapr_daemon.cli.validate import add_backend_options
 from mapr_daemon.icd import Icd, load_icd
 from mapr_daemon.icd.layout import dump_icd
 
@@ -42,8 +43,7 @@ def add_subparser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser
     discover.add_argument("source", metavar="FILE", nargs="?",
                           help="Chapter 10 recording or bit-level capture (or use --backend)")
     discover.add_argument("--backend", help="read a live backend instead of a file")
-    discover.add_argument("-o", "--option", action="append", default=[], metavar="KEY=VALUE",
-                          help="backend option, repeatable")
+    add_backend_options(discover, old_dash_o=False)
     discover.add_argument("--count", type=int, metavar="N",
                           help="stop after N messages (live backend)")
     discover.add_argument("--duration", type=float, metavar="S",
@@ -51,7 +51,7 @@ def add_subparser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser
     discover.add_argument("--samplerate", type=float, metavar="HZ",
                           help="sample rate of a raw capture")
     discover.add_argument("--name", default="discovered", help="the table's name")
-    discover.add_argument("--output", metavar="OUT", help="write here (default: stdout)")
+    discover.add_argument("-o", "--output", metavar="OUT", help="write here (default: stdout)")
     discover.set_defaults(func=run_discover)
 
 
@@ -93,7 +93,6 @@ def run_dump(args: argparse.Namespace) -> int:
 
 def run_discover(args: argparse.Namespace) -> int:
     from drivers.rtstats import TrafficStatistics
-    from mapr_daemon.cli.commands.monitor import parse_option
     from mapr_daemon.cli.traffic.source import backend_batches, file_batches
     from mapr_daemon.icd.discover import skeleton_yaml
 
@@ -111,10 +110,11 @@ def run_discover(args: argparse.Namespace) -> int:
             return exitcodes.USAGE
     stats = TrafficStatistics()
     if args.source is not None:
-        batches = file_batches(args.source, samplerate=args.samplerate)
+        batches = file_batches(args.source, samplerate=args.samplerate,
+                               err_prefix="mapr icd discover")
         where = args.source
     else:
-        batches = backend_batches(args.backend, dict(parse_option(o) for o in args.option),
+        batches = backend_batches(args.backend, dict(args.option),
                                   count=args.count, duration=args.duration)
         where = f"the {args.backend} backend"
     for batch in batches:

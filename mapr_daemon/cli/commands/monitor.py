@@ -1,17 +1,20 @@
 """``mapr monitor``: watch a bus live, one line per message (like candump).
 
     mapr monitor --backend loopback
-    mapr monitor --backend capture -o path=flight.sr --rt 5 --errors
+    mapr monitor --backend capture -O path=flight.sr --rt 5 --errors
     mapr monitor --backend loopback --json --count 100
     mapr monitor --backend loopback --stats --duration 2
 
-Filters (all given must match): ``--rt``, ``--sa``, ``--tr``, ``--format``, ``--errors``
-(only messages with errors) or ``--error NAME``. ``-o KEY=VALUE`` passes an option to the
-backend (numbers and true/false are converted). ``--icd FILE`` shows engineering values under
-each message the table describes. ``--stats`` prints the per-bus statistics table at the end
-(and every ``--stats-every`` seconds), then per RT/SA the messages, rate, errors by class,
-response time min/mean/max and last seen, and each bus's load per ``--stats-window`` (JSON
-lines with ``"kind": "rtsa"`` / ``"bus_load"`` on stdout with ``--json``).
+Filters (all given must match) are ``mapr decode``'s, lists and ranges included: ``--rt``,
+``--sa``, ``--tr`` (one terminal's side of a message: an RT-RT transfer matches ``--rt 2 --tr
+T`` when RT 2 transmits in it), ``--format``, ``--errors``, ``--error NAMES``, ``--from`` and
+``--to`` (bus time, s); a filter no message can match exits 2 before the backend opens.
+``-O KEY=VALUE`` passes an option to the backend (numbers and true/false are converted).
+``--icd FILE`` shows engineering values under each message the table describes. ``--stats``
+prints the per-bus statistics table at the end (and every ``--stats-every`` seconds), then
+per RT/SA the messages, rate, errors by class, response time min/mean/max and last seen, and
+each bus's load per ``--stats-window`` (JSON lines with ``"kind": "rtsa"`` /
+``"bus_load"`` on stdout with ``--json``).
 """
 
 from __future__ import annotations
@@ -22,18 +25,17 @@ import time
 from typing import Any
 
 from drivers.backends import available_backends
-from drivers.mil1553.record import MESSAGE_ERROR_NAMES, TransferFormat
 from mapr_daemon.cli import exitcodes
 from mapr_daemon.cli.validate import (
-    bounded_int,
-    impossible_filter,
+    add_backend_options,
+    add_filter_arguments,
     non_negative_seconds,
+    parse_option,
     positive_int,
     positive_seconds,
 )
 
-FORMATS = tuple(str(f) for f in TransferFormat)
-"""Values of ``--format``."""
+__all__ = ["add_subparser", "parse_option", "run", "validate"]
 
 
 def add_subparser(subparsers: Any) -> None:
@@ -42,20 +44,8 @@ def add_subparser(subparsers: Any) -> None:
                                    formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--backend", default="loopback", choices=available_backends(),
                         help="one of: %(choices)s (default loopback)")
-    parser.add_argument("-o", "--option", action="append", default=[], metavar="KEY=VALUE",
-                        type=parse_option, help="backend option, repeatable")
-    parser.add_argument("--rt", type=bounded_int(0, 31, "RT address"),
-                        help="only this remote terminal, 0-31 (31: broadcast)")
-    parser.add_argument("--sa", type=bounded_int(0, 31, "subaddress"),
-                        help="only this subaddress, 0-31 (0 and 31: mode codes)")
-    parser.add_argument("--tr", type=str.upper, choices=["T", "R"],
-                        help="only transmit (T) or receive (R) commands")
-    parser.add_argument("--format", dest="fmt", type=str.upper, choices=FORMATS,
-                        metavar="FORMAT", help="only this transfer format: %(choices)s")
-    errors = parser.add_mutually_exclusive_group()
-    errors.add_argument("--errors", action="store_true", help="only messages with errors")
-    errors.add_argument("--error", metavar="NAME", choices=MESSAGE_ERROR_NAMES,
-                        help="only messages with this error: %(choices)s")
+    add_backend_options(parser, old_dash_o=True)
+    add_filter_arguments(parser)
     parser.add_argument("--json", action="store_true", help="JSON lines instead of text")
     parser.add_argument("--icd", metavar="FILE", help="message table: show engineering values")
     parser.add_argument("--stats", action="store_true",
@@ -72,40 +62,24 @@ def add_subparser(subparsers: Any) -> None:
 
 
 def validate(args: argparse.Namespace) -> str | None:
-    """A filter no message can match, as one line (or None): checked before the backend
-    opens, so a typo is an error instead of a silent bus."""
-    return impossible_filter(args.rt, args.sa, args.tr, args.fmt)
+    """A filter value that is malformed or can never match, as one line (or None): checked
+    before the backend opens, so a typo is an error instead of a silent bus."""
+    from mapr_daemon.cli.traffic.decode_filter import filter_problem
 
-
-def parse_option(text: str) -> tuple[str, Any]:
-    """``key=value`` with the value read as int, float, bool or string."""
-    key, sep, raw = text.partition("=")
-    if not sep or not key:
-        raise argparse.ArgumentTypeError(f"option {text!r} is not KEY=VALUE")
-    value: Any = raw
-    if raw.lower() in ("true", "false"):
-        value = raw.lower() == "true"
-    else:
-        for kind in (int, float):
-            try:
-                value = kind(raw)
-                break
-            except ValueError:
-                pass
-    return key.strip(), value
+    return filter_problem(args)
 
 
 def run(args: argparse.Namespace) -> int:
     from drivers.monitor import MonitorFilter, open_monitor
     from drivers.rtstats import TrafficStatistics
     from mapr_daemon.cli.icdview.view import IcdView
+    from mapr_daemon.cli.traffic.decode_filter import filter_from_args
     from mapr_daemon.cli.traffic.render import record_json, record_line
     from mapr_daemon.cli.traffic.source import bounded, print_stats
 
     view = IcdView(args.icd)
     options = dict(args.option)
-    wanted = MonitorFilter(rt=args.rt, sa=args.sa, tr=args.tr, format=args.fmt,
-                           error=args.error or (True if args.errors else None))
+    wanted = filter_from_args(args).monitor_filter()
     filters = [wanted] if wanted != MonitorFilter() else None
     monitor = open_monitor(args.backend, filters=filters, **options)
     if args.stats or args.stats_every:

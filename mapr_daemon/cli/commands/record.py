@@ -1,10 +1,10 @@
 """``mapr record``: write what a bus monitor sees to an IRIG 106 Chapter 10 file.
 
     mapr record --backend loopback --duration 10 flight.c10
-    mapr record --backend serial -o port=/dev/ttyUSB0 flight.c10      (Ctrl-C to stop)
-    mapr record --backend capture -o path=bus.sr --count 1000 first1000.c10
+    mapr record --backend serial -O port=/dev/ttyUSB0 flight.c10      (Ctrl-C to stop)
+    mapr record --backend capture -O path=bus.sr --count 1000 first1000.c10
 
-The backend is opened as ``mapr monitor`` opens it (``-o KEY=VALUE`` options, numbers and
+The backend is opened as ``mapr monitor`` opens it (``-O KEY=VALUE`` options, numbers and
 true/false converted). Recording stops at ``--duration`` seconds, ``--count`` messages, the end
 of the source, or Ctrl-C / SIGTERM; every message received is in the file when it stops. One
 summary line follows: messages, messages with errors, packets and bytes. Exit 0, or 130 after
@@ -23,8 +23,7 @@ from typing import TYPE_CHECKING, Any
 
 from drivers.backends import available_backends
 from mapr_daemon.cli import exitcodes
-from mapr_daemon.cli.commands.monitor import parse_option
-from mapr_daemon.cli.validate import positive_int, positive_seconds
+from mapr_daemon.cli.validate import add_backend_options, positive_int, positive_seconds
 
 if TYPE_CHECKING:
     from drivers.chapter10.writer import Chapter10Writer, RecordingStats
@@ -41,8 +40,7 @@ def add_subparser(subparsers: Any) -> None:
     parser.add_argument("output", metavar="OUT.c10", help="the Chapter 10 file to write")
     parser.add_argument("--backend", default="loopback", choices=available_backends(),
                         help="one of: %(choices)s (default loopback)")
-    parser.add_argument("-o", "--option", action="append", default=[], metavar="KEY=VALUE",
-                        type=parse_option, help="backend option, repeatable")
+    add_backend_options(parser, old_dash_o=True)
     parser.add_argument("--duration", type=positive_seconds, metavar="S",
                         help="stop after S seconds")
     parser.add_argument("--count", type=positive_int("message count"), metavar="N",

@@ -8,7 +8,9 @@
 
 Runs until SIGTERM or Ctrl-C (exit 0); SIGHUP reloads the config. A config or ICD error
 exits 78 with one line ``file:line: field: problem``; a backend that can never open here (its
-library is missing), 69. See docs/service.md.
+library is missing), 69. An asset's fault dictionary is built, not shipped: when it is
+missing, the check prints the ``mapr dictionary build`` command line that makes it. See
+docs/service.md.
 """
 
 from __future__ import annotations
@@ -49,6 +51,12 @@ def run(args: argparse.Namespace) -> int:
         service = Service(config, args.config)
     except ConfigError as error:
         log.error("mapr run: %s", error)
+        if args.config:
+            from mapr_daemon.cli.dictionary_hint import build_command
+
+            command = build_command(args.config, str(error))
+            if command:   # a built product, not a shipped file: say how to build it
+                log.error("mapr run: build it first: %s", command)
         return exitcodes.CONFIG
     except BackendUnavailable as error:  # can never open here: retrying would not help
         log.error("mapr run: %s", error)

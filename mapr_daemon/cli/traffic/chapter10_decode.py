@@ -24,7 +24,7 @@ import json
 import sys
 from typing import TYPE_CHECKING, TextIO
 
-from mapr_daemon.cli import exitcodes
+from mapr_daemon.cli import exitcodes, notes
 from mapr_daemon.cli.traffic.source import Chapter10Input, add_c10_channel_argument, what_it_holds
 from mapr_daemon.cli.validate import bounded_int
 
@@ -119,5 +119,8 @@ def decode_chapter10(args: argparse.Namespace, view: IcdView,
 def _report(reader: Chapter10Reader, reported: int, err: TextIO) -> int:
     issues = reader.issues
     for issue in issues[reported:]:
-        err.write(f"mapr decode: {reader.name}: {issue}\n")
+        if err is sys.stderr:   # the command's warnings: collapsed, silenced by -q
+            notes.warn(f"{reader.name}: {issue}")
+        else:
+            err.write(f"mapr decode: {reader.name}: {issue}\n")
     return len(issues)

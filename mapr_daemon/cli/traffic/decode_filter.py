@@ -1,7 +1,8 @@
 """``mapr decode``'s message filters: RT, SA, T/R, format, errors, a time window.
 
-The same choices as ``mapr monitor`` (an RT or SA matches either terminal of an RT-RT
-transfer), widened to lists and ranges (``--rt 1-4,7``). They are checked before the file
+The same flags, lists and ranges (``--rt 1-4,7``) as ``mapr monitor``; ``--rt``, ``--tr``
+and ``--sa`` select one terminal's side of a message (:mod:`drivers.mil1553.sides`: an RT-RT
+transfer matches ``--rt 2 --tr T`` when RT 2 transmits in it). They are checked before the file
 is opened: a value that can never match is a usage error naming the flag and the allowed
 range (:class:`FilterError`, exit 2), not a silent empty output. On a Chapter 10 batch the
 filter is a numpy mask (:meth:`DecodeFilter.mask`); on records, :meth:`DecodeFilter.matches`.
@@ -18,6 +19,9 @@ import numpy.typing as npt
 from drivers.chapter10.ms1553_batch import ERROR_BIT, FORMATS, Ms1553Batch
 from drivers.errors import MaprError
 from drivers.mil1553.record import MESSAGE_ERROR_NAMES, MonitorRecord
+from drivers.mil1553.sides import message_matches, sides_mask
+from drivers.monitor import MonitorFilter
+from mapr_daemon.cli.validate import impossible_filter
 
 Mask = npt.NDArray[np.bool_]
 
@@ -46,16 +50,7 @@ class DecodeFilter:
 
     def mask(self, batch: Ms1553Batch) -> Mask:
         """True for the messages of ``batch`` to keep."""
-        keep = np.ones(len(batch), np.bool_)
-        second = batch.command2 >= 0
-        if self.rts is not None:
-            rts = np.fromiter(self.rts, np.int64)
-            keep &= np.isin(batch.rt, rts) | (second & np.isin(batch.command2 >> 11 & 31, rts))
-        if self.sas is not None:
-            sas = np.fromiter(self.sas, np.int64)
-            keep &= np.isin(batch.sa, sas) | (second & np.isin(batch.command2 >> 5 & 31, sas))
-        if self.transmit is not None:
-            keep &= batch.tr == int(self.transmit)
+        keep = sides_mask(batch.command, batch.command2, self.rts, self.sas, self.transmit)
         if self.formats is not None:
             keep &= np.isin(batch.format, np.fromiter(self.formats, np.int64))
         if self.errors:
@@ -68,13 +63,22 @@ class DecodeFilter:
             keep &= batch.t_ns < self.end_ns
         return keep
 
+    def monitor_filter(self) -> MonitorFilter:
+        """The same selection as a :class:`~drivers.monitor.MonitorFilter` (for
+        ``mapr monitor``, whose backends filter records)."""
+        names = frozenset(n for n, bit in ERROR_BIT.items() if bit & self.error_bits)
+        return MonitorFilter(
+            rt=self.rts, sa=self.sas, tr=None if self.transmit is None else
+            "T" if self.transmit else "R",
+            format=None if self.formats is None else frozenset(str(FORMATS[i])
+                                                               for i in self.formats),
+            error=names or (True if self.errors else None),
+            start_ns=self.start_ns, end_ns=self.end_ns)
+
     def matches(self, record: MonitorRecord) -> bool:
         """The same test on one record (bit-level captures)."""
-        if self.rts is not None and record.rt not in self.rts and record.rt2 not in self.rts:
-            return False
-        if self.sas is not None and record.sa not in self.sas and record.sa2 not in self.sas:
-            return False
-        if self.transmit is not None and record.tr != ("T" if self.transmit else "R"):
+        if not message_matches(record.command, record.command2, self.rts, self.sas,
+                               self.transmit):
             return False
         if self.formats is not None and FORMATS.index(record.format) not in self.formats:
             return False
@@ -113,9 +117,14 @@ def filter_from_args(args: argparse.Namespace) -> DecodeFilter:
             if part not in ERROR_BIT:
                 raise FilterError(f"--error {part}: allowed {', '.join(MESSAGE_ERROR_NAMES)}")
             bits |= ERROR_BIT[part]
-    return DecodeFilter(rts=_numbers("--rt", args.rt), sas=_numbers("--sa", args.sa),
-                        transmit=transmit, formats=formats, errors=bool(args.errors),
-                        error_bits=bits, start_ns=start, end_ns=end)
+    rts, sas = _numbers("--rt", args.rt), _numbers("--sa", args.sa)
+    problem = impossible_filter(
+        rts, sas, args.tr, None if formats is None else frozenset(FORMATS[i].name
+                                                                  for i in formats))
+    if problem:
+        raise FilterError(problem)
+    return DecodeFilter(rts=rts, sas=sas, transmit=transmit, formats=formats,
+                        errors=bool(args.errors), error_bits=bits, start_ns=start, end_ns=end)
 
 
 def _parts(flag: str, text: str) -> list[str]:
@@ -153,3 +162,19 @@ def _seconds(flag: str, text: str | None) -> int | None:
     if not np.isfinite(value):
         raise FilterError(f"{flag} {text}: allowed a finite number of seconds")
     return round(value * 1e9)
+
+
+def filter_problem(args: argparse.Namespace) -> str | None:
+    """The filter flags' problem as one line (for a subcommand's ``validate=`` hook), or
+    None when :func:`filter_from_args` takes them."""
+    try:
+        filter_from_args(args)
+    except FilterError as error:
+        return str(error)
+    return None
+
+
+def address_set(flag: str, text: str | None) -> frozenset[int] | None:
+    """``--rt``/``--sa`` values (``5``, ``1-4,7``: 0-31) as a set, None when not given;
+    :class:`FilterError` naming the flag otherwise."""
+    return _numbers(flag, text)

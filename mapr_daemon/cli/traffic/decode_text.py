@@ -8,7 +8,8 @@
         0.001324  B  MODE               05-00        T  m02 2800
 
 ``time_s``: the message's start in seconds of bus time; ``RT-SA``: the command's terminal and
-subaddress (for RT-RT, the receiver's, then ``<`` and the transmitter's); ``wc``: the word
+subaddress (for RT-RT, in bus order as every text view writes it: the receiver's, then ``<``,
+"receives from", and the transmitter's); ``wc``: the word
 count the command calls for, or ``mNN`` for a mode code; ``status`` and ``data`` in hex, in
 bus order; errors after ``!``.
 """

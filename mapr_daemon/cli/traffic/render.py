@@ -3,6 +3,10 @@
     0.001997  A  BC_RT         RT05 R SA01 WC02   8000 7FFF        RT05       8.0us
     0.002517  A  RT_BC         RT05 T SA02 WC01   5555             RT05 SRQ   8.0us
     0.180003  A  UNKNOWN       -                  AAAA                             ! orphan_words
+
+An RT-RT transfer is written as every text view writes it (``decode --text`` too): in bus
+order, the receive command, ``<`` ("receives from"), the transmit command:
+``RT05 R SA03 WC08 < RT06 T SA01 WC08`` here, ``05-03<06-01`` in ``decode --text``.
 """
 
 from __future__ import annotations
@@ -23,7 +27,7 @@ def command_text(record: MonitorRecord) -> str:
     if record.is_mode and "(" in text:
         text = text[: text.index("(")].rstrip()
     if record.command2 is not None:
-        text += " -> " + str(CommandWord.from_value(record.command2))
+        text += " < " + str(CommandWord.from_value(record.command2))
     return text
 
 

@@ -187,12 +187,14 @@ def what_it_holds(reader: Chapter10Reader, wanted: Sequence[int] | None, prog: s
 def file_batches(path: str, *, samplerate: float | None = None,
                  channels: Sequence[str] | None = None,
                  c10_channels: Sequence[int] | None = None, year: int | None = None,
-                 err: TextIO | None = None) -> Iterator[list[MonitorRecord]]:
+                 err: TextIO | None = None, err_prefix: str = "mapr"
+                 ) -> Iterator[list[MonitorRecord]]:
     """The 1553 records of a Chapter 10 recording or a capture file, a batch at a time.
 
     Damaged Chapter 10 packets are named on ``err`` (stderr) and skipped, as ``decode`` does.
     """
     from drivers.chapter10.walker import looks_like_chapter10
+    from mapr_daemon.cli import notes
 
     err = err or sys.stderr
     if path != "-" and looks_like_chapter10(path):
@@ -205,7 +207,10 @@ def file_batches(path: str, *, samplerate: float | None = None,
         finally:
             reader.close()
         for issue in reader.issues:
-            err.write(f"mapr: {path}: {issue}\n")
+            if err is sys.stderr:   # the command's warnings: collapsed, silenced by -q
+                notes.warn(f"{path}: {issue}")
+            else:
+                err.write(f"{err_prefix}: {path}: {issue}\n")
         return
     from drivers.capturefile import open_capture
     from drivers.pipeline import SamplePipeline
@@ -308,13 +313,17 @@ def print_channel_stats(per_channel: dict[int, TrafficStatistics], *, as_json: b
 
 
 def run_decode_stats(args: Any) -> int:
-    """``mapr decode FILE --stats [text|json]``: statistics instead of the messages (per
-    1553 channel for a Chapter 10 recording)."""
+    """``mapr decode FILE --stats [text|json]``: statistics instead of the messages, of the
+    messages the filter flags keep (rows: the sides they select; load: of those messages);
+    per 1553 channel for a Chapter 10 recording read without a filter."""
     from drivers.rtstats import TrafficStatistics
+    from mapr_daemon.cli import exitcodes, notes
+    from mapr_daemon.cli.traffic.decode_filter import filter_from_args
 
+    wanted = filter_from_args(args)   # checked by the subcommand's validate hook already
     window_ns = round(args.stats_window * 1e9)
     reader = open_chapter10(args.capture, args.c10_channels, args.year)
-    if reader is not None:
+    if reader is not None and not wanted.active:
         per_channel: dict[int, TrafficStatistics] = {}
         for channel, arrays in channel_arrays(reader, prog="mapr decode"):
             if channel not in per_channel:
@@ -324,9 +333,27 @@ def run_decode_stats(args: Any) -> int:
         sys.stdout.flush()
         return what_it_holds(reader, args.c10_channels, "mapr decode")
     stats = TrafficStatistics(window_ns=window_ns)
-    for batch in file_batches(args.capture, samplerate=args.samplerate, channels=args.channels,
-                              c10_channels=args.c10_channels, year=args.year):
-        stats.add_batch(batch)
+    if wanted.active:
+        stats.sides = (wanted.rts, wanted.sas, wanted.transmit)
+    if reader is not None:
+        # filtered statistics of a recording count the selected sides over the channels read
+        # (--c10-channel picks one bus)
+        if not args.c10_channels:
+            notes.warn("filtered statistics of a recording merge its 1553 channels; "
+                       "--c10-channel N gives one bus")
+        try:
+            for c10 in reader:
+                stats.add_batch([r for r in c10.records if wanted.matches(r)])
+        finally:
+            reader.close()
+        for issue in reader.issues:
+            notes.warn(f"{reader.name}: {issue}")
+    else:
+        for records in file_batches(args.capture, samplerate=args.samplerate,
+                                    channels=args.channels, c10_channels=args.c10_channels,
+                                    year=args.year, err_prefix="mapr decode"):
+            stats.add_batch([r for r in records if wanted.matches(r)] if wanted.active
+                            else records)
     print_stats(stats, as_json=args.stats == "json", out=sys.stdout)
     sys.stdout.flush()
     return int(exitcodes.OK)
