@@ -13,10 +13,6 @@ import math
 from collections.abc import Mapping
 from typing import Any
 
-JSON_KEYS = ("anomaly", "fault", "severity", "unit", "confidence", "parameters", "soh",
-             "component", "part", "ambiguity", "rul", "evidence")
-"""The keys of every diagnosis's JSON form, in the order they are written."""
-
 
 @dataclasses.dataclass(frozen=True)
 class Diagnosis:
@@ -81,8 +77,9 @@ class Diagnosis:
         return dataclasses.replace(self, evidence={**self.evidence, **extra})
 
     def to_json(self) -> dict[str, Any]:
-        """The JSON-ready form: :data:`JSON_KEYS` in order, then ``wear`` and ``conditions``
-        when present."""
+        """The JSON-ready form (``mapr diagnose``'s line): anomaly, fault, severity, unit,
+        confidence, parameters, soh, component, part, ambiguity, rul, evidence in that order,
+        then ``wear`` and ``conditions`` when present."""
         out: dict[str, Any] = {
             "anomaly": self.anomaly, "fault": self.fault, "severity": self.severity,
             "unit": self.unit, "confidence": self.confidence,
@@ -101,16 +98,16 @@ class Diagnosis:
     @classmethod
     def from_json(cls, doc: Mapping[str, Any]) -> Diagnosis:
         """Read back :meth:`to_json`'s form (keys it lacks take their defaults)."""
-        def opt(key: str) -> Any:
-            return doc.get(key)
-        return cls(anomaly=opt("anomaly"), fault=opt("fault"),
-                   severity=None if opt("severity") is None else float(doc["severity"]),
-                   unit=opt("unit"), confidence=float(opt("confidence") or 0.0),
-                   parameters=dict(opt("parameters") or {}),
-                   soh=None if opt("soh") is None else float(doc["soh"]),
-                   component=opt("component"), part=opt("part"), ambiguity=opt("ambiguity"),
-                   rul=opt("rul"), evidence=dict(opt("evidence") or {}),
-                   wear=opt("wear"), conditions=opt("conditions"))
+        severity, soh = doc.get("severity"), doc.get("soh")
+        return cls(anomaly=doc.get("anomaly"), fault=doc.get("fault"),
+                   severity=None if severity is None else float(severity),
+                   unit=doc.get("unit"), confidence=float(doc.get("confidence") or 0.0),
+                   parameters=dict(doc.get("parameters") or {}),
+                   soh=None if soh is None else float(soh),
+                   component=doc.get("component"), part=doc.get("part"),
+                   ambiguity=doc.get("ambiguity"), rul=doc.get("rul"),
+                   evidence=dict(doc.get("evidence") or {}),
+                   wear=doc.get("wear"), conditions=doc.get("conditions"))
 
 
 @dataclasses.dataclass(frozen=True)
@@ -142,18 +139,15 @@ class Health:
     three flights), stated whether or not the kind is evidenced."""
     interval: float = 0.9
 
-    def in_hours(self, hours_per_flight: float | None) -> tuple[float | None, ...]:
-        """(rul, low, high) in flight hours, None where unknown."""
-        if hours_per_flight is None or not math.isfinite(hours_per_flight):
-            return None, None, None
-        return tuple(None if v is None else v * hours_per_flight
-                     for v in (self.rul, self.rul_low, self.rul_high))
-
     def with_hours(self, hours_per_flight: float | None, interval: float) -> Health:
-        """A copy with the RUL also in flight hours, at the assessment's interval."""
-        rh, rhl, rhh = self.in_hours(hours_per_flight)
+        """A copy with the RUL also in flight hours (None where unknown, or with no mean
+        flight length yet), at the assessment's interval."""
+        rh = rhl = rhh = None
+        if hours_per_flight is not None and math.isfinite(hours_per_flight):
+            rh, rhl, rhh = (None if v is None else v * hours_per_flight
+                            for v in (self.rul, self.rul_low, self.rul_high))
         return dataclasses.replace(self, rul_hours=rh, rul_hours_low=rhl, rul_hours_high=rhh,
                                    modes=dict(self.modes), interval=interval)
 
 
-__all__ = ["JSON_KEYS", "Diagnosis", "Health"]
+__all__ = ["Diagnosis", "Health"]

@@ -105,13 +105,11 @@ def event_from_reasoner(decision: Diagnosis, *, t_ns: int, asset: str,
             getattr(estimate, "high", None)
     elif estimate is not None:
         value = estimate
-    fraction = evidence.get("severity_fraction_of_range")
     return Event(
         t_ns=int(t_ns), asset=asset, rt=rt, fault=decision.fault or "unknown",
-        confidence=float(decision.confidence or 0.0),
-        severity=None if fraction is None else float(fraction),
+        confidence=float(decision.confidence), severity=decision.severity_fraction,
         severity_value=decision.severity, severity_unit=decision.unit,
-        switch=evidence.get("switch"), soh=decision.soh,
+        switch=decision.switch, soh=decision.soh,
         rul=None if value is None else float(value),
         rul_low=None if low is None else float(low),
         rul_high=None if high is None else float(high),
