@@ -7,7 +7,7 @@ tag of the record it rests on (for a BIT, the record that carried the request), 
 recording of a flight stamps its events exactly as the daemon did.
 
 :class:`BusClock` maps bus time to absolute time, one per session, by the same rule the
-daemon's recorder (:mod:`.recorder`) writes into its time packets:
+daemon's recorder (:mod:`~mapr_daemon.service.recorder`) writes into its time packets:
 
 * ``live`` (the daemon on a backend): time tags above :data:`WALL_CLOCK_NS` are already
   wall-clock ns (serial and USB cards stamp host time): absolute = the tag. Bus-time tags

@@ -72,7 +72,8 @@ class Reasoner:
 
     It keeps the EKF's reference model across records and adapts it by itself (the paper's
     model adaptation): a parameter changed from the reference in the same direction on
-    ``confirm_after`` consecutive BITs (:class:`~.estimator.Confirmation`) is confirmed, the
+    ``confirm_after`` consecutive BITs (:class:`~mapr_daemon.reasoner.ekf.estimator.Confirmation`)
+    is confirmed, the
     reference moves to the mean of those estimates, and that record's event says so in
     ``evidence.model_adaptation`` (which parameters, from what to what). Later records'
     ``evidence.parameter_changes`` are measured from the adapted model.
@@ -84,7 +85,8 @@ class Reasoner:
         self.params = params
         self.prognostic = prognostic
         """With it, each event carries ``wear``: the BIT's degradation estimate per aging
-        kind, what the actuator's trend is fitted on (:mod:`.health`)."""
+        kind, what the actuator's trend is fitted on
+        (:mod:`~mapr_daemon.reasoner.prognosis.assessment`)."""
         self.reference = Reference.nominal(params)
         self.confirmation = Confirmation(confirm_after)
 
@@ -163,7 +165,8 @@ class Reasoner:
         fault moves an estimated parameter (friction). ``component`` is the monitored item the
         fault degrades, ``part`` the replaceable part it belongs to, ``ambiguity`` that part's
         members with their probabilities and the group the data cannot separate
-        (:func:`~.parts.ambiguity`); all three null without a decided fault.
+        (:func:`~mapr_daemon.reasoner.diagnosis.parts.ambiguity`); all three null without a decided
+        fault.
         """
         health = 1.0
         component: str | None = None

@@ -202,7 +202,8 @@ def _assets(r: SectionReader, root: Node, value: Any) -> tuple[AssetConfig, ...]
 
 
 def _signals(r: SectionReader, item: Node, prefix: str, value: Any) -> dict[str, str]:
-    """``assets[i].signals``: a whole ICD-signal -> reasoner-channel mapping (:mod:`.wiring`)."""
+    """``assets[i].signals``: a whole ICD-signal -> reasoner-channel mapping
+    (:mod:`~mapr_daemon.pipeline.wiring`)."""
     if not isinstance(value, Node):
         raise r.error(item, "signals", prefix, "expected a mapping of ICD signal -> channel")
     out: dict[str, str] = {}

@@ -11,7 +11,8 @@ Time base. The writer wants time tags counted from the start of the recording. B
 stamp records with wall-clock time (serial: host arrival; usb: the sample counter anchored to
 host time) are rebased to the first record's second, and that second becomes the file's
 start time; bus-time backends (loopback, capture: ns from 0) start at the wall-clock time of
-the first record: the session clock's anchor (:mod:`.clock`), the very instant the daemon's
+the first record: the session clock's anchor (:mod:`~mapr_daemon.pipeline.clock`), the very instant
+the daemon's
 events are stamped from. When time runs backwards — the backend was reopened after a failure and its
 bus time restarted — the file is closed and a new part begins (``...-part2.ch10``).
 

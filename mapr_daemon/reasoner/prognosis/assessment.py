@@ -1,11 +1,13 @@
 """An actuator's state of health and remaining useful life from its BIT history.
 
 After each BIT the actuator's history — per BIT its flight number and the degradation
-estimate of every aging kind (:meth:`~.wear_model.PrognosticModel.estimates`) — is read as:
+estimate of every aging kind
+(:meth:`~mapr_daemon.reasoner.prognosis.prognostic_model.PrognosticModel.estimates`) — is read as:
 
 * **which part is wearing**: a kind is *evidenced* when the mean of its last
   :data:`RECENT` readings, each weighted by the inverse of its variance (its measured noise,
-  :class:`~.estimate_noise.Noise`, at that BIT's stored flight condition: a BIT flown near
+  :class:`~mapr_daemon.reasoner.prognosis.wear_noise.Noise`, at that BIT's stored flight condition:
+  a BIT flown near
   the bus's low limit weighs little), lies more than :data:`EVIDENCE_Z` standard errors above
   healthy, or when the classifier names it at this BIT. The **leading mode** is the kind
   the classifier names, if evidenced (the estimators of two kinds can both respond to one
@@ -69,7 +71,9 @@ def assess(model: PrognosticModel, flights: Sequence[float],
            seed: int = 0, conditions: Sequence[Mapping[str, float] | None] = ()) -> Health:
     """Health after the last BIT of ``flights``/``estimates`` (oldest first); ``diagnosed``
     is the classifier's fault at that BIT (None when nominal); ``conditions``: each BIT's
-    flight condition (:meth:`~.wear_model.PrognosticModel.bit_conditions`; missing or None
+    flight condition
+    (:meth:`~mapr_daemon.reasoner.prognosis.prognostic_model.PrognosticModel.bit_conditions`;
+    missing or None
     where not stored)."""
     if diagnosed in TERMINAL:
         return Health(0.0, diagnosed, 0.0, 0.0, 0.0, note="terminal fault: the part has failed")

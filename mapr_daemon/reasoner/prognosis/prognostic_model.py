@@ -4,22 +4,25 @@ A fault dictionary tells faults apart; trending one part's aging needs three mor
 all learned from the actuator's data sheet (no unit's own data) and kept in one file beside
 the dictionary (``mapr dictionary build --prognosis FILE``, format :data:`FORMAT`):
 
-* per aging kind a degradation estimator (:class:`~.wear.WearModel`), trained on BITs flown
+* per aging kind a degradation estimator
+(:class:`~mapr_daemon.reasoner.prognosis.wear_estimators.WearModel`), trained on BITs flown
   at known degradations over the flight envelope (pressures, ambient temperatures and
   aircraft-bus voltages drawn like the dictionary's, seeds of their own);
-* per kind the estimate's measured scale error and scatter (:class:`~.estimate_noise.Noise`),
+* per kind the estimate's measured scale error and scatter
+(:class:`~mapr_daemon.reasoner.prognosis.wear_noise.Noise`),
   from calibration BITs at known degradations with yet other seeds, half over the same
   envelope and half at the actuator's flight-to-flight spread (:attr:`BuildSpec.flight_share`),
   the scatter as a function of the degradation and the BIT's flight condition (the error
   of one estimate differs several-fold across the envelope); a kind whose estimate does not
   follow its degradation gets no noise model and the reason, and is never trended;
 * per kind the fleet prior on its aging shape (:class:`~.trend.ShapePrior`), learned from the
-  aging model's run-to-failure paths (:func:`~.trajectory.learn_prior`).
+  aging model's run-to-failure paths
+  (:func:`~mapr_daemon.reasoner.training.rul_scoring.learn_prior`).
 
 :meth:`PrognosticModel.estimates` reads one BIT's feature matrix as a degradation fraction
 per kind and :meth:`PrognosticModel.bit_conditions` the flight condition it was flown at
 (stored with it: the trend weighs each estimate by its noise at that condition);
-:mod:`.health` fits the trend.
+:mod:`~mapr_daemon.reasoner.prognosis.assessment` fits the trend.
 """
 
 from __future__ import annotations
@@ -159,7 +162,8 @@ class PrognosticModel:
 
 
 TUPLE_FIELDS = ("log_sd", "offset_c", "gain_c", "c_low", "c_high")
-"""The :class:`~.estimate_noise.Noise` fields stored as JSON lists, read back as tuples."""
+"""The :class:`~mapr_daemon.reasoner.prognosis.wear_noise.Noise` fields stored as JSON lists,
+read back as tuples."""
 
 
 def _noise_json(noise: trend.Noise) -> dict[str, Any]:

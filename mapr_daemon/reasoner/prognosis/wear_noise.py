@@ -1,9 +1,11 @@
 """How good one BIT's degradation estimate is: its scale error and its scatter, measured.
 
-A degradation estimator (:mod:`.wear`) reads a BIT as a fraction ``h`` of the failure
+A degradation estimator (:mod:`~mapr_daemon.reasoner.prognosis.wear_estimators`) reads a BIT as a
+fraction ``h`` of the failure
 threshold. Against BITs flown at known degradations (calibration BITs, seeds of their own)
 it reads ``estimate = offset + gain*h + e``. The trend (:func:`.trend.fit_rul`) and the
-evidence test (:mod:`.health`) weigh each estimate by the sd of ``e``, so that sd has to be
+evidence test (:mod:`~mapr_daemon.reasoner.prognosis.assessment`) weigh each estimate by the sd of
+``e``, so that sd has to be
 the one the BIT really has:
 
 * **over the envelope** it depends on the flight condition as much as on ``h``: on the aileron

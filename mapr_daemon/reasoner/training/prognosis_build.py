@@ -47,10 +47,11 @@ class BuildSpec:
 
     training_bits: int = 800
     """Training BITs per kind for its estimator (its forward model has 25 terms per
-    coordinate, :func:`~.wear.regressors`)."""
+    coordinate, :func:`~mapr_daemon.reasoner.prognosis.wear_estimators.regressors`)."""
     calibration_reps: int = 30
     """Calibration BITs per level and kind (300 per kind: enough to fit the noise's
-    dependence on the flight condition, :data:`~.estimate_noise.CONDITION_TERMS`)."""
+    dependence on the flight condition,
+    :data:`~mapr_daemon.reasoner.prognosis.wear_noise.CONDITION_TERMS`)."""
     fleet_units: int = 30
     """Run-to-failure units per kind behind the fleet prior."""
     envelope: bool = True

@@ -100,7 +100,8 @@ def learn_prior(params: ActuatorParams, kind: str, units: int,
                 mean_life: float = 200.0) -> trend.ShapePrior:
     """The fleet prior of a kind from ``units`` training units' true degradation paths (their
     life held as tightly as their own spread: what a fleet whose life is known gives; the
-    product loosens it where no life is stated, :meth:`~.wear_model.PrognosticModel
+    product loosens it where no life is stated,
+    :meth:`~mapr_daemon.reasoner.prognosis.prognostic_model.PrognosticModel
     .with_lives`)."""
     paths = [_true_path(params, trajectory(params, kind, int(mean_life * 2), TRAINING_SEED + i,
                                            mean_life)) for i in range(units)]
