@@ -149,15 +149,14 @@ def module_name(path: Path) -> str:
     return ".".join(parts)
 
 
-def _resolve(importer: str, node: ast.Import | ast.ImportFrom, known: set[str]) -> list[str]:
-    """The project modules an import statement loads: ``from pkg import name`` is the module
-    ``pkg.name`` when there is one, else ``pkg`` itself."""
+def _resolve(package: str, node: ast.Import | ast.ImportFrom, known: set[str]) -> list[str]:
+    """The project modules an import statement in a module of ``package`` loads: ``from pkg
+    import name`` is the module ``pkg.name`` when there is one, else ``pkg`` itself."""
     if isinstance(node, ast.Import):
         return [a.name for a in node.names if a.name in known]
     base = node.module or ""
     if node.level:
-        anchor = importer.split(".")[: -node.level] if not importer.endswith("__init__") else \
-            importer.split(".")
+        anchor = package.split(".")[: len(package.split(".")) - (node.level - 1)]
         base = ".".join(anchor + ([base] if base else []))
     out = [f"{base}.{a.name}" for a in node.names if f"{base}.{a.name}" in known]
     if len(out) < len(node.names) and base in known:
@@ -176,7 +175,8 @@ def import_graph() -> dict[str, set[str]]:
         targets: set[str] = set()
         for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
             if isinstance(node, (ast.Import, ast.ImportFrom)):
-                targets.update(t for t in _resolve(name, node, known) if t != name)
+                package = name if path.name == "__init__.py" else name.rpartition(".")[0]
+                targets.update(t for t in _resolve(package, node, known) if t != name)
         graph[name] = targets
     return graph
 
@@ -252,6 +252,16 @@ def test_every_package_imports_only_the_floors_below_it() -> None:
 
 def test_no_module_import_cycle() -> None:
     assert cycles(import_graph()) == []
+
+
+def test_relative_imports_resolve_from_their_package() -> None:
+    known = {"mapr_daemon.reasoner.diagnosis", "mapr_daemon.reasoner.diagnosis.parts",
+             "mapr_daemon.reasoner.ekf"}
+    face = ast.parse("from .parts import COMPONENTS\nfrom ..ekf import NEEDED").body
+    assert _resolve("mapr_daemon.reasoner.diagnosis", face[0], known) == [
+        "mapr_daemon.reasoner.diagnosis.parts"]
+    assert _resolve("mapr_daemon.reasoner.diagnosis", face[1], known) == [
+        "mapr_daemon.reasoner.ekf"]
 
 
 def test_the_layering_checks_can_fail() -> None:
