@@ -55,6 +55,20 @@ class Diagnosis:
                    evidence={"error": {"type": type(error).__name__, "message": str(error)}})
 
     @property
+    def faults(self) -> tuple[str, ...]:
+        """Every fault the diagnosis names: the two of a compound diagnosis
+        (``evidence["compound"]``, the more severe first), else ``fault`` alone, else none."""
+        found = self.evidence.get("compound")
+        if isinstance(found, Mapping):
+            return tuple(str(m["fault"]) for m in found.get("faults", ()))
+        return () if self.fault is None else (self.fault,)
+
+    @property
+    def unexplained(self) -> bool:
+        """An anomaly no known fault mode (single or pair) explains."""
+        return bool(self.anomaly) and self.fault is None and "unexplained" in self.evidence
+
+    @property
     def error(self) -> Mapping[str, Any] | None:
         """``{type, message}`` when the record could not be diagnosed, else None."""
         found = self.evidence.get("error")

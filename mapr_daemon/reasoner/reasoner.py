@@ -172,13 +172,27 @@ class Reasoner:
         component: str | None = None
         part: str | None = None
         ambiguity: dict[str, Any] | None = None
+        evidence = dict(dec.evidence)
         if dec.anomaly and dec.fault is not None:
             health = soh.soh(self.params, dec.fault, dec.value)
             component = parts.COMPONENTS[dec.fault]
             part = parts.PART_OF[dec.fault]
-            ambiguity = parts.ambiguity(dec.fault, dec.kind_residuals,
-                                        self.dictionary.calibration.get("chi2_scale", 1.0))
-        evidence = dict(dec.evidence)
+            # a correct template's residual is wider than the noise by its model error: the
+            # member probabilities are weighed on that scale, not on the noise's alone
+            ambiguity = parts.ambiguity(
+                dec.fault, dec.kind_residuals,
+                self.dictionary.calibration.get("chi2_scale", 1.0) * dec.tolerance)
+        if dec.anomaly and dec.pair is not None:
+            members = [{"fault": m.fault, "severity": float(f"{m.value:.6g}"), "unit": m.unit,
+                        "severity_fraction_of_range": round(m.severity, 4),
+                        "soh": round(soh.soh(self.params, m.fault, m.value), 4),
+                        "component": parts.COMPONENTS[m.fault], "part": parts.PART_OF[m.fault]}
+                       for m in dec.pair]
+            health = min(soh.soh(self.params, m.fault, m.value) for m in dec.pair)
+            evidence["compound"] = {
+                "faults": members,
+                "rule": "two faults in different parts fit the record better than any single "
+                        "fault by more than a single fault's model error allows"}
         evidence.update(score=round(dec.score, 3), threshold=round(dec.threshold, 3))
         if dec.switch:
             evidence["switch"] = dec.switch

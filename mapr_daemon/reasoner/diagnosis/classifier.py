@@ -44,7 +44,14 @@ import numpy as np
 from mapr_daemon.arrays import FloatArray
 from mapr_daemon.ema.faults import PARAMETRIC
 from mapr_daemon.errors import ConfigError
-from mapr_daemon.reasoner.diagnosis import fault_models, healthy_model, matched_filter
+from mapr_daemon.reasoner.diagnosis import (
+    compound,
+    fault_models,
+    healthy_model,
+    matched_filter,
+    parts,
+)
+from mapr_daemon.reasoner.diagnosis.compound import PairFit
 from mapr_daemon.reasoner.diagnosis.curves import variable_stride_descent
 from mapr_daemon.reasoner.diagnosis.dictionary import Dictionary, Template, pressure_weights
 from mapr_daemon.reasoner.diagnosis.fault_models import Fit
@@ -53,8 +60,21 @@ PAPER_COLUMNS = 32
 TOP_CELLS = 5
 MATCHED_KIND = matched_filter.KIND
 
-__all__ = ["MATCHED_KIND", "PAPER_COLUMNS", "Decision", "Fit", "decide",
-           "kind_severity", "matched_score", "paper_decide", "score_of"]
+__all__ = ["MATCHED_KIND", "PAPER_COLUMNS", "Decision", "Fit", "Member", "decide",
+           "explanation_statistics", "kind_severity", "matched_score", "paper_decide",
+           "score_of"]
+
+
+@dataclasses.dataclass(frozen=True)
+class Member:
+    """One fault of a compound decision."""
+
+    fault: str
+    severity: float
+    """Fraction of the fault's Table 1 range."""
+    value: float
+    """The faulted parameter's value, in ``unit``."""
+    unit: str
 
 
 @dataclasses.dataclass(frozen=True)
@@ -78,6 +98,14 @@ class Decision:
     (all of them; only the matched filter's mode when it alone raised the alarm); empty for
     the paper's classifier and an inconclusive record. What :mod:`~.parts` turns into member
     probabilities."""
+    pair: tuple[Member, Member] | None = None
+    """Two faults in different parts (:mod:`~mapr_daemon.reasoner.diagnosis.compound`), the
+    more severe (as a fraction of range) first; ``fault``, ``severity`` and ``value`` are then
+    the first's. None for a single fault or none."""
+    tolerance: float = 1.0
+    """How much wider than the healthy noise a correct template's residual may be on this
+    run (its model error grows with the departure, :func:`compound.tolerance`); what the
+    member probabilities' scale is widened by."""
 
     @property
     def inconclusive(self) -> bool:
@@ -134,6 +162,65 @@ def matched_score(d: Dictionary, m: FloatArray, q: float) -> float | None:
     """The matched filter's output for one run's M (what its threshold is calibrated on)."""
     hm, _ = _models(d)
     return _matched(d, hm.standardized(m, healthy_model.conditions(m, d.columns, q)))
+
+
+def explanation_statistics(d: Dictionary, m: FloatArray, q: float) -> tuple[float, float]:
+    """What the build's fault calibration runs are measured on: the best pair's gain over the
+    best single fault and what the best single fault leaves, both in tolerances
+    (:mod:`~mapr_daemon.reasoner.diagnosis.compound`)."""
+    hm, fm = _models(d)
+    c, y, fits = _fits(d, m, q)
+    null = fault_models.null_residual(y, fits)
+    nt = d.calibration.get("null_threshold", math.inf)
+    single = min(f.residual for f in fits)
+    pairs = compound.fit_pairs(fm, d.templates, y, c, hm.unit_metric)
+    pair = min((p.residual for p in pairs), default=single)
+    return (compound.pair_gain(single, pair, null, nt),
+            compound.unexplained_ratio(single, null, nt))
+
+
+def _pair_severity(fm: fault_models.FaultModels, i: int, other: int, other_severity: float,
+                   y: FloatArray, c: healthy_model.Conditions) -> float | None:
+    """A pair member's severity by its inverse model, read on the run's coordinates ``y``
+    (the model's, not a unit's metric) less the other member's signature at its fitted
+    severity: the pair fit's own grid point is set by the few coordinates where the two
+    signatures overlap, the inverse model weighs every coordinate by how well it predicts
+    the member's severity. None where the template has no inverse model."""
+    k = round(other_severity * (fault_models.SEVERITY_GRID.size - 1))
+    return fault_models.severity(fm, i, y - fm.curve(other, c)[k], c)
+
+
+def _member(t: Template, severity: float) -> Member:
+    value = float(np.interp(severity, [0.0, *t.severities], [_nominal(t), *t.values]))
+    return Member(t.kind, severity, value, t.unit)
+
+
+def _departures(d: Dictionary, hm: healthy_model.HealthyModel, z: FloatArray
+                ) -> dict[str, Any]:
+    """Where an unexplained run departs most: the signals (column names' signal part) and the
+    BIT phases (the record's windows, in ms from the BIT's start), by squared standardized
+    departure, largest first."""
+    ncol = len(d.columns)
+    rows = hm.cells[:, 0] // ncol
+    cols = hm.cells[:, 0] % ncol
+    energy = z**2
+    by_signal: dict[str, float] = {}
+    for e, col in zip(energy, cols, strict=True):
+        name = d.columns[int(col)].split(":", 1)[-1]
+        by_signal[name] = by_signal.get(name, 0.0) + float(e)
+    by_window: dict[int, float] = {}
+    for e, row in zip(energy, rows, strict=True):
+        by_window[int(row)] = by_window.get(int(row), 0.0) + float(e)
+    total = max(float(energy.sum()), 1e-12)
+    ms = 1000.0 / d.sample_rate_hz
+    top_w = sorted(by_window.items(), key=lambda kv: -kv[1])[:3]
+    return {
+        "signals": [{"signal": k, "share": round(v / total, 3)} for k, v in
+                    sorted(by_signal.items(), key=lambda kv: -kv[1])[:3]],
+        "phases_ms": [{"from": round(float(d.window_starts[w]) * ms, 1),
+                       "to": round((float(d.window_starts[w]) + d.window_samples) * ms, 1),
+                       "share": round(v / total, 3)} for w, v in top_w],
+    }
 
 
 def decide(d: Dictionary, m: FloatArray, q: float) -> Decision:
@@ -194,16 +281,60 @@ def decide(d: Dictionary, m: FloatArray, q: float) -> Decision:
     if (score <= 0.0 and broad) or (matched_only and not named):
         # nothing healthy explains it, and no fault explains it better (or the dictionary
         # lacks the fault the matched test is made for)
-        evidence["unexplained"] = "no dictionary fault explains this record better than health"
+        evidence["unexplained"] = ("anomaly, not explained by any known fault mode: no "
+                                   "dictionary fault explains this record better than health")
+        evidence["departures"] = _departures(d, hm, z)
         return Decision(True, None, None, None, None, None, p_anom, score, d.threshold,
                         evidence, kinds)
     conf = p_anom * math.tanh(max(margin, 0.0) / (2.0 * d.score_spread))
+    nt = null_threshold
+    tol = compound.tolerance(null, nt) / nt if math.isfinite(nt) and nt > 0 else 1.0
+    pair: PairFit | None = None
+    explained = best.residual
+    pair_threshold = d.calibration.get("pair_threshold", math.inf)
+    if not matched_only and not t.switch and math.isfinite(pair_threshold):
+        _, fm = _models(d)
+        fitted = compound.fit_pairs(fm, d.templates, y, c, hm.unit_metric)
+        if fitted:
+            bp = min(fitted, key=lambda p: p.residual)
+            gain = compound.pair_gain(best.residual, bp.residual, null, nt)
+            evidence["pair"] = {
+                "templates": [d.templates[bp.first].name, d.templates[bp.second].name],
+                "gain": round(gain, 3), "threshold": round(pair_threshold, 3)}
+            if gain > pair_threshold:
+                pair, explained = bp, bp.residual
+    unexplained_threshold = d.calibration.get("unexplained_threshold", math.inf)
+    if not matched_only and math.isfinite(unexplained_threshold):
+        ratio = compound.unexplained_ratio(explained, null, nt)
+        evidence["explanation"] = {"left": round(ratio, 3),
+                                   "threshold": round(unexplained_threshold, 3)}
+        if ratio > unexplained_threshold:
+            evidence["unexplained"] = ("anomaly, not explained by any known fault mode: the "
+                                       f"best explanation leaves {ratio:.1f} tolerances, a "
+                                       f"correct one at most {unexplained_threshold:.1f}")
+            evidence["departures"] = _departures(d, hm, z)
+            evidence["closest"] = {"fault": t.kind, "part": parts.PART_OF.get(t.kind),
+                                   "note": "the nearest template, not a fit"}
+            return Decision(True, None, None, None, None, None, p_anom, score, d.threshold,
+                            evidence, kinds, tolerance=tol)
     if t.switch:
         return Decision(True, t.kind, t.switch, None, None, None, conf, score, d.threshold,
-                        evidence, kinds)
+                        evidence, kinds, tolerance=tol)
+    if pair is not None:
+        raw = hm.coordinates(m, c)
+        _, fm = _models(d)
+        a = _member(d.templates[pair.first], _pair_severity(fm, pair.first, pair.second,
+                                                            pair.severity_second, raw, c)
+                    or pair.severity_first)
+        b = _member(d.templates[pair.second], _pair_severity(fm, pair.second, pair.first,
+                                                             pair.severity_first, raw, c)
+                    or pair.severity_second)
+        first, second = (a, b) if a.severity >= b.severity else (b, a)
+        return Decision(True, first.fault, None, first.severity, first.value, first.unit,
+                        p_anom, score, d.threshold, evidence, kinds, (first, second), tol)
     value = float(np.interp(best.severity, [0.0, *t.severities], [_nominal(t), *t.values]))
     return Decision(True, t.kind, None, best.severity, value, t.unit, conf, score, d.threshold,
-                    evidence, kinds)
+                    evidence, kinds, tolerance=tol)
 
 
 def _nominal(t: Template) -> float:

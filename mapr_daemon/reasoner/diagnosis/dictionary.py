@@ -65,6 +65,12 @@ class DictionarySpec:
     model (ours)."""
     calibration_runs: int = 48
     calibration_pressure_pa: tuple[float, float] = (0.0, 2500.0)
+    fault_calibration_runs: int = 8
+    """Per parametric kind, runs at random severities (25-100 % of range), pressures and
+    conditions that fit nothing: what a correct explanation leaves and what a second fault
+    gains on a single one (the thresholds of
+    :mod:`~mapr_daemon.reasoner.diagnosis.compound`); 0 builds a dictionary that names no
+    pairs."""
     envelope: bool = False
     """Every run's ambient temperature and bus mean drawn over the actuator's envelope, the
     healthy and calibration runs' pressures up to its maximum (else the plant's own draws

@@ -28,6 +28,7 @@ import math
 from collections.abc import Callable
 
 import numpy as np
+import numpy.typing as npt
 
 from mapr_daemon.arrays import FloatArray
 from mapr_daemon.ema.faults import (
@@ -42,6 +43,7 @@ from mapr_daemon.ema.params import ActuatorParams
 from mapr_daemon.errors import ConfigError
 from mapr_daemon.reasoner.diagnosis import (
     classifier,
+    compound,
     curves,
     false_alarm,
     fault_models,
@@ -83,6 +85,11 @@ SD_FLOOR_REL = 0.01
 """... and this share of the column's typical magnitude: quiet windows (a held position, a
 spectrum of pure quantisation noise) have nearly zero spread, which would make any LSB flip
 look like an anomaly."""
+FAULT_CALIBRATION = "fault-calibration"
+"""Role prefix of the fault calibration runs (``fault-calibration:<kind>@<severity>``)."""
+FAULT_CALIBRATION_FROM = 0.25
+"""Their severities are uniform from this fraction of range to its end (the range the
+benches score severity on)."""
 
 
 
@@ -115,7 +122,8 @@ def _plan(params: ActuatorParams, spec: DictionarySpec) -> Plan:
     """Fault sets, pressures, seeds, roles and conditions of every run of the build batch.
 
     Roles: ``nominal@q``, ``<kind>@q@s`` (s the severity), ``short:<sw>@q``, ``open:<sw>@q``,
-    ``healthy`` and ``calibration``. With ``spec.envelope`` every run's ambient temperature and
+    ``healthy``, ``calibration`` and ``fault-calibration:<kind>@s`` (held out from every fit,
+    :func:`calibrate_explanations`). With ``spec.envelope`` every run's ambient temperature and
     bus mean are drawn uniformly over the actuator's envelope (``envelope.ambient_*_c``,
     ``bus.min_v..max_v``), and a ``spec.ground_share`` of the healthy and calibration runs are
     BITs on the ground (0 Pa), the others at pressures uniform up to the envelope's maximum.
@@ -169,6 +177,19 @@ def _plan(params: ActuatorParams, spec: DictionarySpec) -> Plan:
         env_t = env.uniform(params.envelope.ambient_min_c, params.envelope.ambient_max_c, len(fs))
         env_v = env.uniform(params.bus.min_v, params.bus.max_v, len(fs))
         amb, bus = [float(t) for t in env_t], [float(v) for v in env_v]
+    # drawn last, from a generator of their own, so the runs above are the same with or
+    # without them
+    fault_rng = np.random.default_rng(spec.seed_base + 15485863)
+    for kind in spec.kinds:
+        for _ in range(spec.fault_calibration_runs):
+            s = float(fault_rng.uniform(FAULT_CALIBRATION_FROM, 1.0))
+            q = 0.0 if fault_rng.random() < spec.ground_share else float(fault_rng.uniform(lo, hi))
+            add(FaultSet.of([at_severity(params, kind, s)]), q, f"{FAULT_CALIBRATION}:{kind}@{s:g}")
+            t = float(fault_rng.uniform(params.envelope.ambient_min_c,
+                                        params.envelope.ambient_max_c))
+            v = float(fault_rng.uniform(params.bus.min_v, params.bus.max_v))
+            amb.append(t if spec.envelope else None)
+            bus.append(v if spec.envelope else None)
     return Plan(fs, qs, seeds, roles, amb, bus)
 
 
@@ -319,7 +340,8 @@ def fit_ours(d: Dictionary, params: ActuatorParams, spec: DictionarySpec, m: Flo
                                       floor, healthy_model.supply_floor_v(params),
                                       params.smps.output_voltage_v, spec.shrinkage_floor)
     fault_rows = np.flatnonzero(valid & ~np.isin(role, ["healthy", "calibration"])
-                                & ~np.char.startswith(role, "nominal@"))
+                                & ~np.char.startswith(role, "nominal@")
+                                & ~np.char.startswith(role, f"{FAULT_CALIBRATION}:"))
     sig = np.stack([model.standardized(m[i], conds[i]) for i in fault_rows]) @ whiten
     model = healthy_model.with_subspace(model, sig, spec.subspace_dims)
     # the matched filter learns the fault's small-severity signature; a spec without such runs
@@ -390,6 +412,8 @@ def fit_ours(d: Dictionary, params: ActuatorParams, spec: DictionarySpec, m: Flo
                      "inconclusive_runs": float((~valid).sum()),
                      **false_alarm.quantile_entries("score", scores),
                      **false_alarm.quantile_entries("null", both[:, 1])}
+    calibrate_explanations(d, m, q, np.flatnonzero(
+        valid & np.char.startswith(role, f"{FAULT_CALIBRATION}:")))
     if model.matched is not None:
         raw = np.array(filtered, dtype=np.float64)  # raw output (mean 0, sd 1 not yet set)
         mean, sd = float(raw.mean()), float(max(raw.std(ddof=1), 1e-12))
@@ -398,6 +422,23 @@ def fit_ours(d: Dictionary, params: ActuatorParams, spec: DictionarySpec, m: Flo
                               "matched_sd": sd, "matched_max": cal_m.score_max,
                               "matched_tail_governs": float(cal_m.tail_governs),
                               **false_alarm.quantile_entries("matched", (raw - mean) / sd)})
+
+
+def calibrate_explanations(d: Dictionary, m: FloatArray, q: FloatArray,
+                           rows: npt.NDArray[np.int64]) -> None:
+    """The pair and unexplained thresholds (:mod:`~mapr_daemon.reasoner.diagnosis.compound`)
+    from the fault calibration runs ``rows``; none without such runs (the dictionary then
+    names no pairs and says unexplained only where no fault beats health)."""
+    if rows.size == 0:
+        return
+    stats = np.array([classifier.explanation_statistics(d, m[i], float(q[i])) for i in rows])
+    d.calibration.update({
+        "fault_calibration_runs": float(rows.size),
+        "pair_gain_max": float(stats[:, 0].max()),
+        "pair_threshold": max(compound.MARGIN * float(stats[:, 0].max()),
+                              compound.PAIR_FLOOR),
+        "unexplained_max": float(stats[:, 1].max()),
+        "unexplained_threshold": compound.MARGIN * float(stats[:, 1].max())})
 
 
 def paper_curves(d: Dictionary, reference_pressure: int = 0) -> dict[str, PaperCurve]:
