@@ -147,7 +147,9 @@ class MonitorRecord:
         return out
 
 
-_SETTERS = tuple(getattr(MonitorRecord, f.name).__set__ for f in fields(MonitorRecord))
+SLOT_SETTERS = tuple(getattr(MonitorRecord, f.name).__set__ for f in fields(MonitorRecord))
+"""Each field's slot setter, in field order: builds a record without the frozen dataclass's
+per-field ``object.__setattr__`` (:func:`new_records`, ``Ms1553Batch.records``)."""
 assert tuple(f.name for f in fields(MonitorRecord)) == MonitorRecord.__slots__
 
 
@@ -179,7 +181,7 @@ def _fill(records: list[MonitorRecord], bus: str, t_ns: Sequence[int],
     new = object.__new__
     cls = MonitorRecord
     (set_t, set_bus, set_format, set_command, set_data, set_status, set_gaps, set_errors,
-     set_command2, set_word_errors, set_end, set_extra) = _SETTERS
+     set_command2, set_word_errors, set_end, set_extra) = SLOT_SETTERS
     for t, f, c, d, s, g, e, c2, w, n in zip(t_ns, format, command, data, status, gaps_ns,
                                              errors, command2, word_errors, end_ns,
                                              strict=True):
