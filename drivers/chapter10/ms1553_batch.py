@@ -45,6 +45,7 @@ from drivers.mil1553.record import (
     SLOT_SETTERS,
     MonitorRecord,
     TransferFormat,
+    collector_paused,
 )
 from drivers.mil1553.timing import CONTIGUOUS_GAP_NS, BusTiming
 from drivers.mil1553.wordbatch import WORD_TIME_NS
@@ -96,7 +97,7 @@ class Ms1553Batch:
     gaps_ns: I64
     errors: I64
     words: npt.NDArray[np.uint16]
-    time: npt.NDArray[np.str_] | None
+    _time: npt.NDArray[np.str_] | TimeText | None
     epoch_ns: I64 | None
     word_errors: npt.NDArray[np.object_] | None = None
     """Each message's word errors as :attr:`MonitorRecord.word_errors` (an object array),
@@ -104,6 +105,17 @@ class Ms1553Batch:
 
     def __len__(self) -> int:
         return int(self.t_ns.size)
+
+    @property
+    def time(self) -> npt.NDArray[np.str_] | None:
+        """Each message's absolute time as text (ISO 8601, or ``day DDD HH:MM:SS.ffffff``
+        from day-of-year time packets; "" where the file has given no time packet yet),
+        None when no message of the batch has one; worked out on first use."""
+        value = self._time
+        if isinstance(value, TimeText):
+            value = value.text()
+            object.__setattr__(self, "_time", value)
+        return value
 
     @property
     def rt(self) -> I64:
@@ -132,21 +144,27 @@ class Ms1553Batch:
         and ``epoch_ns`` where the file gives them). Columns are turned into lists once and
         the records' slots set directly in one loop (:func:`~drivers.mil1553.record.
         new_records`' way), about three times as fast as calling ``MonitorRecord(...)``."""
+        with collector_paused():
+            return self._records()
+
+    def _records(self) -> list[MonitorRecord]:
         n = len(self)
         if not n:
             return []
-        words = self.words.tolist()
-        kept = self.n_status.tolist()
-        status_rows = self.status.tolist()
-        gap_rows = self.gaps_ns.tolist()
-        data = [tuple(words[a:a + c]) for a, c in zip(self.data_start.tolist(),
-                                                       self.data_count.tolist(), strict=True)]
+        words = tuple(self.words.tolist())
+        starts = self.data_start.tolist()
+        data = [words[a:e] for a, e in zip(starts, (self.data_start + self.data_count).tolist(),
+                                           strict=True)]
         masks = self.errors.tolist()
         names = {m: error_names(m) for m in set(masks)}
         formats = [FORMATS[f] for f in self.format.tolist()]
         buses = [_BUS_NAMES[b] for b in self.bus.tolist()]
-        commands = [None if c < 0 else c for c in self.command.tolist()]
+        commands = self.command.tolist()
+        if self.command.size and int(self.command.min()) < 0:
+            commands = [None if c < 0 else c for c in commands]
         commands2 = [None if c < 0 else c for c in self.command2.tolist()]
+        status = _rows(self.status, self.n_status)
+        gaps = _rows(self.gaps_ns, self.n_status)
         times = self.time.tolist() if self.time is not None else [""] * n
         epochs = self.epoch_ns.tolist() if self.epoch_ns is not None else [NO_EPOCH] * n
         word_errors = self.word_errors.tolist() if self.word_errors is not None else [()] * n
@@ -156,16 +174,19 @@ class Ms1553Batch:
          set_command2, set_word_errors, set_end, set_extra) = SLOT_SETTERS
         out = []
         append = out.append
-        for (t, end, bus, fmt, command, command2, block, channel, d, k, state, gap, mask,
+        for (t, end, bus, fmt, command, command2, block, channel, d, state, gap, mask,
              text, epoch, named) in zip(
                 self.t_ns.tolist(), self.end_ns.tolist(), buses, formats, commands, commands2,
-                self.block_status.tolist(), self.channel.tolist(), data, kept, status_rows,
-                gap_rows, masks, times, epochs, word_errors, strict=True):
-            extra: dict[str, object] = {}
-            if block >= 0:
-                extra["block_status"] = block
-            if channel >= 0:
-                extra["channel"] = channel
+                self.block_status.tolist(), self.channel.tolist(), data, status, gaps, masks,
+                times, epochs, word_errors, strict=True):
+            if block >= 0 and channel >= 0:
+                extra: dict[str, object] = {"block_status": block, "channel": channel}
+            else:
+                extra = {}
+                if block >= 0:
+                    extra["block_status"] = block
+                if channel >= 0:
+                    extra["channel"] = channel
             if text:
                 extra["time"] = text
             if epoch != NO_EPOCH:
@@ -176,8 +197,8 @@ class Ms1553Batch:
             set_format(record, fmt)
             set_command(record, command)
             set_data(record, d)
-            set_status(record, tuple(state[:k]))
-            set_gaps(record, tuple(gap[:k]))
+            set_status(record, state)
+            set_gaps(record, gap)
             set_errors(record, names[mask])
             set_command2(record, command2)
             set_word_errors(record, named)
@@ -193,7 +214,8 @@ class Ms1553Batch:
             self.command[keep], self.command2[keep], self.block_status[keep],
             self.channel[keep], self.offset[keep], self.data_start[keep], self.data_count[keep],
             self.status[keep], self.n_status[keep], self.gaps_ns[keep], self.errors[keep],
-            self.words, None if self.time is None else self.time[keep],
+            self.words, None if self._time is None else self._time.take(keep)
+            if isinstance(self._time, TimeText) else self._time[keep],
             None if self.epoch_ns is None else self.epoch_ns[keep],
             None if self.word_errors is None else self.word_errors[keep])
 
@@ -242,12 +264,19 @@ class Ms1553Batch:
             offset=np.full(n, -1, np.int64), data_start=col(starts), data_count=col(counts),
             status=status, n_status=col([len(r.status) for r in records]), gaps_ns=gaps,
             errors=col(masks), words=np.asarray(words, np.uint16),
-            time=np.asarray(times, "<U32") if any(times) else None,
+            _time=np.asarray(times, "<U32") if any(times) else None,
             epoch_ns=col(epochs) if any(e != NO_EPOCH for e in epochs) else None,
             word_errors=named if any(r.word_errors for r in records) else None)
 
 
 _BUS_NAMES = ("A", "B")
+
+
+def _rows(values: I64, kept: I64) -> list[tuple[int, ...]]:
+    """Row i of ``values`` up to column ``kept[i]``, each a tuple."""
+    if values.ndim != 2 or values.shape[1] == 0:
+        return [()] * len(kept)
+    return [tuple(row[:k]) for row, k in zip(values.tolist(), kept.tolist(), strict=True)]
 
 
 def _error_mask(names: tuple[str, ...]) -> int:
@@ -353,7 +382,7 @@ def build_batch(parts: Parts, timebase: Timebase, timing: BusTiming | None = Non
         format=fmt.astype(np.uint8), command=command, command2=command2, block_status=block,
         channel=walked.channel, offset=walked.offset,
         data_start=data_start, data_count=data_count, status=status, n_status=n_status,
-        gaps_ns=gaps, errors=errors, words=words, time=time_text, epoch_ns=epoch)
+        gaps_ns=gaps, errors=errors, words=words, _time=time_text, epoch_ns=epoch)
 
 
 def _signed_delta(rtc: I64, reference: int) -> I64:
@@ -362,27 +391,58 @@ def _signed_delta(rtc: I64, reference: int) -> I64:
 
 
 def _times(refs: list[TimeReference | None], ref_id: I64, rtc: I64, shift: I64
-           ) -> tuple[npt.NDArray[np.str_] | None, I64 | None]:
-    """Absolute time text and epoch ns of every message, from the time reference in force
-    when its packet was read (``refs[ref_id]``)."""
+           ) -> tuple[TimeText | None, I64 | None]:
+    """Absolute time text (to be worked out when first read) and epoch ns of every message,
+    from the time reference in force when its packet was read (``refs[ref_id]``)."""
     if all(ref is None for ref in refs):
         return None, None
-    text = np.full(rtc.size, "", "<U32")
-    epoch = np.full(rtc.size, NO_EPOCH, np.int64)
+    epoch = None
     for number, ref in enumerate(refs):
-        if ref is None:
+        if ref is None or ref.date is None:
             continue
         rows = np.flatnonzero(ref_id == number)
-        text[rows], some = _absolute(rtc[rows], shift[rows], ref)
-        if some is not None:
-            epoch[rows] = some
-    return text, (None if bool((epoch == NO_EPOCH).all()) else epoch)
+        if epoch is None:
+            epoch = np.full(rtc.size, NO_EPOCH, np.int64)
+        epoch[rows] = _epoch(rtc[rows], shift[rows], ref, ref.date)
+    if epoch is not None and bool((epoch == NO_EPOCH).all()):
+        epoch = None
+    return TimeText(refs, ref_id, rtc, shift), epoch
 
 
-def _absolute(rtc: I64, shift: I64, ref: TimeReference
-              ) -> tuple[npt.NDArray[np.str_], I64 | None]:
-    """:meth:`Timebase.absolute` and :meth:`Timebase.epoch_ns` (moved by ``shift``, from
-    the stamp to the message's start) for every message."""
+@dataclass(frozen=True, slots=True)
+class TimeText:
+    """What a batch's ``time`` column is made from, kept until it is first read (reading
+    a recording's batches seldom needs the text, and making it is a good part of the cost
+    of reading)."""
+
+    refs: list[TimeReference | None]
+    ref_id: I64
+    rtc: I64
+    shift: I64
+
+    def take(self, keep: npt.NDArray[np.bool_] | npt.NDArray[np.intp] | slice) -> TimeText:
+        return TimeText(self.refs, self.ref_id[keep], self.rtc[keep], self.shift[keep])
+
+    def text(self) -> npt.NDArray[np.str_]:
+        text = np.full(self.rtc.size, "", "<U32")
+        for number, ref in enumerate(self.refs):
+            if ref is None:
+                continue
+            rows = np.flatnonzero(self.ref_id == number)
+            if rows.size:
+                text[rows] = _text(self.rtc[rows], self.shift[rows], ref)
+        return text
+
+
+def _epoch(rtc: I64, shift: I64, ref: TimeReference, date: datetime) -> I64:
+    """:meth:`Timebase.epoch_ns` (moved by ``shift``, from the stamp to the message's
+    start) for every message."""
+    delta = _signed_delta(rtc, ref.rtc)
+    return (date - _EPOCH) // timedelta(microseconds=1) * 1000 + delta * RTC_NS + shift
+
+
+def _text(rtc: I64, shift: I64, ref: TimeReference) -> npt.NDArray[np.str_]:
+    """:meth:`Timebase.absolute` for every message."""
     delta = _signed_delta(rtc, ref.rtc)
     # timedelta(microseconds=delta / 10) rounds half to even
     whole, tenth = np.divmod(delta, 10)
@@ -395,12 +455,9 @@ def _absolute(rtc: I64, shift: I64, ref: TimeReference
                                                               seconds=ref.seconds_of_day), "us")
     moment = base + micros.astype("timedelta64[us]")
     if ref.date is not None:
-        text = np.datetime_as_string(moment, unit="us")
-        epoch = (ref.date - _EPOCH) // timedelta(microseconds=1) * 1000 + delta * RTC_NS + shift
-        return text, epoch
+        return np.datetime_as_string(moment, unit="us")
     day = moment.astype("datetime64[D]")
     yday = (day - day.astype("datetime64[Y]")).astype(np.int64) + 1
     clock = np.datetime_as_string(moment, unit="us")
-    text = np.char.add(np.char.add("day ", np.char.zfill(yday.astype(str), 3)),
+    return np.char.add(np.char.add("day ", np.char.zfill(yday.astype(str), 3)),
                        np.char.add(" ", np.char.partition(clock, "T")[:, 2]))
-    return text, None
