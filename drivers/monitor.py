@@ -420,7 +420,28 @@ class BusMonitor(ABC):
             columns.counted = columns.pos
 
     def __iter__(self) -> Iterator[MonitorRecord]:
-        while (record := self.recv()) is not None:
+        """Every record :meth:`recv` hands out, to the end of the stream (from a batch of
+        columns, without a :meth:`recv` call per record)."""
+        while True:
+            columns = self._columns
+            if columns is not None and not self._queue:
+                if columns.records is None:
+                    columns.select(self.filters)
+                records, rows = columns.records, columns.rows
+                assert records is not None
+                i, n = columns.next, len(records)
+                while i < n:
+                    if self._closed:
+                        raise MonitorClosed("the monitor is closed")
+                    columns.next = i + 1
+                    columns.pos = rows[i] + 1
+                    yield records[i]
+                    if columns.records is not records or self._columns is not columns:
+                        break   # filters set, or records taken by recv() meanwhile
+                    i = columns.next
+            record = self.recv()
+            if record is None:
+                return
             yield record
 
     def set_filters(self, filters: Iterable[MonitorFilter] | None) -> None:
