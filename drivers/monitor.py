@@ -210,7 +210,7 @@ class BusStatistics:
 class _Columns:
     """A batch of columns a backend delivered, handed out from message :attr:`pos` on."""
 
-    __slots__ = ("batch", "pos", "counted", "rows", "records", "next")
+    __slots__ = ("batch", "counted", "next", "pos", "records", "rows")
 
     def __init__(self, batch: Ms1553Batch) -> None:
         self.batch = batch

@@ -172,7 +172,7 @@ class Ms1553Batch:
         cls = MonitorRecord
         (set_t, set_bus, set_format, set_command, set_data, set_status, set_gaps, set_errors,
          set_command2, set_word_errors, set_end, set_extra) = SLOT_SETTERS
-        out = []
+        out: list[MonitorRecord] = []
         append = out.append
         for (t, end, bus, fmt, command, command2, block, channel, d, state, gap, mask,
              text, epoch, named) in zip(
@@ -455,7 +455,8 @@ def _text(rtc: I64, shift: I64, ref: TimeReference) -> npt.NDArray[np.str_]:
                                                               seconds=ref.seconds_of_day), "us")
     moment = base + micros.astype("timedelta64[us]")
     if ref.date is not None:
-        return np.datetime_as_string(moment, unit="us")
+        text: npt.NDArray[np.str_] = np.datetime_as_string(moment, unit="us")
+        return text
     day = moment.astype("datetime64[D]")
     yday = (day - day.astype("datetime64[Y]")).astype(np.int64) + 1
     clock = np.datetime_as_string(moment, unit="us")

@@ -18,7 +18,7 @@ still waiting for a response or for more words at the horizon is kept for the ne
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Iterator
+from collections.abc import Iterable
 from itertools import chain
 from operator import attrgetter
 
