@@ -1,5 +1,11 @@
 """Chapter 10 at full speed: file -> records against pychapter10, the JSON writer, decode --icd.
 
+First, per file, the monitor API at the library's speed: ``open_monitor("chapter10",
+path=...)`` iterated as a python-can user would (``for record in monitor``) and its batch
+API (``for batch in monitor.batches()``), each as a ratio to pychapter10's iteration of the
+same file's 1553 messages (targets: records >= 1.0x, batches >= 2x), measured in turn in
+the same rounds.
+
     python bench/chapter10_speed.py [--seconds 60] [--repeat 40] [--seed N] [--runs 3]
                                     [--icd-only]
 
@@ -18,6 +24,9 @@ each rate is the best of ``--runs`` runs (three by default), measured side by si
 run (``--icd-only``: the icd file's figures only):
 
 * pychapter10: ``for packet in C10(f): for message in packet`` (1553 packets);
+* monitor records / monitor batches: ``open_monitor("chapter10", path=f)``, then ``for
+  record in monitor`` / ``for batch in monitor.batches()`` (the monitor's statistics kept
+  as always);
 * MAPR batches: :meth:`Chapter10Reader.batches` with ``arinc429=False`` (1553 records as
   arrays, as pychapter10's loop yields 1553 messages only; replay reads so); the same with
   ARINC 429 decoded too (each ARINC packet then ends a 1553 batch, to keep file order, as
@@ -59,6 +68,7 @@ from drivers.chapter10.reader import Chapter10Reader
 from drivers.chapter10.walker import PacketWalker
 from drivers.chapter10.writer import Chapter10Writer
 from drivers.mil1553.record import MonitorRecord, TransferFormat
+from drivers.monitor import open_monitor
 from mapr_daemon.cli.icdview.view import IcdView
 from mapr_daemon.cli.main import main as mapr
 from mapr_daemon.cli.traffic.chapter10_decode import BATCH_MESSAGES
@@ -91,6 +101,21 @@ def pychapter10(path: Path) -> int:
             for _ in packet:
                 n += 1
     return n
+
+
+def monitor_records(path: Path) -> int:
+    """``for record in open_monitor("chapter10", path=...)``, as a python-can user reads."""
+    n = 0
+    with open_monitor("chapter10", path=str(path)) as monitor:
+        for _ in monitor:
+            n += 1
+    return n
+
+
+def monitor_batches(path: Path) -> int:
+    """The monitor API's batches: ``for batch in monitor.batches()`` (numpy columns)."""
+    with open_monitor("chapter10", path=str(path)) as monitor:
+        return sum(len(batch) for batch in monitor.batches())
 
 
 def mapr_batches(path: Path, arinc429: bool = False) -> int:
@@ -174,14 +199,45 @@ def writer_decode(after: int, path: Path) -> int:
 def interleaved(runs: dict[str, Callable[[], int]]) -> dict[str, tuple[float, float]]:
     """(CPU s, wall s) of the fastest run of each of ``runs``, by CPU: ``--runs`` rounds,
     each running them all in turn, so a busy spell of a shared machine weighs on all alike."""
-    fastest: dict[str, tuple[float, float]] = {}
+    return {label: (cpu, wall) for label, (cpu, wall, _) in in_turn(runs).items()}
+
+
+def in_turn(runs: dict[str, Callable[[], int]]) -> dict[str, tuple[float, float, int]]:
+    """(CPU s, wall s, items) of the fastest run of each of ``runs``, by CPU, ``--runs``
+    rounds of all of them in turn (see :func:`interleaved`)."""
+    fastest: dict[str, tuple[float, float, int]] = {}
     for _ in range(RUNS[0]):
         for label, run in runs.items():
             cpu, wall = time.process_time(), time.perf_counter()
-            run()
-            taken = (time.process_time() - cpu, time.perf_counter() - wall)
+            items = run()
+            taken = (time.process_time() - cpu, time.perf_counter() - wall, items)
             fastest[label] = min(fastest.get(label, taken), taken)
     return fastest
+
+
+def monitor_api(files: list[tuple[str, Path]]) -> None:
+    """The monitor API against pychapter10 on each file, the three taken in turn in each
+    of ``--runs`` rounds: rates, CPU beside wall time, the ratios and the load."""
+    print(f"\nthe monitor API against pychapter10 (each the best of {RUNS[0]} rounds, the "
+          "three in turn in each round; CPU time of this process, wall beside it)")
+    for name, path in files:
+        print(f"{name}: {path.stat().st_size / 2**20:.1f} MiB, load average "
+              f"{os.getloadavg()[0]:.2f}")
+        fastest = in_turn({
+            "pychapter10": lambda path=path: pychapter10(path),
+            "monitor records": lambda path=path: monitor_records(path),
+            "monitor batches": lambda path=path: monitor_batches(path)})
+        counts = {n for _, _, n in fastest.values()}
+        assert len(counts) == 1, f"the three counted different messages: {fastest}"
+        rates = {}
+        for label, (cpu, wall, n) in fastest.items():
+            rates[label] = n / cpu
+            print(f"  {label:<16} {n:>9,} messages  {cpu:7.3f} s CPU ({wall:7.3f} s wall)  "
+                  f"{n / cpu:>12,.0f} msg/s CPU ({n / wall:,.0f} wall)")
+        base = rates["pychapter10"]
+        print(f"  through open_monitor: records {rates['monitor records'] / base:.2f}x, "
+              f"batches {rates['monitor batches'] / base:.2f}x pychapter10 (CPU; targets "
+              f"1.0x and 2x)")
 
 
 def icd_parts(path: Path) -> dict[str, float]:
@@ -284,7 +340,12 @@ def main() -> None:
         icd_file = Path(folder) / "icd.c10"
         with Chapter10Writer(icd_file, start_time=datetime(2026, 1, 1)) as writer:
             writer.write(icd_traffic(args.seconds, seed))
+        print(f"inputs: dense = bench/recording.py's mixed() for {args.seconds:g} s of bus "
+              f"through the project's writer (no seed: the same traffic every run); sample = "
+              f"{SAMPLE.resolve()} x{args.repeat}; icd = seed {seed}")
         mapr_batches(dense)   # imports, warms the caches
+        monitor_records(dense)
+        monitor_api(files)
         for name, path in files:
             size = path.stat().st_size / 2**20
             print(f"\n{name}: {size:.1f} MiB")

@@ -9,6 +9,13 @@ manager and an idempotent ``close()``.
     ...     for record in monitor:
     ...         print(record.to_json())
 
+:meth:`BusMonitor.batches` (and :meth:`BusMonitor.recv_batch`) hand out the same messages as
+numpy columns, an :class:`~drivers.chapter10.ms1553_batch.Ms1553Batch` per batch, with no
+object per message: the fast way through a long recording. A backend that reads columns
+(``chapter10``) implements ``_recv_columns(timeout)`` and gives them as they are (records are
+then built from them a batch at a time, only when asked for); for the others the base class
+packs their records into the same columns.
+
 Backends are found by name in :data:`BACKENDS`, among those another package registered with
 :func:`drivers.backends.register`, and in the entry-point group ``mapr.backends``
 (``name = "package.module:Class"``), and imported only when opened, so a missing optional
@@ -31,6 +38,7 @@ from types import TracebackType
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+import numpy.typing as npt
 
 from drivers.backends import BACKENDS, available_backends, plugin_backends
 from drivers.errors import (
@@ -41,9 +49,9 @@ from drivers.errors import (
     MonitorClosed,
 )
 from drivers.mil1553.record import MonitorRecord, TransferFormat
-from drivers.mil1553.sides import message_matches
+from drivers.mil1553.sides import message_matches, sides_mask
 from drivers.mil1553.wordbatch import WORD_TIME_NS
-from drivers.rtstats import TrafficStatistics
+from drivers.rtstats import TrafficStatistics, batch_arrays
 
 if TYPE_CHECKING:
     from drivers.chapter10.ms1553_batch import Ms1553Batch
@@ -93,6 +101,34 @@ class MonitorFilter:
             return False
         return self.end_ns is None or record.t_ns < self.end_ns
 
+    def mask(self, batch: Ms1553Batch) -> npt.NDArray[np.bool_]:
+        """:meth:`matches` over a batch of columns: True for each message it keeps."""
+        from drivers.chapter10.ms1553_batch import ERROR_BIT, FORMATS
+
+        transmit = None if self.tr is None else self.tr.upper() == "T"
+        keep = sides_mask(batch.command, batch.command2, _as_set(self.rt), _as_set(self.sa),
+                          transmit)
+        if self.format is not None:
+            formats = {self.format} if isinstance(self.format, str) else self.format
+            wanted = {f.upper() for f in formats}
+            codes = [i for i, f in enumerate(FORMATS) if str(f) in wanted]
+            keep &= np.isin(batch.format, np.asarray(codes, np.int64))
+        if self.error is True:
+            keep &= batch.errors != 0
+        elif self.error is False:
+            keep &= batch.errors == 0
+        elif self.error is not None:
+            names = {self.error} if isinstance(self.error, str) else self.error
+            bits = 0
+            for name in names:
+                bits |= ERROR_BIT.get(name, 0)
+            keep &= batch.errors & bits != 0
+        if self.start_ns is not None:
+            keep &= batch.t_ns >= self.start_ns
+        if self.end_ns is not None:
+            keep &= batch.t_ns < self.end_ns
+        return keep
+
 
 def _as_set(value: int | frozenset[int] | None) -> frozenset[int] | None:
     return frozenset((value,)) if isinstance(value, int) else value
@@ -127,7 +163,8 @@ class BusStatistics:
             return
         from drivers.chapter10.ms1553_batch import ERROR_BIT
 
-        words = 1 + (batch.command2 >= 0) + batch.data_count + batch.n_status
+        words = (batch.command >= 0).astype(np.int64) + (batch.command2 >= 0) + \
+            batch.data_count + batch.n_status
         ends = np.where(batch.end_ns != 0, batch.end_ns, batch.t_ns)
         for code, bus in ((0, "A"), (1, "B")):
             mine = np.flatnonzero(batch.bus == code)
@@ -170,18 +207,69 @@ class BusStatistics:
         return "\n".join(lines)
 
 
+class _Columns:
+    """A batch of columns a backend delivered, handed out from message :attr:`pos` on."""
+
+    __slots__ = ("batch", "counted", "next", "pos", "records", "rows")
+
+    def __init__(self, batch: Ms1553Batch) -> None:
+        self.batch = batch
+        self.pos = 0
+        """The first message neither handed out nor passed over by the filters."""
+        self.counted = 0
+        """Messages counted in the statistics."""
+        self.rows: list[int] = []
+        """The batch index of each of :attr:`records`."""
+        self.records: list[MonitorRecord] | None = None
+        """The records from :attr:`pos` on that pass the filters (built when first asked)."""
+        self.next = 0
+        """The next of :attr:`records` to hand out."""
+
+    def select(self, filters: Sequence[MonitorFilter]) -> None:
+        """Build the records from :attr:`pos` on that pass ``filters``."""
+        rest = self.batch.take(slice(self.pos, None))
+        if filters:
+            keep = np.flatnonzero(_mask(filters, rest))
+            rest = rest.take(keep)
+            self.rows = (keep + self.pos).tolist()
+        else:
+            self.rows = list(range(self.pos, len(self.batch)))
+        self.records = rest.records()
+        self.next = 0
+
+    def rest(self, filters: Sequence[MonitorFilter]) -> Ms1553Batch:
+        """The columns from :attr:`pos` on that pass ``filters``; all handed out."""
+        rest = self.batch.take(slice(self.pos, None))
+        self.pos = len(self.batch)
+        self.records = None
+        return rest.take(_mask(filters, rest)) if filters else rest
+
+
+def _mask(filters: Sequence[MonitorFilter], batch: Ms1553Batch) -> npt.NDArray[np.bool_]:
+    keep = filters[0].mask(batch)
+    for more in filters[1:]:
+        keep |= more.mask(batch)
+    return keep
+
+
 class BusMonitor(ABC):
-    """A passive 1553 bus monitor: records out, never anything onto the bus."""
+    """A passive 1553 bus monitor: records out, never anything onto the bus.
+
+    Records one by one (:meth:`recv`, iteration) or as numpy columns a batch at a time
+    (:meth:`recv_batch`, :meth:`batches`); the two may be mixed, each message handed out
+    once.
+    """
 
     def __init__(self, *, filters: Sequence[MonitorFilter] | None = None, **config: Any
                  ) -> None:
         if config:
             raise TypeError(f"unknown option(s) {', '.join(sorted(config))}")
         self.filters: list[MonitorFilter] = list(filters or [])
-        self.stats = BusStatistics()
+        self._stats = BusStatistics()
         self.traffic: TrafficStatistics | None = None
         """Per-RT/SA statistics of every batch the backend delivers, when set (None: off)."""
         self._queue: deque[MonitorRecord] = deque()
+        self._columns: _Columns | None = None
         self._closed = False
         self._ended = False
 
@@ -190,6 +278,14 @@ class BusMonitor(ABC):
     def _recv_internal(self, timeout: float | None) -> list[MonitorRecord] | None:
         """Wait up to ``timeout`` s (None: as long as it takes) for records; return them
         (``[]`` when none came in time), or ``None`` when the stream has ended."""
+
+    def _recv_columns(self, timeout: float | None
+                      ) -> Ms1553Batch | list[MonitorRecord] | None:
+        """As :meth:`_recv_internal`, for a backend that reads messages as columns: an
+        :class:`~drivers.chapter10.ms1553_batch.Ms1553Batch` (or records, or ``[]``, or
+        ``None`` at the end). The monitor calls this one; the default calls
+        :meth:`_recv_internal`."""
+        return self._recv_internal(timeout)
 
     def _close(self) -> None:  # noqa: B027 - optional hook, most backends hold nothing
         """Release the backend's resources (called once)."""
@@ -200,6 +296,18 @@ class BusMonitor(ABC):
         raises the error opening would. The default checks nothing."""
 
     # --- the API ----------------------------------------------------------------------------
+    @property
+    def stats(self) -> BusStatistics:
+        """Running counts per bus of every message handed out or passed over by the filters
+        so far (not of what the backend has delivered but nobody has taken yet)."""
+        self._count_columns()
+        return self._stats
+
+    @stats.setter
+    def stats(self, stats: BusStatistics) -> None:
+        self._count_columns()
+        self._stats = stats
+
     def recv(self, timeout: float | None = None) -> MonitorRecord | None:
         """The next record that passes the filters, or None on time-out or end of stream;
         :class:`~drivers.errors.MonitorClosed` once :meth:`close` was called, whatever the
@@ -210,33 +318,136 @@ class BusMonitor(ABC):
                 raise MonitorClosed("the monitor is closed")
             while self._queue:
                 record = self._queue.popleft()
-                self.stats.add(record)   # counted as taken, filtered or not: the stats are the
-                if self._wanted(record):  # bus's, up to the last record handed out
+                self._stats.add(record)  # counted as taken, filtered or not: the stats are
+                if self._wanted(record):  # the bus's, up to the last record handed out
                     return record
+            columns = self._columns
+            if columns is not None:
+                if columns.records is None:
+                    columns.select(self.filters)
+                    assert columns.records is not None
+                if columns.next < len(columns.records):
+                    i = columns.next
+                    columns.next = i + 1
+                    columns.pos = columns.rows[i] + 1
+                    return columns.records[i]
+                columns.pos = len(columns.batch)
+                self._count_columns()
+                self._columns = None
+                continue
             if self._ended:
                 return None
-            remaining = None if deadline is None else max(0.0, deadline - time.monotonic())
-            try:
-                batch = self._recv_internal(remaining)
-            except MaprError:
-                raise
-            except Exception as error:  # a backend fault must reach the caller, named
-                raise BackendError(f"{type(self).__name__}: {error}") from error
-            if batch is None:
-                self._ended = True
-                continue
-            if self.traffic is not None:
-                self.traffic.add_batch(batch)
-            self._queue.extend(batch)
-            if not batch and deadline is not None and time.monotonic() >= deadline:
+            if not self._fetch(deadline) and deadline is not None and \
+                    time.monotonic() >= deadline:
                 return None
 
+    def recv_batch(self, timeout: float | None = None) -> Ms1553Batch | None:
+        """The next messages that pass the filters, as numpy columns (an
+        :class:`~drivers.chapter10.ms1553_batch.Ms1553Batch`, never empty): what the
+        backend delivered in one go (a ``chapter10`` monitor: up to 8192 messages), or the
+        rest of it when records of it were taken by :meth:`recv`. None on time-out or end of
+        stream (:attr:`ended` tells which); :class:`~drivers.errors.MonitorClosed` once
+        closed. ``batch.records()`` are the records :meth:`recv` would have handed out."""
+        deadline = None if timeout is None else time.monotonic() + timeout
+        while True:
+            if self._closed:
+                raise MonitorClosed("the monitor is closed")
+            if self._queue:
+                records = list(self._queue)
+                self._queue.clear()
+                for record in records:
+                    self._stats.add(record)
+                if self.filters:
+                    records = [r for r in records if self._wanted(r)]
+                if records:
+                    from drivers.chapter10.ms1553_batch import Ms1553Batch
+                    return Ms1553Batch.from_records(records)
+                continue
+            columns = self._columns
+            if columns is not None:
+                batch = columns.rest(self.filters)
+                self._count_columns()
+                self._columns = None
+                if len(batch):
+                    return batch
+                continue
+            if self._ended:
+                return None
+            if not self._fetch(deadline) and deadline is not None and \
+                    time.monotonic() >= deadline:
+                return None
+
+    def batches(self) -> Iterator[Ms1553Batch]:
+        """Every batch :meth:`recv_batch` hands out, to the end of the stream.
+
+            >>> with open_monitor("chapter10", path="flight.c10") as monitor:  # doctest: +SKIP
+            ...     for batch in monitor.batches():
+            ...         print(len(batch), batch.rt, batch.t_ns[-1])
+        """
+        while (batch := self.recv_batch()) is not None:
+            yield batch
+
+    def _fetch(self, deadline: float | None) -> bool:
+        """Ask the backend for more, up to ``deadline``; True when something came (or the
+        stream ended)."""
+        remaining = None if deadline is None else max(0.0, deadline - time.monotonic())
+        try:
+            got = self._recv_columns(remaining)
+        except MaprError:
+            raise
+        except Exception as error:  # a backend fault must reach the caller, named
+            raise BackendError(f"{type(self).__name__}: {error}") from error
+        if got is None:
+            self._ended = True
+            return True
+        if isinstance(got, list):
+            if self.traffic is not None:
+                self.traffic.add_batch(got)
+            self._queue.extend(got)
+            return bool(got)
+        if not len(got):
+            return False
+        if self.traffic is not None:
+            self.traffic.add_arrays(batch_arrays(got))
+        self._columns = _Columns(got)
+        return True
+
+    def _count_columns(self) -> None:
+        """Count in the statistics the column messages handed out or passed over since."""
+        columns = self._columns
+        if columns is not None and columns.pos > columns.counted:
+            self._stats.add_columns(columns.batch.take(slice(columns.counted, columns.pos)))
+            columns.counted = columns.pos
+
     def __iter__(self) -> Iterator[MonitorRecord]:
-        while (record := self.recv()) is not None:
+        """Every record :meth:`recv` hands out, to the end of the stream (from a batch of
+        columns, without a :meth:`recv` call per record)."""
+        while True:
+            columns = self._columns
+            if columns is not None and not self._queue:
+                if columns.records is None:
+                    columns.select(self.filters)
+                records, rows = columns.records, columns.rows
+                assert records is not None
+                i, n = columns.next, len(records)
+                while i < n:
+                    if self._closed:
+                        raise MonitorClosed("the monitor is closed")
+                    columns.next = i + 1
+                    columns.pos = rows[i] + 1
+                    yield records[i]
+                    if columns.records is not records or self._columns is not columns:
+                        break   # filters set, or records taken by recv() meanwhile
+                    i = columns.next
+            record = self.recv()
+            if record is None:
+                return
             yield record
 
     def set_filters(self, filters: Iterable[MonitorFilter] | None) -> None:
         self.filters = list(filters or [])
+        if self._columns is not None:   # records not handed out are chosen again
+            self._columns.records = None
 
     def _wanted(self, record: MonitorRecord) -> bool:
         return not self.filters or any(f.matches(record) for f in self.filters)
@@ -254,7 +465,7 @@ class BusMonitor(ABC):
     @property
     def ended(self) -> bool:
         """True once the source has no more records (a file replayed to its end)."""
-        return self._ended and not self._queue
+        return self._ended and not self._queue and self._columns is None
 
     def __enter__(self) -> BusMonitor:
         return self

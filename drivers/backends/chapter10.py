@@ -10,6 +10,10 @@ every MS1553F1 channel); each record names its channel in ``record.extra["channe
 :attr:`Chapter10Monitor.issues` (each also logged as a warning with its file offset); the
 replay goes on. ``position`` / ``size`` tell
 how far into the file the replay is.
+
+As fast as possible (no ``speed``), the reader's merged batches reach the monitor as columns
+(:meth:`~drivers.monitor.BusMonitor.batches` hands them out as they are; records are built
+from them a batch at a time); paced, as records.
 """
 
 from __future__ import annotations
@@ -20,6 +24,7 @@ from collections import deque
 from collections.abc import Iterator, Sequence
 from typing import Any
 
+from drivers.chapter10.ms1553_batch import Ms1553Batch
 from drivers.chapter10.reader import Chapter10Batch, Chapter10Reader
 from drivers.chapter10.walker import ReadIssue
 from drivers.mil1553.record import MonitorRecord
@@ -27,6 +32,9 @@ from drivers.mil1553.timing import BusTiming
 from drivers.monitor import BusMonitor, MonitorFilter
 
 log = logging.getLogger(__name__)
+
+BATCH_MESSAGES = 8192
+"""Messages of consecutive 1553 packets merged into one batch of columns."""
 
 
 def channel_ids(channels: Sequence[int] | int | str | None) -> list[int] | None:
@@ -56,7 +64,7 @@ class Chapter10Monitor(BusMonitor):
                                       year=year,
                                       timing=timing)
         self.speed = speed or 0.0
-        self._batches: Iterator[Chapter10Batch] = iter(self.reader)
+        self._batches: Iterator[Chapter10Batch] = self.reader.batches(BATCH_MESSAGES)
         self._pending: deque[MonitorRecord] = deque()
         self._issues_logged = 0
         self._first_ns: int | None = None
@@ -75,6 +83,19 @@ class Chapter10Monitor(BusMonitor):
     @property
     def size(self) -> int:
         return self.reader.size
+
+    def _recv_columns(self, timeout: float | None) -> Ms1553Batch | list[MonitorRecord] | None:
+        if self.speed:
+            return self._recv_internal(timeout)
+        if self._pending:   # records already made (by a direct _recv_internal call)
+            out = list(self._pending)
+            self._pending.clear()
+            return out
+        batch = next(self._batches, None)
+        self._log_issues()
+        if batch is None:
+            return None
+        return [] if batch.ms1553 is None else batch.ms1553
 
     def _recv_internal(self, timeout: float | None) -> list[MonitorRecord] | None:
         if not self._pending:

@@ -6,6 +6,12 @@ a word, never checks the data checksum and stops with ``NotImplementedError`` on
 it does not know. Here every packet is framed first: sync pattern 0xEB25, header checksum,
 lengths, data checksum. A damaged packet becomes a :class:`ReadIssue` naming its file offset;
 the walk then looks for the next valid header and goes on, so one bad packet loses only itself.
+
+A packet of a type the walk is not asked for is passed over by its length, unread (video and
+PCM make most of a recording's bytes): the valid header after it proves that length; when
+the bytes there are no header, the packet is read and checked after all, as any other, so a
+cut packet still gives up what follows it. Only a damaged data checksum in a packet nobody
+reads goes unreported.
 """
 
 from __future__ import annotations
@@ -172,11 +178,18 @@ class PacketWalker:
     def __iter__(self) -> Iterator[RawPacket]:
         f = self._file
         pos = 0
+        passed: int | None = None
+        """Where the last packet passed over by its length alone starts (not read: a type
+        not asked for), until the header after it proves that length right."""
+        recheck = -1
         while True:
             f.seek(pos)
             raw_header = f.read(HEADER_BYTES)
             self.position = pos
             if len(raw_header) < HEADER_BYTES:
+                if raw_header and passed is not None:   # read and check it after all
+                    pos, recheck, passed = passed, passed, None
+                    continue
                 if raw_header:
                     self._issue(pos, f"truncated packet header ({len(raw_header)} bytes at the "
                                      "end of the file)")
@@ -184,12 +197,28 @@ class PacketWalker:
                 return
             header = parse_header(raw_header, pos)
             if isinstance(header, str):
+                if passed is not None:   # a damaged or cut packet passed over: read it
+                    pos, recheck, passed = passed, passed, None
+                    continue
                 self._issue(pos, header)
                 pos = self._next_header(pos + 1)
                 continue
-            self.headers_seen += 1
+            passed = None
+            if pos != recheck:
+                self.headers_seen += 1
             if self.first_rtc is None:
                 self.first_rtc = header.rtc
+            next_pos = pos + header.packet_length
+            if (pos != recheck and next_pos <= self.size and self.data_types is not None
+                    and header.data_type not in self.data_types
+                    and header.data_type not in self.raw_types):
+                # not asked for: passed over by its length, unread (its data checksum
+                # unchecked unless the header after it is not where that length says)
+                self.types_seen.setdefault(header.data_type, set()).add(header.channel_id)
+                passed = pos
+                pos = next_pos
+                self.position = pos
+                continue
             rest = f.read(header.packet_length - HEADER_BYTES)
             raw = raw_header + rest
             if len(raw) < header.packet_length:
@@ -217,7 +246,6 @@ class PacketWalker:
                                  "the file)")
                 self.position = self.size
                 return
-            next_pos = pos + header.packet_length
             if not _data_checksum_ok(header, raw):
                 following = self._next_header(pos + HEADER_BYTES)  # it may be a cut packet
                 if following < next_pos:

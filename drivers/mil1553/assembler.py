@@ -18,9 +18,7 @@ still waiting for a response or for more words at the horizon is kept for the ne
 
 from __future__ import annotations
 
-import gc
-from collections.abc import Iterable, Iterator
-from contextlib import contextmanager
+from collections.abc import Iterable
 from itertools import chain
 from operator import attrgetter
 
@@ -48,6 +46,7 @@ from drivers.mil1553.record import (
     MESSAGE_ERROR_NAMES,
     MonitorRecord,
     TransferFormat,
+    collector_paused,
     new_records,
 )
 from drivers.mil1553.timing import BusTiming
@@ -94,7 +93,7 @@ class MessageAssembler:
         if horizon_ns is None and words.size:
             horizon_ns = int(words["end_ns"].max())
         first_b = 0
-        with _collector_paused():
+        with collector_paused():
             for bus in (0, 1):
                 # Rows copied as bytes (take_words, concat_words): numpy copies structured
                 # rows field by field, several times slower.
@@ -110,7 +109,7 @@ class MessageAssembler:
         """End of stream: close every message still open."""
         records: list[MonitorRecord] = []
         first_b = 0
-        with _collector_paused():
+        with collector_paused():
             for bus in (0, 1):
                 done, _ = self._assemble(self._pending[bus], bus, None, final=True)
                 self._pending[bus] = empty_words()
@@ -189,25 +188,6 @@ class MessageAssembler:
         if count == 0:
             return [], int(used)
         return _records(out[:count], t, end, value, word_errors, BUS_NAMES[bus]), int(used)
-
-
-@contextmanager
-def _collector_paused() -> Iterator[None]:
-    """Pause Python's cyclic garbage collector while a call's records are built.
-
-    Run every 700 new objects, it moves the records under construction (alive, in their
-    lists) to its older generations, whose growth then sets off full collections of every
-    object the process holds: measured, about as much CPU as building the records. Records
-    and their tuples hold no reference cycles, so nothing is left for it to find; it resumes
-    (if it was running) as soon as the batch is built.
-    """
-    running = gc.isenabled()
-    gc.disable()
-    try:
-        yield
-    finally:
-        if running:
-            gc.enable()
 
 
 def _records(out: npt.NDArray[np.int64], t: npt.NDArray[np.int64],

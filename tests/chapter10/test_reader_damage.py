@@ -156,3 +156,47 @@ def test_random_damage_to_the_sample_never_stops_the_reader(sample_c10: Path, tm
     assert len(records) <= 475
     assert reader.issues  # the cut at least is reported
     assert all(r.command is not None for r in records)
+
+
+def arinc(c10: Any, n: int = 40) -> bytes:
+    """An ARINC 429 packet: a type the 1553 reader (``arinc429=False``) passes over."""
+    return c10.arinc429(list(range(1, n + 1)), rtc=1_000_000, gaps=[10] * n)
+
+
+def read_1553(path: Path) -> tuple[list[int], list[str], set[int]]:
+    reader = Chapter10Reader(path, arinc429=False)
+    data = [r.data[0] for b in reader for r in b.records]
+    return data, [str(i) for i in reader.issues], set(reader.walker.types_seen)
+
+
+def test_a_packet_passed_over_and_cut_short_still_gives_what_follows(c10: Any,
+                                                                      tmp_path: Path) -> None:
+    """A packet of a type not read is passed over by its length, unread; cut short (the next
+    packet's header inside it), it is read and reported after all, and the packet whose
+    header follows the cut is read."""
+    a, b, c = three_packets(c10)
+    other = arinc(c10)
+    path = tmp_path / "cut-other.c10"
+    path.write_bytes(a + other[:60] + b + c + other * 3)   # its length ends inside the file
+    data, issues, _ = read_1553(path)
+    assert data == [0x100, 0x101, 0x102]
+    assert issues == [f"offset {len(a)}: data checksum mismatch (type 0x38, channel 9); "
+                      "packet skipped"]
+
+
+def test_packets_passed_over_leave_the_rest_and_the_issues_as_they_were(c10: Any,
+                                                                         tmp_path: Path) -> None:
+    a, b, c = three_packets(c10)
+    other = arinc(c10)
+    path = tmp_path / "other.c10"
+    path.write_bytes(other + a + other + other + b + c + other)
+    assert read_1553(path) == ([0x100, 0x101, 0x102], [], {0x19, 0x38})
+    path.write_bytes(a + other + b + c + other[:-9])   # the last one cut at the end
+    data, issues, _ = read_1553(path)
+    assert data == [0x100, 0x101, 0x102]
+    assert len(issues) == 1 and "truncated packet (type 0x38" in issues[0]
+    path.write_bytes(a + other + b"\x00" * 7 + b + c)   # garbage after a passed-over packet
+    data, issues, _ = read_1553(path)
+    assert data == [0x100, 0x101, 0x102]
+    assert issues == [f"offset {len(a) + len(other)}: bad sync pattern 0x0000 (expected "
+                      "0xEB25)"]
