@@ -3,10 +3,12 @@
 
 :mod:`.pipeline` builds a :class:`Pipeline` from the settings it reads
 (:mod:`.settings`: the ICD, the assets, the aircraft, the reasoner) and turns each batch of
-bus records into a :class:`Batch` of diagnosed BITs and catalog events; :mod:`.bitwatch`
-cuts each actuator's built-in tests out of the decoded signals for its reasoner;
-:mod:`.trending` keeps flights and each actuator's health trend; :mod:`.clock` stamps events
-with bus and absolute time; :mod:`.wiring` says which ICD signal is which reasoner channel.
+bus records into a :class:`Batch` of diagnosed BITs and catalog events; :mod:`.bitcut`
+cuts each actuator's built-in tests out of the decoded signals (one rule, shared with
+commissioning from a recording, :mod:`.recorded_bits`) and :mod:`.bitwatch` hands them to its
+reasoner; :mod:`.trending` keeps flights and each actuator's health trend; :mod:`.clock`
+stamps events with bus and absolute time; :mod:`.wiring` says which ICD signal is which
+reasoner channel.
 
 What the caller does with the events (the daemon's catalog writes and systemd status, the
 replay's summary, the fleet's archive) is the caller's: this package imports nothing of the
