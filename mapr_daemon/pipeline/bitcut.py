@@ -21,7 +21,6 @@ from a recording (:mod:`.recorded_bits`) fits the data sheet to them.
 from __future__ import annotations
 
 import dataclasses
-import logging
 from collections.abc import Mapping
 
 import numpy as np
@@ -33,7 +32,6 @@ from mapr_daemon.ema.profile import Profile
 from mapr_daemon.icd import Series
 from mapr_daemon.pipeline import wiring
 
-log = logging.getLogger("mapr.reasoner")
 INITIATED_BIT = 2
 """``bit_request`` code of an initiated BIT (configs/icd/ema-testbed.yaml)."""
 KEEP_S = 4.0
@@ -164,8 +162,8 @@ class BitCutter:
 
     def cut(self, request: int, onset: int) -> CutBit:
         """The BIT requested at ``request`` whose first sample is time-tagged ``onset``, from
-        what the buffers hold; with :attr:`CutBit.missing` set (and a warning logged) when a
-        channel was not on the bus for the whole test."""
+        what the buffers hold; with :attr:`CutBit.missing` set when a channel was not on the
+        bus for the whole test (the caller says so: each user in its own words)."""
         grid: FloatArray = onset + np.arange(self.profile.n_samples, dtype=np.float64) * \
             self.period_ns
         channels: dict[str, FloatArray] = {}
@@ -176,8 +174,6 @@ class BitCutter:
         for icd_name, channel in self.channels.items():
             t, v = self._series(icd_name)
             if t.size < 2 or t[0] > grid[0] + 0.05e9 or t[-1] < grid[-1] - 0.05e9:
-                log.warning("BIT at bus time %.3f s: %s not on the bus for the whole test; "
-                            "skipped", onset / 1e9, icd_name)
                 return CutBit(request, onset, {}, q, missing=icd_name)
             channels[channel] = np.interp(grid, t, v)
         channels.update(self._drive_state(grid))

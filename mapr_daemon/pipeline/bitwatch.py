@@ -80,6 +80,8 @@ class BitWatch:
             self.bits_seen += 1
             self.last_onset = cut.onset_ns
             if cut.missing is not None:
+                log.warning("BIT at bus time %.3f s: %s not on the bus for the whole test; "
+                            "skipped", cut.onset_ns / 1e9, cut.missing)
                 continue
             try:
                 decision = self._diagnose(cut)
@@ -95,8 +97,7 @@ class BitWatch:
     def record(self, onset: int) -> tuple[dict[str, FloatArray], float] | None:
         """The BIT record whose first sample is time-tagged ``onset`` (reasoner channel ->
         samples on the profile's grid) and the median dynamic pressure during it, from what
-        the buffers still hold; None (with a warning) when a channel was not on the bus for
-        the whole test."""
+        the buffers still hold; None when a channel was not on the bus for the whole test."""
         cut = self.cutter.cut(onset, onset)
         return None if cut.missing is not None else (cut.channels, cut.dynamic_pressure_pa)
 
