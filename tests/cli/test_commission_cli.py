@@ -69,6 +69,7 @@ def test_exit_codes(files: Path, tmp_path: Path, capsys: pytest.CaptureFixture[s
     (tmp_path / "bad.yaml").write_text("name: x\n")
     assert main(["commission", "--actuator", str(tmp_path / "bad.yaml"),
                  str(files / "bit0.npz"), "-o", out]) == 78
+    capsys.readouterr()
     # input that is not there (a file of no BITs): one line naming it, exit 65
     assert main(["commission", "--actuator", sheet, str(files / "flight.npz"), "-o", out]) == 65
     (err,) = capsys.readouterr().err.strip().splitlines()
