@@ -21,9 +21,11 @@ import importlib
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
+    from mapr_daemon.pipeline.bitcut import BitCutter, CutBit
     from mapr_daemon.pipeline.bitwatch import BitFound, BitWatch
     from mapr_daemon.pipeline.clock import BusClock
     from mapr_daemon.pipeline.pipeline import Batch, Failure, Pipeline, Watched, build_pipeline
+    from mapr_daemon.pipeline.recorded_bits import RecordedBits, bits_from_recording
     from mapr_daemon.pipeline.settings import (
         DEFAULT_ICD,
         AircraftConfig,
@@ -34,6 +36,8 @@ if TYPE_CHECKING:
     from mapr_daemon.pipeline.trending import Trending
 
 _HOME = {
+    "BitCutter": "mapr_daemon.pipeline.bitcut",
+    "CutBit": "mapr_daemon.pipeline.bitcut",
     "BitFound": "mapr_daemon.pipeline.bitwatch",
     "BitWatch": "mapr_daemon.pipeline.bitwatch",
     "BusClock": "mapr_daemon.pipeline.clock",
@@ -42,6 +46,8 @@ _HOME = {
     "Pipeline": "mapr_daemon.pipeline.pipeline",
     "Watched": "mapr_daemon.pipeline.pipeline",
     "build_pipeline": "mapr_daemon.pipeline.pipeline",
+    "RecordedBits": "mapr_daemon.pipeline.recorded_bits",
+    "bits_from_recording": "mapr_daemon.pipeline.recorded_bits",
     "DEFAULT_ICD": "mapr_daemon.pipeline.settings",
     "AircraftConfig": "mapr_daemon.pipeline.settings",
     "AssetConfig": "mapr_daemon.pipeline.settings",
@@ -52,9 +58,10 @@ _HOME = {
 """Each public name and the module it lives in, imported when first asked for: importing
 one module of the package (a subcommand's parser) does not import them all."""
 
-__all__ = ["DEFAULT_ICD", "AircraftConfig", "AssetConfig", "Batch", "BitFound", "BitWatch",
-           "BusClock", "Failure", "Pipeline", "PipelineConfig", "ReasonerConfig", "Trending",
-           "Watched", "build_pipeline"]
+__all__ = ["DEFAULT_ICD", "AircraftConfig", "AssetConfig", "Batch", "BitCutter", "BitFound",
+           "BitWatch", "BusClock", "CutBit", "Failure", "Pipeline", "PipelineConfig",
+           "ReasonerConfig", "RecordedBits", "Trending", "Watched", "bits_from_recording",
+           "build_pipeline"]
 
 
 def __getattr__(name: str) -> Any:
