@@ -10,7 +10,8 @@ not what it is named (one line names it)."""
 DATAERR = 65
 """Some of the input is not there or could not be diagnosed, the rest was done (sysexits
 EX_DATAERR): records ``mapr diagnose`` could not diagnose (each has its own error event), a
-``mapr decode --c10-channel`` the recording does not hold (the line lists those it does)."""
+``mapr decode --c10-channel`` the recording does not hold (the line lists those it does),
+``mapr commission`` inputs holding no BIT to commission from (one line per file)."""
 CONFIG = 78
 """A configuration or ICD error (sysexits EX_CONFIG); listed in RestartPreventExitStatus=."""
 UNAVAILABLE = 69

@@ -15,35 +15,16 @@ from mapr_daemon.reasoner.commissioning import prior as ip
 from mapr_daemon.reasoner.commissioning.record import read_record
 from mapr_daemon.reasoner.diagnosis.dictionary import Dictionary
 
-TINY_SPEC = """\
-pressures_pa: [0, 1500]
-nominal_per_pressure: 2
-severities: [0.5, 1.0]
-kinds: [esr]
-shorts: [A_high]
-opens: [A_high]
-healthy_runs: 40
-calibration_runs: 10
-calibration_pressure_pa: [0, 1500]
-subspace_dims: 4
-knots: [0.0, 0.5, 1.0]
-"""
-TOLERANCES = """\
-format: mapr-tolerances/1
-parameters:
-  motor.back_emf_v_s_per_rad: 5
-  motor.inertia_kg_m2: 15
-"""
-
 
 @pytest.fixture(scope="module")
-def files(tmp_path_factory: pytest.TempPathFactory) -> Path:
+def files(tmp_path_factory: pytest.TempPathFactory, commission_settings: Path) -> Path:
+    """The settings (spec.yaml, tolerances.yaml), a unit's two healthy BITs and a flight."""
     d = tmp_path_factory.mktemp("commission")
     sheet = load_actuator(default_actuator_path())
     unit = ip.scaled(sheet, {"motor.back_emf_v_s_per_rad": 1.04, "motor.inertia_kg_m2": 0.88})
     write_actuator(d / "unit.yaml", unit)
-    (d / "spec.yaml").write_text(TINY_SPEC)
-    (d / "tolerances.yaml").write_text(TOLERANCES)
+    for name in ("spec.yaml", "tolerances.yaml"):
+        (d / name).write_text((commission_settings / name).read_text())
     for i, (q, amb, bus) in enumerate([(400, -10, 27.9), (1600, 35, 27.2)]):
         assert main(["simulate", "--actuator", str(d / "unit.yaml"), "--profile", "bit",
                      "--pressure", str(q), "--ambient", str(amb), "--bus-voltage", str(bus),
@@ -88,9 +69,12 @@ def test_exit_codes(files: Path, tmp_path: Path, capsys: pytest.CaptureFixture[s
     (tmp_path / "bad.yaml").write_text("name: x\n")
     assert main(["commission", "--actuator", str(tmp_path / "bad.yaml"),
                  str(files / "bit0.npz"), "-o", out]) == 78
-    assert main(["commission", "--actuator", sheet, str(files / "flight.npz"), "-o", out]) == 2
-    err = capsys.readouterr().err.strip().splitlines()
-    assert err[-1] == "mapr commission: no BIT to commission from"
+    capsys.readouterr()
+    # input that is not there (a file of no BITs): one line naming it, exit 65
+    assert main(["commission", "--actuator", sheet, str(files / "flight.npz"), "-o", out]) == 65
+    (err,) = capsys.readouterr().err.strip().splitlines()
+    assert err.startswith(f"mapr commission: {files / 'flight.npz'}: no BIT to commission "
+                          "from: ")
     (tmp_path / "junk.npz").write_text("not a zip")
     assert main(["commission", "--actuator", sheet, str(tmp_path / "junk.npz"), "-o", out]) == 2
     assert len(capsys.readouterr().err.strip().splitlines()) == 1

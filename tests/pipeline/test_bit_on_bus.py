@@ -15,7 +15,8 @@ from drivers.backends.loopback import LoopbackMonitor
 from mapr_daemon.ema.faults import FaultSet, parse_fault
 from mapr_daemon.ema.params import default_actuator_path, load_actuator, with_sample_rate
 from mapr_daemon.icd import SignalStream, load_icd
-from mapr_daemon.pipeline.bitwatch import KEEP_S, BitWatch
+from mapr_daemon.pipeline.bitcut import KEEP_S
+from mapr_daemon.pipeline.bitwatch import BitWatch
 from mapr_daemon.reasoner.diagnosis.dictionary import Dictionary
 from mapr_daemon.reasoner.reasoner import Reasoner
 from mapr_daemon.testbed.aircraft import FAST_CHANNELS, POWER_CHANNELS, Aircraft

@@ -3,8 +3,10 @@ build its dictionary and calibrate it to the unit — what ``mapr commission`` r
 
 In one place so that a script, a notebook or a later in-service step can run the same steps
 the CLI does: :func:`read_bit_files` turns ``.npz`` run files into BIT records (a file of no
-BITs skipped with its reason), :func:`commission` does the rest and writes, into one folder,
-``actuator.yaml`` (the identified actuator, loadable like any actuator file),
+BITs skipped with its reason; a Chapter 10 recording's BITs are cut by
+:func:`mapr_daemon.pipeline.recorded_bits.bits_from_recording`, above this package: it needs
+the ICD and the daemon's BIT cutter), :func:`commission` does the rest and writes, into one
+folder, ``actuator.yaml`` (the identified actuator, loadable like any actuator file),
 ``commissioning.json`` (what was identified, with sd, from which BITs) and ``dictionary.npz``.
 """
 
