@@ -1,14 +1,16 @@
 """Batches of records from a file or a live backend, and the statistics printed from them.
 
 Shared by ``mapr decode --stats``, ``mapr monitor --stats`` and ``mapr icd discover``: a
-Chapter 10 recording (found by its sync pattern) is read with the Chapter 10 reader, any other
-file as a bit-level capture; a live backend is read through the monitor API, bounded by a
-message count and/or a duration.
+Chapter 10 recording (found by its sync pattern, in a file or on stdin) is read with the
+Chapter 10 reader and counted per 1553 channel (each channel is a bus), any other file as a
+bit-level capture; a live backend is read through the monitor API, bounded by a message count
+and/or a duration. Statistics count the messages the filters keep.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import os
 import sys
@@ -22,7 +24,7 @@ from mapr_daemon.cli import exitcodes
 if TYPE_CHECKING:   # imported where used: registering the subcommands stays light
     from drivers.chapter10.reader import Chapter10Reader
     from drivers.mil1553.record import MonitorRecord
-    from drivers.monitor import BusMonitor
+    from drivers.monitor import BusMonitor, BusStatistics
     from drivers.rtstats import RecordArrays, TrafficStatistics
     from mapr_daemon.cli.traffic.decode_filter import DecodeFilter
 
@@ -63,9 +65,10 @@ class Chapter10Input:
 
     def done_opening(self) -> None:
         """Remove a spooled copy once the reader holds it open (it reads on from the open
-        file; nothing is left behind whatever happens next)."""
+        file; nothing is left behind whatever happens next). Calling it again does nothing."""
         if self.spooled:
-            os.unlink(self.path)
+            with contextlib.suppress(FileNotFoundError):   # once is enough
+                os.unlink(self.path)
 
 
 def chapter10_input(path: str) -> Chapter10Input | None:
@@ -288,6 +291,88 @@ def bounded(monitor: BusMonitor, *, count: int | None, duration: float | None
             continue
         taken += 1
         yield record
+
+
+class ShownStatistics:
+    """Statistics of the messages a command shows (those its filters keep), per Chapter 10
+    channel when records name one (each channel is a bus): the per-bus totals
+    (:class:`~drivers.monitor.BusStatistics`) and the per-RT/SA table with windowed load,
+    whose rows are the sides the filter selects. ``mapr monitor --stats`` prints them."""
+
+    def __init__(self, *, window_ns: int, wanted: DecodeFilter | None = None) -> None:
+        self.window_ns = window_ns
+        self.sides = (None if wanted is None or not wanted.active
+                      else (wanted.rts, wanted.sas, wanted.transmit))
+        self.buses: dict[int | None, BusStatistics] = {}
+        self.traffic: dict[int | None, TrafficStatistics] = {}
+        self._pending: dict[int | None, list[MonitorRecord]] = {}
+
+    def add(self, record: MonitorRecord) -> None:
+        """Count one shown record (its per-RT/SA share a batch at a time)."""
+        channel = record.extra.get("channel")
+        bus = self.buses.get(channel)
+        if bus is None:
+            from drivers.monitor import BusStatistics
+            from drivers.rtstats import TrafficStatistics
+
+            bus = self.buses[channel] = BusStatistics()
+            traffic = self.traffic[channel] = TrafficStatistics(window_ns=self.window_ns)
+            traffic.sides = self.sides
+            self._pending[channel] = []
+        bus.add(record)
+        pending = self._pending[channel]
+        pending.append(record)
+        if len(pending) >= BATCH:
+            self._flush(channel)
+
+    def _flush(self, channel: int | None) -> None:
+        self.traffic[channel].add_batch(self._pending[channel])
+        self._pending[channel] = []
+
+    def bus_tables(self) -> str:
+        """The per-bus totals, a ``channel N (1553)`` heading before each channel's."""
+        if not self.buses:
+            from drivers.monitor import BusStatistics
+
+            return BusStatistics().table()
+        return "\n".join(_heading(channel) + self.buses[channel].table()
+                         for channel in _ordered(self.buses))
+
+    def print(self, *, as_json: bool, out: TextIO, err: TextIO) -> None:
+        """Everything: per-bus totals (on ``err`` with ``as_json``), then the per-RT/SA
+        tables and loads (JSON lines with a ``"channel"`` key for a recording's)."""
+        for channel in list(self._pending):
+            self._flush(channel)
+        channels = _ordered(self.traffic)
+        if not channels or channels == [None]:
+            from drivers.rtstats import TrafficStatistics
+
+            traffic = self.traffic.get(None) or TrafficStatistics(window_ns=self.window_ns)
+            print(self.bus_tables(), file=err if as_json else out)
+            if not as_json:
+                out.write("\n")
+            print_stats(traffic, as_json=as_json, out=out)
+            return
+        if as_json:
+            print(self.bus_tables(), file=err)
+            for channel in channels:
+                for line in self.traffic[channel].json_lines():
+                    out.write(json.dumps({"channel": channel, **line}) + "\n")
+            return
+        for k, channel in enumerate(channels):
+            if k:
+                out.write("\n")
+            out.write(f"{_heading(channel)}{self.buses[channel].table()}\n\n"
+                      f"{self.traffic[channel].table()}\n")
+
+
+def _heading(channel: int | None) -> str:
+    return "" if channel is None else f"channel {channel} (1553)\n"
+
+
+def _ordered(keys: dict[int | None, Any]) -> list[int | None]:
+    """Channels in order, records without one (a capture, a card) first."""
+    return sorted(keys, key=lambda c: -1 if c is None else c)
 
 
 def print_stats(stats: TrafficStatistics, *, as_json: bool, out: TextIO) -> None:
