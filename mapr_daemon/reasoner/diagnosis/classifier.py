@@ -61,8 +61,8 @@ TOP_CELLS = 5
 MATCHED_KIND = matched_filter.KIND
 
 __all__ = ["MATCHED_KIND", "PAPER_COLUMNS", "Decision", "Fit", "Member", "decide",
-           "explanation_statistics", "kind_severity", "matched_score", "paper_decide",
-           "score_of"]
+           "explanation_statistics", "kind_severities", "kind_severity", "matched_score",
+           "paper_decide", "score_of"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -346,9 +346,17 @@ def _nominal(t: Template) -> float:
 
 def kind_severity(d: Dictionary, m: FloatArray, q: float, kind: str) -> float:
     """The best severity of one parametric kind, whatever the anomaly decision (for trends)."""
+    return kind_severities(d, m, q)[kind]
+
+
+def kind_severities(d: Dictionary, m: FloatArray, q: float) -> dict[str, float]:
+    """Every parametric kind's best severity on one run (one fit for all of them)."""
     _, _, fits = _fits(d, m, q)
-    idx = [i for i, t in enumerate(d.templates) if t.kind == kind and not t.switch]
-    return min((fits[i] for i in idx), key=lambda f: f.residual).severity
+    out: dict[str, float] = {}
+    for kind in {t.kind for t in d.templates if not t.switch}:
+        idx = [i for i, t in enumerate(d.templates) if t.kind == kind and not t.switch]
+        out[kind] = min((fits[i] for i in idx), key=lambda f: f.residual).severity
+    return out
 
 
 def paper_decide(d: Dictionary, m: FloatArray, q: float) -> Decision:
