@@ -203,6 +203,14 @@ def report_block(name: str, who: list[tuple[int, str, str, float]],
           f"({100 * tot['part'] / n:5.1f}%) {tot['unexplained']:5d} "
           f"({100 * tot['unexplained'] / n:5.1f}%) {tot['wrong']:5d} "
           f"({100 * tot['wrong'] / n:5.1f}%) {sev:>17}")
+    low = [(w, dec) for w, dec in zip(who, decs, strict=True)
+           if w[2] == "smps_ron_low" and dec is not None]
+    seen = [dec for _, dec in low if "smps_ron_low" not in
+            dec.evidence.get("not_observable_here", {}).get("faults", [])]
+    if low:
+        print(f"{'smps_ron_low':>20} where the dictionary's detection map says the bus can see "
+              f"it: {sum(d.anomaly for d in seen)} of {len(seen)} detected "
+              f"({len(low) - len(seen)} of {len(low)} BITs flown where it is blind)")
     ns = max(tot["n_seen"], 1)
     print(f"{'all but smps_ron_low':>20} {tot['n_seen']:5d} {tot['det_seen']:5d} "
           f"({100 * tot['det_seen'] / ns:5.1f}%) {'':>14} {tot['part_seen']:5d} "

@@ -46,6 +46,7 @@ from mapr_daemon.ema.faults import PARAMETRIC
 from mapr_daemon.errors import ConfigError
 from mapr_daemon.reasoner.diagnosis import (
     compound,
+    detection_map,
     fault_models,
     healthy_model,
     matched_filter,
@@ -271,6 +272,14 @@ def decide(d: Dictionary, m: FloatArray, q: float) -> Decision:
                        "supply_v": round(c.supply_v, 2),
                        "temperature_c": round(c.temperature_c, 1)},
     }
+    if d.detection is not None:
+        blind = d.detection.blind(c.supply_v, c.temperature_c)
+        if blind:
+            evidence["not_observable_here"] = {
+                "faults": blind,
+                "rule": f"detected in under {detection_map.BLIND_BELOW:.0%} of the "
+                        "dictionary's runs at this bus voltage and ambient temperature: no "
+                        "anomaly says nothing about them"}
     kinds: dict[str, float] = {}
     for f in named if matched_only and named else fits:
         k = d.templates[f.template].kind
