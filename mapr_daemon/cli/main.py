@@ -41,7 +41,7 @@ from drivers.errors import (
 )
 from mapr_daemon import __version__
 from mapr_daemon.cli import exitcodes, notes
-from mapr_daemon.errors import ConfigError, RecordError
+from mapr_daemon.errors import ClusterError, ConfigError, RecordError
 
 SUBCOMMANDS: dict[str, str] = {
     "demo": "fly the simulated aircraft and monitor its bus",
@@ -150,8 +150,9 @@ def exit_code_for(error: MaprError) -> int:
         return exitcodes.DATAERR
     if isinstance(error, (BackendOptionError, CaptureFormatError, EncodeError)):
         return exitcodes.USAGE
-    if isinstance(error, (BackendUnavailable, BackendError)):
-        # no library, no card, no port, or the card failed: the device is unavailable
+    if isinstance(error, (BackendUnavailable, BackendError, ClusterError)):
+        # no library, no card, no port, the card failed, or a fleet run's Dask scheduler
+        # cannot be reached or was lost: what the command needs is unavailable
         return exitcodes.UNAVAILABLE
     return exitcodes.FAILURE
 
