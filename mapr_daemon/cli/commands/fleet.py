@@ -115,30 +115,23 @@ def validate(args: argparse.Namespace) -> str | None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from mapr_daemon.catalog import CatalogWriter
     from mapr_daemon.fleet.cluster import close_client, quiet_dask, remote_client
 
     configs = _configs(args).absolute()
-    path = args.catalog or configs.default.catalog.path
-    try:
-        catalog = CatalogWriter(path, durability=configs.default.catalog.durability,
-                                clear_after=configs.default.catalog.episode_clear_bits)
-    except CatalogError as error:
-        print(f"mapr fleet: {error}", file=sys.stderr)
-        return exitcodes.NOINPUT
-    with catalog, quiet_dask():
+    with quiet_dask():
         # an existing scheduler is reached first (ClusterError, exit 69, within the connect
-        # timeout), a local cluster is started once the configs are known good
+        # timeout); a local cluster is started once the configs and the catalog are good
         client = remote_client(args.scheduler, args.connect_timeout) if args.scheduler \
             else None
         try:
-            return _run(args, configs, catalog, client)
+            return _run(args, configs, client)
         finally:
             if client is not None:
                 close_client(client)
 
 
-def _run(args: argparse.Namespace, configs: Any, catalog: Any, client: Any) -> int:
+def _run(args: argparse.Namespace, configs: Any, client: Any) -> int:
+    from mapr_daemon.catalog import CatalogWriter
     from mapr_daemon.fleet.archive import DEFAULT_PATTERN, discover
     from mapr_daemon.fleet.cluster import close_client
     from mapr_daemon.fleet.runner import FleetRun
@@ -150,36 +143,44 @@ def _run(args: argparse.Namespace, configs: Any, catalog: Any, client: Any) -> i
                                     args.tail_tmats)
     for bad in unusable:
         print(f"mapr fleet: {bad.path}: {bad.reason}", file=sys.stderr)
-    local = client is None
-    if local:
-        client = _local_client(args)
-    started = time.monotonic()
-    progress = _progress(args)
-    fleet = FleetRun(client, catalog, configs,
-                     on_stored=lambda r: progress.add(r.flight_hours, r.ok),
-                     on_start=progress.start)
-    catalog.open_session(backend="fleet", config_hash=configs.digest())
+    path = args.catalog or configs.default.catalog.path
     try:
-        summary = fleet.run(recordings)
-        progress.show(final=True)
-    except KeyboardInterrupt:
-        catalog.close("interrupted")
-        return exitcodes.INTERRUPTED
-    except ClusterError as error:
-        catalog.close("scheduler lost")
+        catalog = CatalogWriter(path, durability=configs.default.catalog.durability,
+                                clear_after=configs.default.catalog.episode_clear_bits)
+    except CatalogError as error:
         print(f"mapr fleet: {error}", file=sys.stderr)
-        return exitcodes.UNAVAILABLE
-    finally:
+        return exitcodes.NOINPUT
+    local = client is None
+    with catalog:
         if local:
-            close_client(client)
-    session = catalog.session_id
-    catalog.close("fleet run complete")
+            client = _local_client(args)
+        started = time.monotonic()
+        progress = _progress(args)
+        fleet = FleetRun(client, catalog, configs,
+                         on_stored=lambda r: progress.add(r.flight_hours, r.ok),
+                         on_start=progress.start)
+        catalog.open_session(backend="fleet", config_hash=configs.digest())
+        try:
+            summary = fleet.run(recordings)
+            progress.show(final=True)
+        except KeyboardInterrupt:
+            catalog.close("interrupted")
+            return exitcodes.INTERRUPTED
+        except ClusterError as error:
+            catalog.close("scheduler lost")
+            print(f"mapr fleet: {error}", file=sys.stderr)
+            return exitcodes.UNAVAILABLE
+        finally:
+            if local:
+                close_client(client)
+        session = catalog.session_id
+        catalog.close("fleet run complete")
     for damaged in summary.damaged:
         print(f"mapr fleet: {damaged}", file=sys.stderr)
     for failed in summary.failed:
         print(f"mapr fleet: {failed.recording.path}: {failed.error}", file=sys.stderr)
     print(_summary(summary, recordings, len(unusable), time.monotonic() - started)
-          + f"\ncatalog {Path(catalog.path)}: session {session}")
+          + f"\ncatalog {Path(path)}: session {session}")
     return exitcodes.DATAERR if summary.failed or unusable else exitcodes.OK
 
 
