@@ -4,14 +4,13 @@ Light on purpose (``distributed`` is imported inside the functions): ``mapr flee
 ``--scheduler`` address before it reads any configuration. A scheduler that cannot be
 reached, or that is lost mid-run, is a :class:`~mapr_daemon.errors.ClusterError` named in one
 line within :data:`CONNECT_S` seconds (Dask's own connect timeout, 30 s, is set to it), with
-Dask's log handlers silenced meanwhile (:func:`quiet_dask`): it would print tracebacks.
+Dask's loggers silenced (:func:`silence_dask_logs`): they would print tracebacks.
 """
 
 from __future__ import annotations
 
 import contextlib
 import logging
-from collections.abc import Iterator
 from typing import TYPE_CHECKING
 
 from mapr_daemon.errors import ClusterError
@@ -97,21 +96,13 @@ def close_client(client: Client, timeout_s: float = CONNECT_S) -> None:
         cluster.close()
 
 
-@contextlib.contextmanager
-def quiet_dask() -> Iterator[None]:
-    """While entered, Dask's own log handlers print nothing: a lost scheduler makes the
-    client log tracebacks, where ``mapr fleet`` says what happened in one line."""
-    handlers = [h for name in ("distributed", *logging.root.manager.loggerDict)
-                if name.startswith("distributed")
-                for h in logging.getLogger(name).handlers]
-    old = [h.level for h in handlers]
-    for handler in handlers:
-        handler.setLevel(logging.CRITICAL + 1)
-    try:
-        yield
-    finally:
-        for handler, level in zip(handlers, old, strict=True):
-            handler.setLevel(level)
+def silence_dask_logs() -> None:
+    """From now on in this process, Dask's loggers print nothing: a lost scheduler makes the
+    client log tracebacks (some while the process exits), where ``mapr fleet`` says what
+    happened in one line. For a command's process, not a library's caller."""
+    for name in ["distributed", *logging.root.manager.loggerDict]:
+        if name == "distributed" or name.startswith("distributed."):
+            logging.getLogger(name).setLevel(logging.CRITICAL + 1)
 
 
 def reason(error: BaseException) -> str:

@@ -115,19 +115,18 @@ def validate(args: argparse.Namespace) -> str | None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from mapr_daemon.fleet.cluster import close_client, quiet_dask, remote_client
+    from mapr_daemon.fleet.cluster import close_client, remote_client, silence_dask_logs
 
     configs = _configs(args).absolute()
-    with quiet_dask():
-        # an existing scheduler is reached first (ClusterError, exit 69, within the connect
-        # timeout); a local cluster is started once the configs and the catalog are good
-        client = remote_client(args.scheduler, args.connect_timeout) if args.scheduler \
-            else None
-        try:
-            return _run(args, configs, client)
-        finally:
-            if client is not None:
-                close_client(client)
+    silence_dask_logs()   # a lost cluster is said in one line, not in Dask's tracebacks
+    # an existing scheduler is reached first (ClusterError, exit 69, within the connect
+    # timeout); a local cluster is started once the configs and the catalog are good
+    client = remote_client(args.scheduler, args.connect_timeout) if args.scheduler else None
+    try:
+        return _run(args, configs, client)
+    finally:
+        if client is not None:
+            close_client(client)
 
 
 def _run(args: argparse.Namespace, configs: Any, client: Any) -> int:
