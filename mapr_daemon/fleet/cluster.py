@@ -40,9 +40,10 @@ def local_client(workers: int | None, *, dashboard: bool = True) -> Client:
     from distributed import Client, LocalCluster
 
     served = dashboard and dashboard_available()
+    # the scheduler's HTTP server (health, metrics) always runs: on a free port, not 8787
     cluster = LocalCluster(  # type: ignore[no-untyped-call]
-        n_workers=workers, threads_per_worker=1, processes=True,
-        dashboard_address=":0" if served else None, silence_logs=logging.ERROR)
+        n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0",
+        scheduler_kwargs={"dashboard": served}, silence_logs=logging.ERROR)
     return Client(cluster)  # type: ignore[no-untyped-call]
 
 

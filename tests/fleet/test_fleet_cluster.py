@@ -229,3 +229,31 @@ def test_a_scheduler_killed_mid_run(tmp_path: Path, big_archive: Path,
     assert stopped is not None and reason == "scheduler lost"
     rows = _recordings(tmp_path / "fleet.db")
     assert 4 <= len(rows) < 40 and {r[1] for r in rows} == {"done"}
+
+
+def test_the_dashboard_is_offered_only_where_it_works(capsys: pytest.CaptureFixture[str]
+                                                      ) -> None:
+    """With bokeh (``mapr[dashboard]``) the local cluster's link serves Dask's dashboard;
+    without it no link is printed (Dask's page would only say that it needs bokeh)."""
+    import argparse
+    import urllib.error
+    import urllib.request
+
+    from mapr_daemon.cli.commands.fleet import _local_client
+    from mapr_daemon.fleet.cluster import close_client, dashboard_available
+
+    client = _local_client(argparse.Namespace(workers=1))
+    try:
+        line = capsys.readouterr().err.strip()
+        assert line.startswith("mapr fleet: local Dask cluster, 1 workers, ")
+        if dashboard_available():
+            link = line.rsplit(" ", 1)[-1]
+            with urllib.request.urlopen(link, timeout=60) as page:
+                body = page.read().decode()
+            assert "needs bokeh" not in body.lower() and "Dask" in body
+        else:
+            assert line.endswith("no dashboard (it needs bokeh: pip install 'mapr[dashboard]')")
+            with pytest.raises(urllib.error.HTTPError, match="404"):   # no page at all
+                urllib.request.urlopen(client.dashboard_link, timeout=60)
+    finally:
+        close_client(client)
