@@ -13,15 +13,21 @@ Dask task that runs the daemon's records -> events path on it (as ``mapr replay
 tail's flights in flight order, each tail's actuators trended on the client from that
 tail's history (SoH and RUL need a prognostic model: ``--prognosis`` or the config's
 ``assets[].prognosis``). Tail and flight come from the path (``--pattern``, default
-``TAIL/...NNNN.ch10``), the tail from a TMATS attribute first with ``--tail-tmats``;
-flight hours from the archive's ``fleet.json`` when it declares them, else the recorded
-time. Without ``--scheduler`` a local cluster starts (one single-threaded
-worker process per core, or ``--workers N``) and its dashboard address is printed on stderr.
-A recording already stored is skipped, so a run stopped anywhere is resumed by running it
-again. Progress on stderr (a bar on a terminal, plain lines otherwise), a summary on stdout.
+``TAIL/...NNNN.ch10``, searched below the archive folder given: a recording at its root is
+reported, not named after the folder), the tail from a TMATS attribute first with
+``--tail-tmats``; flight hours from the archive's ``fleet.json`` when it declares them, else
+the recorded time. Every path a worker opens is made absolute here, and the configuration is
+known by its files' content. Without ``--scheduler`` a local cluster starts (one
+single-threaded worker process per core, or ``--workers N``), its dashboard address printed
+on stderr when bokeh is installed (``mapr[dashboard]``). A recording already stored is
+skipped, so a run stopped anywhere is resumed by running it again. Progress on stderr (a bar
+on a terminal, plain lines otherwise), a summary on stdout. ``mapr fleet-archive`` writes a
+synthetic archive.
 
 Exit codes: 0 every recording stored; 65 some could not be processed (each named on stderr,
-the rest stored); 66 the catalog cannot be opened; 78 a config, ICD or dictionary error.
+the rest stored); 66 the catalog cannot be opened; 69 the scheduler cannot be reached within
+``--connect-timeout`` or was lost mid-run (one line; the session closed, what was stored
+kept); 78 a config, ICD or dictionary error; 2 a malformed argument (``--scheduler``).
 """
 
 from __future__ import annotations
