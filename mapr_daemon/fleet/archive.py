@@ -9,7 +9,9 @@ and is reported: it is never named after the archive's own folder. A file given 
 matched against its absolute path (the folder it is in names its tail).
 With ``tail_tmats`` (a TMATS attribute code such as ``G\\TA``, the test item), a recorder that
 writes the tail number into its setup record is believed first: the attribute's value, when
-the file's TMATS holds it, is the tail.
+the file's TMATS holds it, is the tail. A pattern whose ``tail`` group is optional (the
+daemon's recordings, ``session-NNNNNN-...ch10``, sit in one folder) reads the tail from the
+TMATS alone when the path has none; a file with neither is reported.
 A ``fleet.json`` manifest at an archive root (:mod:`mapr_daemon.testbed.fleet` writes one)
 may declare each recording's flight hours; without it the hours are the recorded time.
 
@@ -147,6 +149,10 @@ def _recording(file: Path, base: Path | None, pattern: re.Pattern[str],
     if tail_tmats is not None:
         with contextlib.suppress(MaprError):   # not Chapter 10: the task will say so
             tail = tmats_of(file).get(tail_tmats) or tail
+    if not tail:   # an optional tail group that did not take part, and no TMATS tail
+        bad.append(Unusable(str(file), f"no tail in its path nor in its TMATS "
+                                       f"{tail_tmats or '(see --tail-tmats)'}"))
+        return None
     return Recording(str(file), tail, int(match["flight"]), digest, hours.get(relative))
 
 

@@ -107,3 +107,18 @@ def test_a_file_given_by_name_is_named_by_its_folder_and_made_absolute(
     (recording,), bad = discover(["N7/flight-0004.ch10"])
     assert (recording.tail, recording.flight) == ("N7", 4) and bad == []
     assert recording.path == str(tmp_path / "N7" / "flight-0004.ch10")
+
+
+def test_an_optional_tail_group_takes_the_tail_from_tmats_or_reports_the_file(
+        tmp_path: Path) -> None:
+    from drivers.chapter10.writer import Chapter10Writer
+
+    with Chapter10Writer(tmp_path / "session-000002-x.ch10", tail="N42") as writer:
+        writer.write([])
+    with Chapter10Writer(tmp_path / "session-000003-x.ch10") as writer:   # no tail
+        writer.write([])
+    pattern = r"(?:^|/)(?:(?P<tail>[^/]+)/)?session-(?P<flight>\d+)-[^/]*\.ch10$"
+    found, bad = discover([tmp_path], pattern, tail_tmats="G\\TA")
+    assert [(r.tail, r.flight) for r in found] == [("N42", 2)]
+    assert [Path(b.path).name for b in bad] == ["session-000003-x.ch10"]
+    assert "no tail in its path nor in its TMATS G\\TA" in bad[0].reason
