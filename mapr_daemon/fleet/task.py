@@ -43,10 +43,13 @@ merged by the reader (:meth:`Chapter10Reader.batches`) into one batch of columns
 
 @dataclasses.dataclass(frozen=True)
 class Job:
-    """What a task is given: the recording and its tail's configuration."""
+    """What a task is given: the recording, its tail's configuration (every path absolute)
+    and that configuration's content digest (:meth:`FleetConfig.digest`, computed once on
+    the client and stored with the result)."""
 
     recording: Recording
     config: Config
+    config_digest: str
 
 
 @dataclasses.dataclass(frozen=True)
@@ -112,8 +115,7 @@ def _fresh(config: Config) -> Pipeline:
 def process_recording(job: Job) -> TaskResult:
     """Run one recording through the pipeline (see the module docstring)."""
     started = time.monotonic()
-    recording, config = job.recording, job.config
-    digest = config.digest()
+    recording, config, digest = job.recording, job.config, job.config_digest
     try:
         result = _run(recording, config, digest)
     except (MaprError, OSError, ValueError) as error:
