@@ -313,7 +313,10 @@ def decide(d: Dictionary, m: FloatArray, q: float) -> Decision:
             if gain > pair_threshold:
                 pair, explained = bp, bp.residual
     unexplained_threshold = d.calibration.get("unexplained_threshold", math.inf)
-    if not matched_only and math.isfinite(unexplained_threshold):
+    # the threshold is what parametric faults leave (the build's fault calibration runs); a
+    # short or an open is a gross change its one-point template meets only roughly, and has no
+    # such measure: it is not held to it
+    if not matched_only and not t.switch and math.isfinite(unexplained_threshold):
         ratio = compound.unexplained_ratio(explained, null, nt)
         evidence["explanation"] = {"left": round(ratio, 3),
                                    "threshold": round(unexplained_threshold, 3)}
