@@ -58,6 +58,12 @@ SHIPPED_DIR = Path(__file__).resolve().parent / "models"
 MANIFEST = SHIPPED_DIR / "manifest.json"
 
 
+def demo_spec_path() -> Path:
+    """The demo's dictionary spec (``configs/reasoner/dictionary-demo.yaml``): the shipped
+    spec with three pressures and eight severities, so a pair ships at about 1.8 MB."""
+    return default_spec_path().with_name("dictionary-demo.yaml")
+
+
 @dataclasses.dataclass(frozen=True)
 class Stock:
     """One stock actuator type the demo flies, at the rate it is sampled on the bus."""
@@ -199,7 +205,7 @@ def stock_for(actuator_path: Path, sample_rate_hz: float) -> Stock | None:
 def stale(spec_path: Path | None = None) -> dict[str, str]:
     """Each stock pair that is missing or no longer matches the code, and why (empty: every
     shipped pair matches)."""
-    spec_path = spec_path or default_spec_path()
+    spec_path = spec_path or demo_spec_path()
     manifest = read_manifest()
     sources = source_digests()
     why: dict[str, str] = {}
@@ -238,7 +244,7 @@ def rebuild(spec_path: Path | None = None, *, only_stale: bool = True) -> list[s
     manifest; returns the stems built. Progress on stderr."""
     from mapr_daemon.ema.params import load_actuator, with_sample_rate
     from mapr_daemon.testbed.demo_reasoner import build_dictionary, build_prognosis
-    spec_path = spec_path or default_spec_path()
+    spec_path = spec_path or demo_spec_path()
     todo = stale(spec_path) if only_stale else {s.stem: "asked" for s in STOCK}
     manifest = read_manifest()
     sources = source_digests()

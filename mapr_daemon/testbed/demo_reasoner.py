@@ -27,7 +27,7 @@ from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
 
 from drivers.mil1553.record import MonitorRecord
-from mapr_daemon.cli.commands.dictionary import default_spec_path, peak_rss_mb
+from mapr_daemon.cli.commands.dictionary import peak_rss_mb
 from mapr_daemon.ema.params import ActuatorParams
 from mapr_daemon.findings import Diagnosis
 from mapr_daemon.pipeline.clock import BusClock
@@ -48,11 +48,12 @@ def cache_dir() -> Path:
 
 class ProgressLine:
     """A build's progress on stderr, with the time it has taken and an estimate of the time
-    left from the rate so far (after the first 5 %: earlier the rate says little): a
+    left from the rate so far (after the first 5 %: earlier the rate says little); at 100 %
+    it says what follows the simulation (``then``: fitting, not counted in the estimate). A
     terminal gets one line redrawn at every whole percent, a log one line per tenth."""
 
-    def __init__(self, label: str) -> None:
-        self.label = label
+    def __init__(self, label: str, then: str) -> None:
+        self.label, self.then = label, then
         self.started = time.monotonic()
         self.tty = sys.stderr.isatty()
         self.shown = -1
@@ -66,13 +67,20 @@ class ProgressLine:
         left = ""
         if 0.05 <= fraction < 1.0:
             left = f", about {elapsed / fraction * (1.0 - fraction):.0f} s left"
-        print(f"\r  {self.label}: {step:3d} % ({elapsed:.0f} s{left})   ",
-              end="" if self.tty else "\n", file=sys.stderr, flush=True)
+        elif fraction >= 1.0:
+            left = f"; {self.then}"
+        if self.tty:
+            print(f"\r  {self.label}: {step:3d} % ({elapsed:.0f} s{left})   ", end="",
+                  file=sys.stderr, flush=True)
+        else:
+            print(f"  {self.label}: {step:3d} % ({elapsed:.0f} s{left})", file=sys.stderr,
+                  flush=True)
 
     def done(self, what: str) -> None:
         """The closing line: what was built, in how long, at what peak memory."""
-        print(f"\r  {what} in {time.monotonic() - self.started:.0f} s (peak memory "
-              f"{peak_rss_mb():.0f} MB){' ' * 20}", file=sys.stderr)
+        line = f"  {what} in {time.monotonic() - self.started:.0f} s (peak memory " \
+            f"{peak_rss_mb():.0f} MB)"
+        print(f"\r{line}{' ' * 40}" if self.tty else line, file=sys.stderr)
 
 
 def last_build_cpu_s(params: ActuatorParams, actuator_path: Path) -> float | None:
@@ -99,7 +107,8 @@ def build_dictionary(params: ActuatorParams, spec_path: Path, path: Path,
         f"; the dictionary and model together took {cpu_hint_s:.0f} s of CPU when last built"
     print(f"Building the {params.name} fault dictionary at {params.sensors.sample_rate_hz:g} "
           f"Hz ({spec_path.name}{hint}); it is kept in {path.parent}", file=sys.stderr)
-    line = ProgressLine("dictionary: simulating fault-seeded BITs")
+    line = ProgressLine("dictionary: simulating fault-seeded BITs",
+                        "fitting the healthy and fault models, calibrating the thresholds")
     dictionary = build(params, DictionarySpec.load(spec_path), progress=line)
     _save(dictionary.save, path)
     line.done("dictionary built")
@@ -113,7 +122,8 @@ def build_prognosis(params: ActuatorParams, dictionary_path: Path, path: Path,
     from mapr_daemon.reasoner.training.prognosis_build import build_prognostic_model
     print(f"Building the {params.name} prognostic model (degradation estimators, their noise, "
           f"fleet priors); it is kept in {path.parent}", file=sys.stderr)
-    line = ProgressLine("prognostic model: simulating BITs at known wear")
+    line = ProgressLine("prognostic model: simulating BITs at known wear",
+                        "fitting the estimators and their noise, learning the fleet priors")
     model = build_prognostic_model(Dictionary.load(dictionary_path), params, progress=line)
     _save(model.save, path)
     line.done("prognostic model built")
@@ -133,7 +143,7 @@ def cached_models(params: ActuatorParams, actuator_path: Path,
     pair when the current code built it, else the cached files, else built (progress on
     stderr) and cached. ``dictionary_only``: the model is not built (its path may not
     exist)."""
-    spec_path = spec_path or default_spec_path()
+    spec_path = spec_path or demo_models.demo_spec_path()
     rate = params.sensors.sample_rate_hz
     key = demo_models.models_key(spec_path, actuator_path, rate)
     stock = demo_models.stock_for(actuator_path, rate)
