@@ -19,7 +19,8 @@ changed. Library versions (numpy, numba) are recorded, not keyed: they move resu
 rounding, not by design.
 
 The demo uses a shipped pair whose key matches; otherwise the user's cache (the same key),
-otherwise it builds and caches one (:mod:`.demo_reasoner`). ``tests/testbed/
+otherwise it builds and caches one (:func:`.demo_reasoner.cached_models`, with
+:func:`build_dictionary` and :func:`build_prognosis`: a progress line with the time left). ``tests/testbed/
 test_demo_models.py`` fails when a shipped pair's key no longer matches the code; rebuild with
 ``python3 -m mapr_daemon.testbed.demo_models`` (it rebuilds only the stale pairs and prints
 what it took).
@@ -36,11 +37,12 @@ import platform
 import resource
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from mapr_daemon.cli.commands.dictionary import default_spec_path
-from mapr_daemon.ema.params import default_actuator_path
+from mapr_daemon.cli.commands.dictionary import default_spec_path, peak_rss_mb
+from mapr_daemon.ema.params import ActuatorParams, default_actuator_path
 
 PACKAGE = Path(__file__).resolve().parents[1]
 """``mapr_daemon/``."""
@@ -233,6 +235,89 @@ def stale(spec_path: Path | None = None) -> dict[str, str]:
     return why
 
 
+class ProgressLine:
+    """A build's progress on stderr, with the time it has taken and an estimate of the time
+    left from the rate so far (after the first 5 %: earlier the rate says little); at 100 %
+    it says what follows the simulation (``then``: fitting, not counted in the estimate). A
+    terminal gets one line redrawn at every whole percent, a log one line per tenth."""
+
+    def __init__(self, label: str, then: str) -> None:
+        self.label, self.then = label, then
+        self.started = time.monotonic()
+        self.tty = sys.stderr.isatty()
+        self.shown = -1
+
+    def __call__(self, fraction: float) -> None:
+        step = int(100 * fraction) if self.tty else 10 * int(10 * fraction)
+        if step == self.shown:
+            return
+        self.shown = step
+        elapsed = time.monotonic() - self.started
+        left = ""
+        if 0.05 <= fraction < 1.0:
+            left = f", about {elapsed / fraction * (1.0 - fraction):.0f} s left"
+        elif fraction >= 1.0:
+            left = f"; {self.then}"
+        if self.tty:
+            print(f"\r  {self.label}: {step:3d} % ({elapsed:.0f} s{left})   ", end="",
+                  file=sys.stderr, flush=True)
+        else:
+            print(f"  {self.label}: {step:3d} % ({elapsed:.0f} s{left})", file=sys.stderr,
+                  flush=True)
+
+    def done(self, what: str) -> None:
+        """The closing line: what was built, in how long, at what peak memory."""
+        line = f"  {what} in {time.monotonic() - self.started:.0f} s (peak memory " \
+            f"{peak_rss_mb():.0f} MB)"
+        print(f"\r{line}{' ' * 40}" if self.tty else line, file=sys.stderr)
+
+
+def last_build_cpu_s(params: ActuatorParams, actuator_path: Path) -> float | None:
+    """CPU seconds the shipped pair of this type took to build (its manifest), if shipped."""
+    stock = stock_for(actuator_path, params.sensors.sample_rate_hz)
+    entry = None if stock is None else read_manifest()["pairs"].get(stock.stem)
+    return None if entry is None else float(entry["built"]["cpu_s"])
+
+
+def _save(write: Callable[[Path], None], path: Path) -> None:
+    """Write through a temporary name: a killed build never leaves a half file under a key."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    partial = path.with_suffix(".partial.npz")
+    write(partial)
+    partial.replace(path)
+
+
+def build_dictionary(params: ActuatorParams, spec_path: Path, path: Path,
+                     cpu_hint_s: float | None) -> None:
+    """Build this type's fault dictionary into ``path``, progress on stderr."""
+    from mapr_daemon.reasoner.diagnosis.dictionary import DictionarySpec
+    from mapr_daemon.reasoner.training.dictionary_build import build
+    hint = "" if cpu_hint_s is None else \
+        f"; the dictionary and model together took {cpu_hint_s:.0f} s of CPU when last built"
+    print(f"Building the {params.name} fault dictionary at {params.sensors.sample_rate_hz:g} "
+          f"Hz ({spec_path.name}{hint}); it is kept in {path.parent}", file=sys.stderr)
+    line = ProgressLine("dictionary: simulating fault-seeded BITs",
+                        "fitting the healthy and fault models, calibrating the thresholds")
+    dictionary = build(params, DictionarySpec.load(spec_path), progress=line)
+    _save(dictionary.save, path)
+    line.done("dictionary built")
+
+
+def build_prognosis(params: ActuatorParams, dictionary_path: Path, path: Path,
+                    cpu_hint_s: float | None) -> None:
+    """Build this type's prognostic model from its dictionary into ``path``, progress on
+    stderr."""
+    from mapr_daemon.reasoner.diagnosis.dictionary import Dictionary
+    from mapr_daemon.reasoner.training.prognosis_build import build_prognostic_model
+    print(f"Building the {params.name} prognostic model (degradation estimators, their noise, "
+          f"fleet priors); it is kept in {path.parent}", file=sys.stderr)
+    line = ProgressLine("prognostic model: simulating BITs at known wear",
+                        "fitting the estimators and their noise, learning the fleet priors")
+    model = build_prognostic_model(Dictionary.load(dictionary_path), params, progress=line)
+    _save(model.save, path)
+    line.done("prognostic model built")
+
+
 def cpu_s() -> float:
     """This process's user + system CPU seconds so far."""
     usage = resource.getrusage(resource.RUSAGE_SELF)
@@ -243,7 +328,6 @@ def rebuild(spec_path: Path | None = None, *, only_stale: bool = True) -> list[s
     """Build the stock pairs (the stale ones, or all) into :data:`SHIPPED_DIR` and write the
     manifest; returns the stems built. Progress on stderr."""
     from mapr_daemon.ema.params import load_actuator, with_sample_rate
-    from mapr_daemon.testbed.demo_reasoner import build_dictionary, build_prognosis
     spec_path = spec_path or demo_spec_path()
     todo = stale(spec_path) if only_stale else {s.stem: "asked" for s in STOCK}
     manifest = read_manifest()
