@@ -13,8 +13,9 @@ daemon's on (asset, fault, bus_ns). Prints everything; exits 1 if a check fails.
 Models: the dictionary and the full prognostic model per actuator type at its bus rate that
 ``mapr demo`` uses (its smaller dictionary spec, ``configs/reasoner/dictionary-demo.yaml``:
 the pre-built pair shipped in ``mapr_daemon/testbed/models/`` when it matches the code, else
-built once into ``$MAPR_CACHE``), or ``--models DIR`` holding ``{aileron,elevator}-{dictionary,prognosis}.npz``. Seeds: fresh
-(printed): EMA1 flies seed s, EMA2 s + 1.
+built once into ``$MAPR_CACHE``), or ``--models DIR`` holding
+``{aileron,elevator}-{dictionary,prognosis}.npz``. Seeds: fresh (printed): EMA1 flies seed s,
+EMA2 s + 1.
 
     python3 bench/two_ema_run.py [--seconds 600] [--seed N] [--fault esr=0.6]
 """

@@ -20,10 +20,10 @@ rounding, not by design.
 
 The demo uses a shipped pair whose key matches; otherwise the user's cache (the same key),
 otherwise it builds and caches one (:func:`.demo_reasoner.cached_models`, with
-:func:`build_dictionary` and :func:`build_prognosis`: a progress line with the time left). ``tests/testbed/
-test_demo_models.py`` fails when a shipped pair's key no longer matches the code; rebuild with
-``python3 -m mapr_daemon.testbed.demo_models`` (it rebuilds only the stale pairs and prints
-what it took).
+:func:`build_dictionary` and :func:`build_prognosis`: a progress line with the time left).
+``tests/testbed/test_demo_models.py`` fails when a shipped pair's key no longer matches the
+code; rebuild with ``python3 -m mapr_daemon.testbed.demo_models`` (it rebuilds only the stale
+pairs and prints what it took).
 """
 
 from __future__ import annotations
