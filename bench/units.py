@@ -170,21 +170,52 @@ def report_block(name: str, who: list[tuple[int, str, str, float]],
                     if dec is not None and dec.anomaly)
     if named:
         print("  named: " + ", ".join(f"{k} {v}" for k, v in named.most_common()))
-    print(f"{'mode':>20} {'BITs':>5} {'detected':>14} {'isolated':>14} {'to part':>14}")
+    print(f"{'mode':>20} {'BITs':>5} {'detected':>14} {'isolated':>14} {'to part':>14} "
+          f"{'unexplained':>14} {'wrong part':>14} {'sev err mean/max':>17}")
     tot = Counter[str]()
+    errors: list[float] = []
     for mode in MODES:
-        rows = [dec for w, dec in zip(who, decs, strict=True) if w[2] == mode and dec]
+        pairs = [(w, dec) for w, dec in zip(who, decs, strict=True) if w[2] == mode and dec]
+        rows = [dec for _, dec in pairs]
         det = sum(d.anomaly for d in rows)
         iso = sum(d.anomaly and d.fault == mode for d in rows)
         part = sum(d.anomaly and parts.same_part(mode, d.fault) for d in rows)
+        unexplained = sum(d.anomaly and d.fault is None for d in rows)
+        wrong = det - part - unexplained
+        # severity error where the right mode was named (a fraction of the Table 1 range)
+        err = [abs(d.severity - w[3]) for w, d in pairs
+               if d.anomaly and d.fault == mode and d.severity is not None]
+        if mode != "smps_ron_low":
+            errors += err
         n = max(len(rows), 1)
+        sev = f"{np.mean(err):.3f}/{np.max(err):.3f}" if err else "-"
         print(f"{mode:>20} {len(rows):5d} {det:5d} ({100 * det / n:5.1f}%) {iso:5d} "
-              f"({100 * iso / n:5.1f}%) {part:5d} ({100 * part / n:5.1f}%)")
-        tot.update(n=len(rows), det=det, iso=iso, part=part)
+              f"({100 * iso / n:5.1f}%) {part:5d} ({100 * part / n:5.1f}%) {unexplained:5d} "
+              f"({100 * unexplained / n:5.1f}%) {wrong:5d} ({100 * wrong / n:5.1f}%) {sev:>17}")
+        tot.update(n=len(rows), det=det, iso=iso, part=part, unexplained=unexplained,
+                   wrong=wrong)
+        if mode != "smps_ron_low":
+            tot.update(n_seen=len(rows), det_seen=det, part_seen=part)
     n = max(tot["n"], 1)
+    sev = f"{np.mean(errors):.3f}/{np.max(errors):.3f}" if errors else "-"
     print(f"{'all modes':>20} {tot['n']:5d} {tot['det']:5d} ({100 * tot['det'] / n:5.1f}%) "
           f"{tot['iso']:5d} ({100 * tot['iso'] / n:5.1f}%) {tot['part']:5d} "
-          f"({100 * tot['part'] / n:5.1f}%)")
+          f"({100 * tot['part'] / n:5.1f}%) {tot['unexplained']:5d} "
+          f"({100 * tot['unexplained'] / n:5.1f}%) {tot['wrong']:5d} "
+          f"({100 * tot['wrong'] / n:5.1f}%) {sev:>17}")
+    low = [(w, dec) for w, dec in zip(who, decs, strict=True)
+           if w[2] == "smps_ron_low" and dec is not None]
+    seen = [dec for _, dec in low if "smps_ron_low" not in
+            dec.evidence.get("not_observable_here", {}).get("faults", [])]
+    if low:
+        print(f"{'smps_ron_low':>20} where the dictionary's detection map says the bus can see "
+              f"it: {sum(d.anomaly for d in seen)} of {len(seen)} detected "
+              f"({len(low) - len(seen)} of {len(low)} BITs flown where it is blind)")
+    ns = max(tot["n_seen"], 1)
+    print(f"{'all but smps_ron_low':>20} {tot['n_seen']:5d} {tot['det_seen']:5d} "
+          f"({100 * tot['det_seen'] / ns:5.1f}%) {'':>14} {tot['part_seen']:5d} "
+          f"({100 * tot['part_seen'] / ns:5.1f}%)   severity error over the parametric modes "
+          f"named right: mean {sev.split('/')[0]}, worst {sev.split('/')[-1]} of range")
 
 
 if __name__ == "__main__":

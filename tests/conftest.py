@@ -61,7 +61,8 @@ def dictionary(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
     spec = DictionarySpec(pressures_pa=(0.0, 1600.0), nominal_per_pressure=4,
                           severities=(0.25, 0.5, 0.75, 1.0), kinds=("esr", "friction"),
-                          shorts=("A_high",), opens=("A_high",), healthy_runs=120,
+                          shorts=("A_high",), opens=("A_high",), detection_map_runs=2,
+                          healthy_runs=120,
                           calibration_runs=20, envelope=True, ground_share=0.2,
                           threshold_margin=1.5)
     path = tmp_path_factory.mktemp("dictionary") / "dictionary.npz"

@@ -5,11 +5,12 @@
 
 ``channels`` are the Chapter 10 channel IDs to read (a list, or text ``"2,3"``; default:
 every MS1553F1 channel); each record names its channel in ``record.extra["channel"]``.
-``speed`` None or 0 replays as fast as the file reads; 1.0 paces records to the recorded time
-(from the first record); 2.0 twice as fast. Damaged packets are skipped and listed in
-:attr:`Chapter10Monitor.issues` (each also logged as a warning with its file offset); the
-replay goes on. ``position`` / ``size`` tell
-how far into the file the replay is.
+``name`` is what warnings call the input (default: ``path``; ``mapr replay -`` says
+``stdin``). ``speed`` None or 0 replays as fast as the file reads; 1.0 paces records to
+the recorded time (from the first record); 2.0 twice as fast. Damaged packets are skipped
+and listed in :attr:`Chapter10Monitor.issues` (each also logged as a warning with its file
+offset); the replay goes on. ``position`` / ``size`` tell how far into the file the replay
+is.
 
 As fast as possible (no ``speed``), the reader's merged batches reach the monitor as columns
 (:meth:`~drivers.monitor.BusMonitor.batches` hands them out as they are; records are built
@@ -56,13 +57,13 @@ class Chapter10Monitor(BusMonitor):
     def __init__(self, *, path: str, channels: Sequence[int] | int | str | None = None,
                  speed: float | None = None, year: int | None = None,
                  timing: BusTiming | None = None,
-                 filters: Sequence[MonitorFilter] | None = None, **config: Any) -> None:
+                 filters: Sequence[MonitorFilter] | None = None, name: str | None = None,
+                 **config: Any) -> None:
         super().__init__(filters=filters, **config)
         if speed is not None and speed < 0:
             raise ValueError(f"speed must be 0 or more, not {speed}")
         self.reader = Chapter10Reader(path, channels=channel_ids(channels), arinc429=False,
-                                      year=year,
-                                      timing=timing)
+                                      year=year, timing=timing, name=name)
         self.speed = speed or 0.0
         self._batches: Iterator[Chapter10Batch] = self.reader.batches(BATCH_MESSAGES)
         self._pending: deque[MonitorRecord] = deque()
@@ -138,7 +139,7 @@ class Chapter10Monitor(BusMonitor):
     def _log_issues(self) -> None:
         issues = self.reader.issues
         for issue in issues[self._issues_logged:]:
-            log.warning("%s: %s", self.reader.path, issue)
+            log.warning("%s: %s", self.reader.name, issue)
         self._issues_logged = len(issues)
 
     def _close(self) -> None:

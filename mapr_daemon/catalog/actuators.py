@@ -16,8 +16,10 @@ import sqlite3
 
 from mapr_daemon.catalog import episode_store, history
 from mapr_daemon.catalog.episodes import Episode
-from mapr_daemon.catalog.model import BitRecord
+from mapr_daemon.catalog.model import BitRecord, display_name
 from mapr_daemon.findings import Health
+
+__all__ = ["ActuatorHealth", "display_name", "episode_names", "episodes_of", "load"]
 
 _LATEST = (
     f"SELECT {history.BIT_SELECT}, n, first_ns, first_flight FROM ("
@@ -25,12 +27,6 @@ _LATEST = (
     "min(t_ns) OVER w AS first_ns, min(flight) OVER w AS first_flight FROM bits "
     "WINDOW w AS (PARTITION BY tail, asset), w_desc AS (PARTITION BY tail, asset ORDER BY "
     "coalesce(flight, 0) DESC, t_ns DESC, id DESC)) WHERE rn = 1 ORDER BY tail, asset")
-
-
-def display_name(tail: str, asset: str) -> str:
-    """How an actuator is named to a maintainer: ``TAIL/ASSET``. A fleet run keeps its
-    episodes under this name, so storage needs it as much as the views do."""
-    return f"{tail}/{asset}" if tail and not asset.startswith(f"{tail}/") else asset
 
 
 def episode_names(tail: str, asset: str) -> tuple[str, ...]:

@@ -35,7 +35,7 @@ import math
 from collections.abc import Mapping
 from typing import Any, NamedTuple
 
-from mapr_daemon.catalog.model import Event
+from mapr_daemon.catalog.model import Event, display_name
 
 DEFAULT_CLEAR_BITS = 3
 """Consecutive clear BITs that close an episode, unless the daemon config says otherwise."""
@@ -92,6 +92,14 @@ class Episode:
     acked_by: str | None = None
     acked_ns: int | None = None
     ack_note: str | None = None
+    tail: str = ""
+    """The aircraft, when the catalog knows it (the episodes table keeps the daemon's bare
+    asset name, or a fleet run's ``TAIL/ASSET``); set by the reader."""
+
+    @property
+    def name(self) -> str:
+        """The actuator as every view names it: ``TAIL/ASSET`` (``mapr health``'s name)."""
+        return display_name(self.tail, self.asset)
 
     @property
     def open(self) -> bool:

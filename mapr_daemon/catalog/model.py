@@ -22,6 +22,13 @@ from typing import Any
 from mapr_daemon.findings import Diagnosis, Health
 
 
+def display_name(tail: str, asset: str) -> str:
+    """How an actuator is named to a maintainer: ``TAIL/ASSET`` (just the asset when no tail
+    is known, or when it already carries its tail, as a fleet run's ``N101/EMA1`` does). A
+    fleet run keeps its episodes under this name, so storage needs it as much as the views."""
+    return f"{tail}/{asset}" if tail and not asset.startswith(f"{tail}/") else asset
+
+
 @dataclasses.dataclass(frozen=True)
 class Event:
     """One detected anomaly: what, where, how bad, how sure, and what is left of the part."""
@@ -64,6 +71,14 @@ class Event:
     catalogs from before schema v4."""
     id: int | None = None
     session_id: int | None = None
+    tail: str = ""
+    """The aircraft, when the catalog knows it (read back from the BIT history: the events
+    table keeps the name the daemon config gives, or a fleet run's ``TAIL/ASSET``)."""
+
+    @property
+    def name(self) -> str:
+        """The actuator as every view names it: ``TAIL/ASSET`` (``mapr health``'s name)."""
+        return display_name(self.tail, self.asset)
 
     def as_dict(self) -> dict[str, Any]:
         """A JSON-ready dict (the CLI's ``--json`` and ``export --format json`` rows)."""

@@ -15,6 +15,7 @@ millions of events.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 import sqlite3
@@ -23,7 +24,7 @@ from types import TracebackType
 from typing import Any
 
 from mapr_daemon.catalog import actuators, episode_store, history, rt_stats
-from mapr_daemon.catalog.actuators import ActuatorHealth
+from mapr_daemon.catalog.actuators import ActuatorHealth, display_name, episode_names
 from mapr_daemon.catalog.connect import describe, open_reader
 from mapr_daemon.catalog.episodes import Episode
 from mapr_daemon.catalog.model import BitRecord, Event, EventFilter, Flight, Gap, Session, StatsRow
@@ -104,8 +105,47 @@ class CatalogReader:
         if limit is not None:
             sql += " LIMIT ?"
             values.append(int(limit))
+        tails = self._tails()
         for row in self._rows(sql, values):
-            yield _event(row)
+            yield self._with_tail(_event(row), tails)
+
+    def _tails(self) -> dict[str, set[str]]:
+        """Bare asset name -> the tails whose BIT history carries it (one query)."""
+        tails: dict[str, set[str]] = {}
+        if self.schema_version >= BITS_SINCE:
+            for tail, asset in self._rows("SELECT DISTINCT tail, asset FROM bits"):
+                if tail:
+                    tails.setdefault(asset, set()).add(tail)
+        return tails
+
+    def _with_tail(self, event: Event, tails: dict[str, set[str]]) -> Event:
+        """``event`` with its aircraft: the one tail its asset has, or (the daemon run under
+        several tails) the tail of the BIT it was written for."""
+        known = tails.get(event.asset)
+        if not known:
+            return event
+        if len(known) == 1:
+            return dataclasses.replace(event, tail=next(iter(known)))
+        rows = list(self._rows("SELECT tail FROM bits WHERE event_id = ? LIMIT 1",
+                               (event.id,)))
+        return dataclasses.replace(event, tail=rows[0][0]) if rows else event
+
+    def _episodes_with_tails(self, episodes: list[Episode]) -> list[Episode]:
+        """Episodes with their aircraft where the catalog knows it (as :meth:`_with_tail`,
+        through the episode's events for an asset on several tails)."""
+        tails = self._tails()
+        out = []
+        for ep in episodes:
+            known = tails.get(ep.asset)
+            if known and len(known) == 1:
+                ep = dataclasses.replace(ep, tail=next(iter(known)))
+            elif known:
+                rows = list(self._rows(
+                    "SELECT b.tail FROM events e JOIN bits b ON b.event_id = e.id "
+                    "WHERE e.episode_id = ? LIMIT 1", (ep.id,)))
+                ep = dataclasses.replace(ep, tail=rows[0][0]) if rows else ep
+            out.append(ep)
+        return out
 
     def events(self, flt: EventFilter | None = None, *, limit: int | None = None,
                newest_first: bool = True) -> list[Event]:
@@ -119,7 +159,7 @@ class CatalogReader:
         """One event by id, or None."""
         rows = list(self._rows(f"SELECT {_columns(self.schema_version)} FROM events WHERE id = ?",
                                (int(event_id),)))
-        return _event(rows[0]) if rows else None
+        return self._with_tail(_event(rows[0]), self._tails()) if rows else None
 
     def trend(self, asset: str, since_ns: int | None = None, until_ns: int | None = None
               ) -> list[Event]:
@@ -137,14 +177,27 @@ class CatalogReader:
             "ORDER BY t_ns, id", (int(episode_id),))]
 
     # --- fault episodes ------------------------------------------------------------------
-    def episodes(self, *, open_only: bool = False, asset: str | None = None) -> list[Episode]:
-        """Fault episodes, most recently active first (none before schema v4)."""
+    def episodes(self, *, open_only: bool = False, asset: str | None = None,
+                 tail: str | None = None) -> list[Episode]:
+        """Fault episodes, most recently active first, each with its aircraft where known
+        (none before schema v4); ``asset`` (and ``tail``): one actuator's, kept under its
+        bare name (the daemon's) or ``TAIL/ASSET`` (a fleet run's)."""
         if self.schema_version < episode_store.EPISODES_SINCE:
             return []
+        names: tuple[str | None, ...] = (asset,)
+        if asset is not None and tail:
+            names = episode_names(tail, asset)
         try:
-            return episode_store.select(self._conn, open_only=open_only, asset=asset)
+            found = [ep for name in names
+                     for ep in episode_store.select(self._conn, open_only=open_only,
+                                                    asset=name)]
         except sqlite3.DatabaseError as error:
             raise CatalogError(f"read failed: {describe(error)}", path=self.path) from error
+        found.sort(key=lambda ep: (ep.last_ns, ep.id), reverse=True)
+        episodes = self._episodes_with_tails(found)
+        if tail and asset is not None:   # a bare name another aircraft also carries
+            episodes = [ep for ep in episodes if ep.name == display_name(tail, asset)]
+        return episodes
 
     def episode(self, episode_id: int) -> Episode | None:
         found = [e for e in self.episodes() if e.id == episode_id]

@@ -35,14 +35,19 @@ DECODABLE = np.array([fmt in DECODABLE_FORMATS for fmt in FORMATS], np.bool_)
 
 def message_numbers(icd: Icd, batch: Ms1553Batch) -> npt.NDArray[np.int64]:
     """Per message of ``batch``, the number (index in ``icd.messages``) of the table's
-    message describing it, or -1; matched once per distinct pair of command words."""
+    message describing it, or -1; matched once per distinct pair of command words (and
+    channel, when the table has terminals on channels)."""
     number = {message.name: k for k, message in enumerate(icd.messages)}
     decodable = DECODABLE[batch.format]
     pairs = batch.command << 17 | (batch.command2 + 1)
     names = np.full(len(batch), -1, np.int64)
+    if icd.channels:   # terminals of one channel: a bus's command words are its own
+        pairs = pairs | batch.channel.astype(np.int64) << 33
     for pair in distinct(pairs[decodable]).tolist():
         command2 = (pair & 0x1FFFF) - 1
-        message = icd.match_key(pair >> 17, None if command2 < 0 else command2)
+        channel = pair >> 33 if icd.channels else None
+        message = icd.match_key(pair >> 17 & 0xFFFF, None if command2 < 0 else command2,
+                                channel)
         if message is not None:
             names[decodable & (pairs == pair)] = number[message.name]
     return names

@@ -67,10 +67,20 @@ class Icd:
         self._decoders = {m.name: MessageDecoder(m) for m in self.messages}
         self._params = {p.name: m for m in self.messages for p in m.all_parameters()}
         self._by_key: dict[int, Message] = {}
+        """Messages on every bus by RT/T-R/subaddress (the command word's top 11 bits)."""
+        self._by_channel_key: dict[tuple[int, int], Message] = {}
+        """Messages of terminals on one channel, by (channel, RT/T-R/subaddress)."""
         for m in self.messages:
-            self._by_key[m.command >> 5] = m
-            if m.source_command is not None:
-                self._by_key[m.source_command >> 5] = m
+            for command in (m.command, m.source_command):
+                if command is None:
+                    continue
+                if m.channel is None:
+                    self._by_key[command >> 5] = m
+                else:
+                    self._by_channel_key[(m.channel, command >> 5)] = m
+        self.channels: tuple[int, ...] = tuple(sorted({
+            t.channel for t in self.terminals if t.channel is not None}))
+        """The Chapter 10 channels the table's terminals name (empty: a table for any bus)."""
 
     # --- lookups ------------------------------------------------------------------------
     def message(self, name: str) -> Message:
@@ -86,18 +96,26 @@ class Icd:
     def parameter_names(self) -> tuple[str, ...]:
         return tuple(self._params)
 
-    def lookup(self, rt: int, tr: str, sa: int) -> Message | None:
-        """The message at RT ``rt``, ``tr`` ("T"/"R"), subaddress ``sa``, if the table has one."""
-        return self._by_key.get(rt << 6 | int(tr == "T") << 5 | sa)
+    def lookup(self, rt: int, tr: str, sa: int, channel: int | None = None) -> Message | None:
+        """The message at RT ``rt``, ``tr`` ("T"/"R"), subaddress ``sa``, if the table has one
+        (on Chapter 10 channel ``channel``, or on every bus)."""
+        return self._keyed(rt << 6 | int(tr == "T") << 5 | sa, channel)
+
+    def _keyed(self, key: int, channel: int | None) -> Message | None:
+        """The message at ``key`` (RT/T-R/subaddress) on ``channel``: a terminal of that
+        channel's, else one on every bus (validation keeps the two apart)."""
+        if channel is not None and self._by_channel_key:
+            message = self._by_channel_key.get((channel, key))
+            if message is not None:
+                return message
+        return self._by_key.get(key)
 
     def match(self, record: MonitorRecord) -> Message | None:
-        """The message a record carries, or None (mode codes, unknown RT/SA, stray words)."""
+        """The message a record carries, or None (mode codes, unknown RT/SA, stray words).
+        A Chapter 10 record's channel (``record.extra["channel"]``) picks its bus's terminals."""
         if record.format not in DECODABLE_FORMATS or record.command is None:
             return None
-        message = self._by_key.get(record.command >> 5)
-        if message is None and record.command2 is not None:
-            message = self._by_key.get(record.command2 >> 5)
-        return message
+        return self.match_key(record.command, record.command2, record.extra.get("channel"))
 
     def bus_load(self) -> BusLoad | None:
         """The load the schedule puts on the bus (None without a schedule)."""
@@ -125,13 +143,17 @@ class Icd:
         buckets: dict[str, list[MonitorRecord]] = {}
         result = BatchResult()
         by_key = self._by_key
+        by_channel = bool(self._by_channel_key)
         for rec in records:
             cmd = rec.command
             message = None
             if cmd is not None and rec.format in DECODABLE_FORMATS:
-                message = by_key.get(cmd >> 5)
-                if message is None and rec.command2 is not None:
-                    message = by_key.get(rec.command2 >> 5)
+                if by_channel:
+                    message = self.match_key(cmd, rec.command2, rec.extra.get("channel"))
+                else:   # the common case, a table for any bus: one dict look-up
+                    message = by_key.get(cmd >> 5)
+                    if message is None and rec.command2 is not None:
+                        message = by_key.get(rec.command2 >> 5)
             if message is None:
                 result.unmatched += 1
             elif not rec.data:
@@ -149,12 +171,14 @@ class Icd:
             result.data_words += int(length.sum())
         return result
 
-    def match_key(self, command: int, command2: int | None = None) -> Message | None:
-        """The message of a decodable record with these command words (what :meth:`match`
-        gives once the format is known to be one the table can describe)."""
-        message = self._by_key.get(command >> 5)
+    def match_key(self, command: int, command2: int | None = None,
+                  channel: int | None = None) -> Message | None:
+        """The message of a decodable record with these command words on Chapter 10 channel
+        ``channel`` (None: a bus without one, a capture or a card), what :meth:`match` gives
+        once the format is known to be one the table can describe."""
+        message = self._keyed(command >> 5, channel)
         if message is None and command2 is not None:
-            message = self._by_key.get(command2 >> 5)
+            message = self._keyed(command2 >> 5, channel)
         return message
 
     def decode_block(self, name: str, data: U16, length: IntP, t_ns: npt.NDArray[np.int64],

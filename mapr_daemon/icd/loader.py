@@ -93,6 +93,7 @@ def _terminal(f: Fields) -> Terminal:
         address=f.integer("address", lo=0, hi=30),
         name=_identifier(f, "name"),
         description=f.string("description", ""),
+        channel=f.integer("channel", None, lo=1, hi=0xFFFE),
         line=f.line, key_lines=f.lines,
     )
     f.done()
@@ -106,10 +107,18 @@ def _rt(f: Fields, key: str, terminals: dict[str, Terminal]) -> Terminal:
             f.fail(key, f"no terminal named {value!r}")
         return terminals[value]
     address = f.integer(key, lo=0, hi=30)
-    for terminal in terminals.values():
-        if terminal.address == address:
-            return terminal
-    f.fail(key, f"no terminal with address {address}")
+    found = [t for t in terminals.values() if t.address == address]
+    if len(found) > 1:   # the same address on several channels (buses): name the one meant
+        f.fail(key, f"address {address} is the terminal of several channels ("
+               + ", ".join(f"{t.name} on channel {t.channel}" for t in found)
+               + "); name the terminal")
+    if not found:
+        f.fail(key, f"no terminal with address {address}")
+    return found[0]
+
+
+def _bus(channel: int | None) -> str:
+    return "every channel" if channel is None else f"channel {channel}"
 
 
 def _subaddress(f: Fields, key: str) -> int:
@@ -136,6 +145,10 @@ def _message(f: Fields, terminals: dict[str, Terminal]) -> Message:
             f.fail("source", "only a receive (tr: R) message can have an RT-RT source")
         sf = f.child("source")
         source_rt = _rt(sf, "rt", terminals)
+        if source_rt.channel != terminal.channel:
+            sf.fail("rt", f"{source_rt.name} is on {_bus(source_rt.channel)} and "
+                    f"{terminal.name} on {_bus(terminal.channel)}: an RT-RT transfer is "
+                    "on one bus")
         if source_rt.address == terminal.address:
             sf.fail("rt", "an RT-RT transfer needs two different terminals")
         source = (source_rt.address, _subaddress(sf, "sa"))
@@ -149,7 +162,7 @@ def _message(f: Fields, terminals: dict[str, Terminal]) -> Message:
         name=name, rt=terminal.address, rt_name=terminal.name, transmit=tr == "T",
         subaddress=sa, word_count=wc, rate_hz=rate, parameters=parameters, group=group,
         source=source, description=f.string("description", ""), line=f.line,
-        key_lines=f.lines)
+        key_lines=f.lines, channel=terminal.channel)
     f.done()
     return message
 

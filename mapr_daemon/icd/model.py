@@ -182,11 +182,17 @@ class Group:
 
 @dataclass(frozen=True, slots=True)
 class Terminal:
-    """A remote terminal: address 0-30 and a name."""
+    """A remote terminal: address 0-30 and a name, on one bus of a recording or on any.
+
+    ``channel`` is the Chapter 10 channel ID of the bus the terminal is on (each 1553 channel
+    of a recording is a bus of its own, and two buses may each have an RT 5); None, the
+    default, puts it on every bus: a table for one bus, a capture or a live card.
+    """
 
     address: int
     name: str
     description: str = ""
+    channel: int | None = None
     line: int = 0
     key_lines: Mapping[str, int] = field(default_factory=dict, compare=False, repr=False)
 
@@ -200,7 +206,8 @@ class Message:
 
     ``transmit`` is the T/R bit of the command that names this RT. For an RT-RT transfer the
     message is declared at the receiving RT and ``source`` is (RT address, subaddress) of the
-    transmitting one.
+    transmitting one. ``channel`` is its terminal's (:attr:`Terminal.channel`): a message
+    on a channel describes that channel's messages only.
     """
 
     name: str
@@ -216,6 +223,7 @@ class Message:
     description: str = ""
     line: int = 0
     key_lines: Mapping[str, int] = field(default_factory=dict, compare=False, repr=False)
+    channel: int | None = None
 
     def line_of(self, key: str) -> int:
         return self.key_lines.get(key, self.line)

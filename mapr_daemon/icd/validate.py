@@ -29,14 +29,29 @@ def _fail(table: Table, line: int, field: str, problem: str) -> None:
     raise IcdError(problem, path=table.path, line=line, field=field)
 
 
+def _on(channel: int | None) -> str:
+    return "" if channel is None else f" on channel {channel}"
+
+
+def _bus(channel: int | None) -> str:
+    return "every channel" if channel is None else f"channel {channel}"
+
+
 def _terminals(table: Table) -> None:
-    """Addresses are unique (names are checked while loading: messages refer to them)."""
-    seen: dict[int, int] = {}
+    """Addresses are unique on each bus (names are checked while loading: messages refer to
+    them); a terminal on every bus (no channel) shares its address with none."""
+    seen: dict[tuple[int | None, int], int] = {}
     for t in table.terminals:
-        if t.address in seen:
+        clash = seen.get((t.channel, t.address))
+        if clash is None and t.channel is None:
+            clash = next((line for (_, a), line in seen.items() if a == t.address), None)
+        elif clash is None:
+            clash = seen.get((None, t.address))
+        if clash is not None:
             _fail(table, t.line_of("address"), "terminals.address",
-                  f"address {t.address} already used by the terminal on line {seen[t.address]}")
-        seen[t.address] = t.line
+                  f"address {t.address}{_on(t.channel)} already used by the terminal on line "
+                  f"{clash}")
+        seen[(t.channel, t.address)] = t.line
 
 
 def _names(table: Table) -> None:
@@ -56,16 +71,18 @@ def _names(table: Table) -> None:
 
 
 def _subaddresses(table: Table) -> None:
-    used: dict[tuple[int, str, int], Message] = {}
+    """Each RT/T-R/subaddress of a bus is one message (a subaddress of a terminal on one
+    channel is that bus's alone)."""
+    used: dict[tuple[int | None, int, str, int], Message] = {}
     for m in table.messages:
-        keys = [((m.rt, m.tr, m.subaddress), "sa")]
+        keys = [((m.channel, m.rt, m.tr, m.subaddress), "sa")]
         if m.source is not None:
-            keys.append(((m.source[0], "T", m.source[1]), "source.sa"))
+            keys.append(((m.channel, m.source[0], "T", m.source[1]), "source.sa"))
         for key, field in keys:
             if key in used:
-                rt, tr, sa = key
+                channel, rt, tr, sa = key
                 _fail(table, m.line_of(field.split(".")[0]), f"{m.name}.{field}",
-                      f"RT{rt:02d} {tr} SA{sa:02d} is already used by message "
+                      f"RT{rt:02d} {tr} SA{sa:02d}{_on(channel)} is already used by message "
                       f"{used[key].name!r} (line {used[key].line})")
             used[key] = m
 
@@ -128,6 +145,11 @@ def _schedule(table: Table) -> None:
                   f"no message named {e.message!r}")
         if e.message in seen:
             _fail(table, e.line_of("message"), where, "message scheduled twice")
+        first = by_name[next(iter(seen))] if seen else None
+        if first is not None and by_name[e.message].channel != first.channel:
+            _fail(table, e.line_of("message"), where,   # one bus controller, one bus
+                  f"{e.message!r} is on {_bus(by_name[e.message].channel)} and "
+                  f"{first.name!r} on {_bus(first.channel)}: a schedule is one bus's")
         seen.add(e.message)
         if s.minor_frames % e.every:
             _fail(table, e.line_of("every"), f"{where}.every",

@@ -33,7 +33,7 @@ from drivers.errors import BackendUnavailable
 from drivers.monitor import BusStatistics
 from drivers.rtstats import TrafficStatistics
 from mapr_daemon import __version__
-from mapr_daemon.catalog import CatalogWriter
+from mapr_daemon.catalog import CatalogWriter, display_name
 from mapr_daemon.errors import CatalogError, ConfigError
 from mapr_daemon.pipeline.clock import BusClock
 from mapr_daemon.pipeline.pipeline import Pipeline, build_pipeline
@@ -140,8 +140,10 @@ class Service:
         try:
             self.catalog.open_session(backend=cfg.backend.name, config_hash=cfg.digest())
             self.pipe.resume(*self.catalog.history(cfg.aircraft.tail))  # trends continue
-            reasoners = ", ".join(f"{w.asset.name} {w.asset.dictionary or cfg.reasoner.dictionary}"
-                                  for w in self.pipe.watched if w.watch is not None)
+            reasoners = ", ".join(
+                f"{display_name(cfg.aircraft.tail, w.asset.name)} "
+                f"{w.asset.dictionary or cfg.reasoner.dictionary}"
+                for w in self.pipe.watched if w.watch is not None)
             log.info("mapr %s: session %s, backend %s, ICD %s, catalog %s, reasoner %s",
                      __version__, self.catalog.session_id, cfg.backend.name, cfg.icd,
                      cfg.catalog.path, reasoners or "off (no dictionary)")
@@ -289,7 +291,9 @@ class Service:
         for failure in batch.failures:  # its traceback logged by the watcher
             self.reasoner_failures += 1
             log.error("reasoner failure on a BIT of %s at bus time %.3f s: %s "
-                      "(%d reasoner failures)", failure.asset or "?", failure.bus_ns / 1e9,
+                      "(%d reasoner failures)",
+                      display_name(self.config.aircraft.tail, failure.asset) if failure.asset
+                      else "?", failure.bus_ns / 1e9,
                       failure.error, self.reasoner_failures)
         if batch.outcomes:  # the events, and every BIT's effect on the fault episodes
             self._written(self.spool.submit(batch.outcomes, batch.flights))
@@ -300,7 +304,8 @@ class Service:
             self.events += len(batch.ids)
             for event_id, event in zip(batch.ids, batch.events, strict=True):
                 log.warning("event %d written: %s %s, fault %s, confidence %.2f", event_id,
-                            event.asset, "anomaly", event.fault, event.confidence)
+                            display_name(self.config.aircraft.tail, event.asset), "anomaly",
+                            event.fault, event.confidence)
 
     def _catalog(self, method: Any, *args: Any) -> Any:
         """A catalog write; a failure is logged and the daemon goes on."""

@@ -26,15 +26,16 @@ from mapr_daemon.views.text import episode_json, event_json
 CSV_COLUMNS = ("id", "time_utc", "t_ns", "asset", "rt", "fault", "switch", "severity",
                "severity_value", "severity_unit", "confidence", "soh", "rul", "rul_low",
                "rul_high", "rul_unit", "session_id", "params", "evidence", "bus_ns", "abs_ns",
-               "episode_id")
-"""Events' CSV header (``catalog export --what events --format csv``), unchanged since v1."""
+               "episode_id", "tail")
+"""Events' CSV header (``catalog export --what events --format csv``): the v1 columns, then
+those added since, ``tail`` last (the aircraft, where the catalog knows it)."""
 BIT_COLUMNS = ("id", "session_id", "tail", "asset", "time_utc", "t_ns", "bus_ns", "abs_ns",
                "flight", "flight_hours", "fault", "event_id", "soh", "mode", "rul", "rul_low",
                "rul_high", "rul_hours", "rul_hours_low", "rul_hours_high", "interval", "note")
 EPISODE_COLUMNS = ("id", "asset", "part", "mode", "modes", "state", "opened_utc",
                    "opened_ns", "last_bit_utc", "last_ns", "closed_utc", "closed_ns", "bits",
                    "clear_bits", "sev_first", "sev_last", "sev_min", "sev_max",
-                   "slope_per_bit", "acked_by", "acked_utc", "acked_ns", "ack_note")
+                   "slope_per_bit", "acked_by", "acked_utc", "acked_ns", "ack_note", "tail")
 
 
 def _cell(value: Any) -> Any:

@@ -79,7 +79,7 @@ def text_table(header: Sequence[str], rows: Iterable[Sequence[str]], right: set[
 
 
 def events_table(events: Sequence[Event]) -> str:
-    rows = [(str(e.id), fmt_time(e.t_ns), e.asset, "-" if e.rt is None else str(e.rt),
+    rows = [(str(e.id), fmt_time(e.t_ns), e.name, "-" if e.rt is None else str(e.rt),
              fault_name(e), fmt_severity(e), f"{100 * e.confidence:.0f}%", _num(e.soh, 2),
              fmt_rul(e)) for e in events]
     return text_table(("ID", "TIME (UTC)", "ASSET", "RT", "FAULT", "SEVERITY", "CONF", "SOH",
@@ -87,7 +87,7 @@ def events_table(events: Sequence[Event]) -> str:
 
 
 def event_detail(e: Event, session: Session | None) -> str:
-    where = e.asset + (f" (RT {e.rt})" if e.rt is not None else "")
+    where = e.name + (f" (RT {e.rt})" if e.rt is not None else "")
     lines = [f"event {e.id}",
              f"  time        {fmt_time(e.t_ns)}",
              *([f"  bus time    {e.bus_ns / 1e9:.7f} s"] if e.bus_ns is not None else []),
@@ -167,7 +167,7 @@ def fmt_trend(ep: Episode) -> str:
 
 def episodes_table(episodes: Sequence[Episode]) -> str:
     """One line per fault episode (``mapr catalog episodes``)."""
-    rows = [(str(ep.id), ep.asset, ep.part, "+".join(ep.modes), fmt_time(ep.opened_ns),
+    rows = [(str(ep.id), ep.name, ep.part, "+".join(ep.modes), fmt_time(ep.opened_ns),
              fmt_time(ep.last_ns), str(ep.bits), fmt_trend(ep), ep.state, ep.acked_by or "-")
             for ep in episodes]
     return text_table(("ID", "ACTUATOR", "PART", "MODE", "OPENED (UTC)", "LAST BIT (UTC)", "BITS",

@@ -72,10 +72,62 @@ def test_an_unknown_actuator_is_exit_2_with_the_known_ones(argv: list[str],
 
 
 def test_episodes_take_asset_and_the_old_actuator_spelling(catalog: str) -> None:
-    new = mapr("catalog", "episodes", "--asset", "EMA1", "--catalog", catalog)
-    old = mapr("catalog", "episodes", "--actuator", "EMA1", "--catalog", catalog)
+    new = mapr("catalog", "episodes", "--asset", "EMA2", "--catalog", catalog)
+    old = mapr("catalog", "episodes", "--actuator", "EMA2", "--catalog", catalog)
     assert new[0] == old[0] == 0 and new[1] == old[1]
-    assert "for EMA1" in new[1]
+    assert "for N900/EMA2" in new[1]   # the one aircraft with an EMA2
+
+
+def test_episodes_of_a_name_on_several_tails_are_refused_with_them(catalog: str) -> None:
+    code, out, err = mapr("catalog", "episodes", "--asset", "EMA1", "--catalog", catalog)
+    assert code == 2 and out == ""
+    assert err == ("mapr catalog episodes: error: EMA1 is on 3 aircraft: N900/EMA1, "
+                   "N901/EMA1, N902/EMA1; name one as TAIL/ACTUATOR\n")
+    code, out, _ = mapr("catalog", "episodes", "--asset", "N901/EMA1", "--catalog", catalog)
+    assert code == 0 and "for N901/EMA1" in out
+    code, _, err = mapr("catalog", "episodes", "--asset", "NOPE", "--catalog", catalog)
+    assert code == 2 and "no actuator NOPE" in err
+
+
+def _anomaly(tail: str, asset: str, t: int) -> BitOutcome:
+    from mapr_daemon.catalog import Event
+
+    event = Event(t_ns=t, asset=asset, fault="esr", confidence=0.9, severity=0.5,
+                  evidence={"part": "smps_output_capacitor"})
+    return BitOutcome(asset, t, event=event, tail=tail, flight=1, fault="esr")
+
+
+def daemon_catalog(path: Path) -> Path:
+    """What ``mapr run`` on aircraft N900 writes (its events and episodes keep the bare
+    names of its config), and a fleet run's N901/EMA1 beside it."""
+    with CatalogWriter(path) as writer:
+        writer.open_session(backend="loopback", config_hash="d43", started_ns=T0)
+        writer.add_bits([_anomaly("N900", "EMA1", T0)], [])
+        writer.add_bits([_anomaly("N901", "N901/EMA1", T0 + HOUR)], [])
+    return path
+
+
+def test_every_catalog_row_names_tail_and_actuator(tmp_path: Path) -> None:
+    catalog = str(daemon_catalog(tmp_path / "daemon.sqlite"))
+    code, out, _ = mapr("catalog", "list", "--catalog", catalog)
+    assert code == 0
+    rows = out.splitlines()[1:]
+    assert [row.split()[3] for row in rows] == ["N901/EMA1", "N900/EMA1"]
+    code, out, _ = mapr("catalog", "show", "1", "--catalog", catalog)
+    assert "asset       N900/EMA1" in out
+    code, out, _ = mapr("catalog", "list", "--json", "--catalog", catalog)
+    assert {(e["tail"], e["asset"]) for e in json.loads(out)} == {
+        ("N900", "EMA1"), ("N901", "N901/EMA1")}
+    code, out, _ = mapr("catalog", "episodes", "--catalog", catalog)
+    assert code == 0 and {row.split()[1] for row in out.splitlines()[1:]} == {
+        "N900/EMA1", "N901/EMA1"}
+    code, out, _ = mapr("catalog", "episodes", "--asset", "N900/EMA1", "--json",
+                        "--catalog", catalog)
+    assert [(e["tail"], e["asset"]) for e in json.loads(out)] == [("N900", "EMA1")]
+    code, out, _ = mapr("catalog", "export", "--catalog", catalog)
+    header, *lines = out.splitlines()
+    assert header.endswith(",tail") and sorted(line.rsplit(",", 1)[1] for line in lines) == [
+        "N900", "N901"]
 
 
 def test_export_json_writes_json(catalog: str, tmp_path: Path) -> None:

@@ -155,7 +155,8 @@ def test_stats_rows_count_what_the_filter_prints(flags: list[str], row: str,
 
     code, table, _ = mapr("decode", "--stats", *flags, str(recording))
     assert code == exitcodes.OK
-    body = table.split("\n\n")[0].splitlines()[1:]
+    heading, header, *body = table.split("\n\n")[0].splitlines()
+    assert heading == "channel 1 (1553)" and header.startswith("RT/SA")   # a table per bus
     assert body and all(line.startswith(row) for line in body)
     assert sum(int(line[16:26]) for line in body) == _count(kept)
 

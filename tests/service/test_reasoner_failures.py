@@ -36,3 +36,29 @@ def test_a_reasoner_failure_is_counted_and_logged_not_a_gap(
     service.doorbell.close()
     with sqlite3.connect(path) as conn:
         assert conn.execute("SELECT count(*) FROM gaps").fetchone()[0] == 0
+
+
+def test_the_daemon_names_actuators_tail_slash_actuator_as_health_does(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+        mapr_log: pytest.LogCaptureFixture) -> None:
+    """Event and failure log lines say ``N900/EMA1``, the name ``mapr health`` gives."""
+    from mapr_daemon.catalog import Event
+    from mapr_daemon.pipeline.settings import AircraftConfig
+    from mapr_daemon.service.spool import Written
+
+    config = Config(catalog=CatalogConfig(path=str(tmp_path / "catalog.sqlite")),
+                    aircraft=AircraftConfig(tail="N900"))
+    service = Service(config, None)
+    service.catalog.open_session(backend="testbed", config_hash="x")
+    failed = Batch({}, [], [], [], [Failure(3_000_000_000, None, "ValueError: bad", "EMA1")],
+                   True)
+    monkeypatch.setattr(service.pipe, "process", lambda records, clock: failed)
+    service.ready = True
+    with mapr_log.at_level(logging.INFO, logger="mapr"):
+        service._handle(Item("records"))
+        service._written([Written([Event(t_ns=1, asset="EMA1", fault="esr",
+                                          confidence=0.9)], [7])])
+    assert "reasoner failure on a BIT of N900/EMA1 at bus time 3.000 s" in mapr_log.text
+    assert "event 7 written: N900/EMA1 anomaly, fault esr, confidence 0.90" in mapr_log.text
+    service.catalog.close("test")
+    service.doorbell.close()

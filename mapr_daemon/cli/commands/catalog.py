@@ -347,13 +347,32 @@ def run_stats(reader: CatalogReader, args: argparse.Namespace) -> int:
     return exitcodes.OK
 
 
+def _one_actuator(reader: CatalogReader, name: str) -> tuple[str | None, str]:
+    """(tail, asset) of the one actuator ``name`` (``TAIL/ACTUATOR`` or a bare name that
+    one aircraft carries) names, once :func:`which_actuator` has found no problem."""
+    known = reader.actuators()
+    if "/" in name and tuple(name.split("/", 1)) in known:
+        tail, asset = name.split("/", 1)
+        return tail, asset
+    tails = sorted({t for t, a in known if a == name})
+    return (tails[0] if tails else None), name
+
+
 def run_episodes(reader: CatalogReader, args: argparse.Namespace) -> int:
-    episodes = reader.episodes(open_only=args.open, asset=args.asset)
+    tail = None
+    if args.asset is not None:   # one actuator: a name on several aircraft is refused
+        problem = which_actuator(reader, args.asset, None)
+        if problem:
+            print(f"mapr catalog episodes: error: {problem}", file=sys.stderr)
+            return exitcodes.USAGE
+        tail, asset = _one_actuator(reader, args.asset)
+        args.asset = asset
+    episodes = reader.episodes(open_only=args.open, asset=args.asset, tail=tail)
     if _wants_json(args):
         _print_json([views.episode_json(ep) for ep in episodes])
     elif not episodes:
         which = "open " if args.open else ""
-        whose = f" for {args.asset}" if args.asset else ""
+        whose = f" for {display_name(tail or '', args.asset)}" if args.asset else ""
         print(f"no {which}fault episodes{whose} in {reader.path}")
     else:
         print(views.episodes_table(episodes))

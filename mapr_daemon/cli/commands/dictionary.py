@@ -7,6 +7,9 @@
     mapr dictionary build --jobs 1 -o dictionary.npz       # one worker thread (default: a
                                                            # thread per usable core)
     mapr dictionary plot dictionary.npz -o plots/          # paper Figs. 13-15 and 17
+    mapr dictionary describe dictionary.npz                # what it holds: modes, thresholds,
+                                                           # where on the envelope each mode
+                                                           # is seen (--json: as JSON)
 """
 
 from __future__ import annotations
@@ -50,6 +53,11 @@ def add_subparser(subparsers: Any) -> None:
     pl.add_argument("dictionary", type=Path)
     pl.add_argument("-o", "--output", required=True, type=Path, help="output directory")
     pl.set_defaults(func=run_plot)
+    ds = sub.add_parser("describe", help="what a dictionary holds: modes, thresholds and where "
+                                         "on the envelope each mode is seen")
+    ds.add_argument("dictionary", type=Path)
+    ds.add_argument("--json", action="store_true", help="one JSON document")
+    ds.set_defaults(func=run_describe)
 
 
 def peak_rss_mb() -> float:
@@ -114,4 +122,43 @@ def run_plot(args: argparse.Namespace) -> int:
     d = Dictionary.load(args.dictionary)
     for path in plot_dictionary(d, args.output):
         print(path)
+    return 0
+
+
+def run_describe(args: argparse.Namespace) -> int:
+    import json
+
+    from mapr_daemon.reasoner.diagnosis.dictionary import Dictionary
+
+    d = Dictionary.load(args.dictionary)
+    cal = d.calibration
+    kinds = sorted({t.kind for t in d.templates if not t.switch})
+    switches = sorted(f"{t.kind} {t.switch}" for t in d.templates if t.switch)
+    thresholds = {"anomaly (likelihood ratio)": d.threshold,
+                  "healthy residual": cal.get("null_threshold"),
+                  "matched filter (phase-A Ron)": cal.get("matched_threshold"),
+                  "pair gain (two faults)": cal.get("pair_threshold"),
+                  "unexplained (left by the best explanation)": cal.get("unexplained_threshold")}
+    unit = d.healthy is not None and d.healthy.unit_coef is not None
+    doc = {"file": str(args.dictionary), "actuator": d.actuator,
+           "sample_rate_hz": d.sample_rate_hz, "parametric_modes": kinds,
+           "switch_faults": switches, "false_alarm_rate": cal.get("false_alarm_rate"),
+           "calibrated_to_a_unit": unit, "thresholds": thresholds,
+           "detection_map": None if d.detection is None else d.detection.as_json()}
+    if args.json:
+        print(json.dumps(doc, indent=2))
+        return 0
+    print(f"{args.dictionary}: {d.actuator} at {d.sample_rate_hz:g} Hz"
+          f"{', calibrated to a unit' if unit else ''}")
+    print(f"parametric modes: {', '.join(kinds)}")
+    print(f"switch faults: {', '.join(switches) or 'none'}")
+    print(f"false-alarm rate per BIT: {cal.get('false_alarm_rate', float('nan')):g}")
+    for name, value in thresholds.items():
+        print(f"  {name:<44} {'-' if value is None else f'{value:.4g}'}")
+    if d.detection is None:
+        print("no detection map (built before it, or with detection_map_runs: 0)")
+    else:
+        print("where each mode is seen:")
+        for line in d.detection.table():
+            print(f"  {line}")
     return 0

@@ -5,6 +5,7 @@
     mapr replay flight.c10                                  # messages, ICD, bus statistics
     mapr replay flight.c10 --diagnose --dictionary dictionary.npz --catalog replay.db
     mapr replay flight.c10 --speed 1 --c10-channel 3        # in recorded time, one channel
+    cat flight.c10 | mapr replay -                          # a stream on stdin
 
 The recording's 1553 messages go monitor -> ICD -> (with ``--diagnose``) BIT watch and
 reasoner -> fault catalog, as in ``mapr run``, in one catalog session (backend
@@ -17,8 +18,9 @@ fields and stamps as the daemon wrote for that traffic: bus time, and the record
 time when its time packets give a full date (``t_ns`` falls back to the replay's wall clock
 when they do not). Each event's evidence also names the recording.
 
-Exit codes: 0 done; 2 the file cannot be read or is not Chapter 10; 66 the catalog cannot
-be opened; 78 a config, ICD or dictionary error (``--diagnose`` without a dictionary).
+Exit codes: 0 done; 2 the file cannot be read or is not Chapter 10; 65 it holds no 1553
+data, or none on an asked ``--c10-channel`` (one line says what it holds); 66 the catalog
+cannot be opened; 78 a config, ICD or dictionary error (``--diagnose`` without a dictionary).
 """
 
 from __future__ import annotations
@@ -32,12 +34,14 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, TextIO
 
 from mapr_daemon.cli import exitcodes
+from mapr_daemon.cli.traffic.source import add_c10_channel_argument
 from mapr_daemon.cli.validate import bounded_int
 from mapr_daemon.errors import CatalogError, ConfigError
 
 if TYPE_CHECKING:
     from drivers.mil1553.record import MonitorRecord
     from mapr_daemon.catalog import CatalogWriter
+    from mapr_daemon.cli.traffic.source import Chapter10Input
     from mapr_daemon.pipeline.pipeline import Batch, Pipeline
     from mapr_daemon.service.config import Config
 
@@ -57,7 +61,7 @@ def add_subparser(subparsers: Any) -> None:
                                              "into the catalog",
                               description=__doc__,
                               formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("recording", help="IRIG 106 Chapter 10 file")
+    p.add_argument("recording", help="IRIG 106 Chapter 10 file, or '-' for a stream on stdin")
     p.add_argument("--config", metavar="FILE", help="daemon config to start from (assets, "
                                                     "reasoner, catalog; default: defaults)")
     p.add_argument("--icd", metavar="FILE", help="message table (default: the config's)")
@@ -70,9 +74,7 @@ def add_subparser(subparsers: Any) -> None:
     p.add_argument("--speed", type=float, default=0.0, metavar="X",
                    help="0: as fast as possible (default); 1: in recorded time; 2: twice as "
                         "fast")
-    p.add_argument("--c10-channel", type=bounded_int(1, 0xFFFF, "channel ID"),
-                   action="append", dest="c10_channels",
-                   metavar="ID", help="replay only this 1553 channel ID (repeat for more)")
+    add_c10_channel_argument(p, "replay only this 1553 channel ID (repeat for more)")
     p.add_argument("--year", type=bounded_int(1970, 2199, "year"),
                    help="year of day-of-year time packets")
     p.add_argument("--tail", help="the aircraft's tail number (default: the config's "
@@ -115,9 +117,6 @@ def _size(n: int) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
-    from mapr_daemon.pipeline.pipeline import build_pipeline
-    from mapr_daemon.service.config import load_config
-
     path = Path(args.recording)
     if args.flight_hours is not None and (args.flight is None or not args.flight_hours > 0
                                           or args.flight_hours > 1000):
@@ -128,11 +127,28 @@ def run(args: argparse.Namespace) -> int:
         print(f"mapr replay: --threshold must be above 0, not {args.threshold}",
               file=sys.stderr)
         return exitcodes.USAGE
-    from drivers.chapter10.walker import looks_like_chapter10
     from drivers.errors import CaptureFormatError
-    if not looks_like_chapter10(path):
-        raise CaptureFormatError(f"{path}: not a Chapter 10 recording (no packet header at "
-                                 "its start)" if path.is_file() else f"{path}: no such file")
+    from mapr_daemon.cli.traffic.source import chapter10_input
+    found = chapter10_input(args.recording)   # '-': a stream on stdin, spooled
+    if found is None:
+        name = "stdin" if args.recording == "-" else str(path)
+        raise CaptureFormatError(f"{name}: not a Chapter 10 recording (no packet header at "
+                                 "its start)" if args.recording == "-" or path.is_file()
+                                 else f"{name}: no such file")
+    try:
+        return _replay(args, found)
+    finally:
+        found.done_opening()   # a spooled stream's copy never outlives the command
+
+
+def _replay(args: argparse.Namespace, found: Chapter10Input) -> int:
+    """Replay the recording ``found`` (a file, or a stream's spooled copy), called by its
+    name (the path given, or ``stdin``) in every message and in the catalog."""
+    from mapr_daemon.cli.traffic.source import what_it_holds
+    from mapr_daemon.pipeline.pipeline import build_pipeline
+    from mapr_daemon.service.config import load_config
+
+    path = Path(found.name)
     config = load_config(args.config)
     reasoner = config.reasoner
     if args.dictionary:
@@ -146,8 +162,8 @@ def run(args: argparse.Namespace) -> int:
     elif reasoner.dictionary is None and not any(a.dictionary for a in config.assets):
         raise ConfigError("--diagnose needs a fault dictionary: --dictionary FILE (or "
                           "reasoner.dictionary or assets[].dictionary in --config)")
-    options = {"path": str(path), "channels": args.c10_channels, "speed": args.speed,
-               "year": args.year}
+    options = {"path": found.path, "name": found.name, "channels": args.c10_channels,
+               "speed": args.speed, "year": args.year}
     aircraft = config.aircraft if args.tail is None else \
         dataclasses.replace(config.aircraft, tail=args.tail)
     config = dataclasses.replace(
@@ -169,13 +185,15 @@ def run(args: argparse.Namespace) -> int:
     if args.flight is not None:
         pipe.declare_flight(args.flight, args.flight_hours)
     replay = Replay(pipe, catalog, config, path)
+    found.done_opening()   # the reader holds it open: a stream's spooled copy can go
     try:
         replay.run(args.progress if args.progress is not None else sys.stderr.isatty())
     except KeyboardInterrupt:
         replay.finish("interrupted")
         return exitcodes.INTERRUPTED
     replay.finish("replay complete")
-    return exitcodes.OK
+    # no 1553 data, or none on an asked channel: said in one line, naming what it holds
+    return what_it_holds(replay.monitor.reader, args.c10_channels, "mapr replay")
 
 
 class Replay:

@@ -48,8 +48,12 @@ def record_line(record: MonitorRecord, values: str = "") -> str:
 
 
 def record_json(record: MonitorRecord, values: dict[str, Any] | None = None) -> str:
-    """The record as one JSON object (with ``values`` from an ICD when given)."""
+    """The record as one JSON object (with ``values`` from an ICD when given), with the
+    ``channel`` of a Chapter 10 record (its bus), as ``decode`` writes it."""
     out = record.to_json()
+    channel = record.extra.get("channel")
+    if channel is not None:
+        out["channel"] = channel
     if values is not None:
         out["values"] = values
     return json.dumps(out)

@@ -1,14 +1,16 @@
 """Batches of records from a file or a live backend, and the statistics printed from them.
 
 Shared by ``mapr decode --stats``, ``mapr monitor --stats`` and ``mapr icd discover``: a
-Chapter 10 recording (found by its sync pattern) is read with the Chapter 10 reader, any other
-file as a bit-level capture; a live backend is read through the monitor API, bounded by a
-message count and/or a duration.
+Chapter 10 recording (found by its sync pattern, in a file or on stdin) is read with the
+Chapter 10 reader and counted per 1553 channel (each channel is a bus), any other file as a
+bit-level capture; a live backend is read through the monitor API, bounded by a message count
+and/or a duration. Statistics count the messages the filters keep.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import os
 import sys
@@ -22,8 +24,9 @@ from mapr_daemon.cli import exitcodes
 if TYPE_CHECKING:   # imported where used: registering the subcommands stays light
     from drivers.chapter10.reader import Chapter10Reader
     from drivers.mil1553.record import MonitorRecord
-    from drivers.monitor import BusMonitor
+    from drivers.monitor import BusMonitor, BusStatistics
     from drivers.rtstats import RecordArrays, TrafficStatistics
+    from mapr_daemon.cli.traffic.decode_filter import DecodeFilter
 
 BATCH = 4096
 """Records per batch read from a live backend."""
@@ -62,9 +65,10 @@ class Chapter10Input:
 
     def done_opening(self) -> None:
         """Remove a spooled copy once the reader holds it open (it reads on from the open
-        file; nothing is left behind whatever happens next)."""
+        file; nothing is left behind whatever happens next). Calling it again does nothing."""
         if self.spooled:
-            os.unlink(self.path)
+            with contextlib.suppress(FileNotFoundError):   # once is enough
+                os.unlink(self.path)
 
 
 def chapter10_input(path: str) -> Chapter10Input | None:
@@ -184,34 +188,10 @@ def what_it_holds(reader: Chapter10Reader, wanted: Sequence[int] | None, prog: s
     return exitcodes.OK
 
 
-def file_batches(path: str, *, samplerate: float | None = None,
-                 channels: Sequence[str] | None = None,
-                 c10_channels: Sequence[int] | None = None, year: int | None = None,
-                 err: TextIO | None = None, err_prefix: str = "mapr"
-                 ) -> Iterator[list[MonitorRecord]]:
-    """The 1553 records of a Chapter 10 recording or a capture file, a batch at a time.
-
-    Damaged Chapter 10 packets are named on ``err`` (stderr) and skipped, as ``decode`` does.
-    """
-    from drivers.chapter10.walker import looks_like_chapter10
-    from mapr_daemon.cli import notes
-
-    err = err or sys.stderr
-    if path != "-" and looks_like_chapter10(path):
-        from drivers.chapter10.reader import Chapter10Reader
-
-        reader = Chapter10Reader(path, channels=c10_channels, year=year, arinc429=False)
-        try:
-            for batch in reader:
-                yield list(batch.records)
-        finally:
-            reader.close()
-        for issue in reader.issues:
-            if err is sys.stderr:   # the command's warnings: collapsed, silenced by -q
-                notes.warn(f"{path}: {issue}")
-            else:
-                err.write(f"{err_prefix}: {path}: {issue}\n")
-        return
+def capture_batches(path: str, *, samplerate: float | None = None,
+                    channels: Sequence[str] | None = None) -> Iterator[list[MonitorRecord]]:
+    """The 1553 records of a bit-level capture file (or ``-``), a batch at a time (a
+    Chapter 10 recording is read by :func:`open_chapter10` instead)."""
     from drivers.capturefile import open_capture
     from drivers.pipeline import SamplePipeline
 
@@ -222,35 +202,60 @@ def file_batches(path: str, *, samplerate: float | None = None,
     yield pipeline.flush()
 
 
-def channel_arrays(reader: Chapter10Reader, err: TextIO | None = None, prog: str = "mapr"
+def channel_arrays(reader: Chapter10Reader, wanted: DecodeFilter | None = None
                    ) -> Iterator[tuple[int, RecordArrays]]:
     """A Chapter 10 recording's 1553 messages as statistics columns, one channel at a time:
-    (channel ID, columns) per channel of each batch. Each 1553 channel of a recording is a
-    bus of its own, so its messages are counted apart (merging them would add the loads of
-    eight buses into one and multiply every rate by the number of channels carrying it).
-    Stays in numpy: no record objects. Damaged packets are named on ``err`` as they come."""
+    (channel ID, columns) per channel of each batch, of the messages ``wanted`` keeps (all
+    by default). Each 1553 channel of a recording is a bus of its own, so its messages are
+    counted apart (merging them would add the loads of eight buses into one and multiply
+    every rate by the number of channels carrying it). Stays in numpy: no record objects.
+    Damaged packets are warned about as they come, naming the input (a file or ``stdin``)."""
     import numpy as np
 
     from drivers.rtstats import batch_arrays
 
-    err = err or sys.stderr
     reported = 0
     try:
         for batch in reader.batches():
             messages = batch.ms1553
+            if messages is not None and wanted is not None and wanted.active:
+                messages = messages.take(wanted.mask(messages))
             if messages is not None and len(messages):
                 ids = np.unique(messages.channel)
                 for channel in ids.tolist():
                     part = messages if ids.size == 1 else messages.take(
                         messages.channel == channel)
                     yield int(channel), batch_arrays(part)
-            for issue in reader.issues[reported:]:
-                err.write(f"{prog}: {reader.path}: {issue}\n")
-            reported = len(reader.issues)
+            reported = _warn_issues(reader, reported)
     finally:
         reader.close()
+    _warn_issues(reader, reported)
+
+
+def _warn_issues(reader: Chapter10Reader, reported: int) -> int:
+    """Warn about the reader's issues from ``reported`` on; how many there are now."""
+    from mapr_daemon.cli import notes
+
     for issue in reader.issues[reported:]:
-        err.write(f"{prog}: {reader.path}: {issue}\n")
+        notes.warn(f"{reader.name}: {issue}")
+    return len(reader.issues)
+
+
+def channel_statistics(reader: Chapter10Reader, *, window_ns: int,
+                       wanted: DecodeFilter | None = None) -> dict[int, TrafficStatistics]:
+    """Per-RT/SA statistics of a recording, one :class:`TrafficStatistics` per 1553 channel
+    (a bus each), of the messages ``wanted`` keeps, whose rows are the sides it selects."""
+    from drivers.rtstats import TrafficStatistics
+
+    per_channel: dict[int, TrafficStatistics] = {}
+    for channel, arrays in channel_arrays(reader, wanted):
+        stats = per_channel.get(channel)
+        if stats is None:
+            stats = per_channel[channel] = TrafficStatistics(window_ns=window_ns)
+            if wanted is not None and wanted.active:
+                stats.sides = (wanted.rts, wanted.sas, wanted.transmit)
+        stats.add_arrays(arrays)
+    return per_channel
 
 
 def backend_batches(backend: str, options: dict[str, Any], *, count: int | None,
@@ -288,6 +293,88 @@ def bounded(monitor: BusMonitor, *, count: int | None, duration: float | None
         yield record
 
 
+class ShownStatistics:
+    """Statistics of the messages a command shows (those its filters keep), per Chapter 10
+    channel when records name one (each channel is a bus): the per-bus totals
+    (:class:`~drivers.monitor.BusStatistics`) and the per-RT/SA table with windowed load,
+    whose rows are the sides the filter selects. ``mapr monitor --stats`` prints them."""
+
+    def __init__(self, *, window_ns: int, wanted: DecodeFilter | None = None) -> None:
+        self.window_ns = window_ns
+        self.sides = (None if wanted is None or not wanted.active
+                      else (wanted.rts, wanted.sas, wanted.transmit))
+        self.buses: dict[int | None, BusStatistics] = {}
+        self.traffic: dict[int | None, TrafficStatistics] = {}
+        self._pending: dict[int | None, list[MonitorRecord]] = {}
+
+    def add(self, record: MonitorRecord) -> None:
+        """Count one shown record (its per-RT/SA share a batch at a time)."""
+        channel = record.extra.get("channel")
+        bus = self.buses.get(channel)
+        if bus is None:
+            from drivers.monitor import BusStatistics
+            from drivers.rtstats import TrafficStatistics
+
+            bus = self.buses[channel] = BusStatistics()
+            traffic = self.traffic[channel] = TrafficStatistics(window_ns=self.window_ns)
+            traffic.sides = self.sides
+            self._pending[channel] = []
+        bus.add(record)
+        pending = self._pending[channel]
+        pending.append(record)
+        if len(pending) >= BATCH:
+            self._flush(channel)
+
+    def _flush(self, channel: int | None) -> None:
+        self.traffic[channel].add_batch(self._pending[channel])
+        self._pending[channel] = []
+
+    def bus_tables(self) -> str:
+        """The per-bus totals, a ``channel N (1553)`` heading before each channel's."""
+        if not self.buses:
+            from drivers.monitor import BusStatistics
+
+            return BusStatistics().table()
+        return "\n".join(_heading(channel) + self.buses[channel].table()
+                         for channel in _ordered(self.buses))
+
+    def print(self, *, as_json: bool, out: TextIO, err: TextIO) -> None:
+        """Everything: per-bus totals (on ``err`` with ``as_json``), then the per-RT/SA
+        tables and loads (JSON lines with a ``"channel"`` key for a recording's)."""
+        for channel in list(self._pending):
+            self._flush(channel)
+        channels = _ordered(self.traffic)
+        if not channels or channels == [None]:
+            from drivers.rtstats import TrafficStatistics
+
+            traffic = self.traffic.get(None) or TrafficStatistics(window_ns=self.window_ns)
+            print(self.bus_tables(), file=err if as_json else out)
+            if not as_json:
+                out.write("\n")
+            print_stats(traffic, as_json=as_json, out=out)
+            return
+        if as_json:
+            print(self.bus_tables(), file=err)
+            for channel in channels:
+                for line in self.traffic[channel].json_lines():
+                    out.write(json.dumps({"channel": channel, **line}) + "\n")
+            return
+        for k, channel in enumerate(channels):
+            if k:
+                out.write("\n")
+            out.write(f"{_heading(channel)}{self.buses[channel].table()}\n\n"
+                      f"{self.traffic[channel].table()}\n")
+
+
+def _heading(channel: int | None) -> str:
+    return "" if channel is None else f"channel {channel} (1553)\n"
+
+
+def _ordered(keys: dict[int | None, Any]) -> list[int | None]:
+    """Channels in order, records without one (a capture, a card) first."""
+    return sorted(keys, key=lambda c: -1 if c is None else c)
+
+
 def print_stats(stats: TrafficStatistics, *, as_json: bool, out: TextIO) -> None:
     """The per-RT/SA table and windowed load, or the same as JSON lines."""
     if as_json:
@@ -315,45 +402,26 @@ def print_channel_stats(per_channel: dict[int, TrafficStatistics], *, as_json: b
 def run_decode_stats(args: Any) -> int:
     """``mapr decode FILE --stats [text|json]``: statistics instead of the messages, of the
     messages the filter flags keep (rows: the sides they select; load: of those messages);
-    per 1553 channel for a Chapter 10 recording read without a filter."""
+    per 1553 channel for a Chapter 10 recording (each channel is a bus)."""
     from drivers.rtstats import TrafficStatistics
-    from mapr_daemon.cli import exitcodes, notes
+    from mapr_daemon.cli import exitcodes
     from mapr_daemon.cli.traffic.decode_filter import filter_from_args
 
     wanted = filter_from_args(args)   # checked by the subcommand's validate hook already
     window_ns = round(args.stats_window * 1e9)
     reader = open_chapter10(args.capture, args.c10_channels, args.year)
-    if reader is not None and not wanted.active:
-        per_channel: dict[int, TrafficStatistics] = {}
-        for channel, arrays in channel_arrays(reader, prog="mapr decode"):
-            if channel not in per_channel:
-                per_channel[channel] = TrafficStatistics(window_ns=window_ns)
-            per_channel[channel].add_arrays(arrays)
+    if reader is not None:
+        per_channel = channel_statistics(reader, window_ns=window_ns, wanted=wanted)
         print_channel_stats(per_channel, as_json=args.stats == "json", out=sys.stdout)
         sys.stdout.flush()
         return what_it_holds(reader, args.c10_channels, "mapr decode")
     stats = TrafficStatistics(window_ns=window_ns)
     if wanted.active:
         stats.sides = (wanted.rts, wanted.sas, wanted.transmit)
-    if reader is not None:
-        # filtered statistics of a recording count the selected sides over the channels read
-        # (--c10-channel picks one bus)
-        if not args.c10_channels:
-            notes.warn("filtered statistics of a recording merge its 1553 channels; "
-                       "--c10-channel N gives one bus")
-        try:
-            for c10 in reader:
-                stats.add_batch([r for r in c10.records if wanted.matches(r)])
-        finally:
-            reader.close()
-        for issue in reader.issues:
-            notes.warn(f"{reader.name}: {issue}")
-    else:
-        for records in file_batches(args.capture, samplerate=args.samplerate,
-                                    channels=args.channels, c10_channels=args.c10_channels,
-                                    year=args.year, err_prefix="mapr decode"):
-            stats.add_batch([r for r in records if wanted.matches(r)] if wanted.active
-                            else records)
+    for records in capture_batches(args.capture, samplerate=args.samplerate,
+                                   channels=args.channels):
+        stats.add_batch([r for r in records if wanted.matches(r)] if wanted.active
+                        else records)
     print_stats(stats, as_json=args.stats == "json", out=sys.stdout)
     sys.stdout.flush()
     return int(exitcodes.OK)

@@ -46,6 +46,7 @@ from mapr_daemon.ema.faults import PARAMETRIC
 from mapr_daemon.errors import ConfigError
 from mapr_daemon.reasoner.diagnosis import (
     compound,
+    detection_map,
     fault_models,
     healthy_model,
     matched_filter,
@@ -61,8 +62,8 @@ TOP_CELLS = 5
 MATCHED_KIND = matched_filter.KIND
 
 __all__ = ["MATCHED_KIND", "PAPER_COLUMNS", "Decision", "Fit", "Member", "decide",
-           "explanation_statistics", "kind_severity", "matched_score", "paper_decide",
-           "score_of"]
+           "explanation_statistics", "kind_severities", "kind_severity", "matched_score",
+           "paper_decide", "score_of"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -271,6 +272,14 @@ def decide(d: Dictionary, m: FloatArray, q: float) -> Decision:
                        "supply_v": round(c.supply_v, 2),
                        "temperature_c": round(c.temperature_c, 1)},
     }
+    if d.detection is not None:
+        blind = d.detection.blind(c.supply_v, c.temperature_c)
+        if blind:
+            evidence["not_observable_here"] = {
+                "faults": blind,
+                "rule": f"detected in under {detection_map.BLIND_BELOW:.0%} of the "
+                        "dictionary's runs at this bus voltage and ambient temperature: no "
+                        "anomaly says nothing about them"}
     kinds: dict[str, float] = {}
     for f in named if matched_only and named else fits:
         k = d.templates[f.template].kind
@@ -346,9 +355,17 @@ def _nominal(t: Template) -> float:
 
 def kind_severity(d: Dictionary, m: FloatArray, q: float, kind: str) -> float:
     """The best severity of one parametric kind, whatever the anomaly decision (for trends)."""
+    return kind_severities(d, m, q)[kind]
+
+
+def kind_severities(d: Dictionary, m: FloatArray, q: float) -> dict[str, float]:
+    """Every parametric kind's best severity on one run (one fit for all of them)."""
     _, _, fits = _fits(d, m, q)
-    idx = [i for i, t in enumerate(d.templates) if t.kind == kind and not t.switch]
-    return min((fits[i] for i in idx), key=lambda f: f.residual).severity
+    out: dict[str, float] = {}
+    for kind in {t.kind for t in d.templates if not t.switch}:
+        idx = [i for i, t in enumerate(d.templates) if t.kind == kind and not t.switch]
+        out[kind] = min((fits[i] for i in idx), key=lambda f: f.residual).severity
+    return out
 
 
 def paper_decide(d: Dictionary, m: FloatArray, q: float) -> Decision:

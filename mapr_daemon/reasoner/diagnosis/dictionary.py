@@ -36,6 +36,7 @@ import yaml
 
 from mapr_daemon.arrays import FloatArray
 from mapr_daemon.errors import ConfigError, RecordError
+from mapr_daemon.reasoner.diagnosis.detection_map import DetectionMap
 from mapr_daemon.reasoner.diagnosis.fault_models import FaultModels
 from mapr_daemon.reasoner.diagnosis.features import derived_signals, feature_matrix
 from mapr_daemon.reasoner.diagnosis.healthy_model import HealthyModel, pressure_weights
@@ -65,6 +66,10 @@ class DictionarySpec:
     model (ours)."""
     calibration_runs: int = 48
     calibration_pressure_pa: tuple[float, float] = (0.0, 2500.0)
+    detection_map_runs: int = 6
+    """Per parametric kind and cell of the detection map (bus voltage x ambient bands over the
+    actuator's envelope, :mod:`~mapr_daemon.reasoner.diagnosis.detection_map`), runs at random
+    severities (25-100 % of range); 0 builds a dictionary without a map."""
     fault_calibration_runs: int = 8
     """Per parametric kind, runs at random severities (25-100 % of range), pressures and
     conditions that fit nothing: what a correct explanation leaves and what a second fault
@@ -164,6 +169,8 @@ class Dictionary:
     score_spread: float = 1.0
     log_score_spread: float = 1.0
     calibration: dict[str, float] = dataclasses.field(default_factory=dict)
+    detection: DetectionMap | None = None
+    """Where on the envelope each mode is seen (None: built without a map)."""
 
     @property
     def paper_rows(self) -> int:
@@ -210,6 +217,8 @@ class Dictionary:
             "threshold": self.threshold, "score_spread": self.score_spread,
             "log_score_spread": self.log_score_spread, "calibration": self.calibration,
         }
+        if self.detection is not None:
+            meta["detection_map"] = self.detection.as_json()
         arrays["meta_json"] = np.array(json.dumps(meta))
         np.savez_compressed(Path(path), **arrays)  # type: ignore[arg-type]
 
@@ -247,4 +256,6 @@ class Dictionary:
             healthy=healthy, models=models, threshold=float(meta["threshold"]),
             score_spread=float(meta["score_spread"]),
             log_score_spread=float(meta["log_score_spread"]),
-            calibration={k: float(v) for k, v in meta["calibration"].items()})
+            calibration={k: float(v) for k, v in meta["calibration"].items()},
+            detection=(DetectionMap.from_json(meta["detection_map"])
+                       if "detection_map" in meta else None))

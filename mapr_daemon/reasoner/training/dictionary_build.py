@@ -45,6 +45,7 @@ from mapr_daemon.reasoner.diagnosis import (
     classifier,
     compound,
     curves,
+    detection_map,
     false_alarm,
     fault_models,
     healthy_model,
@@ -87,6 +88,8 @@ spectrum of pure quantisation noise) have nearly zero spread, which would make a
 look like an anomaly."""
 FAULT_CALIBRATION = "fault-calibration"
 """Role prefix of the fault calibration runs (``fault-calibration:<kind>@<severity>``)."""
+DETECTION_MAP = "detection-map"
+"""Role prefix of the detection map's runs (``detection-map:<kind>@<severity>``)."""
 FAULT_CALIBRATION_FROM = 0.25
 """Their severities are uniform from this fraction of range to its end (the range the
 benches score severity on)."""
@@ -190,6 +193,21 @@ def _plan(params: ActuatorParams, spec: DictionarySpec) -> Plan:
             v = float(fault_rng.uniform(params.bus.min_v, params.bus.max_v))
             amb.append(t if spec.envelope else None)
             bus.append(v if spec.envelope else None)
+    map_rng = np.random.default_rng(spec.seed_base + 32452843)
+    env_hi = params.envelope.max_dynamic_pressure_pa
+    bus_edges = detection_map.band_edges(params.bus.min_v, params.bus.max_v)
+    amb_edges = detection_map.band_edges(params.envelope.ambient_min_c,
+                                         params.envelope.ambient_max_c)
+    for kind in spec.kinds:
+        for i in range(len(bus_edges) - 1):
+            for j in range(len(amb_edges) - 1):
+                for _ in range(spec.detection_map_runs):
+                    s = float(map_rng.uniform(FAULT_CALIBRATION_FROM, 1.0))
+                    q = 0.0 if map_rng.random() < 0.25 else float(map_rng.uniform(0.0, env_hi))
+                    add(FaultSet.of([at_severity(params, kind, s)]), q,
+                        f"{DETECTION_MAP}:{kind}@{s:g}")
+                    bus.append(float(map_rng.uniform(bus_edges[i], bus_edges[i + 1])))
+                    amb.append(float(map_rng.uniform(amb_edges[j], amb_edges[j + 1])))
     return Plan(fs, qs, seeds, roles, amb, bus)
 
 
@@ -341,7 +359,8 @@ def fit_ours(d: Dictionary, params: ActuatorParams, spec: DictionarySpec, m: Flo
                                       params.smps.output_voltage_v, spec.shrinkage_floor)
     fault_rows = np.flatnonzero(valid & ~np.isin(role, ["healthy", "calibration"])
                                 & ~np.char.startswith(role, "nominal@")
-                                & ~np.char.startswith(role, f"{FAULT_CALIBRATION}:"))
+                                & ~np.char.startswith(role, f"{FAULT_CALIBRATION}:")
+                                & ~np.char.startswith(role, f"{DETECTION_MAP}:"))
     sig = np.stack([model.standardized(m[i], conds[i]) for i in fault_rows]) @ whiten
     model = healthy_model.with_subspace(model, sig, spec.subspace_dims)
     # the matched filter learns the fault's small-severity signature; a spec without such runs
@@ -422,6 +441,21 @@ def fit_ours(d: Dictionary, params: ActuatorParams, spec: DictionarySpec, m: Flo
                               "matched_sd": sd, "matched_max": cal_m.score_max,
                               "matched_tail_governs": float(cal_m.tail_governs),
                               **false_alarm.quantile_entries("matched", (raw - mean) / sd)})
+    measure_detection(d, params, m, q, roles, conds)
+
+
+def measure_detection(d: Dictionary, params: ActuatorParams, m: FloatArray, q: FloatArray,
+                      roles: list[str], conds: list[healthy_model.Conditions]) -> None:
+    """The detection map from its runs, decided with the finished dictionary and binned by
+    the conditions read from their own records (as a decision reads them)."""
+    runs = [(roles[i].split(":", 1)[1].split("@", 1)[0], conds[i].supply_v,
+             conds[i].temperature_c, classifier.decide(d, m[i], float(q[i])).anomaly)
+            for i in range(len(roles)) if roles[i].startswith(f"{DETECTION_MAP}:")]
+    if runs:
+        d.detection = detection_map.DetectionMap.measure(
+            tuple(detection_map.band_edges(params.bus.min_v, params.bus.max_v)),
+            tuple(detection_map.band_edges(params.envelope.ambient_min_c,
+                                           params.envelope.ambient_max_c)), runs)
 
 
 def calibrate_explanations(d: Dictionary, m: FloatArray, q: FloatArray,
