@@ -115,3 +115,18 @@ def test_a_fresh_install_builds_nothing_and_each_run_is_the_next_flight(tmp_path
     with CatalogReader(cache / "demo-catalog.sqlite") as reader:
         flights = sorted({(b.asset, b.flight) for b in reader.bits()})
     assert flights == [("EMA1", 1), ("EMA1", 2), ("EMA2", 1), ("EMA2", 2)]
+
+
+def test_the_demo_spec_is_the_full_spec_but_its_grid() -> None:
+    """The demo's spec differs from the shipped one only in its pressures and severities (a
+    key added to the full spec must be added to the demo's)."""
+    import yaml
+
+    from mapr_daemon.cli.commands.dictionary import default_spec_path
+
+    full = yaml.safe_load(default_spec_path().read_text(encoding="utf-8"))
+    demo = yaml.safe_load(demo_models.demo_spec_path().read_text(encoding="utf-8"))
+    grid = {"pressures_pa", "severities"}
+    assert {k: v for k, v in demo.items() if k not in grid} == \
+        {k: v for k, v in full.items() if k not in grid}
+    assert set(demo) == set(full)
