@@ -64,11 +64,13 @@ def archive(root: Path, spec: FleetSpec, jobs: int) -> dict[str, object]:
 
 
 def default_dictionary() -> Path:
+    from mapr_daemon.cli.commands.dictionary import default_spec_path
     from mapr_daemon.ema.params import default_actuator_path, load_actuator
     from mapr_daemon.testbed.demo_reasoner import cached_dictionary
 
     actuator = default_actuator_path()
-    return cached_dictionary(load_actuator(actuator), Path(actuator))
+    # the product's full dictionary (the demo's default is its smaller one)
+    return cached_dictionary(load_actuator(actuator), Path(actuator), default_spec_path())
 
 
 def default_prognosis(dictionary: Path) -> Path:

@@ -10,10 +10,12 @@ last BIT (``bits`` table), and the events' bus-time stamps. Then ``mapr replay``
 recording, with the same config, into a second catalog: its events are compared with the
 daemon's on (asset, fault, bus_ns). Prints everything; exits 1 if a check fails.
 
-Models: the shipped dictionary spec and the full prognostic model per actuator type at its
-bus rate, the same cached files ``mapr demo`` builds (``$MAPR_CACHE``; built on first use),
-or ``--models DIR`` holding ``{aileron,elevator}-{dictionary,prognosis}.npz``. Seeds: fresh
-(printed): EMA1 flies seed s, EMA2 s + 1.
+Models: the dictionary and the full prognostic model per actuator type at its bus rate that
+``mapr demo`` uses (its smaller dictionary spec, ``configs/reasoner/dictionary-demo.yaml``:
+the pre-built pair shipped in ``mapr_daemon/testbed/models/`` when it matches the code, else
+built once into ``$MAPR_CACHE``), or ``--models DIR`` holding
+``{aileron,elevator}-{dictionary,prognosis}.npz``. Seeds: fresh (printed): EMA1 flies seed s,
+EMA2 s + 1.
 
     python3 bench/two_ema_run.py [--seconds 600] [--seed N] [--fault esr=0.6]
 """

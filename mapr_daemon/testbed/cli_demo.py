@@ -16,9 +16,12 @@ the BITs go into a fault catalog that ``mapr catalog list`` and ``mapr health`` 
 
 Each actuator type needs a fault dictionary and a prognostic model: ``--dictionary FILE``
 (``--prognosis FILE``) for the aileron, ``--elevator-dictionary`` (``--elevator-prognosis``)
-for the elevator (from ``mapr dictionary build --prognosis``), or by default both built from
-the shipped spec on first use and cached (a few minutes, once). A dictionary given without
-its prognostic model is diagnosed without a trend. With a table that has no RT 7
+for the elevator (from ``mapr dictionary build --prognosis``). By default both come pre-built
+with the package (from the demo's smaller spec, ``configs/reasoner/dictionary-demo.yaml``;
+:mod:`mapr_daemon.testbed.demo_models`), or, when the code has changed since they were built,
+are built once and cached (minutes of CPU, with a progress line). A dictionary given without
+its prognostic model is diagnosed without a trend. Each run is the aircraft's next flight in
+the catalog. With a table that has no RT 7
 (``--icd configs/icd/ema-testbed.yaml``) the aileron flies alone.
 
     mapr demo                                  # the default fault on the aileron, cruise, 2 s
@@ -76,7 +79,7 @@ class Ema:
         self.prognosis = None if prognosis is None else Path(prognosis)
 
     def asset(self) -> DemoAsset:
-        """Its daemon asset: the files given, else the cached ones (built if missing)."""
+        """Its daemon asset: the files given, else the demo's (pre-built, cached, or built)."""
         from mapr_daemon.testbed.demo_health import DemoAsset
         from mapr_daemon.testbed.demo_reasoner import cached_models
         dictionary, prognosis = self.dictionary, self.prognosis
@@ -131,13 +134,13 @@ def add_subparser(subparsers: Any) -> None:
     parser.add_argument("--show", type=int, default=14, help="messages to print in full")
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--dictionary", metavar="FILE",
-                        help="the aileron's fault dictionary (default: built once from the "
-                             "shipped spec and cached)")
+                        help="the aileron's fault dictionary (default: the pre-built demo "
+                             "dictionary, else built once from the demo spec and cached)")
     parser.add_argument("--prognosis", metavar="FILE",
-                        help="the aileron's prognostic model (default: the cached one with the "
-                             "cached dictionary; none with --dictionary)")
+                        help="the aileron's prognostic model (default: the demo's, with its "
+                             "dictionary; none with --dictionary)")
     parser.add_argument("--elevator-dictionary", metavar="FILE",
-                        help="the elevator's fault dictionary, at 1 kHz (default: cached)")
+                        help="the elevator's fault dictionary, at 1 kHz (default: the demo's)")
     parser.add_argument("--elevator-prognosis", metavar="FILE",
                         help="the elevator's prognostic model (as --prognosis)")
     parser.add_argument("--catalog", metavar="PATH",

@@ -4,7 +4,8 @@
 does: a :class:`~mapr_daemon.service.config.Config` with one asset per EMA (its RT, data sheet,
 wiring, dictionary and prognostic model) goes to
 :func:`~mapr_daemon.pipeline.pipeline.build_pipeline`; each actuator's trend continues from the
-demo catalog's history (so successive demo runs are successive flights); the BITs go into the
+demo catalog's history and each run is declared the aircraft's next flight (so successive
+demo runs are successive flights, however soon they follow each other); the BITs go into the
 catalog with their fault episodes and health, and each actuator's health is read back from
 the catalog as ``mapr health`` reads it.
 """
@@ -18,6 +19,7 @@ from pathlib import Path
 from drivers.mil1553.record import MonitorRecord
 from mapr_daemon.catalog import CatalogReader, CatalogWriter
 from mapr_daemon.catalog.actuators import ActuatorHealth
+from mapr_daemon.catalog.model import Flight
 from mapr_daemon.pipeline.bitwatch import BitFound
 from mapr_daemon.pipeline.clock import BusClock
 from mapr_daemon.pipeline.pipeline import Batch, build_pipeline
@@ -63,15 +65,25 @@ class Diagnosed:
                 if o.asset == asset]
 
 
+def next_flight(flights: Sequence[Flight]) -> int:
+    """The number of the flight after the catalog's last (1 on an empty catalog)."""
+    return max((f.flight for f in flights), default=0) + 1
+
+
 def diagnose_into_catalog(config: Config, records: Sequence[MonitorRecord],
                           catalog: Path) -> Diagnosed:
     """Every asset's BITs in ``records`` through the daemon's pipeline, stored in ``catalog``
-    (trends continued from its history) and each asset's health read back. ConfigError if a
+    as the aircraft's next flight (trends continued from its history) and each asset's health
+    read back. ConfigError if a
     dictionary or model cannot be read; CatalogError if the catalog cannot be written."""
     pipe = build_pipeline(config)
     catalog.parent.mkdir(parents=True, exist_ok=True)
     with CatalogWriter(catalog) as writer:
-        pipe.resume(*writer.history(config.aircraft.tail))
+        bits, flights = writer.history(config.aircraft.tail)
+        pipe.resume(bits, flights)
+        # each run is the aircraft's next flight, however soon it follows the last: told
+        # from the traffic, runs within aircraft.flight_gap_s would be one flight
+        pipe.declare_flight(next_flight(flights))
         writer.open_session(backend="loopback (mapr demo)", config_hash=config.digest())
         batch = pipe.process(list(records), BusClock())
         ids = writer.add_bits(batch.outcomes, batch.flights)

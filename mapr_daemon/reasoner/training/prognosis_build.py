@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Callable
 
 import numpy as np
 
@@ -101,9 +102,11 @@ def flight_spread(n_train: int, blocks: int, reps: int, share: float) -> list[bo
 
 def build_prognostic_model(d: Dictionary, params: ActuatorParams, spec: BuildSpec = BuildSpec(),
                            *, kinds: tuple[str, ...] = AGING_KINDS,
-                           workers: int | None = None) -> PrognosticModel:
+                           workers: int | None = None,
+                           progress: Callable[[float], None] | None = None) -> PrognosticModel:
     """Fly the training and calibration BITs (one batch), fit the estimators, measure their
-    noise, learn the priors."""
+    noise, learn the priors. ``progress(fraction)`` is told the share of BITs flown (the
+    bulk of the time)."""
     rng = np.random.default_rng(TRAINING_SEED)
     train = [(k, float(h)) for k in kinds for h in rng.uniform(*wear_estimators.TRAINING_RANGE,
                                                                spec.training_bits)]
@@ -118,7 +121,8 @@ def build_prognostic_model(d: Dictionary, params: ActuatorParams, spec: BuildSpe
     seeds = [TRAINING_SEED + i for i in range(len(train))] + \
         [CALIBRATION_SEED + i for i in range(len(cal))]
     runs = BitRuns.of([fault_at(params, k, h) for k, h in todo], q, seeds, amb, bus)
-    m = stream_matrices(params, runs, d.window_starts, d.window_samples, workers=workers)
+    m = stream_matrices(params, runs, d.window_starts, d.window_samples, progress=progress,
+                        workers=workers)
     y, c = wear_estimators.observations(d, m, q)
     n = len(train)
     estimators = wear_estimators.fit_kinds(kinds, y[:n], c[:n], np.array([h for _, h in train]),
