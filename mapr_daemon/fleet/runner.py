@@ -3,7 +3,8 @@
 ::
 
     recordings (archive.discover) -> skip those the catalog holds as done
-      -> client.submit(process_recording, Job) per recording  (workers: read + reasoner)
+      -> client.submit(process_recording, Job) per recording  (workers: read + reasoner,
+         of the 1553 channels asked for, or all)
       -> as each finishes: buffered per tail until every earlier flight of that tail is
          stored, then trended on the client (:mod:`.trend`: the tail's flight declared, each
          BIT's SoH and RUL from the tail's history) and stored
@@ -24,7 +25,7 @@ from __future__ import annotations
 
 import dataclasses
 import logging
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Collection, Sequence
 from typing import TYPE_CHECKING
 
 from mapr_daemon.catalog import BitOutcome
@@ -33,7 +34,7 @@ from mapr_daemon.catalog.recordings import DONE, FAILED, RecordingRow, store_rec
 from mapr_daemon.catalog.writer import CatalogWriter
 from mapr_daemon.fleet.archive import Recording
 from mapr_daemon.fleet.config import FleetConfig
-from mapr_daemon.fleet.task import Job, TaskResult, process_recording
+from mapr_daemon.fleet.task import Job, TaskResult, process_recording, run_digest
 from mapr_daemon.fleet.trend import FleetTrend
 
 if TYPE_CHECKING:
@@ -109,12 +110,15 @@ class FlightOrder:
 
 
 class FleetRun:
-    """Submits the work and stores the results (see the module docstring)."""
+    """Submits the work and stores the results (see the module docstring). ``channels``: the
+    1553 channel IDs every task reads (``mapr fleet --c10-channel``; None: all of them)."""
 
     def __init__(self, client: Client, catalog: CatalogWriter, configs: FleetConfig,
-                 on_stored: Callable[[TaskResult], None] | None = None) -> None:
+                 on_stored: Callable[[TaskResult], None] | None = None, *,
+                 channels: Collection[int] | None = None) -> None:
         self.client, self.catalog, self.configs = client, catalog, configs
         self.on_stored = on_stored
+        self.channels = frozenset(channels) if channels else None
         self.summary = RunSummary()
         self.trend = FleetTrend(catalog, configs)
 
@@ -126,7 +130,7 @@ class FleetRun:
             row = known.get(recording.digest)
             if row is not None and row.status == DONE:
                 self.summary.skipped += 1
-                digest = self.configs.for_tail(recording.tail).digest()
+                digest = run_digest(self.configs.for_tail(recording.tail), self.channels)
                 self.summary.stale += row.config_digest != digest
             else:
                 out.append(recording)
@@ -142,9 +146,10 @@ class FleetRun:
         futures = []
         for recording in todo:
             config = self.configs.for_tail(recording.tail)
-            futures.append(self.client.submit(process_recording, Job(recording, config),
-                                              key=task_key(recording, config.digest()),
-                                              retries=1))
+            job = Job(recording, config, self.channels)
+            futures.append(self.client.submit(
+                process_recording, job,
+                key=task_key(recording, run_digest(config, self.channels)), retries=1))
         for future in as_completed(futures):  # type: ignore[no-untyped-call]
             for result in order.ready(future.result()):
                 self._store(result)
