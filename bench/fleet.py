@@ -39,8 +39,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from mapr_daemon.catalog import CatalogWriter
 from mapr_daemon.fleet.archive import discover
+from mapr_daemon.fleet.cluster import close_client, local_client
 from mapr_daemon.fleet.config import FleetConfig
-from mapr_daemon.fleet.runner import FleetRun, close_client, local_client
+from mapr_daemon.fleet.runner import FleetRun
 from mapr_daemon.pipeline.settings import AssetConfig, ReasonerConfig
 from mapr_daemon.service.config import Config
 from mapr_daemon.testbed.fleet import MANIFEST, FleetSpec, generate
@@ -95,7 +96,7 @@ def run(root: Path, dictionary: Path, prognosis: Path, workers: int, catalog: Pa
     client = local_client(workers, dashboard=False)
     try:
         with CatalogWriter(catalog, durability="crash") as writer:
-            writer.open_session(backend="fleet", config_hash=configs.default.digest())
+            writer.open_session(backend="fleet", config_hash=configs.digest())
             started = time.monotonic()
             summary = FleetRun(client, writer, configs).run(recordings)
             wall = time.monotonic() - started

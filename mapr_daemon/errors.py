@@ -7,7 +7,8 @@
     │   └── IcdError      an interface-control-document (message table) error
     ├── CatalogError      the fault catalog file is missing, corrupt, newer than us, or unusable
     ├── EpisodeError      a fault episode cannot be acknowledged (unknown id, already done)
-    └── RecordError       one record (a run of a file, one BIT) cannot be diagnosed
+    ├── RecordError       one record (a run of a file, one BIT) cannot be diagnosed
+    └── ClusterError      the Dask cluster of a fleet run cannot be reached, or was lost
 """
 
 from __future__ import annotations
@@ -62,3 +63,14 @@ class RecordError(MaprError):
         self.field = field
         self.detail = message
         super().__init__(f"{field}: {message}" if field else message)
+
+
+class ClusterError(MaprError):
+    """The Dask scheduler of a fleet run (``mapr fleet --scheduler``) cannot be reached, or
+    its connection was lost mid-run. The recordings stored before stay stored (a later run
+    resumes); ``str()`` is one line naming the address."""
+
+    def __init__(self, message: str, *, address: str | None = None) -> None:
+        self.address = address
+        self.detail = message
+        super().__init__(f"Dask scheduler {address}: {message}" if address else message)

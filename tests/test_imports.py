@@ -74,13 +74,15 @@ def test_nothing_outside_the_testbed_imports_it() -> None:
 
 
 def test_the_simulators_front_ends_live_in_the_testbed() -> None:
-    """``mapr demo`` and ``mapr simulate`` are registered by module path, from the testbed."""
+    """``mapr demo``, ``mapr simulate`` and ``mapr fleet-archive`` are registered by module
+    path, from the testbed."""
     from mapr_daemon.cli.main import MODULES, build_parser
 
     front_ends = sorted(m for m in MODULES.values() if m.startswith(SIMULATOR + "."))
-    assert front_ends == ["mapr_daemon.testbed.cli_demo", "mapr_daemon.testbed.cli_simulate"]
+    assert front_ends == ["mapr_daemon.testbed.cli_demo", "mapr_daemon.testbed.cli_fleet_archive",
+                          "mapr_daemon.testbed.cli_simulate"]
     help_text = build_parser().format_help()
-    assert "demo" in help_text and "simulate" in help_text
+    assert "demo" in help_text and "simulate" in help_text and "fleet-archive" in help_text
 
 
 def test_the_check_sees_every_form_of_import() -> None:

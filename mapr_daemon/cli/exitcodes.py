@@ -17,9 +17,11 @@ CONFIG = 78
 UNAVAILABLE = 69
 """A backend or device that cannot be opened, or that failed (sysexits EX_UNAVAILABLE): no
 libusb, no card, no serial port. ``mapr run`` exits with it when the configured backend can
-never open on this machine; it is in RestartPreventExitStatus= with CONFIG."""
+never open on this machine; it is in RestartPreventExitStatus= with CONFIG. ``mapr fleet``
+exits with it when its Dask scheduler cannot be reached or is lost mid-run."""
 NOINPUT = 66
 """The fault catalog is missing, unreadable, corrupt or written by a newer MAPR (sysexits
 EX_NOINPUT); ``mapr catalog`` prints one line naming the file."""
 INTERRUPTED = 130
-"""Stopped by Ctrl-C."""
+"""Stopped by Ctrl-C (``mapr record`` by SIGTERM too); the daemon, ``mapr run``, exits OK on
+both, its normal stop."""

@@ -41,7 +41,7 @@ from drivers.errors import (
 )
 from mapr_daemon import __version__
 from mapr_daemon.cli import exitcodes, notes
-from mapr_daemon.errors import ConfigError, RecordError
+from mapr_daemon.errors import ClusterError, ConfigError, RecordError
 
 SUBCOMMANDS: dict[str, str] = {
     "demo": "fly the simulated aircraft and monitor its bus",
@@ -51,6 +51,7 @@ SUBCOMMANDS: dict[str, str] = {
     "record": "record the bus to a Chapter 10 file",
     "replay": "run a Chapter 10 recording through the reasoner into the catalog",
     "fleet": "run a fleet's Chapter 10 archive through the reasoner on Dask, into one catalog",
+    "fleet-archive": "write a synthetic fleet archive of Chapter 10 recordings",
     "encode": "write a bit-level capture from a JSON-lines word list",
     "icd": "check or draw an RT/SA message table (ICD YAML)",
     "simulate": "simulate fault-seeded EMA runs into an .npz",
@@ -70,6 +71,7 @@ in help order."""
 MODULES: dict[str, str] = {
     "demo": "mapr_daemon.testbed.cli_demo",
     "simulate": "mapr_daemon.testbed.cli_simulate",
+    "fleet-archive": "mapr_daemon.testbed.cli_fleet_archive",
 }
 """Subcommands whose module is not ``mapr_daemon.cli.commands.<name>``: the simulator's front ends
 live in :mod:`mapr_daemon.testbed` (nothing outside it imports the simulator)."""
@@ -150,8 +152,9 @@ def exit_code_for(error: MaprError) -> int:
         return exitcodes.DATAERR
     if isinstance(error, (BackendOptionError, CaptureFormatError, EncodeError)):
         return exitcodes.USAGE
-    if isinstance(error, (BackendUnavailable, BackendError)):
-        # no library, no card, no port, or the card failed: the device is unavailable
+    if isinstance(error, (BackendUnavailable, BackendError, ClusterError)):
+        # no library, no card, no port, the card failed, or a fleet run's Dask scheduler
+        # cannot be reached or was lost: what the command needs is unavailable
         return exitcodes.UNAVAILABLE
     return exitcodes.FAILURE
 

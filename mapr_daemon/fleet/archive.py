@@ -1,17 +1,24 @@
 """Finding a fleet archive's recordings and telling each one's tail and flight.
 
 An archive is a folder tree or a list of files. Tail number and flight come from the path by
-a regular expression with named groups ``tail`` and ``flight`` (searched in the path relative
-to the archive root, with ``/`` separators); the default reads ``TAIL/flight-0007.ch10``, and
-more generally a file in a folder named after the tail whose name ends in the flight number.
+a regular expression with named groups ``tail`` and ``flight``; the default reads
+``TAIL/flight-0007.ch10``, and more generally a file in a folder named after the tail whose
+name ends in the flight number. A file found under a folder given is matched against its path
+below that folder alone (``/`` separators), so a recording at an archive's root has no tail
+and is reported: it is never named after the archive's own folder. A file given by name is
+matched against its absolute path (the folder it is in names its tail).
 With ``tail_tmats`` (a TMATS attribute code such as ``G\\TA``, the test item), a recorder that
 writes the tail number into its setup record is believed first: the attribute's value, when
-the file's TMATS holds it, is the tail.
+the file's TMATS holds it, is the tail. A pattern whose ``tail`` group is optional (the
+daemon's recordings, ``session-NNNNNN-...ch10``, sit in one folder) reads the tail from the
+TMATS alone when the path has none; a file with neither is reported.
 A ``fleet.json`` manifest at an archive root (:mod:`mapr_daemon.testbed.fleet` writes one)
 may declare each recording's flight hours; without it the hours are the recorded time.
 
 A recording is identified by the SHA-256 of its bytes, so a renamed or copied file is not
-processed twice. A file whose tail and flight cannot be told is reported, not fatal.
+processed twice. A file whose tail and flight cannot be told is reported, not fatal. Every
+path a recording carries is absolute: the workers of a cluster do not share the client's
+working directory.
 """
 
 from __future__ import annotations
@@ -20,6 +27,7 @@ import contextlib
 import dataclasses
 import hashlib
 import json
+import os
 import re
 from collections.abc import Iterable, Sequence
 from pathlib import Path
@@ -101,14 +109,14 @@ def discover(sources: Sequence[str | Path], pattern: str = DEFAULT_PATTERN,
     bad: list[Unusable] = []
     seen: set[str] = set()
     for source in sources:
-        root = Path(source)
+        root = Path(os.path.abspath(source))
         if root.is_dir():
             files: Iterable[Path] = sorted(p for p in root.rglob("*")
                                            if p.suffix.lower() in SUFFIXES and p.is_file())
             base = root
         else:
-            files, base = [root], root.parent
-        hours = _declared_hours(base)
+            files, base = [root], None
+        hours = _declared_hours(root.parent if base is None else base)
         for file in files:
             recording = _recording(file, base, compiled, hours, bad, tail_tmats)
             if recording is not None and recording.digest not in seen:
@@ -118,15 +126,19 @@ def discover(sources: Sequence[str | Path], pattern: str = DEFAULT_PATTERN,
     return found, bad
 
 
-def _recording(file: Path, base: Path, pattern: re.Pattern[str], hours: dict[str, float],
-               bad: list[Unusable], tail_tmats: str | None) -> Recording | None:
-    try:
-        relative = file.resolve().relative_to(base.resolve()).as_posix()
-    except ValueError:
-        relative = file.as_posix()
-    match = pattern.search(relative) or pattern.search(file.resolve().as_posix())
+def _recording(file: Path, base: Path | None, pattern: re.Pattern[str],
+               hours: dict[str, float], bad: list[Unusable],
+               tail_tmats: str | None) -> Recording | None:
+    """``file`` as a recording (``base``: the archive folder it was found under, None for a
+    file given by name), or None with the reason added to ``bad``."""
+    if base is None:
+        named, relative = file.as_posix(), file.name
+    else:
+        named = relative = file.relative_to(base).as_posix()
+    match = pattern.search(named)
     if match is None:
-        bad.append(Unusable(str(file), "tail and flight not in the path (see --pattern)"))
+        where = "its path" if base is None else f"its path below the archive {base}"
+        bad.append(Unusable(str(file), f"tail and flight not in {where} (see --pattern)"))
         return None
     try:
         digest = digest_of(file)
@@ -137,12 +149,16 @@ def _recording(file: Path, base: Path, pattern: re.Pattern[str], hours: dict[str
     if tail_tmats is not None:
         with contextlib.suppress(MaprError):   # not Chapter 10: the task will say so
             tail = tmats_of(file).get(tail_tmats) or tail
+    if not tail:   # an optional tail group that did not take part, and no TMATS tail
+        bad.append(Unusable(str(file), f"no tail in its path nor in its TMATS "
+                                       f"{tail_tmats or '(see --tail-tmats)'}"))
+        return None
     return Recording(str(file), tail, int(match["flight"]), digest, hours.get(relative))
 
 
 def _declared_hours(base: Path) -> dict[str, float]:
-    """Flight hours by relative path from ``base/fleet.json`` (empty when absent or
-    unreadable: the recorded time counts then)."""
+    """Flight hours by path relative to ``base`` from ``base/fleet.json`` (empty when absent
+    or unreadable: the recorded time counts then)."""
     try:
         manifest = json.loads((base / MANIFEST).read_text(encoding="utf-8"))
         return {str(r["path"]): float(r["flight_hours"]) for r in manifest["recordings"]

@@ -11,7 +11,10 @@ not flooded and still shows the run moving.
 from __future__ import annotations
 
 import time
+from collections.abc import Sequence
 from typing import TextIO
+
+from mapr_daemon.fleet.archive import Recording
 
 
 class FleetProgress:
@@ -29,10 +32,19 @@ class FleetProgress:
         self._tenth = 0
         self._printed = -1
 
+    def start(self, todo: Sequence[Recording]) -> None:
+        """The run's recordings to process are known: the totals (flight hours as declared;
+        a recording without declared hours adds its recorded time as it is stored)."""
+        self.total = len(todo)
+        self.hours_total = sum(r.flight_hours or 0.0 for r in todo)
+        self.started = time.monotonic()
+
     def add(self, hours: float, ok: bool) -> None:
+        """One recording stored: its flight hours count only when it succeeded."""
         self.done += 1
         self.failed += not ok
-        self.hours += hours
+        if ok:
+            self.hours += hours
         self.show()
 
     def rate(self) -> float:

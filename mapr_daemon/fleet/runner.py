@@ -18,23 +18,24 @@ write nothing, and the Dask scheduler runs a lost task again on another worker. 
 key is derived from the recording's digest and its configuration, so the scheduler never
 runs the same work twice at once.
 
-The cluster is the caller's (:func:`local_client` or ``distributed.Client(address)``).
+The cluster is the caller's (:mod:`.cluster`: a local one, or a client of a scheduler).
 """
 
 from __future__ import annotations
 
 import dataclasses
-import logging
 from collections.abc import Callable, Collection, Sequence
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from mapr_daemon.catalog import BitOutcome
 from mapr_daemon.catalog.model import Flight
 from mapr_daemon.catalog.recordings import DONE, FAILED, RecordingRow, store_recording, stored
 from mapr_daemon.catalog.writer import CatalogWriter
+from mapr_daemon.errors import ClusterError
 from mapr_daemon.fleet.archive import Recording
+from mapr_daemon.fleet.cluster import reason
 from mapr_daemon.fleet.config import FleetConfig
-from mapr_daemon.fleet.task import Job, TaskResult, process_recording, run_digest
+from mapr_daemon.fleet.task import Job, TaskResult, process_recording, with_channels
 from mapr_daemon.fleet.trend import FleetTrend
 
 if TYPE_CHECKING:
@@ -64,24 +65,6 @@ class RunSummary:
     damaged: list[str] = dataclasses.field(default_factory=list)
     """Each damaged packet skipped, as ``path: offset N: what``, in the order stored."""
     task_s: list[float] = dataclasses.field(default_factory=list)
-
-
-def local_client(workers: int | None, *, dashboard: bool = True) -> Client:
-    """A local Dask cluster of ``workers`` single-threaded processes (None: one per core)."""
-    from distributed import Client, LocalCluster
-
-    cluster = LocalCluster(  # type: ignore[no-untyped-call]
-        n_workers=workers, threads_per_worker=1, processes=True,
-        dashboard_address=":0" if dashboard else None, silence_logs=logging.ERROR)
-    return Client(cluster)  # type: ignore[no-untyped-call]
-
-
-def close_client(client: Client) -> None:
-    """Disconnect; a local cluster started by :func:`local_client` is shut down too."""
-    cluster = getattr(client, "cluster", None)
-    client.close()  # type: ignore[no-untyped-call]
-    if cluster is not None:
-        cluster.close()
 
 
 def task_key(recording: Recording, config_digest: str) -> str:
@@ -114,10 +97,13 @@ class FleetRun:
     1553 channel IDs every task reads (``mapr fleet --c10-channel``; None: all of them)."""
 
     def __init__(self, client: Client, catalog: CatalogWriter, configs: FleetConfig,
-                 on_stored: Callable[[TaskResult], None] | None = None, *,
+                 on_stored: Callable[[TaskResult], None] | None = None,
+                 on_start: Callable[[Sequence[Recording]], None] | None = None, *,
                  channels: Collection[int] | None = None) -> None:
+        """``on_start`` is called with the recordings to process (those the catalog does not
+        hold yet) before any is submitted, ``on_stored`` with each result once stored."""
         self.client, self.catalog, self.configs = client, catalog, configs
-        self.on_stored = on_stored
+        self.on_stored, self.on_start = on_stored, on_start
         self.channels = frozenset(channels) if channels else None
         self.summary = RunSummary()
         self.trend = FleetTrend(catalog, configs)
@@ -130,30 +116,58 @@ class FleetRun:
             row = known.get(recording.digest)
             if row is not None and row.status == DONE:
                 self.summary.skipped += 1
-                digest = run_digest(self.configs.for_tail(recording.tail), self.channels)
-                self.summary.stale += row.config_digest != digest
+                self.summary.stale += row.config_digest != self.digest(recording.tail)
             else:
                 out.append(recording)
         return out
 
+    def digest(self, tail: str) -> str:
+        """What ``tail``'s recordings are processed with: its config's content digest, the
+        channel pick folded in (:func:`~mapr_daemon.fleet.task.with_channels`)."""
+        return with_channels(self.configs.digest(tail), self.channels)
+
     def run(self, recordings: Sequence[Recording]) -> RunSummary:
-        """Process every recording not yet stored; returns the summary."""
+        """Process every recording not yet stored; returns the summary.
+
+        Raises :class:`~mapr_daemon.errors.ClusterError` when the connection to the
+        scheduler is lost (what was stored stays stored). A task that kept killing its
+        workers (Dask's ``KilledWorker``) is stored as a failed recording, naming that."""
         from distributed import as_completed
 
         self.summary.total = len(recordings)
         todo = self.pending(recordings)
+        if self.on_start is not None:
+            self.on_start(todo)
         order = FlightOrder(todo)
-        futures = []
+        futures = {}
         for recording in todo:
-            config = self.configs.for_tail(recording.tail)
-            job = Job(recording, config, self.channels)
-            futures.append(self.client.submit(
-                process_recording, job,
-                key=task_key(recording, run_digest(config, self.channels)), retries=1))
-        for future in as_completed(futures):  # type: ignore[no-untyped-call]
-            for result in order.ready(future.result()):
+            config, digest = self.configs.for_tail(recording.tail), self.digest(recording.tail)
+            future = self.client.submit(process_recording,
+                                        Job(recording, config, digest, self.channels),
+                                        key=task_key(recording, digest), retries=1)
+            futures[future.key] = (future, recording, digest)
+        for future in as_completed([f for f, _, _ in futures.values()]):  # type: ignore[no-untyped-call]
+            _, recording, digest = futures[future.key]
+            for result in order.ready(self._result(future, recording, digest)):
                 self._store(result)
         return self.summary
+
+    def _result(self, future: Any, recording: Recording, digest: str) -> TaskResult:
+        """The task's result; a lost scheduler raised as ClusterError, any other failure of
+        the task itself (it killed its workers) as a failed result."""
+        from concurrent.futures import CancelledError
+
+        try:
+            result: TaskResult = future.result()
+        except (CancelledError, OSError) as error:   # CommClosedError is an OSError
+            address = getattr(self.client, "scheduler", None)
+            raise ClusterError(f"lost the connection mid-run ({reason(error)}); "
+                               f"{self.summary.stored} recordings stored, run again to "
+                               f"resume", address=getattr(address, "address", None)) from None
+        except Exception as error:   # KilledWorker, or the task could not be unpickled
+            return TaskResult(recording, digest, False, f"{type(error).__name__}: "
+                                                        f"{reason(error)}")
+        return result
 
     def _store(self, result: TaskResult) -> None:
         recording, summary = result.recording, self.summary

@@ -47,24 +47,27 @@ merged by the reader (:meth:`Chapter10Reader.batches`) into one batch of columns
 
 @dataclasses.dataclass(frozen=True)
 class Job:
-    """What a task is given: the recording, its tail's configuration and the 1553 channels to
-    read (``mapr fleet --c10-channel``; None: every channel)."""
+    """What a task is given: the recording, its tail's configuration (every path absolute),
+    the digest it is known by (:meth:`FleetConfig.digest`, with the channel pick folded in by
+    :func:`with_channels`; computed once on the client and stored with the result) and the
+    1553 channels to read (``mapr fleet --c10-channel``; None: every channel)."""
 
     recording: Recording
     config: Config
+    config_digest: str
     channels: frozenset[int] | None = None
 
 
-def run_digest(config: Config, channels: Collection[int] | None) -> str:
-    """What a recording was processed with: the config's digest alone when every channel is
-    read (so catalogs stored before channels could be picked stay current), else a digest of
-    the config's and the channels picked, since the same file read on other channels is other
-    work (its own task key, and a stored row with another pick counts as stale)."""
-    digest = config.digest()
+def with_channels(config_digest: str, channels: Collection[int] | None) -> str:
+    """What a recording was processed with: the config's content digest alone when every
+    channel is read (so it is :meth:`FleetConfig.digest` itself, and catalogs stored before
+    channels could be picked stay current), else a digest of it and the channels picked,
+    since the same file read on other channels is other work (its own task key, and a stored
+    row with another pick counts as stale)."""
     if not channels:
-        return digest
+        return config_digest
     picked = ",".join(map(str, sorted(set(channels))))
-    return hashlib.sha256(f"{digest} channels {picked}".encode()).hexdigest()[:16]
+    return hashlib.sha256(f"{config_digest} channels {picked}".encode()).hexdigest()[:16]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -130,8 +133,7 @@ def _fresh(config: Config) -> Pipeline:
 def process_recording(job: Job) -> TaskResult:
     """Run one recording through the pipeline (see the module docstring)."""
     started = time.monotonic()
-    recording, config = job.recording, job.config
-    digest = run_digest(config, job.channels)
+    recording, config, digest = job.recording, job.config, job.config_digest
     try:
         result = _run(recording, config, digest, job.channels)
     except (MaprError, OSError, ValueError) as error:

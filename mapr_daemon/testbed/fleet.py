@@ -1,12 +1,16 @@
 """A synthetic fleet archive: several tails, successive flights, each a Chapter 10 file.
 
-For tests and benches of fleet analysis (``mapr fleet``). Every flight is the testbed's
-aircraft (:mod:`.aircraft`) flown over the loopback bus as fast as it computes (no realtime
-pacing, word level), recorded by the project's own Chapter 10 writer. A flight's file is an
-excerpt: ``flight_s`` seconds of bus traffic, with the flight control computer asking for one
-built-in test at its start on every ``bit_every``-th flight (the BIT is what the reasoner
-decides on; the other flights carry traffic only). Each file stands for a flight of
-``flight_hours`` declared in the manifest.
+For tests and benches of fleet analysis (``mapr fleet``; ``mapr fleet-archive`` writes one).
+Every flight is the testbed's aircraft (:mod:`.aircraft`) on the loopback bus, recorded by the
+project's own Chapter 10 writer. A flight's file is an excerpt: ``flight_s`` seconds of bus
+traffic, with the flight control computer asking for one built-in test at its start on every
+``bit_every``-th flight (the BIT is what the reasoner decides on; the other flights carry
+traffic only). Each file stands for a flight of ``flight_hours`` declared in the manifest.
+
+The bus traffic is flown once per archive and kind of flight (with or without a BIT), word
+level and unpaced (:class:`~.flight_template.FlightTemplate`); each flight is that traffic with
+its EMA's answers recomputed for its actuator's health and seed, the plant run once over the
+flight: the same file, byte for byte, as flying it over the bus, in a small part of the time.
 
 Some tails' actuators age along :func:`mapr_daemon.ema.degradation.trajectory` (a kind drawn
 per tail, its life drawn around ``life_flights``): flight ``n`` of such a tail is flown with the
@@ -51,6 +55,7 @@ from mapr_daemon.icd import load_icd
 from mapr_daemon.pipeline.settings import DEFAULT_ICD
 from mapr_daemon.testbed.aircraft import Aircraft
 from mapr_daemon.testbed.backend import RATE_HZ
+from mapr_daemon.testbed.flight_template import FlightTemplate
 from mapr_daemon.testbed.profiles import steady_profile
 
 MANIFEST = "fleet.json"
@@ -93,7 +98,8 @@ def generate(root: str | Path, spec: FleetSpec,
     """Write the archive under ``root`` (created) and return its manifest (also written).
 
     ``map_tails`` maps :func:`generate_tail` over the tails (``Executor.map`` of a process
-    pool writes tails in parallel; the archive is the same either way)."""
+    pool writes tails in parallel; the archive is the same either way). The bus traffic is
+    flown first, once for each kind of flight the archive holds (:func:`flight_templates`)."""
     out = Path(root)
     out.mkdir(parents=True, exist_ok=True)
     rng = np.random.default_rng(spec.seed)
@@ -102,8 +108,9 @@ def generate(root: str | Path, spec: FleetSpec,
                     .tolist())
     kinds = [spec.kinds[int(rng.integers(len(spec.kinds)))] if i in degrading else None
              for i in range(spec.tails)]
+    templates = flight_templates(spec)
     tails = list(map_tails(generate_tail, [str(out)] * spec.tails, [spec] * spec.tails,
-                           range(spec.tails), kinds))
+                           range(spec.tails), kinds, [templates] * spec.tails))
     recordings = [r for tail in tails for r in tail.recordings]
     truth = {tail.tail: tail.truth for tail in tails}
     manifest = {"seed": spec.seed, "tails": spec.tails, "flights": spec.flights,
@@ -122,12 +129,24 @@ class TailArchive:
     truth: dict[str, Any]
 
 
-def generate_tail(root: str, spec: FleetSpec, index: int, kind: str | None) -> TailArchive:
-    """Every flight of tail ``index`` (aging along ``kind``, None: healthy) under ``root``."""
-    out = Path(root)
+def flight_templates(spec: FleetSpec) -> dict[bool, FlightTemplate]:
+    """The archive's flights, flown once over the bus: with a BIT at the start (True) and,
+    when ``bit_every`` leaves flights without one, without (False)."""
     icd = load_icd(DEFAULT_ICD)
     params = with_sample_rate(load_actuator(default_actuator_path()), RATE_HZ)
     profile = steady_profile(RATE_HZ, spec.condition, duration_s=max(spec.flight_s, 1.0))
+    kinds = {(flight - 1) % spec.bit_every == 0 for flight in range(1, spec.flights + 1)}
+    return {bit: FlightTemplate(icd, profile, params, spec.flight_s, bit=bit)
+            for bit in sorted(kinds, reverse=True)}
+
+
+def generate_tail(root: str, spec: FleetSpec, index: int, kind: str | None,
+                  templates: dict[bool, FlightTemplate] | None = None) -> TailArchive:
+    """Every flight of tail ``index`` (aging along ``kind``, None: healthy) under ``root``,
+    from the archive's ``templates`` (None: flown here, :func:`flight_templates`)."""
+    out = Path(root)
+    templates = flight_templates(spec) if templates is None else templates
+    params = with_sample_rate(load_actuator(default_actuator_path()), RATE_HZ)
     life = spec.life_flights or 1.5 * spec.flights
     tail = spec.tail_name(index)
     path: Trajectory | None = None
@@ -141,10 +160,10 @@ def generate_tail(root: str, spec: FleetSpec, index: int, kind: str | None) -> T
         bit = (flight - 1) % spec.bit_every == 0
         name = recording_path(tail, flight)
         start = FIRST_DAY + timedelta(days=flight - 1, minutes=index)
-        aircraft = Aircraft(icd, profile, params, faults,
-                            seed=spec.seed * 100_000 + index * 1000 + flight,
-                            bit_requests_s=(0.0,) if bit else ())
-        _fly(aircraft, out / name, spec.flight_s, start, seed=flight, tail=tail)
+        records = templates[bit].flight(faults, seed=spec.seed * 100_000 + index * 1000
+                                        + flight)
+        with Chapter10Writer(out / name, start_time=start, tail=tail) as writer:
+            writer.write(records)
         recordings.append({"path": name, "tail": tail, "flight": flight,
                            "flight_hours": spec.flight_hours, "bit": bit,
                            "start": start.isoformat()})

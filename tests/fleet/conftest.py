@@ -35,7 +35,7 @@ def fleet_archive(fleet_source: Path, tmp_path: Path) -> Path:
 
 @pytest.fixture(scope="session")
 def dask_client() -> Iterator[Any]:
-    from mapr_daemon.fleet.runner import close_client, local_client
+    from mapr_daemon.fleet.cluster import close_client, local_client
 
     client = local_client(2, dashboard=False)
     yield client

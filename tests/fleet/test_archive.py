@@ -85,3 +85,40 @@ def test_tail_from_tmats_when_the_recorder_writes_it(tmp_path: Path) -> None:
                      tmats_packet(0, "G\\PN:MAPR;\r\n", TMATS_VERSION))
     found, bad = discover([with_tail, without], tail_tmats="G\\TA")
     assert [(r.tail, r.flight) for r in found] == [("N900XY", 4), ("box7", 5)] and not bad
+
+
+def test_a_recording_at_the_archive_root_is_reported_not_named_after_the_folder(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    archive = tmp_path / "N999"   # a folder that looks like a tail
+    _touch(archive / "flight-0003.ch10", b"at the root")
+    _touch(archive / "N7" / "flight-0001.ch10", b"one")
+    monkeypatch.chdir(tmp_path)
+    found, bad = discover(["N999"])   # relative: every path comes back absolute
+    assert [(r.tail, r.flight, r.path) for r in found] == [
+        ("N7", 1, str(archive / "N7" / "flight-0001.ch10"))]
+    assert [b.path for b in bad] == [str(archive / "flight-0003.ch10")]
+    assert "below the archive" in bad[0].reason
+
+
+def test_a_file_given_by_name_is_named_by_its_folder_and_made_absolute(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    _touch(tmp_path / "N7" / "flight-0004.ch10", b"four")
+    monkeypatch.chdir(tmp_path)
+    (recording,), bad = discover(["N7/flight-0004.ch10"])
+    assert (recording.tail, recording.flight) == ("N7", 4) and bad == []
+    assert recording.path == str(tmp_path / "N7" / "flight-0004.ch10")
+
+
+def test_an_optional_tail_group_takes_the_tail_from_tmats_or_reports_the_file(
+        tmp_path: Path) -> None:
+    from drivers.chapter10.writer import Chapter10Writer
+
+    with Chapter10Writer(tmp_path / "session-000002-x.ch10", tail="N42") as writer:
+        writer.write([])
+    with Chapter10Writer(tmp_path / "session-000003-x.ch10") as writer:   # no tail
+        writer.write([])
+    pattern = r"(?:^|/)(?:(?P<tail>[^/]+)/)?session-(?P<flight>\d+)-[^/]*\.ch10$"
+    found, bad = discover([tmp_path], pattern, tail_tmats="G\\TA")
+    assert [(r.tail, r.flight) for r in found] == [("N42", 2)]
+    assert [Path(b.path).name for b in bad] == ["session-000003-x.ch10"]
+    assert "no tail in its path nor in its TMATS G\\TA" in bad[0].reason

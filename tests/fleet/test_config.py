@@ -68,3 +68,36 @@ def test_progress_in_a_log_is_a_line_per_tenth() -> None:
     bar.show(final=True)
     assert tty.getvalue().startswith("\r[##########----------]  50%  1/2 recordings")
     assert "1 failed" in tty.getvalue() and tty.getvalue().endswith("\n")
+    assert "0.0/3.0 flight h" in tty.getvalue()   # a failed recording's hours do not count
+
+
+def test_the_digest_is_of_the_files_content_not_their_spelling(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The same dictionary named relative, absolute or through ``..`` is one configuration;
+    a dictionary rebuilt in place is another; every path a worker opens is absolute."""
+    import dataclasses
+
+    from mapr_daemon.fleet.config import FleetConfig
+    from mapr_daemon.pipeline.settings import ReasonerConfig
+    from mapr_daemon.service.config import Config
+
+    (tmp_path / "sub").mkdir()
+    (tmp_path / "d.npz").write_bytes(b"dictionary one")
+    monkeypatch.chdir(tmp_path / "sub")
+
+    def fleet(dictionary: str, icd: str | None = None) -> FleetConfig:
+        config = Config(reasoner=ReasonerConfig(dictionary=dictionary))
+        if icd is not None:
+            config = dataclasses.replace(config, icd=icd)
+        return FleetConfig(config).absolute()
+
+    spellings = [fleet("../d.npz"), fleet(str(tmp_path / "d.npz")),
+                 fleet(str(tmp_path / "sub" / ".." / "d.npz"))]
+    assert len({f.digest() for f in spellings}) == 1
+    assert all(f.default.reasoner.dictionary == str(tmp_path / "d.npz") for f in spellings)
+    assert all(Path(a.actuator).is_absolute() for f in spellings for a in f.default.assets)
+    # the shipped ICD copied elsewhere and named relative: the same content, the same digest
+    (tmp_path / "icd.yaml").write_bytes(Path(Config().icd).read_bytes())
+    assert fleet("../d.npz", "../icd.yaml").digest() == spellings[0].digest()
+    (tmp_path / "d.npz").write_bytes(b"dictionary two")
+    assert fleet("../d.npz").digest() != spellings[0].digest()

@@ -18,8 +18,8 @@ from drivers.mil1553.record import MonitorRecord, TransferFormat
 from mapr_daemon.catalog import CatalogWriter
 from mapr_daemon.cli.main import build_parser
 from mapr_daemon.fleet.archive import discover
-from mapr_daemon.fleet.runner import FleetRun
-from mapr_daemon.fleet.task import Job, TaskResult, process_recording
+from mapr_daemon.fleet.runner import FleetRun, task_key
+from mapr_daemon.fleet.task import Job, TaskResult, process_recording, with_channels
 from tests.fleet.test_fleet_run import configs
 
 EXTRA = 7
@@ -53,6 +53,22 @@ def test_fleet_takes_c10_channel_repeated() -> None:
     assert args.c10_channels == [3, 4]
 
 
+def test_the_channel_pick_is_part_of_the_digest_and_the_task_key(
+        fleet_archive: Path, fleet_dictionary: Path, tmp_path: Path) -> None:
+    fleet = configs(fleet_dictionary)
+    recording = discover([fleet_archive])[0][0]
+    with CatalogWriter(tmp_path / "c.db") as catalog:
+        every = FleetRun(None, catalog, fleet)  # type: ignore[arg-type]
+        picked = FleetRun(None, catalog, fleet, channels=[3, 1, 3])  # type: ignore[arg-type]
+        other = FleetRun(None, catalog, fleet, channels=[1])  # type: ignore[arg-type]
+    # every channel read: the config's content digest itself (catalogs stored before stay current)
+    assert every.digest("N101") == fleet.digest("N101") == with_channels(fleet.digest(), None)
+    assert picked.digest("N101") == with_channels(fleet.digest(), {1, 3})   # order, repeats aside
+    assert len({every.digest("N101"), picked.digest("N101"), other.digest("N101")}) == 3
+    assert len({task_key(recording, r.digest(recording.tail))
+                for r in (every, picked, other)}) == 3
+
+
 def test_each_worker_reads_only_the_channels_asked_for(
         dask_client: Any, fleet_archive: Path, fleet_dictionary: Path, tmp_path: Path) -> None:
     recordings, _ = discover([fleet_archive])
@@ -69,6 +85,8 @@ def test_each_worker_reads_only_the_channels_asked_for(
                            channels=[1]).run(recordings)
     assert summary.stored == 4 and not summary.failed
     assert {r.recording.path: r.messages for r in results} == own
+    assert {r.config_digest for r in results} == {with_channels(
+        configs(fleet_dictionary).digest(), [1])}
     assert summary.bits == 4   # the actuator's bus, read whole: every flight's BIT
 
     with CatalogWriter(tmp_path / "other.db") as writer:
@@ -83,7 +101,8 @@ def test_each_worker_reads_only_the_channels_asked_for(
 def test_a_recording_without_an_asked_channel_says_what_it_holds(
         fleet_archive: Path, fleet_dictionary: Path) -> None:
     recording = discover([fleet_archive])[0][0]
-    result = process_recording(Job(recording, configs(fleet_dictionary).default,
+    fleet = configs(fleet_dictionary)
+    result = process_recording(Job(recording, fleet.default, fleet.digest(),
                                    frozenset({1, 9})))
     assert not result.ok and result.messages == 0
     assert result.error is not None and result.error.startswith(

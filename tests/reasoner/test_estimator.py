@@ -161,3 +161,21 @@ def test_severity_check_agrees_with_the_true_friction_factor(sims: Sims) -> None
     assert severity_check("esr", 1.0, est) is None
     bad = severity_check("friction", 1.2, est)
     assert bad is not None and not bad["agrees"]
+
+
+def test_a_variance_rounded_below_zero_is_restored_not_an_error() -> None:
+    """A state the measurements pin down can have its variance rounded to zero or below by the
+    Joseph-form update; that is rounding, not a failed record: P stays usable (positive
+    definite) and the filter goes on."""
+    from mapr_daemon.reasoner.ekf.estimator import VARIANCE_FLOOR, _symmetrise_and_cap
+
+    cap = np.array([1.0, 2.0, 4.0])
+    p = np.array([[1e-3, 2e-4, 1e-5],
+                  [2e-4, -1e-18, 3e-6],   # rounded below zero
+                  [1e-5, 3e-6, 5.0]])     # above its cap
+    assert _symmetrise_and_cap(p, cap)
+    assert np.all(np.linalg.eigvalsh(p) > 0.0)
+    assert p[1, 1] == VARIANCE_FLOOR * cap[1] and p[0, 1] == 0.0 and p[2, 1] == 0.0
+    assert p[2, 2] <= cap[2] * (1 + 1e-12)
+    bad = np.array([[1.0, np.nan], [np.nan, 1.0]])
+    assert not _symmetrise_and_cap(bad, np.array([1.0, 1.0]))

@@ -23,9 +23,10 @@ if TYPE_CHECKING:   # the fixture's class; pytest loads conftest itself
 
 ROOT = Path(__file__).resolve().parents[2]
 ICD = ROOT / "configs" / "icd" / "ema-testbed.yaml"
-SESSION_FILES = r"(?P<tail>[^/]+)/session-(?P<flight>\d+)-[^/]*\.ch10$"
-"""The daemon's file names to the fleet reader: the session as the flight, the folder as
-the tail unless the TMATS names one."""
+SESSION_FILES = r"(?:^|/)(?:(?P<tail>[^/]+)/)?session-(?P<flight>\d+)-[^/]*\.ch10$"
+"""The daemon's file names to the fleet reader: the session as the flight, the TMATS's tail
+or else a folder below the one given (the daemon writes them all in ``record.path``: read as
+the archive, its files have no folder of their own)."""
 
 
 def content(records: list[MonitorRecord]) -> list[tuple[object, ...]]:

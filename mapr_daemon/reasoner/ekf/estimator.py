@@ -129,7 +129,7 @@ class ParameterEstimator:
         """Symmetrise P and cap each variance at its prior (a congruence keeps P > 0)."""
         p = np.array(self.kf.P, dtype=np.float64)
         if not _symmetrise_and_cap(p, self.p_cap):
-            raise RecordError("covariance lost positive definiteness", field="estimator")
+            raise RecordError("covariance has a non-finite entry", field="estimator")
         self.kf.P = p
 
     @property
@@ -257,23 +257,36 @@ def severity_check(fault: str | None, value: float | None,
             "classifier": round(float(value), 4), "agrees": bool(agrees)}
 
 
+VARIANCE_FLOOR = 1e-12
+"""Least variance of a state, as a share of its prior (cap): below it rounding, not
+information, sets the value."""
+
+
 @kernel
 def _symmetrise_and_cap(p: FloatArray, cap: FloatArray) -> bool:
-    """In place: ``P = (P + P')/2``, then each variance above ``cap`` scaled back to it by the
-    congruence ``S P S`` with ``S = diag(sqrt(min(1, cap/d)))``, which keeps P positive
-    definite. False (P left symmetrised) when P has a non-finite entry or a variance <= 0."""
+    """In place: ``P = (P + P')/2``; a variance that rounding drove to zero or below (a state
+    the measurements pin down, whose Joseph-form update subtracts two nearly equal numbers)
+    set back to :data:`VARIANCE_FLOOR` of its cap with its covariances cleared; then each
+    variance above ``cap`` scaled back to it by the congruence ``S P S`` with
+    ``S = diag(sqrt(min(1, cap/d)))``, which keeps P positive definite. False (P left
+    symmetrised) only when P has a non-finite entry."""
     n = p.shape[0]
+    for i in range(n):
+        for j in range(n):
+            if not np.isfinite(p[i, j]):
+                return False
     for i in range(n):
         for j in range(i + 1, n):
             m = 0.5 * (p[i, j] + p[j, i])
             p[i, j] = m
             p[j, i] = m
     for i in range(n):
-        if not p[i, i] > 0.0:
-            return False
-        for j in range(n):
-            if not np.isfinite(p[i, j]):
-                return False
+        floor = VARIANCE_FLOOR * cap[i]
+        if p[i, i] < floor:
+            for j in range(n):
+                p[i, j] = 0.0
+                p[j, i] = 0.0
+            p[i, i] = floor
     scale = np.ones(n)
     capped = False
     for i in range(n):
