@@ -154,7 +154,8 @@ class BusStatistics:
         self.busy_ns[bus] += words * WORD_TIME_NS
         self.errors.setdefault(bus, Counter()).update(record.errors)
         self.first_ns.setdefault(bus, record.t_ns)
-        self.last_ns[bus] = max(self.last_ns.get(bus, 0), record.end_ns or record.t_ns)
+        self.last_ns[bus] = max(self.last_ns.get(bus, 0), record.end_ns,
+                                record.t_ns + words * WORD_TIME_NS)
 
     def add_columns(self, batch: Ms1553Batch) -> None:
         """Count a Chapter 10 reader's batch of columns as :meth:`add` counts each of its
@@ -165,7 +166,7 @@ class BusStatistics:
 
         words = (batch.command >= 0).astype(np.int64) + (batch.command2 >= 0) + \
             batch.data_count + batch.n_status
-        ends = np.where(batch.end_ns != 0, batch.end_ns, batch.t_ns)
+        ends = np.maximum(batch.end_ns, batch.t_ns + words * WORD_TIME_NS)
         for code, bus in ((0, "A"), (1, "B")):
             mine = np.flatnonzero(batch.bus == code)
             if not mine.size:
@@ -184,8 +185,12 @@ class BusStatistics:
             self.last_ns[bus] = max(self.last_ns.get(bus, 0), int(ends[mine].max()))
 
     def load(self, bus: str) -> float:
-        """Share of time the bus carried words, in %, over the whole time monitored (from
-        the first record on either bus to the last)."""
+        """Share of time the bus carried words, in %, over the whole time monitored: from the
+        first record's start on either bus to the last record's end. A record ends no sooner
+        than its words take (its start plus 20 µs a word): the time counted busy always lies
+        inside the span, so a span of one message (or a recorded end that comes before the
+        last word's, or no recorded end) cannot make a bus more than 100 % busy. The
+        per-window load of :mod:`drivers.rtstats` ends its span the same way."""
         if not self.first_ns:
             return 0.0
         span = max(self.last_ns.values()) - min(self.first_ns.values())

@@ -3,7 +3,8 @@
 ::
 
     recordings (archive.discover) -> skip those the catalog holds as done
-      -> client.submit(process_recording, Job) per recording  (workers: read + reasoner)
+      -> client.submit(process_recording, Job) per recording  (workers: read + reasoner,
+         of the 1553 channels asked for, or all)
       -> as each finishes: buffered per tail until every earlier flight of that tail is
          stored, then trended on the client (:mod:`.trend`: the tail's flight declared, each
          BIT's SoH and RUL from the tail's history) and stored
@@ -23,7 +24,7 @@ The cluster is the caller's (:mod:`.cluster`: a local one, or a client of a sche
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Collection, Sequence
 from typing import TYPE_CHECKING, Any
 
 from mapr_daemon.catalog import BitOutcome
@@ -34,7 +35,7 @@ from mapr_daemon.errors import ClusterError
 from mapr_daemon.fleet.archive import Recording
 from mapr_daemon.fleet.cluster import reason
 from mapr_daemon.fleet.config import FleetConfig
-from mapr_daemon.fleet.task import Job, TaskResult, process_recording
+from mapr_daemon.fleet.task import Job, TaskResult, process_recording, with_channels
 from mapr_daemon.fleet.trend import FleetTrend
 
 if TYPE_CHECKING:
@@ -92,15 +93,18 @@ class FlightOrder:
 
 
 class FleetRun:
-    """Submits the work and stores the results (see the module docstring)."""
+    """Submits the work and stores the results (see the module docstring). ``channels``: the
+    1553 channel IDs every task reads (``mapr fleet --c10-channel``; None: all of them)."""
 
     def __init__(self, client: Client, catalog: CatalogWriter, configs: FleetConfig,
                  on_stored: Callable[[TaskResult], None] | None = None,
-                 on_start: Callable[[Sequence[Recording]], None] | None = None) -> None:
+                 on_start: Callable[[Sequence[Recording]], None] | None = None, *,
+                 channels: Collection[int] | None = None) -> None:
         """``on_start`` is called with the recordings to process (those the catalog does not
         hold yet) before any is submitted, ``on_stored`` with each result once stored."""
         self.client, self.catalog, self.configs = client, catalog, configs
         self.on_stored, self.on_start = on_stored, on_start
+        self.channels = frozenset(channels) if channels else None
         self.summary = RunSummary()
         self.trend = FleetTrend(catalog, configs)
 
@@ -112,10 +116,15 @@ class FleetRun:
             row = known.get(recording.digest)
             if row is not None and row.status == DONE:
                 self.summary.skipped += 1
-                self.summary.stale += row.config_digest != self.configs.digest(recording.tail)
+                self.summary.stale += row.config_digest != self.digest(recording.tail)
             else:
                 out.append(recording)
         return out
+
+    def digest(self, tail: str) -> str:
+        """What ``tail``'s recordings are processed with: its config's content digest, the
+        channel pick folded in (:func:`~mapr_daemon.fleet.task.with_channels`)."""
+        return with_channels(self.configs.digest(tail), self.channels)
 
     def run(self, recordings: Sequence[Recording]) -> RunSummary:
         """Process every recording not yet stored; returns the summary.
@@ -132,9 +141,9 @@ class FleetRun:
         order = FlightOrder(todo)
         futures = {}
         for recording in todo:
-            config, digest = self.configs.for_tail(recording.tail), self.configs.digest(
-                recording.tail)
-            future = self.client.submit(process_recording, Job(recording, config, digest),
+            config, digest = self.configs.for_tail(recording.tail), self.digest(recording.tail)
+            future = self.client.submit(process_recording,
+                                        Job(recording, config, digest, self.channels),
                                         key=task_key(recording, digest), retries=1)
             futures[future.key] = (future, recording, digest)
         for future in as_completed([f for f, _, _ in futures.values()]):  # type: ignore[no-untyped-call]

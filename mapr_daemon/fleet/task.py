@@ -1,7 +1,8 @@
 """One recording through the daemon's records -> events path, on a worker: the fleet's task.
 
 :func:`process_recording` reads a Chapter 10 file with the reader the ``chapter10`` backend
-wraps, in merged batches of up to :data:`BATCH` messages held as columns, and hands each to
+wraps (only the 1553 channels the job names, when it names some), in merged batches of up
+to :data:`BATCH` messages held as columns, and hands each to
 :meth:`Pipeline.process` (the one path the daemon and ``mapr replay`` run, built by
 :func:`build_pipeline`), which decodes the columns as it would their records, without a
 record object per message (two thirds of a task's time when it built them; nor are they
@@ -13,7 +14,8 @@ degradation estimates (the trend, which needs the tail's earlier flights, is the
 :mod:`.trend`), the reasoner's failures and the damaged packets skipped.
 A task writes nothing: the client alone writes the catalog, so a worker killed mid-task
 loses nothing (the scheduler runs the task again elsewhere). Any error reading the file
-becomes a failed result naming it; the other recordings go on.
+becomes a failed result naming it, as does a recording without a channel the job asked for
+(the result says what the recording holds); the other recordings go on.
 
 A worker keeps the pipelines it built (the dictionary load is the expensive part), one per
 configuration; each recording starts from a fresh session (signal stream, BIT watch and
@@ -25,8 +27,10 @@ flight order.
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 import time
 import traceback
+from collections.abc import Collection
 
 from drivers.chapter10.reader import Chapter10Reader
 from drivers.errors import MaprError
@@ -43,13 +47,27 @@ merged by the reader (:meth:`Chapter10Reader.batches`) into one batch of columns
 
 @dataclasses.dataclass(frozen=True)
 class Job:
-    """What a task is given: the recording, its tail's configuration (every path absolute)
-    and that configuration's content digest (:meth:`FleetConfig.digest`, computed once on
-    the client and stored with the result)."""
+    """What a task is given: the recording, its tail's configuration (every path absolute),
+    the digest it is known by (:meth:`FleetConfig.digest`, with the channel pick folded in by
+    :func:`with_channels`; computed once on the client and stored with the result) and the
+    1553 channels to read (``mapr fleet --c10-channel``; None: every channel)."""
 
     recording: Recording
     config: Config
     config_digest: str
+    channels: frozenset[int] | None = None
+
+
+def with_channels(config_digest: str, channels: Collection[int] | None) -> str:
+    """What a recording was processed with: the config's content digest alone when every
+    channel is read (so it is :meth:`FleetConfig.digest` itself, and catalogs stored before
+    channels could be picked stay current), else a digest of it and the channels picked,
+    since the same file read on other channels is other work (its own task key, and a stored
+    row with another pick counts as stale)."""
+    if not channels:
+        return config_digest
+    picked = ",".join(map(str, sorted(set(channels))))
+    return hashlib.sha256(f"{config_digest} channels {picked}".encode()).hexdigest()[:16]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -117,7 +135,7 @@ def process_recording(job: Job) -> TaskResult:
     started = time.monotonic()
     recording, config, digest = job.recording, job.config, job.config_digest
     try:
-        result = _run(recording, config, digest)
+        result = _run(recording, config, digest, job.channels)
     except (MaprError, OSError, ValueError) as error:
         return TaskResult(recording, digest, False, f"{type(error).__name__}: {error}",
                           task_s=time.monotonic() - started)
@@ -129,7 +147,8 @@ def process_recording(job: Job) -> TaskResult:
     return dataclasses.replace(result, task_s=time.monotonic() - started)
 
 
-def _run(recording: Recording, config: Config, digest: str) -> TaskResult:
+def _run(recording: Recording, config: Config, digest: str,
+         channels: frozenset[int] | None) -> TaskResult:
     pipe = _fresh(config)
     clock = BusClock("recording")
     outcomes: list[BitOutcome] = []
@@ -138,7 +157,7 @@ def _run(recording: Recording, config: Config, digest: str) -> TaskResult:
     first: int | None = None
     last = 0
     tail = recording.tail
-    reader = Chapter10Reader(recording.path, arinc429=False)
+    reader = Chapter10Reader(recording.path, channels=channels, arinc429=False)
     try:
         for batch in reader.batches(BATCH):
             columns = batch.ms1553
@@ -152,6 +171,12 @@ def _run(recording: Recording, config: Config, digest: str) -> TaskResult:
             failures += [f.error for f in result.failures]
             outcomes += [_in_fleet(o, tail, recording) for o in result.outcomes]
         issues = [str(issue) for issue in reader.issues]
+        absent = sorted(set(channels or ()) - reader.channels_seen)
+        if absent:   # as every command reading a recording says it: the channel, what it holds
+            from mapr_daemon.cli.traffic.source import holdings
+            return TaskResult(recording, digest, False,
+                              f"channel {', '.join(map(str, absent))} not in the recording "
+                              f"(it holds: {holdings(reader)})", issues=issues)
     finally:
         reader.close()
     return TaskResult(recording, digest, True, None, outcomes, failures, issues, messages,

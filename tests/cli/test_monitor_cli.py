@@ -82,3 +82,24 @@ def test_an_invalid_message_table_is_exit_78_with_file_and_line(tmp_path: Path) 
     result = mapr("decode", EMA, "--icd", str(bad))
     assert result.returncode == 78
     assert str(bad) in result.stderr and len(result.stderr.strip().splitlines()) == 1
+
+
+def test_monitor_text_has_decodes_channel_column_for_a_recording_only(tmp_path: Path) -> None:
+    """A recording's records carry their channel: the monitor's lines give it after the time,
+    in ``decode --text``'s ``ch`` column; a capture (one bus, no channel) has no column."""
+    from tests.support.multibus import RATE_HZ, SECONDS, write_recording
+
+    path = write_recording(tmp_path / "two.c10", [2, 13])
+    monitor = mapr("monitor", "--backend", "chapter10", "-O", f"path={path}")
+    decode = mapr("decode", str(path), "--text")
+    assert monitor.returncode == decode.returncode == 0, monitor.stderr + decode.stderr
+    lines = monitor.stdout.splitlines()
+    header, *rows = decode.stdout.splitlines()
+    assert header[:18].split() == ["time_s", "ch"] and len(lines) == 2 * 3 * RATE_HZ * SECONDS
+    assert sorted(line[:18] for line in lines) == sorted(row[:18] for row in rows)
+    assert {line[12:18] for line in lines} == {"     2", "    13"}
+    assert [line.split()[2:4] for line in lines[:3]] == [["A", "RT_BC"], ["A", "BC_RT"],
+                                                          ["B", "RT_RT"]]
+    live = mapr("monitor", "--backend", "capture", "-O", f"path={RAW}", "-O",
+                "sample_rate=10e6", "--count", "1")
+    assert live.stdout.split()[1:3] == ["A", "BC_RT"]

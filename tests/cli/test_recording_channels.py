@@ -20,7 +20,7 @@ from tests.support.multibus import RATE_HZ, SECONDS, write_recording
 
 ROOT = Path(__file__).resolve().parents[2]
 CHANNELS = list(range(1, 9))
-READERS = [["decode"], ["monitor"], ["replay"], ["icd", "discover"]]
+READERS = [["decode"], ["monitor"], ["replay"], ["icd", "discover"], ["fleet"]]
 """The commands that read a Chapter 10 recording."""
 
 

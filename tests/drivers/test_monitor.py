@@ -142,3 +142,36 @@ def test_recv_after_close_raises_even_with_records_queued() -> None:
     monitor.close()
     with pytest.raises(MonitorClosed):
         monitor.recv()
+
+
+@pytest.mark.parametrize("end_ns", [0, 19_500, 20_000, 31_000],
+                         ids=["no end", "end before the word's", "end at it", "end after it"])
+def test_a_span_of_one_message_is_at_most_100_percent_busy(end_ns: int) -> None:
+    """One stray word (20 µs on the bus) whose recorded end comes before its word's end (the
+    capture's mid-crossing timing: 102.6 % before), or that has no end: the span runs from its
+    start to its end, and never ends before its words do."""
+    from drivers.monitor import BusStatistics
+
+    stats = BusStatistics()
+    stats.add(MonitorRecord(t_ns=280_000, bus="A", format=TransferFormat.UNKNOWN,
+                            command=None, data=(0x1234,), errors=("orphan_words",),
+                            end_ns=280_000 + end_ns if end_ns else 0))
+    assert stats.load("A") == pytest.approx(100.0 * 20_000 / max(end_ns, 20_000))
+
+
+def test_bus_load_of_records_and_of_columns_agree_and_stay_within_the_span() -> None:
+    """Two buses, each message's recorded end short of its words' (as a capture's timing can
+    be): each bus's busy time lies in the span, counted record by record or as columns."""
+    from drivers.chapter10.ms1553_batch import Ms1553Batch
+    from drivers.monitor import BusStatistics
+
+    records = [MonitorRecord(t_ns=t, bus=bus, format=TransferFormat.BC_RT, command=0x2822,
+                             data=(1, 2), status=(0x2800,), end_ns=t + 70_000)
+               for t, bus in ((0, "A"), (80_000, "A"), (160_000, "B"))]
+    one, columns = BusStatistics(), BusStatistics()
+    for record in records:
+        one.add(record)
+    columns.add_columns(Ms1553Batch.from_records(records))
+    span = 160_000 + 4 * 20_000
+    assert one.load("A") == columns.load("A") == pytest.approx(100.0 * 8 * 20_000 / span)
+    assert one.load("B") == columns.load("B") == pytest.approx(100.0 * 4 * 20_000 / span)

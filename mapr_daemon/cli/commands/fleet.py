@@ -6,10 +6,12 @@
     mapr fleet ARCHIVE --config fleet.yaml --workers 2
     mapr fleet ARCHIVE --config fleet.yaml --scheduler tcp://10.0.0.5:8786  # existing cluster
     mapr fleet N101/flight-0001.ch10 N101/flight-0002.ch10 --dictionary d.npz
+    mapr fleet ARCHIVE --dictionary d.npz --c10-channel 3   # only 1553 channel 3 of each file
 
 Every recording (``*.ch10``/``*.c10`` under the folders given, or the files given) is one
 Dask task that runs the daemon's records -> events path on it (as ``mapr replay
---diagnose``); the client alone writes the catalog, one transaction per recording, each
+--diagnose``), reading every 1553 channel of it or only those given with ``--c10-channel``
+(repeat it for more); the client alone writes the catalog, one transaction per recording, each
 tail's flights in flight order, each tail's actuators trended on the client from that
 tail's history (SoH and RUL need a prognostic model: ``--prognosis`` or the config's
 ``assets[].prognosis``). Tail and flight come from the path (``--pattern``, default
@@ -25,7 +27,8 @@ on a terminal, plain lines otherwise), a summary on stdout. ``mapr fleet-archive
 synthetic archive.
 
 Exit codes: 0 every recording stored; 65 some could not be processed (each named on stderr,
-the rest stored); 66 the catalog cannot be opened; 69 the scheduler cannot be reached within
+the rest stored; a recording without an asked ``--c10-channel`` is one of them, its line says
+what it holds); 66 the catalog cannot be opened; 69 the scheduler cannot be reached within
 ``--connect-timeout`` or was lost mid-run (one line; the session closed, what was stored
 kept); 78 a config, ICD or dictionary error; 2 a malformed argument (``--scheduler``).
 """
@@ -41,6 +44,7 @@ from pathlib import Path
 from typing import Any
 
 from mapr_daemon.cli import exitcodes
+from mapr_daemon.cli.traffic.source import add_c10_channel_argument
 from mapr_daemon.errors import CatalogError, ClusterError, ConfigError
 
 
@@ -67,6 +71,8 @@ def add_subparser(subparsers: Any) -> None:
                    help="take the tail from this TMATS attribute when the file has it "
                         "(e.g. 'G\\TA', where 'mapr record --tail' writes it); the path "
                         "otherwise")
+    add_c10_channel_argument(p, "read only this 1553 channel ID of every recording (repeat for "
+                                "more; default: every channel)")
     where = p.add_mutually_exclusive_group()
     where.add_argument("--workers", type=int, metavar="N",
                        help="local cluster workers (default: one per core)")
@@ -140,6 +146,7 @@ def _run(args: argparse.Namespace, configs: Any, client: Any) -> int:
     from mapr_daemon.fleet.archive import DEFAULT_PATTERN, discover
     from mapr_daemon.fleet.cluster import close_client
     from mapr_daemon.fleet.runner import FleetRun
+    from mapr_daemon.fleet.task import with_channels
     from mapr_daemon.pipeline.pipeline import build_pipeline
 
     for config in {c.digest(): c for c in configs.configs()}.values():
@@ -163,8 +170,9 @@ def _run(args: argparse.Namespace, configs: Any, client: Any) -> int:
         progress = _progress(args)
         fleet = FleetRun(client, catalog, configs,
                          on_stored=lambda r: progress.add(r.flight_hours, r.ok),
-                         on_start=progress.start)
-        catalog.open_session(backend="fleet", config_hash=configs.digest())
+                         on_start=progress.start, channels=args.c10_channels)
+        catalog.open_session(backend="fleet",
+                             config_hash=with_channels(configs.digest(), args.c10_channels))
         try:
             summary = fleet.run(recordings)
             progress.show(final=True)

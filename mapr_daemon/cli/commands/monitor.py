@@ -17,7 +17,8 @@ messages, rate, errors by class, response time min/mean/max and last seen, and e
 load per ``--stats-window`` (JSON lines with ``"kind": "rtsa"`` / ``"bus_load"`` on stdout
 with ``--json``); a Chapter 10 recording's per channel (``channel N (1553)`` headings, or a
 ``"channel"`` key), each channel a bus. ``--c10-channel ID`` picks channels of a recording
-(``--backend chapter10``).
+(``--backend chapter10``), whose lines give each message's channel after its time, as
+``decode --text``'s ``ch`` column does (a live bus has no channel, and no column).
 """
 
 from __future__ import annotations
