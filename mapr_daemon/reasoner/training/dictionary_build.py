@@ -469,7 +469,7 @@ def calibrate_explanations(d: Dictionary, m: FloatArray, q: FloatArray,
     d.calibration.update({
         "fault_calibration_runs": float(rows.size),
         "pair_gain_max": float(stats[:, 0].max()),
-        "pair_threshold": max(compound.MARGIN * float(stats[:, 0].max()),
+        "pair_threshold": max(compound.PAIR_MARGIN * float(stats[:, 0].max()),
                               compound.PAIR_FLOOR),
         "unexplained_max": float(stats[:, 1].max()),
         "unexplained_threshold": compound.MARGIN * float(stats[:, 1].max())})
