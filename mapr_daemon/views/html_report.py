@@ -43,7 +43,7 @@ CSS = """
 body{font-family:system-ui,Helvetica,Arial,sans-serif;margin:24px;color:#1b1b1b;max-width:1100px}
 h1{font-size:24px;margin-bottom:4px}h2{font-size:20px;margin-top:32px;border-bottom:2px solid #ccc}
 table{border-collapse:collapse;margin:8px 0 16px 0}td,th{border:1px solid #ccc;padding:4px 8px;
-text-align:left;font-size:14px}th{background:#f0f0f0}.num{text-align:right}
+text-align:left;font-size:14px}th{background:#f0f0f0}.num{text-align:right;white-space:nowrap}
 .line{font-size:17px;margin:8px 0}
 .soh{font-weight:bold;padding:2px 8px;border-radius:4px;white-space:nowrap}
 .good{background:#d8f0d8}.fair{background:#fff0c0}.poor{background:#f8d0d0}
@@ -313,8 +313,9 @@ def _how_to_read() -> str:
     return ("<h2>How to read this</h2><ul class=\"read\">"
             "<li><b>SoH</b> (state of health) is read from the <b>leading mode</b>, the "
             "wearing part expected to reach its threshold first: <b>1.00</b> is the part as "
-            "commissioned, <b>0.00</b> its <b>replace-at threshold</b> (below), not \"broken "
-            "now\"; 0.34 means two thirds of the way there.</li>"
+            "commissioned, <b>0.00</b> its <b>replace-at threshold</b> (below; the notes call "
+            "it the failure threshold), not \"broken now\"; 0.34 means two thirds of the "
+            "way there.</li>"
             "<li><b>RUL</b> (remaining useful life) counts flights from the last BIT until "
             "the leading mode reaches its replace-at threshold. <b>15 (10-21) flights</b> "
             "means: most likely 15 more flights; nine times out of ten the threshold is "

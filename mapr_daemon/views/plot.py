@@ -3,9 +3,10 @@
 Two stacked panels over the actuator's BIT history (one point per BIT), x in flights (or in
 flight hours): its state of health on 0..1 with the replace-at threshold (SoH 0) drawn and
 labelled, and its remaining useful life, the median with the 90 % interval shaded and the
-newest figure in the legend (its point drawn larger, as the newest SoH's is). A panel with nothing to show says so in words. The
-title carries the figures a maintainer wants first (SoH now, leading mode, RUL now), so the
-plot is read in seconds.
+newest figure in the legend (its point drawn larger, as the newest SoH's is). A panel with
+nothing to show says so in words (the RUL panel with the note saying why there is none).
+The title carries the figures a maintainer wants first (SoH now, leading mode, RUL now), so
+the plot is read in seconds.
 
 It has to read right from one BIT to thousands: the BITs of one flight are drawn side by side
 inside that flight's slot (in time order), not stacked on one x, and a flight with several
@@ -178,7 +179,7 @@ def figure(records: Sequence[BitRecord], name: str, *, hours: bool = False) -> A
         ax_rul.legend(loc="upper right", fontsize=9)
     else:
         last = records[-1].health.note if records else None
-        _empty(ax_rul, f"{NO_DATA}: {last}" if last else f"{NO_DATA}: no RUL estimate")
+        _empty(ax_rul, f"no RUL: {last}" if last else f"{NO_DATA}: no RUL estimate")
         ax_rul.set_ylim(0.0, 1.0)
         ax_rul.set_yticks([])
     if not hours:

@@ -50,22 +50,25 @@ def _event(t: int, asset: str, kind: str, severity: float, value: float) -> Even
 
 
 def _modes(lead: str | None, h: float, rul: tuple[float, float, float] | None,
-           what_if: dict[str, float] | None, wiggle: float) -> dict[str, Any]:
-    """Per-kind trend figures: the leading kind's own, the others inside their scatter (with
-    their what-if RUL when ``what_if`` gives one)."""
+           what_if: dict[str, float] | None, wiggle: float, flights: int) -> dict[str, Any]:
+    """Per-kind trend figures as the assessment states them: the leading kind's own, the
+    others inside their scatter; with BITs on three flights or more every kind has a RUL
+    (``rul`` None: beyond the horizon; the others' what-ifs from ``what_if``)."""
     out: dict[str, Any] = {}
     for kind in KINDS:
         if kind == lead:
             row: dict[str, Any] = {"h": round(h, 4), "z": round(3.5 + 40 * h, 2),
                                    "evidenced": True}
-            if rul is not None:
-                row.update(rul=rul[0], low=rul[1], high=rul[2])
+            mine = rul
         else:
             row = {"h": round(0.01 * wiggle, 4), "z": round(0.8 * wiggle, 2),
                    "evidenced": False}
-            if what_if is not None and kind in what_if:
-                mid = what_if[kind]
-                row.update(rul=mid, low=round(0.55 * mid, 2), high=round(2.1 * mid, 2))
+            mid = (what_if or {}).get(kind)
+            mine = None if mid is None else (mid, round(0.55 * mid, 2), round(2.1 * mid, 2))
+        if mine is not None and (flights >= 3 or mine[0] == 0):
+            row.update(rul=mine[0], low=mine[1], high=mine[2])
+        elif flights >= 3:
+            row.update(rul=None, low=None, high=None)
         out[kind] = row
     return out
 
@@ -86,7 +89,7 @@ def write_one_flight_catalog(path: Path) -> Path:
         wiggle = math.sin(i)
         h = 1.25 + 0.02 * wiggle
         esr = Health(0.0, "esr", 0.0, 0.0, 0.0, modes=_modes("esr", h, (0.0, 0.0, 0.0), None,
-                                                            wiggle))
+                                                            wiggle, 1))
         bits.append(BitOutcome("EMA1", t, _event(t, "EMA1", "esr", 0.31, 0.6347), tail=tail,
                                flight=flight, flight_hours=hours,
                                wear={k: (h if k == "esr" else 0.01 * wiggle) for k in KINDS},
@@ -94,13 +97,13 @@ def write_one_flight_catalog(path: Path) -> Path:
         bits.append(BitOutcome("EMA2", t + 1000, tail=tail, flight=flight, flight_hours=hours,
                                wear={k: 0.01 * wiggle for k in KINDS},
                                health=Health(1.0, None, note=HEALTHY_NOTE,
-                                             modes=_modes(None, 0, None, None, wiggle))))
+                                             modes=_modes(None, 0, None, None, wiggle, 1))))
         hf = 0.3 + 0.005 * i
         bits.append(BitOutcome("EMA3", t + 2000, tail=tail, flight=flight, flight_hours=hours,
                                wear={k: (hf if k == "friction" else 0.0) for k in KINDS},
                                health=Health(round(1 - hf, 3), "friction", note=FEW_FLIGHTS,
                                              modes=_modes("friction", hf, None, None,
-                                                          wiggle))))
+                                                          wiggle, 1))))
     with CatalogWriter(path) as writer:
         writer.open_session(backend="loopback", config_hash="cafe", started_ns=T0)
         writer.add_bits(bits, [Flight(tail, flight, T0, T0 + 2 * HOUR, hours, "bus")])
@@ -119,6 +122,8 @@ def _fleet_bit(tail: str, asset: str, k: int, j: int) -> BitOutcome:
     fault: str | None = None
     lead: str | None = None
     h = 0.0
+    what_if = ({"esr": 168.0, "capacitance": 191.0, "friction": 88.0} if name == "N101/EMA1"
+               else {"capacitance": 228.0} if name == "N103/EMA1" else None)
     if name == "N103/EMA1":           # ESR aging fast: fails at about flight 225
         lead, life = "esr", 225.0
         h = (k / life) ** 2 + 0.01 * wiggle
@@ -142,20 +147,18 @@ def _fleet_bit(tail: str, asset: str, k: int, j: int) -> BitOutcome:
         lead, h, rul = "capacitance", 0.05 + k / 4000, None
         fault = "capacitance" if 50 <= k <= 52 else None
     if lead is None:
-        what_if = ({"esr": 168.0, "capacitance": 191.0, "friction": 88.0}
-                   if name == "N101/EMA1" and k >= 3 else None)
         health = Health(1.0, None, note=HEALTHY_NOTE, modes=_modes(None, 0, None, what_if,
-                                                                   wiggle))
+                                                                   wiggle, k))
     elif rul is None and name == "N102/EMA1":
-        health = Health(round(1 - h, 3), lead, modes=_modes(lead, h, None, None, wiggle),
+        health = Health(round(1 - h, 3), lead, modes=_modes(lead, h, None, what_if, wiggle, k),
                         note="the trend does not reach the failure threshold within 2000 "
                              "flights")
     elif rul is None:
         health = Health(round(1 - h, 3), lead, note="fewer than three BITs: no trend yet",
-                        modes=_modes(lead, h, None, None, wiggle))
+                        modes=_modes(lead, h, None, what_if, wiggle, k))
     else:
         health = Health(round(max(0.0, 1 - h), 3), lead, *rul, rul[0] * 2.5, rul[1] * 2.5,
-                        rul[2] * 2.5, modes=_modes(lead, h, rul, None, wiggle))
+                        rul[2] * 2.5, modes=_modes(lead, h, rul, what_if, wiggle, k))
     event = None if fault is None else _event(t, asset, fault, round(0.3 + h / 2, 3),
                                               0.05 * (1 + h))
     return BitOutcome(asset, t, event, tail=tail, flight=k, flight_hours=hours,
