@@ -8,10 +8,11 @@ Two shapes a maintenance chief meets:
   identical-ylims warning), EMA2 healthy, EMA3 with friction wearing but no trend yet (BITs on
   one flight only).
 - :func:`write_fleet_catalog`: four tails, two actuators each, 220 flights with two BITs per
-  flight (stored as a fleet run stores them: events and episodes under ``TAIL/ASSET``). Known answers, most
-  urgent first (:data:`URGENCY`): N104/EMA2 (a switch shorted on the last BIT: RUL 0), N103/EMA1
-  (ESR aging fast, an open episode, RUL low end about 4), N102/EMA2 (capacitance dropping
-  since flight 205, an open episode, a wide interval), N101/EMA2 (friction, RUL 60), then the
+  flight (stored as a fleet run stores them: events and episodes under ``TAIL/ASSET``).
+  Known answers, most urgent first (:data:`URGENCY`): N104/EMA2 (a switch shorted on the last
+  BIT: RUL 0), N103/EMA1 (ESR aging fast, an open episode, RUL low end about 4), N101/EMA2
+  (friction, RUL 60 (50-80)),
+  N102/EMA2 (capacitance dropping since flight 205, an open episode, 105 (82-150)), then the
   ones without a RUL: N102/EMA1 (wears too slowly to reach its threshold; a closed episode in
   its past), and the healthy ones, N101/EMA1 with per-kind what-if RULs (168/191/88) and no
   headline RUL.
@@ -38,7 +39,7 @@ FEW_FLIGHTS = "BITs on fewer than three flights: no trend yet"
 FLEET_FLIGHTS = 220
 """Flights of the fleet catalog (the ">= 200 flights" screenshot)."""
 ONE_FLIGHT_BITS = 34
-URGENCY = ("N104/EMA2", "N103/EMA1", "N102/EMA2", "N101/EMA2", "N102/EMA1", "N101/EMA1",
+URGENCY = ("N104/EMA2", "N103/EMA1", "N101/EMA2", "N102/EMA2", "N102/EMA1", "N101/EMA1",
            "N103/EMA2", "N104/EMA1")
 """The fleet catalog's actuators, most urgent first."""
 
