@@ -32,9 +32,9 @@ from collections.abc import Iterable, Sequence
 from typing import Any
 
 from mapr_daemon.catalog.actuators import ActuatorHealth, episode_names
+from mapr_daemon.catalog.reader import CatalogReader
 from mapr_daemon.ema.degradation import FAILURE
 from mapr_daemon.findings import Health
-from mapr_daemon.catalog.reader import CatalogReader
 from mapr_daemon.utc import fmt_time
 from mapr_daemon.views.health import fmt_episodes, fmt_rul, fmt_soh
 from mapr_daemon.views.text import fault_name, fmt_severity, fmt_trend

@@ -28,7 +28,6 @@ from mapr_daemon.catalog import BitOutcome, CatalogWriter, Event
 from mapr_daemon.catalog.model import Flight, display_name
 from mapr_daemon.catalog.recordings import fleet_asset, in_fleet
 from mapr_daemon.findings import Health
-
 from tests.catalog.conftest import HOUR, T0
 
 KINDS = ("esr", "capacitance", "friction")
