@@ -22,6 +22,7 @@ headless laptop over SSH.
 
 from __future__ import annotations
 
+import collections
 import io
 import itertools
 import os
@@ -51,15 +52,19 @@ def _x(r: BitRecord, hours: bool) -> float | None:
 
 def positions(records: Sequence[BitRecord], hours: bool = False
               ) -> list[tuple[float, BitRecord]]:
-    """Each record (with a flight, or flight hours with ``hours``) at its x: the BITs sharing
-    one flight (one x) spread evenly, in their order, over :data:`SLOT` of the flight's slot
-    around it, so 34 BITs of one flight read as 34 points of that flight. The slot is one
-    flight, or in hours the smallest step between distinct x (one hour with a single x)."""
+    """Each record (with a flight, or flight hours with ``hours``) at its x, in x order: the
+    BITs sharing one flight (one x) spread evenly, in their given order, over :data:`SLOT` of
+    the flight's slot around it, so 34 BITs of one flight read as 34 points of that flight.
+    The slot is one flight, or in hours the smallest step between distinct x (one hour with a
+    single x)."""
     placed = [(x, r) for r in records if (x := _x(r, hours)) is not None]
     width = _slot(sorted({x for x, _ in placed}), hours)
+    groups: dict[float, list[BitRecord]] = {}
+    for x, r in placed:
+        groups.setdefault(x, []).append(r)
     out: list[tuple[float, BitRecord]] = []
-    for x, group in itertools.groupby(placed, key=lambda p: p[0]):
-        same = [r for _, r in group]
+    for x in sorted(groups):
+        same = groups[x]
         n = len(same)
         out.extend((x if n == 1 else x + width * SLOT * ((i + 0.5) / n - 0.5), r)
                    for i, r in enumerate(same))
@@ -109,7 +114,7 @@ def _x_axis(ax: Any, points: Sequence[tuple[float, BitRecord]], hours: bool) -> 
     ax.set_xlim(distinct[0] - pad, distinct[-1] + pad)
     if not hours:
         ax.xaxis.set_major_locator(MaxNLocator(integer=True, min_n_ticks=1))
-    counts = {k: sum(1 for _ in g) for k, g in itertools.groupby(keys)}
+    counts = collections.Counter(keys)
     if len(distinct) <= COUNT_FLIGHTS and max(counts.values()) > 1:
         for k, n in counts.items():
             ax.text(k, 1.2, f"{n} BITs" if n > 1 else "1 BIT", ha="center", va="center",

@@ -140,6 +140,10 @@ def test_plots_read_right_from_one_bit_to_thousands(tmp_path: Path) -> None:
     xs = [x for x, _ in positions(one)]
     assert xs == sorted(xs) and len(set(xs)) == ONE_FLIGHT_BITS
     assert 0.5 < xs[0] < xs[-1] < 1.5
+    # two runs each counted as flight 1 (the demo's) share the slot, not overlap
+    twice = [x for x, _ in positions([*one[:10], *long[:4], *one[10:20]])]
+    assert twice == sorted(twice) and len(set(twice)) == 24
+    assert sum(0.5 < x < 1.5 for x in twice) == 22   # 10 + 2 + 10 BITs of flight 1
     for records in (one[:1], one):   # one BIT, then 34 of one flight
         soh, rul = _axes(records)
         assert soh.get_xlim() == pytest.approx((0.5, 1.5))   # not 0.96..1.04
