@@ -3,10 +3,12 @@
     mapr report -o health.html
     mapr report -o health.html --catalog /srv/fleet/catalog.sqlite
 
-One file with everything inline (CSS, the trend plots as PNG): per actuator its SoH and RUL,
-trend plot, fault episodes and the last BIT's evidence, then the bus statistics. No script,
-no network: it opens offline in any browser. The plots need matplotlib; without it the report
-is written without them. See docs/health.md.
+One file with everything inline (CSS, the trend plots as PNG): a fleet overview first (the
+tails, then the actuators, most urgent first, each with what to plan), how to read it (SoH
+against the replace-at thresholds, the RUL's 90 % interval in words, which RUL to believe),
+then per actuator its SoH and RUL, trend plot, fault episodes and the last BIT's evidence,
+then the bus statistics. No script, no network: it opens offline in any browser. The plots
+need matplotlib; without it the report is written without them. See docs/health.md.
 """
 
 from __future__ import annotations
