@@ -13,6 +13,15 @@ estimate of every aging kind
   the classifier names, if evidenced (the estimators of two kinds can both respond to one
   fault; the classifier is what tells kinds apart), else the evidenced kind with the
   shortest median RUL;
+* **a part's wear, not each estimator's**: only a kind whose own evidence says so is
+  reported wearing (``evidenced``). The other kinds of the leading kind's part (ESR and
+  capacitance are one capacitor) read as that part's wear, and while the classifier names
+  faults at this BIT, kinds of parts it did not name read as the named fault's response
+  (``read_as`` in their row): an estimator answers a little to every part's change, and the
+  classifier, which weighs the whole record against single faults and pairs, decided which
+  parts are faulted. Measured on single-fault units of each kind (the demo's models):
+  an ESR fault read as capacitance wear at z 3.7-8.5, a friction fault as ESR wear at z
+  3.9-7.9;
 * **SoH** ``= 1 - h`` of the leading mode, clipped to [0, 1]: 1.0 as commissioned, 0.0 at
   that mode's failure threshold (:data:`~mapr_daemon.ema.degradation.FAILURE`, e.g. ESR at
   twice nominal), ``h`` that weighted mean of its last :data:`RECENT` readings. With no
@@ -45,6 +54,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from mapr_daemon.findings import Health
+from mapr_daemon.reasoner.diagnosis.parts import PART_OF
 from mapr_daemon.reasoner.prognosis import trend
 from mapr_daemon.reasoner.prognosis.rul import RulEstimate
 from mapr_daemon.reasoner.prognosis.wear_noise import scaled_rows
@@ -68,9 +78,11 @@ TERMINAL = ("short", "open")
 
 def assess(model: PrognosticModel, flights: Sequence[float],
            estimates: Sequence[Mapping[str, float]], diagnosed: str | None = None,
-           seed: int = 0, conditions: Sequence[Mapping[str, float] | None] = ()) -> Health:
+           seed: int = 0, conditions: Sequence[Mapping[str, float] | None] = (),
+           also: Sequence[str] = ()) -> Health:
     """Health after the last BIT of ``flights``/``estimates`` (oldest first); ``diagnosed``
-    is the classifier's fault at that BIT (None when nominal); ``conditions``: each BIT's
+    is the classifier's fault at that BIT (None when nominal), ``also`` the other fault of a
+    compound diagnosis; ``conditions``: each BIT's
     flight condition
     (:meth:`~mapr_daemon.reasoner.prognosis.prognostic_model.PrognosticModel.bit_conditions`;
     missing or None
@@ -115,8 +127,13 @@ def assess(model: PrognosticModel, flights: Sequence[float],
     if not candidates:
         return Health(1.0, None, note="no part wears measurably: every trended part is within "
                                       "its healthy scatter", modes=modes)
+    named_parts = {PART_OF.get(f, f) for f in (diagnosed, *also) if f is not None}
+    if named_parts:   # the classifier saw the whole record: its parts are the wearing ones
+        ours = [c for c in candidates if PART_OF.get(c[2]) in named_parts]
+        candidates = ours or candidates
     named = [c for c in candidates if c[2] == diagnosed]   # the classifier tells kinds apart
     _, neg_h, kind, rul = named[0] if named else min(candidates, key=lambda c: (c[0], c[1]))
+    _as_the_part(modes, kind, named_parts)
     soh = float(min(1.0, max(0.0, 1.0 + neg_h)))
     if rul is None:
         return Health(soh, kind, note="BITs on fewer than three flights: no trend yet",
@@ -125,6 +142,25 @@ def assess(model: PrognosticModel, flights: Sequence[float],
                   note=None if math.isfinite(rul.rul) else
                   f"the trend does not reach the failure threshold within {rul.horizon:g} "
                   "flights")
+
+
+def _as_the_part(modes: dict[str, dict[str, Any]], lead: str, named_parts: set[str]) -> None:
+    """Only a mode whose own evidence says so is ``evidenced`` (wearing): the other modes of
+    the leading mode's part read as that part's wear (their estimators respond to the same
+    part's change: an ESR fault moves the capacitance estimate too), and while the
+    classifier names faults at this BIT, modes of parts it did not name read as the named
+    fault's response (an estimator answers a little to every part; the classifier, which
+    weighs the whole record against single faults and pairs, decided that no other part is
+    faulted). Each such row keeps its figures, is not ``evidenced``, and says ``read_as``
+    (the leading mode) and, within the part, ``part``."""
+    part = PART_OF.get(lead)
+    for kind, row in modes.items():
+        if kind == lead or not row["evidenced"]:
+            continue
+        if part is not None and PART_OF.get(kind) == part:
+            row.update(evidenced=False, part=part, read_as=lead)
+        elif named_parts and PART_OF.get(kind) not in named_parts:
+            row.update(evidenced=False, read_as=lead)
 
 
 def horizon(model: PrognosticModel, kind: str) -> float:
