@@ -111,7 +111,7 @@ class HealthLog:
         return (f"{name} RUL {rul_text(h.rul, h.rul_low, h.rul_high)} ({h.mode}): below "
                 f"health.rul_warn_flights {self.rul_warn_flights:g}; plan the replacement")
 
-    def episodes_now(self, open_episodes: Mapping[object, Episode]) -> list[Line]:
+    def episodes_now(self, open_episodes: Mapping[tuple[str, str], Episode]) -> list[Line]:
         """Lines for the episodes opened or closed since the last call (the first call only
         takes note: episodes open at start were reported when they opened)."""
         now = {ep.id: ep for ep in open_episodes.values()}

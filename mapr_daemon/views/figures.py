@@ -88,6 +88,10 @@ def health_summary(h: Health) -> str:
     return f"SoH {soh_text(h.soh)} ({soh_meaning(h)}); {rul}"
 
 
+def _float(value: Any) -> float | None:
+    return float(value) if isinstance(value, (int, float)) else None
+
+
 MULTIPLIERS = ("x", "x nominal")
 """Units that already are a multiple of nominal (friction's factor)."""
 
@@ -102,16 +106,15 @@ def severity_text(mode: str | None, value: float | None, unit: str | None,
     if value is None:
         return "terminal"
     name = f"{mode} " if mode else ""
-    nominal, replace_at = evidence.get("nominal"), evidence.get("replace_at")
-    known = isinstance(nominal, (int, float)) and nominal != 0
+    nominal, replace_at = _float(evidence.get("nominal")), _float(evidence.get("replace_at"))
     if unit in MULTIPLIERS:
         text = f"{name}{value:.2g}x nominal"
-    elif known:
-        text = f"{name}{value:.3g} {unit or ''} = {value / float(nominal):.2g}x nominal"
+    elif nominal:
+        text = f"{name}{value:.3g} {unit or ''} = {value / nominal:.2g}x nominal"
     else:
         return f"{name}{value:.3g}{' ' + unit if unit else ''}"
-    if known and isinstance(replace_at, (int, float)):
-        text += f"; replace at {float(replace_at) / float(nominal):.2g}x"
+    if nominal and replace_at is not None:
+        text += f"; replace at {replace_at / nominal:.2g}x"
     return text.replace("  ", " ")
 
 
