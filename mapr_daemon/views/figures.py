@@ -49,10 +49,13 @@ def number(value: float | None) -> str:
 def rul_text(mid: float | None, low: float | None = None, high: float | None = None,
              unit: str = "flights") -> str:
     """``42 (30-61) flights``; ``-`` when there is no figure; the interval only when both
-    bounds are known (``None`` bounds: the median alone)."""
+    bounds are known and differ from the median as written (``0 flights`` at the
+    threshold, not ``0 (0-0)``)."""
     if mid is None:
         return "-"
     band = f" ({number(low)}-{number(high)})" if low is not None and high is not None else ""
+    if band == f" ({number(mid)}-{number(mid)})":   # at the threshold: ``0 flights``
+        band = ""
     return f"{number(mid)}{band} {unit}"
 
 
@@ -83,6 +86,8 @@ def soh_meaning(h: Health) -> str:
 def health_summary(h: Health) -> str:
     """One line: ``SoH 0.79 (esr: 21 % of the way to its replace-at threshold); RUL 42
     (30-61) flights``, or the reason where the trend states no RUL."""
+    if h.mode is None and h.soh is not None:   # nothing wears: the note says it all
+        return f"SoH {soh_text(h.soh)} ({h.note or soh_meaning(h)}); no RUL"
     rul = (f"RUL {rul_text(h.rul, h.rul_low, h.rul_high)}" if h.rul is not None
            else f"no RUL: {h.note}" if h.note else "no RUL")
     return f"SoH {soh_text(h.soh)} ({soh_meaning(h)}); {rul}"
