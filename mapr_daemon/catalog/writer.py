@@ -40,7 +40,7 @@ from mapr_daemon import __version__
 from mapr_daemon.catalog import episode_store, history, rt_stats
 from mapr_daemon.catalog.connect import Durability, describe, open_writer
 from mapr_daemon.catalog.episode_batch import fold
-from mapr_daemon.catalog.episodes import DEFAULT_CLEAR_BITS, Detection, detection_of
+from mapr_daemon.catalog.episodes import DEFAULT_CLEAR_BITS, Detection, Episode, detection_of
 from mapr_daemon.catalog.model import BitOutcome, BitRecord, Event, Flight
 from mapr_daemon.errors import CatalogError
 
@@ -266,6 +266,11 @@ class CatalogWriter:
         """One aircraft's BIT history and flights, for the trend to continue from."""
         conn = self.conn
         return history.load_bits(conn, tail=tail), history.load_flights(conn, tail)
+
+    def open_episodes(self) -> dict[tuple[str, str], Episode]:
+        """Every open fault episode, keyed by ``(asset, part)`` (the daemon compares them
+        before and after a write to log what opened and closed)."""
+        return episode_store.load_open(self.conn)
 
     def save_flights(self, flights: Iterable[Flight]) -> None:
         """Insert or update flights (by tail and number) in one transaction."""

@@ -218,8 +218,19 @@ class Trending:
         hist.add(flight, o.wear, o.conditions)
         fault = None if o.event is None else o.event.fault
         h = assess(model, hist.flights, hist.wear, diagnosed=fault, seed=len(hist.flights),
-                   conditions=hist.conditions)
+                   conditions=hist.conditions, also=_also(o.event))
         return h.with_hours(self.log.mean_hours(), INTERVAL)
+
+
+def _also(event: Event | None) -> tuple[str, ...]:
+    """The other fault of a compound diagnosis (its evidence's ``compound``), else none."""
+    if event is None:
+        return ()
+    found = event.evidence.get("compound")
+    if not isinstance(found, Mapping):
+        return ()
+    faults = [str(m.get("fault")) for m in found.get("faults", ()) if isinstance(m, Mapping)]
+    return tuple(f for f in faults if f != event.fault)
 
 
 def _with_health(event: Event, health: Health | None) -> Event:

@@ -27,6 +27,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from mapr_daemon.arrays import FloatArray
+from mapr_daemon.ema.degradation import FAILURE
+from mapr_daemon.ema.faults import nominal_value
 from mapr_daemon.ema.params import ActuatorParams
 from mapr_daemon.errors import RecordError
 from mapr_daemon.findings import Diagnosis
@@ -166,7 +168,9 @@ class Reasoner:
         fault degrades, ``part`` the replaceable part it belongs to, ``ambiguity`` that part's
         members with their probabilities and the group the data cannot separate
         (:func:`~mapr_daemon.reasoner.diagnosis.parts.ambiguity`); all three null without a decided
-        fault.
+        fault. A parametric fault's ``evidence`` states what its severity is measured
+        against: ``nominal`` (the healthy value) and ``replace_at`` (the failure threshold,
+        :func:`~mapr_daemon.reasoner.prognosis.soh.failure_value`), in the severity's unit.
         """
         health = 1.0
         component: str | None = None
@@ -198,6 +202,10 @@ class Reasoner:
             evidence["switch"] = dec.switch
         if dec.severity is not None:
             evidence["severity_fraction_of_range"] = round(dec.severity, 4)
+        if dec.anomaly and dec.fault in FAILURE and dec.value is not None:
+            # what the severity is measured against, for every view to say so
+            evidence["nominal"] = float(f"{nominal_value(self.params, dec.fault):.6g}")
+            evidence["replace_at"] = float(f"{soh.failure_value(self.params, dec.fault):.6g}")
         check = None if estimate is None or not dec.anomaly else severity_check(
             dec.fault, dec.value, estimate)
         if check is not None:

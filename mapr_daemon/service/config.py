@@ -68,6 +68,15 @@ class CatalogConfig:
 
 
 @dataclasses.dataclass(frozen=True)
+class HealthConfig:
+    """What the daemon's log says about each actuator's health (:mod:`.health_log`)."""
+
+    rul_warn_flights: float | None = 10.0
+    """A warning, once, when an actuator's RUL (the low end of its 90 % interval) falls
+    below this many flights; None: never."""
+
+
+@dataclasses.dataclass(frozen=True)
 class RecordConfig:
     """Chapter 10 recording of every record the daemon sees (None: no recording)."""
 
@@ -90,6 +99,7 @@ class Config:
     reasoner: ReasonerConfig = dataclasses.field(default_factory=ReasonerConfig)
     catalog: CatalogConfig = dataclasses.field(default_factory=CatalogConfig)
     record: RecordConfig = dataclasses.field(default_factory=RecordConfig)
+    health: HealthConfig = dataclasses.field(default_factory=HealthConfig)
     queue_batches: int = 256
     """Bound of the queue between the bus reader and the reasoner, in record batches."""
     queue_wait_s: float = 0.5
@@ -136,6 +146,8 @@ def parse(raw: Any, path: str) -> Config:
     record = read_section(r, raw, "record", RecordConfig, {
         "path": ("path", {"optional": True}),
         "channel_id": ("int", {"minimum": 1})})
+    health = read_section(r, raw, "health", HealthConfig, {
+        "rul_warn_flights": ("float", {"minimum": 0.0, "optional": True})})
     aircraft = read_section(r, raw, "aircraft", AircraftConfig, {
         "tail": ("str", {}), "flight_gap_s": ("float", {"minimum": 1.0})})
     if record.path is not None and any(c in aircraft.tail for c in TMATS_SEPARATORS):
@@ -144,6 +156,7 @@ def parse(raw: Any, path: str) -> Config:
                       f"which cannot hold ';' or a line break: {aircraft.tail!r}")
     kwargs: dict[str, Any] = {"backend": backend, "testbed": testbed, "reasoner": reasoner,
                               "catalog": catalog, "record": record, "aircraft": aircraft,
+                              "health": health,
                               "source": path}
     scalars: dict[str, tuple[str, dict[str, Any]]] = {
         "icd": ("path", {}), "queue_batches": ("int", {"minimum": 1}),

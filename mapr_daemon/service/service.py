@@ -39,6 +39,7 @@ from mapr_daemon.pipeline.clock import BusClock
 from mapr_daemon.pipeline.pipeline import Pipeline, build_pipeline
 from mapr_daemon.service import source
 from mapr_daemon.service.config import Config
+from mapr_daemon.service.health_log import HealthLog, Line, Pace
 from mapr_daemon.service.notify import Notifier
 from mapr_daemon.service.preflight import load_checked
 from mapr_daemon.service.reader import BusReader, Item
@@ -106,6 +107,11 @@ class Service:
         self._rate_since = time.monotonic()
         self.rate = 0.0
         self._next_status = self._next_stats = 0.0
+        self.health_log = HealthLog(config.aircraft.tail, config.health.rul_warn_flights)
+        """What changed in each actuator's health: logged once per change, not per BIT."""
+        self.pace = Pace(config.queue_batches)
+        """Whether the input keeps up with real time and the queue stays put."""
+        self.last_bus_ns: int | None = None
 
     # --- lifetime --------------------------------------------------------------------------
     def _start_reader(self) -> None:
@@ -140,6 +146,7 @@ class Service:
         try:
             self.catalog.open_session(backend=cfg.backend.name, config_hash=cfg.digest())
             self.pipe.resume(*self.catalog.history(cfg.aircraft.tail))  # trends continue
+            self.health_log.episodes_now(self.catalog.open_episodes())   # as they stand
             reasoners = ", ".join(
                 f"{display_name(cfg.aircraft.tail, w.asset.name)} "
                 f"{w.asset.dictionary or cfg.reasoner.dictionary}"
@@ -278,6 +285,8 @@ class Service:
                 self.errors += 1
         self.messages += len(records)
         self._rate_count += len(records)
+        if records:
+            self.last_bus_ns = records[-1].t_ns
         batch = self.pipe.process(records, self.clock)   # the clock sees them first
         if self.recorder is not None:
             self.recorder.write(records)
@@ -296,16 +305,28 @@ class Service:
                       else "?", failure.bus_ns / 1e9,
                       failure.error, self.reasoner_failures)
         if batch.outcomes:  # the events, and every BIT's effect on the fault episodes
+            self._log(self.health_log.observe(batch.outcomes))
             self._written(self.spool.submit(batch.outcomes, batch.flights))
 
     def _written(self, batches: list[Written]) -> None:
-        """Count and log the events of batches the catalog took."""
+        """Count and log (info: the proof it is durable) the events of batches the catalog
+        took, then the fault episodes those writes opened or closed (a warning when one
+        opens: a persistent fault is one warning, not one per BIT)."""
         for batch in batches:
             self.events += len(batch.ids)
             for event_id, event in zip(batch.ids, batch.events, strict=True):
-                log.warning("event %d written: %s %s, fault %s, confidence %.2f", event_id,
-                            display_name(self.config.aircraft.tail, event.asset), "anomaly",
-                            event.fault, event.confidence)
+                log.info("event %d written: %s %s, fault %s, confidence %.2f", event_id,
+                         display_name(self.config.aircraft.tail, event.asset), "anomaly",
+                         event.fault, event.confidence)
+        if batches:
+            episodes = self._catalog(self.catalog.open_episodes)
+            if episodes is not None:
+                self._log(self.health_log.episodes_now(episodes))
+
+    @staticmethod
+    def _log(lines: list[Line]) -> None:
+        for level, text in lines:
+            log.log(level, "%s", text)
 
     def _catalog(self, method: Any, *args: Any) -> Any:
         """A catalog write; a failure is logged and the daemon goes on."""
@@ -366,6 +387,7 @@ class Service:
 
     def _status(self) -> None:
         now = time.monotonic()
+        self._log(self.pace.check(now, self.last_bus_ns, self.messages, self.queue.qsize()))
         span = now - self._rate_since
         if span > 0:
             self.rate = self._rate_count / span
@@ -397,6 +419,7 @@ class Service:
         except CatalogError as error:
             log.error("catalog: %s (the trends restart empty)", error)
         self.pipe, self.config = pipe, config
+        self.health_log.rul_warn_flights = config.health.rul_warn_flights
         if restart:
             self._start_reader()
         log.info("reloaded %s (config %s)", self.config_path or "the defaults",

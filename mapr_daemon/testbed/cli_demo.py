@@ -237,6 +237,7 @@ def diagnose(args: argparse.Namespace, records: list[MonitorRecord], flown: list
     from mapr_daemon.errors import CatalogError
     from mapr_daemon.testbed.demo_health import demo_config, diagnose_into_catalog
     from mapr_daemon.testbed.demo_reasoner import cache_dir, describe
+    from mapr_daemon.views.figures import health_summary
     from mapr_daemon.views.health import health_table
 
     print()
@@ -264,6 +265,9 @@ def diagnose(args: argparse.Namespace, records: list[MonitorRecord], flown: list
         print(f"{failure.asset}: the reasoner failed on a BIT: {failure.error}")
     rows = [done.health[e.name] for e in flown if e.name in done.health]
     if rows:
+        print()
+        for row in rows:
+            print(f"{row.name}: {health_summary(row.health)}")
         print()
         print(health_table(rows))
     ids = done.event_ids

@@ -33,6 +33,7 @@ from mapr_daemon.pipeline.pipeline import Batch, build_pipeline
 from mapr_daemon.pipeline.settings import ReasonerConfig
 from mapr_daemon.service.config import Config
 from mapr_daemon.testbed import demo_models
+from mapr_daemon.views.figures import severity_text
 
 
 def cache_dir() -> Path:
@@ -101,10 +102,10 @@ def describe(diagnosis: Diagnosis) -> Iterable[str]:
         return
     switch = diagnosis.switch
     fault = f"{diagnosis.fault}/{switch}" if switch else str(diagnosis.fault)
-    severity = diagnosis.severity
-    amount = "" if severity is None else f", severity {severity:.4g} {diagnosis.unit or ''}"
-    soh = 1.0 if diagnosis.soh is None else diagnosis.soh
-    yield (f"{head}: ANOMALY {fault}{amount}, confidence {diagnosis.confidence:.2f}, "
-           f"state of health {soh:.2f} ({diagnosis.component or ''})")
+    severity = ("" if diagnosis.severity is None else ": " + severity_text(
+        None, diagnosis.severity, diagnosis.unit, evidence))
+    # the SoH is the trend's, on the health line below (one figure, as every view states it)
+    yield (f"{head}: ANOMALY {fault}{severity} ({diagnosis.component or ''}), confidence "
+           f"{diagnosis.confidence:.2f}")
     yield (f"    score {evidence.get('score', 0):.0f} vs threshold "
            f"{evidence.get('threshold', 0):.0f}")

@@ -18,6 +18,7 @@ from mapr_daemon.catalog.episodes import Episode
 from mapr_daemon.catalog.model import BitRecord
 from mapr_daemon.findings import Health
 from mapr_daemon.utc import fmt_time
+from mapr_daemon.views.figures import health_rul, soh_text
 from mapr_daemon.views.text import text_table
 
 
@@ -40,23 +41,15 @@ def health_json(a: ActuatorHealth) -> dict[str, Any]:
     }
 
 
-def _g(value: float | None) -> str:
-    return "-" if value is None else f"{value:.0f}" if abs(value) >= 10 else f"{value:.1f}"
-
-
 def fmt_rul(h: Health, hours: bool = False) -> str:
-    """``42 (30-61) flights``; ``hours``: the same in flight hours. The note when no figure."""
-    mid, low, high = ((h.rul_hours, h.rul_hours_low, h.rul_hours_high) if hours
-                      else (h.rul, h.rul_low, h.rul_high))
-    if mid is None:
-        return "" if hours else (h.note or "unknown")
-    unit = "h" if hours else "flights"
-    band = f" ({_g(low)}-{_g(high)})" if low is not None and high is not None else ""
-    return f"{_g(mid)}{band} {unit}"
+    """``42 (30-61) flights``; ``hours``: the same in flight hours. The note when no figure
+    (:func:`.figures.health_rul`, as every view writes it)."""
+    return health_rul(h, hours)
 
 
 def fmt_soh(h: Health) -> str:
-    return "-" if h.soh is None else f"{h.soh:.2f}"
+    """``0.79`` (:func:`.figures.soh_text`)."""
+    return soh_text(h.soh)
 
 
 def fmt_episodes(episodes: Sequence[Episode]) -> str:

@@ -2,8 +2,10 @@
 
 Times are shown in UTC with a ``Z`` (``2026-05-09 04:13:20Z``, :func:`mapr_daemon.utc.fmt_time`),
 the way flight logs are kept.
-Severity shows as the share of the fault's range with the physical value beside it
-(``42% (0.449 ohm)``); a shorted or open switch shows as ``terminal``.
+Severity shows as the share of the fault's range with the physical value beside it, as a
+multiple of nominal and against the replace-at threshold
+(``42% (0.449 ohm = 4.5x nominal; replace at 2x)``); a shorted or open switch shows as
+``terminal``. SoH and RUL are written by :mod:`.figures`, as every other view writes them.
 """
 
 from __future__ import annotations
@@ -16,6 +18,7 @@ from mapr_daemon.catalog.episodes import Episode
 from mapr_daemon.catalog.model import Event, Gap, Session, StatsRow
 from mapr_daemon.catalog.rt_stats import RtStatsRow
 from mapr_daemon.utc import fmt_time
+from mapr_daemon.views.figures import rul_text, severity_text, soh_text
 
 
 def fmt_duration(ns: int) -> str:
@@ -27,27 +30,20 @@ def fmt_duration(ns: int) -> str:
     return f"{s / 3600:.1f} h" if s < 172800 else f"{s / 86400:.1f} d"
 
 
-def _num(value: float | None, digits: int = 3) -> str:
-    return "-" if value is None else f"{value:.{digits}g}"
-
-
 def fmt_severity(e: Event, of_range: str = "") -> str:
-    """``42% (0.449 ohm)``; ``of_range`` goes after the percentage (`` of range``)."""
+    """``42% (0.449 ohm = 4.5x nominal; replace at 2x)``; ``of_range`` goes after the
+    percentage (`` of range``)."""
     if e.severity is None:
         return "terminal"
     text = f"{100 * e.severity:.0f}%{of_range}"
     if e.severity_value is not None:
-        text += f" ({_num(e.severity_value)}{' ' + e.severity_unit if e.severity_unit else ''})"
+        text += f" ({severity_text(None, e.severity_value, e.severity_unit, e.evidence)})"
     return text
 
 
 def fmt_rul(e: Event) -> str:
-    if e.rul is None:
-        return "-"
-    unit = f" {e.rul_unit}" if e.rul_unit else ""
-    bounds = (f" [{_num(e.rul_low)}-{_num(e.rul_high)}]"
-              if e.rul_low is not None and e.rul_high is not None else "")
-    return f"{_num(e.rul)}{unit}{bounds}"
+    """The event's RUL as every view writes it (``42 (30-61) flights``), ``-`` if none."""
+    return rul_text(e.rul, e.rul_low, e.rul_high, e.rul_unit or "flights")
 
 
 def fault_name(e: Event) -> str:
@@ -80,7 +76,7 @@ def text_table(header: Sequence[str], rows: Iterable[Sequence[str]], right: set[
 
 def events_table(events: Sequence[Event]) -> str:
     rows = [(str(e.id), fmt_time(e.t_ns), e.name, "-" if e.rt is None else str(e.rt),
-             fault_name(e), fmt_severity(e), f"{100 * e.confidence:.0f}%", _num(e.soh, 2),
+             fault_name(e), fmt_severity(e), f"{100 * e.confidence:.0f}%", soh_text(e.soh),
              fmt_rul(e)) for e in events]
     return text_table(("ID", "TIME (UTC)", "ASSET", "RT", "FAULT", "SEVERITY", "CONF", "SOH",
                    "RUL"), rows, right={0, 3, 6, 7})
@@ -96,7 +92,7 @@ def event_detail(e: Event, session: Session | None) -> str:
              *([f"  part        {part}"] if (part := fmt_part(e)) else []),
              f"  severity    {fmt_severity(e, ' of range')}",
              f"  confidence  {100 * e.confidence:.0f}%",
-             f"  SoH         {_num(e.soh)}",
+             f"  SoH         {soh_text(e.soh)}",
              f"  RUL         {fmt_rul(e)}",
              *([f"  episode     {e.episode_id} (mapr catalog episodes)"]
                if e.episode_id is not None else [])]
@@ -106,10 +102,10 @@ def event_detail(e: Event, session: Session | None) -> str:
                      f"{fmt_time(session.started_ns)} to {fmt_time(session.stopped_ns)}"
                      + (f" ({session.stop_reason})" if session.stop_reason else ""))
     if e.params:
-        lines.append("  parameters")
+        lines.append("  EKF estimates (the model's tracking, not a verdict: the fault and its "
+                     "severity are above)")
         width = max(len(k) for k in e.params)
-        lines += [f"    {k:<{width}}  {v:.6g}" if isinstance(v, float) else
-                  f"    {k:<{width}}  {v}" for k, v in sorted(e.params.items())]
+        lines += [f"    {k:<{width}}  {param_text(v)}" for k, v in sorted(e.params.items())]
     if e.evidence:
         lines.append("  evidence")
         lines += ["    " + line for line in
@@ -117,8 +113,22 @@ def event_detail(e: Event, session: Session | None) -> str:
     return "\n".join(lines)
 
 
+def param_text(value: Any) -> str:
+    """One EKF estimate: ``6.5 +- 1.0 x nominal (reference 1)``, its sd and reference
+    beside it (an estimate far from its reference with an sd as wide says nothing yet:
+    friction on a BIT with little motion)."""
+    if not isinstance(value, dict):
+        return f"{value:.6g}" if isinstance(value, float) else str(value)
+    v, sd, unit, ref = (value.get(k) for k in ("value", "sd", "unit", "reference"))
+    if not isinstance(v, (int, float)):
+        return json.dumps(value, sort_keys=True)
+    text = f"{v:.3g}" + (f" +- {sd:.2g}" if isinstance(sd, (int, float)) else "")
+    text += f" {unit}" if unit else ""
+    return text + (f" (reference {ref:.3g})" if isinstance(ref, (int, float)) else "")
+
+
 def trend_table(events: Sequence[Event]) -> str:
-    rows = [(fmt_time(e.t_ns), fault_name(e), fmt_severity(e), _num(e.soh), fmt_rul(e))
+    rows = [(fmt_time(e.t_ns), fault_name(e), fmt_severity(e), soh_text(e.soh), fmt_rul(e))
             for e in events]
     return text_table(("TIME (UTC)", "FAULT", "SEVERITY", "SOH", "RUL"), rows, right={3})
 

@@ -9,10 +9,21 @@ estimate of every aging kind
   :class:`~mapr_daemon.reasoner.prognosis.wear_noise.Noise`, at that BIT's stored flight condition:
   a BIT flown near
   the bus's low limit weighs little), lies more than :data:`EVIDENCE_Z` standard errors above
-  healthy, or when the classifier names it at this BIT. The **leading mode** is the kind
+  healthy (:data:`UNSEEN_Z` while the classifier names no fault at this BIT and another
+  part's kind also reads above its scatter), or when the
+  classifier names it at this BIT. The **leading mode** is the kind
   the classifier names, if evidenced (the estimators of two kinds can both respond to one
   fault; the classifier is what tells kinds apart), else the evidenced kind with the
   shortest median RUL;
+* **a part's wear, not each estimator's**: only a kind whose own evidence says so is
+  reported wearing (``evidenced``). The other kinds of the leading kind's part (ESR and
+  capacitance are one capacitor) read as that part's wear, and while the classifier names
+  faults at this BIT, kinds of parts it did not name read as the named fault's response
+  (``read_as`` in their row): an estimator answers a little to every part's change, and the
+  classifier, which weighs the whole record against single faults and pairs, decided which
+  parts are faulted. Measured on single-fault units of each kind (the demo's models):
+  an ESR fault read as capacitance wear at z 3.7-8.5, a friction fault as ESR wear at z
+  3.9-7.9;
 * **SoH** ``= 1 - h`` of the leading mode, clipped to [0, 1]: 1.0 as commissioned, 0.0 at
   that mode's failure threshold (:data:`~mapr_daemon.ema.degradation.FAILURE`, e.g. ESR at
   twice nominal), ``h`` that weighted mean of its last :data:`RECENT` readings. With no
@@ -44,7 +55,9 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from mapr_daemon.arrays import FloatArray
 from mapr_daemon.findings import Health
+from mapr_daemon.reasoner.diagnosis.parts import PART_OF
 from mapr_daemon.reasoner.prognosis import trend
 from mapr_daemon.reasoner.prognosis.rul import RulEstimate
 from mapr_daemon.reasoner.prognosis.wear_noise import scaled_rows
@@ -56,6 +69,14 @@ RECENT = 3
 """BITs whose mean is the current degradation and its evidence."""
 EVIDENCE_Z = 3.0
 """Standard errors above healthy that make a kind's wear evidenced."""
+UNSEEN_Z = 2.0 * EVIDENCE_Z
+"""The same while the classifier names no fault at this BIT and a kind of another part also
+reads above :data:`SCATTER_Z`: an estimator answers a little to every part's change, and
+before the classifier sees a fault nothing else says which part changed (measured on
+single-fault units: a friction unit's capacitance estimate at z 3.1-4.0 while its friction
+was at 2.3-2.8)."""
+SCATTER_Z = 2.0
+"""Standard errors above healthy beyond which a reading is more than its scatter."""
 HORIZON = 2000.0
 """Flights the trend is followed to at least; a RUL beyond the horizon is ``inf``."""
 HORIZON_LIVES = 3.0
@@ -68,9 +89,11 @@ TERMINAL = ("short", "open")
 
 def assess(model: PrognosticModel, flights: Sequence[float],
            estimates: Sequence[Mapping[str, float]], diagnosed: str | None = None,
-           seed: int = 0, conditions: Sequence[Mapping[str, float] | None] = ()) -> Health:
+           seed: int = 0, conditions: Sequence[Mapping[str, float] | None] = (),
+           also: Sequence[str] = ()) -> Health:
     """Health after the last BIT of ``flights``/``estimates`` (oldest first); ``diagnosed``
-    is the classifier's fault at that BIT (None when nominal); ``conditions``: each BIT's
+    is the classifier's fault at that BIT (None when nominal), ``also`` the other fault of a
+    compound diagnosis; ``conditions``: each BIT's
     flight condition
     (:meth:`~mapr_daemon.reasoner.prognosis.prognostic_model.PrognosticModel.bit_conditions`;
     missing or None
@@ -85,20 +108,16 @@ def assess(model: PrognosticModel, flights: Sequence[float],
                         for i in range(fl.size)], fl.size)
     modes: dict[str, dict[str, Any]] = {}
     candidates: list[tuple[float, float, str, RulEstimate | None]] = []
+    readings: dict[str, tuple[float, float, FloatArray, FloatArray]] = {}
     for kind in model.kinds:
-        noise = model.noise[kind]
         est = np.array([e.get(kind, math.nan) for e in estimates], dtype=np.float64)
         keep = np.isfinite(est)
-        if not keep.any():
-            continue
-        recent = noise.calibrate(est[keep][-RECENT:], cond[keep][-RECENT:])
-        sd = noise.h_sd(np.full(recent.size, max(float(np.mean(recent)), 0.0)),
-                        cond[keep][-RECENT:])
-        w = 1.0 / np.maximum(sd, 1e-9) ** 2   # a BIT flown where it reads poorly weighs little
-        h = float(np.sum(w * recent) / np.sum(w))
-        se = float(1.0 / np.sqrt(np.sum(w)))
-        z = h / max(se, 1e-9)   # finite: the catalog stores it as JSON
-        evidenced = z > EVIDENCE_Z or kind == diagnosed
+        if keep.any():
+            h, z = _reading(model.noise[kind], est[keep], cond[keep])
+            readings[kind] = (h, z, est, keep)
+    for kind, (h, z, est, keep) in readings.items():
+        noise = model.noise[kind]
+        evidenced = kind == diagnosed or z > _bar(kind, diagnosed, readings)
         row: dict[str, Any] = {"h": round(h, 4), "z": round(z, 2), "evidenced": evidenced}
         rul = None
         if evidenced and h >= 1.0:   # past its failure threshold: failed now, nothing to fit
@@ -115,8 +134,13 @@ def assess(model: PrognosticModel, flights: Sequence[float],
     if not candidates:
         return Health(1.0, None, note="no part wears measurably: every trended part is within "
                                       "its healthy scatter", modes=modes)
+    named_parts = {PART_OF.get(f, f) for f in (diagnosed, *also) if f is not None}
+    if named_parts:   # the classifier saw the whole record: its parts are the wearing ones
+        ours = [c for c in candidates if PART_OF.get(c[2]) in named_parts]
+        candidates = ours or candidates
     named = [c for c in candidates if c[2] == diagnosed]   # the classifier tells kinds apart
     _, neg_h, kind, rul = named[0] if named else min(candidates, key=lambda c: (c[0], c[1]))
+    _as_the_part(modes, kind, named_parts)
     soh = float(min(1.0, max(0.0, 1.0 + neg_h)))
     if rul is None:
         return Health(soh, kind, note="BITs on fewer than three flights: no trend yet",
@@ -125,6 +149,50 @@ def assess(model: PrognosticModel, flights: Sequence[float],
                   note=None if math.isfinite(rul.rul) else
                   f"the trend does not reach the failure threshold within {rul.horizon:g} "
                   "flights")
+
+
+def _reading(noise: trend.Noise, est: FloatArray, cond: FloatArray) -> tuple[float, float]:
+    """``(h, z)`` of one kind: the inverse-variance weighted mean of its last :data:`RECENT`
+    readings, and that mean in standard errors above healthy."""
+    recent = noise.calibrate(est[-RECENT:], cond[-RECENT:])
+    sd = noise.h_sd(np.full(recent.size, max(float(np.mean(recent)), 0.0)), cond[-RECENT:])
+    w = 1.0 / np.maximum(sd, 1e-9) ** 2   # a BIT flown where it reads poorly weighs little
+    h = float(np.sum(w * recent) / np.sum(w))
+    se = float(1.0 / np.sqrt(np.sum(w)))
+    return h, h / max(se, 1e-9)   # finite: the catalog stores it as JSON
+
+
+def _bar(kind: str, diagnosed: str | None, readings: Mapping[str, tuple[float, float, Any, Any]]
+         ) -> float:
+    """The z above which ``kind`` is evidenced: :data:`EVIDENCE_Z`, or :data:`UNSEEN_Z`
+    while the classifier names no fault and a kind of another part also reads above its
+    scatter (:data:`SCATTER_Z`): then the two estimators' readings cannot say which part
+    changed (each answers a little to the other's part)."""
+    if diagnosed is not None:
+        return EVIDENCE_Z
+    part = PART_OF.get(kind)
+    others = any(z > SCATTER_Z for k, (_, z, _, _) in readings.items()
+                 if k != kind and PART_OF.get(k) != part)
+    return UNSEEN_Z if others else EVIDENCE_Z
+
+
+def _as_the_part(modes: dict[str, dict[str, Any]], lead: str, named_parts: set[str]) -> None:
+    """Only a mode whose own evidence says so is ``evidenced`` (wearing): the other modes of
+    the leading mode's part read as that part's wear (their estimators respond to the same
+    part's change: an ESR fault moves the capacitance estimate too), and while the
+    classifier names faults at this BIT, modes of parts it did not name read as the named
+    fault's response (an estimator answers a little to every part; the classifier, which
+    weighs the whole record against single faults and pairs, decided that no other part is
+    faulted). Each such row keeps its figures, is not ``evidenced``, and says ``read_as``
+    (the leading mode) and, within the part, ``part``."""
+    part = PART_OF.get(lead)
+    for kind, row in modes.items():
+        if kind == lead or not row["evidenced"]:
+            continue
+        if part is not None and PART_OF.get(kind) == part:
+            row.update(evidenced=False, part=part, read_as=lead)
+        elif named_parts and PART_OF.get(kind) not in named_parts:
+            row.update(evidenced=False, read_as=lead)
 
 
 def horizon(model: PrognosticModel, kind: str) -> float:
