@@ -247,7 +247,7 @@ def commission(units: Sequence[Unit], out: Path, dictionary: Path, base_config: 
     tail's replay config names it (``assets[].dictionary``). Returns each tail's config."""
     from mapr_daemon.icd import load_icd
     from mapr_daemon.pipeline.recorded_bits import bits_from_recording
-    from mapr_daemon.reasoner.commissioning.calibrate import calibrate_unit
+    from mapr_daemon.reasoner.commissioning.calibrate import MIN_BITS, calibrate_unit
     from mapr_daemon.reasoner.diagnosis.dictionary import Dictionary
     from mapr_daemon.service.config import load_config
 
@@ -282,6 +282,11 @@ def commission(units: Sequence[Unit], out: Path, dictionary: Path, base_config: 
                 records += found.bits
                 if not keep:
                     path.unlink(missing_ok=True)
+            if len(records) < MIN_BITS:   # said, and the tail replays uncommissioned
+                print(f"  {u.tail}: {len(records)} BITs cut from {n_bits} flights: not "
+                      "commissioned, replayed with the shipped dictionary")
+                configs[u.tail] = generic
+                continue
             m = np.stack([shipped.record_matrix(b.channels, b.command_deg) for b in records])
             q = np.array([b.dynamic_pressure_pa for b in records])
             unit_d, report = calibrate_unit(shipped, m, q)
@@ -571,11 +576,10 @@ def main() -> int:
             in_memory(args.dictionary, [u for u in units if u.kind != HEALTHY],
                       args.bit_every, kinds, args.mean_life)
     children = resource.getrusage(resource.RUSAGE_CHILDREN)
-    print(f"\nCPU {time.process_time():.0f} s in this process (replay, scoring) + "
-          f"{children.ru_utime + children.ru_stime:.0f} s in the flying processes; wall "
-          f"{time.monotonic() - started:.0f} s")
-    print(f"\ntotal runtime {time.monotonic() - started:.0f} s, load average "
-          f"{os.getloadavg()[0]:.2f}")
+    print(f"\ntotal runtime {time.monotonic() - started:.0f} s wall; CPU "
+          f"{time.process_time():.0f} s in this process (replay, scoring) + "
+          f"{children.ru_utime + children.ru_stime:.0f} s in the flying processes; load "
+          f"average {' '.join(f'{x:.2f}' for x in os.getloadavg())} (1, 5, 15 min)")
     return 0
 
 
