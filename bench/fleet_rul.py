@@ -6,6 +6,7 @@
                                [--dictionary D.npz --prognosis P.npz] [--out DIR]
                                [--no-memory] [--keep-recordings] [--mean-life 200]
                                [--expected-life N] [--readback [--reassess]]
+                               [--mismatch [--commission-bits 20]]
 
 Each unit is an actuator aging along :func:`mapr_daemon.ema.degradation.trajectory` (mean life
 200 flights, +/-30 %, as :mod:`mapr_daemon.reasoner.training.rul_scoring` and the fleet prior of the
@@ -48,6 +49,27 @@ the aging model's part-to-part spread; without it the prior's own life (200 flig
 loosely (``trend.LIFE_SD``), as for a user with no reliability figure. ``--readback
 --reassess`` scores a kept catalog under another such configuration: each BIT's health is
 computed afresh (``health.assess``, as the daemon does) from the estimates the run stored.
+
+``--mismatch``: the same trajectories on units that are NOT the data sheet's twin. Each unit
+is also drawn as a built unit (:func:`mapr_daemon.testbed.mismatch.fleet` off the shipped data
+sheet: part-to-part tolerances and a model form the sheet does not carry), and flown with its
+own parameters and form (``fly_flight(..., params=, form=)``). Its part ages by the twin's
+ratio to its OWN healthy value (ESR doubles from the unit's ESR; friction's factor multiplies
+the unit's friction), so the end of life and the true RUL are the twin's. Before its first
+flight each built unit is commissioned: ``--commission-bits`` healthy BITs flown on it at
+conditions drawn over the envelope (a named flight condition, ambient uniform over the
+actuator's envelope, bus mean uniform over ``bus.min_v..max_v``), cut from their recordings as
+``mapr commission`` cuts them, and the shipped dictionary calibrated to the unit on them
+(:func:`mapr_daemon.reasoner.commissioning.calibrate.calibrate_unit`); the unit's dictionary
+and calibration report are saved under ``OUT/mismatch/TAIL/`` and the tail's replay config
+names its dictionary (``assets[].dictionary``). Then its BIT flights (the twin's flight seeds
+and conditions) are flown and replayed into a catalog of their own and scored as above, and
+the twin's and the built units' summaries are printed beside each other. The built units and
+their commissioning flights draw from a stream of their own, so the twin's figures are those
+of a run without ``--mismatch`` on the same seed. Per kind, what the BITs were diagnosed as is
+printed too: an "unexplained" BIT (an anomaly no known fault mode fits) states no severity for
+the true kind, but its wear estimate is stored and trended like any other BIT's, so the RUL
+read back does not depend on the decision.
 
 Seeds are fresh each run (bench/seeds.py) and printed; every unit and flight seed derives from
 the run's seed, clear of the dictionary's, the prognostic model's and the fleet prior's.
