@@ -6,6 +6,7 @@
                                [--dictionary D.npz --prognosis P.npz] [--out DIR]
                                [--no-memory] [--keep-recordings] [--mean-life 200]
                                [--expected-life N] [--readback [--reassess]]
+                               [--mismatch [--commission-bits 20]]
 
 Each unit is an actuator aging along :func:`mapr_daemon.ema.degradation.trajectory` (mean life
 200 flights, +/-30 %, as :mod:`mapr_daemon.reasoner.training.rul_scoring` and the fleet prior of the
@@ -49,6 +50,27 @@ loosely (``trend.LIFE_SD``), as for a user with no reliability figure. ``--readb
 --reassess`` scores a kept catalog under another such configuration: each BIT's health is
 computed afresh (``health.assess``, as the daemon does) from the estimates the run stored.
 
+``--mismatch``: the same trajectories on units that are NOT the data sheet's twin. Each unit
+is also drawn as a built unit (:func:`mapr_daemon.testbed.mismatch.fleet` off the shipped data
+sheet: part-to-part tolerances and a model form the sheet does not carry), and flown with its
+own parameters and form (``fly_flight(..., params=, form=)``). Its part ages by the twin's
+ratio to its OWN healthy value (ESR doubles from the unit's ESR; friction's factor multiplies
+the unit's friction), so the end of life and the true RUL are the twin's. Before its first
+flight each built unit is commissioned: ``--commission-bits`` healthy BITs flown on it at
+conditions drawn over the envelope (a named flight condition, ambient uniform over the
+actuator's envelope, bus mean uniform over ``bus.min_v..max_v``), cut from their recordings as
+``mapr commission`` cuts them, and the shipped dictionary calibrated to the unit on them
+(:func:`mapr_daemon.reasoner.commissioning.calibrate.calibrate_unit`); the unit's dictionary
+and calibration report are saved under ``OUT/mismatch/TAIL/`` and the tail's replay config
+names its dictionary (``assets[].dictionary``). Then its BIT flights (the twin's flight seeds
+and conditions) are flown and replayed into a catalog of their own and scored as above, and
+the twin's and the built units' summaries are printed beside each other. The built units and
+their commissioning flights draw from a stream of their own, so the twin's figures are those
+of a run without ``--mismatch`` on the same seed. Per kind, what the BITs were diagnosed as is
+printed too: an "unexplained" BIT (an anomaly no known fault mode fits) states no severity for
+the true kind, but its wear estimate is stored and trended like any other BIT's, so the RUL
+read back does not depend on the decision.
+
 Seeds are fresh each run (bench/seeds.py) and printed; every unit and flight seed derives from
 the run's seed, clear of the dictionary's, the prognostic model's and the fleet prior's.
 Without ``--dictionary``/``--prognosis`` both are built first (``mapr dictionary build
@@ -59,15 +81,18 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import copy
 import io
+import json
 import math
 import os
+import resource
 import sqlite3
 import sys
 import tempfile
 import time
 from collections import Counter
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from concurrent.futures import Future, ProcessPoolExecutor
 from datetime import timedelta
 from pathlib import Path
@@ -82,7 +107,7 @@ from mapr_daemon.arrays import FloatArray
 from mapr_daemon.catalog.history import load_bits
 from mapr_daemon.cli.main import main as mapr
 from mapr_daemon.ema.degradation import Trajectory, trajectory
-from mapr_daemon.ema.faults import FaultSet
+from mapr_daemon.ema.faults import Fault, FaultSet, nominal_value
 from mapr_daemon.ema.params import default_actuator_path, load_actuator
 from mapr_daemon.ema.profile import CONDITIONS
 from mapr_daemon.reasoner.prognosis.assessment import assess
@@ -90,6 +115,8 @@ from mapr_daemon.reasoner.prognosis.prognostic_model import PrognosticModel
 from mapr_daemon.reasoner.prognosis.soh import degradation
 from mapr_daemon.reasoner.training.rul_scoring import bit_flights, observe_units, score
 from mapr_daemon.testbed.fleet import FIRST_DAY, fly_flight
+from mapr_daemon.testbed.mismatch import Unit as BuiltUnit
+from mapr_daemon.testbed.mismatch import fleet
 
 KINDS = ("capacitance", "esr", "friction", "smps_ron_high")
 MEAN_LIFE = 200.0
@@ -129,16 +156,47 @@ class Unit:
                                            int(mean_life * 2), seed, mean_life)
         self.flights = list(range(0, HEALTHY_FLIGHTS, bit_every)) if kind == HEALTHY else \
             [int(f) for f in bit_flights(self.path, bit_every)]
+        self.built: BuiltUnit | None = None
+        """The built unit flown (``--mismatch``), None: the data sheet's twin."""
+        self.scale = 1.0
+        """The built unit's healthy value of the aging parameter over the data sheet's."""
+
+    def built_as(self, built: BuiltUnit) -> Unit:
+        """This unit's trajectory (same seed, same flights) flown on ``built``: its own
+        parameters and model form. The part ages by the same ratio to ITS healthy value
+        (ESR doubling from the unit's own ESR, not the data sheet's), so the end of life and
+        the true RUL are the twin's; friction's factor multiplies the unit's own friction."""
+        out = copy.copy(self)
+        out.built = built
+        sheet = load_actuator(default_actuator_path())
+        out.scale = 1.0 if self.kind == HEALTHY else \
+            nominal_value(built.params, self.kind) / nominal_value(sheet, self.kind)
+        return out
 
     def faults(self, f: int) -> FaultSet:
-        return FaultSet.of([self.path.fault(f)]) if f > 0 and self.kind != HEALTHY else \
-            FaultSet()
+        if f <= 0 or self.kind == HEALTHY:
+            return FaultSet()
+        return FaultSet.of([Fault(self.kind, self.path.fault(f).value * self.scale)])
 
 
 def _fly(path: str, unit: Unit, f: int, seed: int, condition: str, index: int) -> str:
+    b = unit.built
     fly_flight(path, unit.faults(f), seed=seed, condition=condition, flight_s=FLIGHT_S,
-               start=FIRST_DAY + timedelta(days=f, minutes=index))
+               start=FIRST_DAY + timedelta(days=f, minutes=index),
+               params=None if b is None else b.params, form=None if b is None else b.form)
     return path
+
+
+Plan = dict[str, list[tuple[int, str]]]
+"""Per tail, each BIT flight's (seed, flight condition), in the order of ``Unit.flights``."""
+
+
+def flight_plan(units: Sequence[Unit], rng: np.random.Generator) -> Plan:
+    """Every BIT flight's seed and named condition, drawn once so that the twin and the
+    built unit fly the same flights (same seeds, same conditions)."""
+    names = sorted(CONDITIONS)
+    return {u.tail: [(int(rng.integers(SEED_BASE, 2 * SEED_BASE)),
+                      names[int(rng.integers(len(names)))]) for _ in u.flights] for u in units}
 
 
 def replay(path: str, config: Path, catalog: Path, tail: str, flight: int) -> tuple[int, str]:
@@ -151,11 +209,11 @@ def replay(path: str, config: Path, catalog: Path, tail: str, flight: int) -> tu
     return rc, out.getvalue() + err.getvalue()
 
 
-def fly_and_replay(units: Sequence[Unit], out: Path, config: Path, catalog: Path, jobs: int,
-                   rng: np.random.Generator, keep: bool) -> int:
-    """Fly every BIT flight in ``jobs`` processes; replay each unit's in flight order as its
-    recordings land. Returns the replays that failed (each named on stdout)."""
-    names = sorted(CONDITIONS)
+def fly_and_replay(units: Sequence[Unit], out: Path, configs: Mapping[str, Path],
+                   catalog: Path, jobs: int, plan: Plan, keep: bool) -> int:
+    """Fly every BIT flight (seeds and conditions from ``plan``) in ``jobs`` processes; replay
+    each unit's in flight order as its recordings land, with its tail's config. Returns the
+    replays that failed (each named on stdout)."""
     failed = 0
     done = 0
     total = sum(len(u.flights) for u in units)
@@ -165,9 +223,8 @@ def fly_and_replay(units: Sequence[Unit], out: Path, config: Path, catalog: Path
         for i, u in enumerate(units):
             (out / u.tail).mkdir(parents=True, exist_ok=True)
             futures.append([pool.submit(
-                _fly, str(out / u.tail / f"flight-{f + 1:04d}.ch10"), u, f,
-                int(rng.integers(SEED_BASE, 2 * SEED_BASE)), names[int(rng.integers(len(names)))],
-                i) for f in u.flights])
+                _fly, str(out / u.tail / f"flight-{f + 1:04d}.ch10"), u, f, seed, condition,
+                i) for f, (seed, condition) in zip(u.flights, plan[u.tail], strict=True)])
         for u, fs in zip(units, futures, strict=True):
             for f, fut in zip(u.flights, fs, strict=True):
                 try:
@@ -176,7 +233,7 @@ def fly_and_replay(units: Sequence[Unit], out: Path, config: Path, catalog: Path
                     print(f"  {u.tail} flight {f + 1}: flying failed: {error}")
                     failed += 1
                     continue
-                rc, text = replay(path, config, catalog, u.tail, f + 1)
+                rc, text = replay(path, configs[u.tail], catalog, u.tail, f + 1)
                 if rc != 0:
                     print(f"  {u.tail} flight {f + 1}: mapr replay exit {rc}: "
                           f"{text.strip().splitlines()[-1:]}")
@@ -188,6 +245,104 @@ def fly_and_replay(units: Sequence[Unit], out: Path, config: Path, catalog: Path
                   f"flights replayed ({done}/{total}, {time.monotonic() - started:.0f} s)",
                   flush=True)
     return failed
+
+
+def _fly_commissioning(path: str, built: BuiltUnit, seed: int, condition: str,
+                       ambient_c: float, bus_v: float, index: int, days_before: int) -> str:
+    """One healthy commissioning flight of a built unit, ``days_before`` its first flight."""
+    fly_flight(path, FaultSet(), seed=seed, condition=condition, flight_s=FLIGHT_S,
+               start=FIRST_DAY - timedelta(days=days_before, minutes=-index),
+               params=built.params, form=built.form, ambient_c=ambient_c, bus_v=bus_v)
+    return path
+
+
+def commission(units: Sequence[Unit], out: Path, dictionary: Path, base_config: str,
+               n_bits: int, jobs: int, rng: np.random.Generator, keep: bool
+               ) -> dict[str, Path]:
+    """Commission each built unit before its first flight, as an operator would: ``n_bits``
+    healthy BITs flown on the unit at conditions drawn over the envelope (a named flight
+    condition, ambient uniform over ``envelope.ambient_*_c``, bus mean uniform over
+    ``bus.min_v..max_v``), recorded, cut from the recording as ``mapr commission`` cuts them
+    (:func:`~mapr_daemon.pipeline.recorded_bits.bits_from_recording`), the shipped dictionary
+    calibrated to the unit on them
+    (:func:`~mapr_daemon.reasoner.commissioning.calibrate.calibrate_unit`) and saved; the
+    tail's replay config names it (``assets[].dictionary``). Returns each tail's config."""
+    from mapr_daemon.icd import load_icd
+    from mapr_daemon.pipeline.recorded_bits import bits_from_recording
+    from mapr_daemon.reasoner.commissioning.calibrate import MIN_BITS, calibrate_unit
+    from mapr_daemon.reasoner.diagnosis.dictionary import Dictionary
+    from mapr_daemon.service.config import load_config
+
+    shipped = Dictionary.load(dictionary)
+    generic = out / "mapr.yaml"
+    config = load_config(generic)
+    asset = config.assets[0]
+    params = load_actuator(asset.actuator)
+    icd = load_icd(config.icd)
+    env, bus = params.envelope, params.bus
+    names = sorted(CONDITIONS)
+    started = time.monotonic()
+    configs: dict[str, Path] = {}
+    with ProcessPoolExecutor(jobs) as pool:
+        futures: list[list[Future[str]]] = []
+        for i, u in enumerate(units):
+            assert u.built is not None
+            where = out / u.tail / "commissioning"
+            where.mkdir(parents=True, exist_ok=True)
+            futures.append([pool.submit(
+                _fly_commissioning, str(where / f"bit-{k + 1:02d}.ch10"), u.built,
+                int(rng.integers(SEED_BASE, 2 * SEED_BASE)), names[int(rng.integers(len(names)))],
+                float(rng.uniform(env.ambient_min_c, env.ambient_max_c)),
+                float(rng.uniform(bus.min_v, bus.max_v)), i, n_bits - k) for k in range(n_bits)])
+        for u, fs in zip(units, futures, strict=True):
+            b = u.built
+            assert b is not None
+            records = []
+            for fut in fs:
+                path = Path(fut.result())
+                found = bits_from_recording(path, params, icd, asset)
+                records += found.bits
+                if not keep:
+                    path.unlink(missing_ok=True)
+            if len(records) < MIN_BITS:   # said, and the tail replays uncommissioned
+                print(f"  {u.tail}: {len(records)} BITs cut from {n_bits} flights: not "
+                      "commissioned, replayed with the shipped dictionary")
+                configs[u.tail] = generic
+                continue
+            m = np.stack([shipped.record_matrix(b.channels, b.command_deg) for b in records])
+            q = np.array([b.dynamic_pressure_pa for b in records])
+            unit_d, report = calibrate_unit(shipped, m, q)
+            unit_path = out / u.tail / "dictionary.npz"
+            unit_d.save(unit_path)
+            tail_config = out / u.tail / "mapr.yaml"
+            tail_config.write_text(base_config.replace(
+                "    rt: 5\n", f"    rt: 5\n    dictionary: {unit_path.resolve()}\n"),
+                encoding="utf-8")
+            configs[u.tail] = tail_config
+            (out / u.tail / "commissioning.json").write_text(
+                json.dumps({"unit": b.describe(), "calibration": report.as_dict()},
+                           indent=1, default=float) + "\n", encoding="utf-8")
+            raised = ", ".join(f"{k} x{b / a:.2f}" for k, (a, b) in report.thresholds.items())
+            print(f"  {u.tail} ({u.kind}, unit seed {b.seed}; {_form(u)}): "
+                  f"calibrated on {report.bits} of {n_bits} healthy BITs, offsets "
+                  f"{report.offset_rms:.1f} healthy sd rms, {report.widened_cells} cells "
+                  f"widened > 2x, thresholds {raised} "
+                  f"({time.monotonic() - started:.0f} s)", flush=True)
+    return configs
+
+
+def _form(u: Unit) -> str:
+    """A built unit's model form in a few words, and its aging part's healthy value over the
+    data sheet's."""
+    assert u.built is not None
+    f = u.built.form
+    words = [f"stiction {f.breakaway_ratio:.1f}x" if f.breakaway_ratio else "no stiction",
+             "voltage mode" if f.voltage_mode else "current mode",
+             f"loops {f.current_loop_hz / 1e3:g}/{f.position_loop_hz / 1e3:g} kHz"
+             if f.current_loop_hz else "continuous loops",
+             f"housekeeping {f.housekeeping_w:.1f} W", f"Hall {f.hall_offset_deg:+.1f} deg",
+             f"aging part x{u.scale:.2f} the sheet's"]
+    return ", ".join(words)
 
 
 def _value(row: dict[str, object], key: str) -> float:
@@ -356,6 +511,12 @@ def main() -> int:
                     help="with --readback: compute each BIT's health afresh from the stored "
                          "estimates under this run's configuration (e.g. another "
                          "--expected-life) instead of reading the stored health")
+    ap.add_argument("--mismatch", action="store_true",
+                    help="also fly every unit's trajectory on a built unit that is not the "
+                         "data sheet's twin (testbed/mismatch.py), commissioned first, and "
+                         "print its figures beside the twin's")
+    ap.add_argument("--commission-bits", type=int, default=20,
+                    help="with --mismatch: healthy BITs each built unit is commissioned on")
     args = ap.parse_args()
     kinds = [k.strip() for k in args.kinds.split(",") if k.strip()]
     seed = fresh(args.seed)
@@ -395,41 +556,147 @@ def main() -> int:
                 f"{k}: {args.expected_life:g}" for k in kinds) + "}\n"
         print(f"expected life stated in the configuration: "
               f"{'none' if args.expected_life is None else f'{args.expected_life:g} flights'}")
-        config.write_text(f"reasoner:\n  dictionary: {args.dictionary.resolve()}\nassets:\n"
-                          f"  - name: EMA1\n    rt: 5\n    prognosis: "
-                          f"{args.prognosis.resolve()}\n{lives}", encoding="utf-8")
+        base_config = (f"reasoner:\n  dictionary: {args.dictionary.resolve()}\nassets:\n"
+                       f"  - name: EMA1\n    rt: 5\n    prognosis: "
+                       f"{args.prognosis.resolve()}\n{lives}")
+        config.write_text(base_config, encoding="utf-8")
+        plan = flight_plan(units, rng)
+        built = built_units(units, seed) if args.mismatch else []
         catalog = out / "fleet.db"
         if not args.readback:
             catalog.unlink(missing_ok=True)
-            failed = fly_and_replay(units, out, config, catalog, max(args.jobs, 1), rng,
-                                    args.keep_recordings)
+            failed = fly_and_replay(units, out, {u.tail: config for u in units}, catalog,
+                                    max(args.jobs, 1), plan, args.keep_recordings)
             print(f"flown and replayed in {time.monotonic() - started:.0f} s; failed: {failed}")
-        conn = sqlite3.connect(catalog)
-        mode_scores, head_scores = [], []
-        configured = model.with_lives(
-            {} if args.expected_life is None else {k: args.expected_life for k in kinds})
-        if args.reassess:
-            print("health re-assessed from the stored estimates under this configuration "
-                  "(not the stored health)")
-        for u in (u for u in units if u.kind != HEALTHY):
-            mode_pts, head_pts = reassessed_points(conn, u, configured) if args.reassess \
-                else catalog_points(conn, u)
-            mode_scores.append(score_points(u.tail, u.kind, u.path.eol_flight, mode_pts,
-                                            LAMBDAS, ALPHA))
-            head_scores.append(score_points(u.tail, u.kind, u.path.eol_flight, head_pts,
-                                            LAMBDAS, ALPHA))
-        print_errors(conn, units, model, kinds)
-        print_healthy(conn, units)
-        conn.close()
-        print_table("from the catalog: the TRUE kind's mode (health.modes[kind])", mode_scores,
-                    kinds)
-        print_table("from the catalog: the headline (leading mode's RUL)", head_scores, kinds)
+        twin = read_catalog(catalog, units, model, kinds, args)
+        if built:
+            where = out / "mismatch"
+            where.mkdir(exist_ok=True)
+            (where / "mapr.yaml").write_text(base_config, encoding="utf-8")
+            mm_catalog = where / "fleet.db"
+            if not args.readback:
+                mm_catalog.unlink(missing_ok=True)
+                t0 = time.monotonic()
+                print(f"\ncommissioning {len(built)} built units on {args.commission_bits} "
+                      "healthy BITs each (flown on the unit over the envelope, cut from the "
+                      "recordings, the shipped dictionary calibrated to the unit):")
+                configs = commission(built, where, args.dictionary, base_config,
+                                     args.commission_bits, max(args.jobs, 1),
+                                     np.random.default_rng([seed, MISMATCH_STREAM, 1]),
+                                     args.keep_recordings)
+                print(f"commissioned in {time.monotonic() - t0:.0f} s; flying the same "
+                      "trajectories, flight seeds and conditions on the built units:")
+                t0 = time.monotonic()
+                failed = fly_and_replay(built, where, configs, mm_catalog, max(args.jobs, 1),
+                                        plan, args.keep_recordings)
+                print(f"flown and replayed in {time.monotonic() - t0:.0f} s; failed: {failed}")
+            print("\n######## the same trajectories on units that are NOT the data sheet's "
+                  "twin (--mismatch) ########")
+            mismatched = read_catalog(mm_catalog, built, model, kinds, args)
+            print_beside(twin, mismatched, kinds)
         if not args.no_memory:
             in_memory(args.dictionary, [u for u in units if u.kind != HEALTHY],
                       args.bit_every, kinds, args.mean_life)
-    print(f"\ntotal runtime {time.monotonic() - started:.0f} s, load average "
-          f"{os.getloadavg()[0]:.2f}")
+    children = resource.getrusage(resource.RUSAGE_CHILDREN)
+    print(f"\ntotal runtime {time.monotonic() - started:.0f} s wall; CPU "
+          f"{time.process_time():.0f} s in this process (replay, scoring) + "
+          f"{children.ru_utime + children.ru_stime:.0f} s in the flying processes; load "
+          f"average {' '.join(f'{x:.2f}' for x in os.getloadavg())} (1, 5, 15 min)")
     return 0
+
+
+MISMATCH_STREAM = 26
+"""The built units and their commissioning flights draw from ``default_rng([seed, 26, ...])``:
+a stream of their own, so ``--mismatch`` leaves every twin draw (units, flight seeds and
+conditions) as a run without it makes them."""
+
+
+def built_units(units: Sequence[Unit], seed: int) -> list[Unit]:
+    """The run's units as built units (``--mismatch``): each drawn by
+    :func:`mapr_daemon.testbed.mismatch.fleet` off the shipped data sheet (part-to-part
+    tolerances and a model form the sheet does not carry), flying its twin's trajectory."""
+    sheet = load_actuator(default_actuator_path())
+    fleet_seed = int(np.random.default_rng([seed, MISMATCH_STREAM, 0]).integers(2**31))
+    drawn = fleet(sheet, len(units), fleet_seed)
+    print(f"--mismatch: built units drawn by mismatch.fleet(data sheet, {len(units)}, "
+          f"{fleet_seed}); unit seeds " + ", ".join(
+              f"{u.tail}={b.seed}" for u, b in zip(units, drawn, strict=True)))
+    return [u.built_as(b) for u, b in zip(units, drawn, strict=True)]
+
+
+Scores = tuple[list[UnitScore], list[UnitScore]]
+
+
+def read_catalog(catalog: Path, units: Sequence[Unit], model: PrognosticModel,
+                 kinds: Sequence[str], args: argparse.Namespace) -> Scores:
+    """Score one run's catalog and print its figures: estimate errors, false wear, what
+    the BITs were diagnosed as, and the two tables; returns (true kind's, headline) scores."""
+    conn = sqlite3.connect(catalog)
+    mode_scores, head_scores = [], []
+    configured = model.with_lives(
+        {} if args.expected_life is None else {k: args.expected_life for k in kinds})
+    if args.reassess:
+        print("health re-assessed from the stored estimates under this configuration "
+              "(not the stored health)")
+    for u in (u for u in units if u.kind != HEALTHY):
+        mode_pts, head_pts = reassessed_points(conn, u, configured) if args.reassess \
+            else catalog_points(conn, u)
+        mode_scores.append(score_points(u.tail, u.kind, u.path.eol_flight, mode_pts,
+                                        LAMBDAS, ALPHA))
+        head_scores.append(score_points(u.tail, u.kind, u.path.eol_flight, head_pts,
+                                        LAMBDAS, ALPHA))
+    print_errors(conn, units, model, kinds)
+    print_healthy(conn, units)
+    print_diagnoses(conn, units, kinds)
+    conn.close()
+    print_table("from the catalog: the TRUE kind's mode (health.modes[kind])", mode_scores,
+                kinds)
+    print_table("from the catalog: the headline (leading mode's RUL)", head_scores, kinds)
+    return mode_scores, head_scores
+
+
+def print_diagnoses(conn: sqlite3.Connection, units: Sequence[Unit],
+                    kinds: Sequence[str]) -> None:
+    """What each aging unit's BITs from a quarter of life on were diagnosed as: the true
+    kind (alone or in a pair), a pair without it, another single fault, "unexplained" (an
+    anomaly no known mode fits: no severity for the true kind, though its wear estimate is
+    still stored and trended), or nothing."""
+    print("\ndiagnoses of the aging units' BITs from a quarter of life on:")
+    for k in kinds:
+        tally = Counter[str]()
+        for u in (u for u in units if u.kind == k):
+            for b in load_bits(conn, tail=u.tail):
+                if b.flight is None or b.flight - 1 < 0.25 * u.path.eol_flight:
+                    continue
+                if b.event_id is None:
+                    tally["none"] += 1
+                    continue
+                fault, evidence = conn.execute("SELECT fault, evidence FROM events WHERE id=?",
+                                               (b.event_id,)).fetchone()
+                ev = json.loads(evidence)
+                pair = ev.get("compound")
+                named = [str(m["fault"]) for m in pair.get("faults", ())] \
+                    if isinstance(pair, dict) else [fault]
+                tally["unexplained" if "unexplained" in ev and not isinstance(pair, dict)
+                      else ("true kind in a pair" if k in named else "another pair")
+                      if isinstance(pair, dict) else
+                      "true kind" if fault == k else f"other ({fault})"] += 1
+        total = sum(tally.values())
+        print(f"  {k:>14}: {total} BITs: " + (", ".join(
+            f"{name} {n} ({100 * n / total:.0f} %)" for name, n in tally.most_common())
+            if total else "none"))
+
+
+def print_beside(twin: Scores, built: Scores, kinds: Sequence[str]) -> None:
+    """The twin's and the built units' summaries, kind by kind, one above the other."""
+    print("\n== beside: the data sheet's twin against built units (same trajectories, "
+          "flight seeds and conditions) ==")
+    for title, i in (("the TRUE kind's mode", 0), ("the headline", 1)):
+        print(f"{title}:")
+        for k in [*kinds, "all"]:
+            for name, scores in (("twin", twin[i]), ("built", built[i])):
+                line = kind_summary(k, [s for s in scores if k == "all" or s.kind == k])
+                print(f"  {name:>5} {line.strip()}")
 
 
 def in_memory(dictionary: Path, units: Sequence[Unit], bit_every: int,

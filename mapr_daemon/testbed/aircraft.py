@@ -21,6 +21,7 @@ from typing import Any
 
 from drivers.backends.loopback import RemoteTerminal, Schedule, ScheduledMessage
 from mapr_daemon.ema.faults import FaultSet
+from mapr_daemon.ema.form import ModelForm
 from mapr_daemon.ema.params import ActuatorParams, default_actuator_path, load_actuator
 from mapr_daemon.ema.profile import Profile
 from mapr_daemon.icd import Icd
@@ -149,7 +150,9 @@ class Aircraft:
     """The whole simulated aircraft for the loopback bus: its terminals and its schedule.
 
     The constructor flies one EMA (``params``, ``faults``, ``seed``, BIT requests, at RT
-    ``rt``, 5 by default); :meth:`add_ema` adds another at its own RT. :attr:`emas` and
+    ``rt``, 5 by default; optionally a built unit's model ``form`` and this flight's
+    ``ambient_c`` and ``bus_v``, see :class:`~.ema_terminal.EmaTerminal`); :meth:`add_ema`
+    adds another at its own RT. :attr:`emas` and
     :attr:`fccs` list them in that order; :attr:`ema` and :attr:`fcc` are the first.
 
     >>> aircraft = Aircraft.build(profile, faults=FaultSet.of([...]))     # doctest: +SKIP
@@ -159,14 +162,15 @@ class Aircraft:
     def __init__(self, icd: Icd, profile: Profile, params: ActuatorParams,
                  faults: FaultSet | None = None, seed: int = 0,
                  bit_requests_s: Sequence[float] = (), bit_every_s: float | None = None,
-                 *, rt: int = 5) -> None:
+                 *, rt: int = 5, form: ModelForm | None = None,
+                 ambient_c: float | None = None, bus_v: float | None = None) -> None:
         self.icd = icd
         self.profile = profile
         self.adc = AirDataTerminal(icd, profile)
         self.emas: list[EmaTerminal] = []
         self.fccs: list[FlightControlComputer] = []
         self.add_ema(rt, params, faults, seed=seed, bit_requests_s=bit_requests_s,
-                     bit_every_s=bit_every_s)
+                     bit_every_s=bit_every_s, form=form, ambient_c=ambient_c, bus_v=bus_v)
 
     @classmethod
     def build(cls, icd: Icd, profile: Profile, *, actuator: str | None = None,
@@ -178,15 +182,18 @@ class Aircraft:
 
     def add_ema(self, rt: int, params: ActuatorParams, faults: FaultSet | None = None, *,
                 seed: int = 0, bit_requests_s: Sequence[float] = (),
-                bit_every_s: float | None = None) -> EmaTerminal:
+                bit_every_s: float | None = None, form: ModelForm | None = None,
+                ambient_c: float | None = None, bus_v: float | None = None) -> EmaTerminal:
         """Fly another EMA at remote terminal ``rt`` (its messages in the table, see
         :class:`~.ema_terminal.TerminalNames`), with its own data sheet, faults, seed and BIT
-        requests. Raises KeyError when the table lacks the RT or one of its messages, and
-        ValueError when the RT is already flown."""
+        requests (and optionally model form and flight condition, as
+        :class:`~.ema_terminal.EmaTerminal` takes them). Raises KeyError when the table lacks
+        the RT or one of its messages, and ValueError when the RT is already flown."""
         if any(e.rt == rt for e in self.emas):
             raise ValueError(f"RT {rt} already carries an EMA")
         ema = EmaTerminal(self.icd, params, faults or FaultSet(), seed=seed,
-                          dynamic_pressure=self._q, rt=rt)
+                          dynamic_pressure=self._q, rt=rt, form=form, ambient_c=ambient_c,
+                          bus_v=bus_v)
         self.emas.append(ema)
         self.fccs.append(FlightControlComputer(self.icd, self.profile,
                                                bit_requests_s=bit_requests_s,

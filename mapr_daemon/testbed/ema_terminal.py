@@ -41,6 +41,7 @@ from mapr_daemon.arrays import FloatArray
 from mapr_daemon.ema.batch import RunSpec
 from mapr_daemon.ema.bit import bit_profile
 from mapr_daemon.ema.faults import FaultSet
+from mapr_daemon.ema.form import ModelForm
 from mapr_daemon.ema.params import ActuatorParams
 from mapr_daemon.ema.plant import EmaBatch
 from mapr_daemon.icd import Icd, Message
@@ -199,13 +200,25 @@ def decode_data(icd: Icd, message: Message, data: Sequence[int], t_ns: int) -> d
 
 
 class EmaTerminal:
-    """An EMA remote terminal: receives commands and BIT requests, streams its sensors."""
+    """An EMA remote terminal: receives commands and BIT requests, streams its sensors.
+
+    ``params`` are the plant's parameters (a data sheet, or a built unit's own values);
+    ``form`` its model form (:class:`~mapr_daemon.ema.form.ModelForm`: the laws and loads a
+    data sheet does not carry; default the plant as the file describes it), and
+    ``ambient_c`` / ``bus_v`` this flight's ambient temperature and mean aircraft-bus voltage
+    (default: drawn by the plant from the file's flight-to-flight spread), as
+    :class:`~mapr_daemon.ema.batch.RunSpec` takes them. With none of the three given, the
+    plant is the one it always was, bit for bit.
+    """
 
     def __init__(self, icd: Icd, params: ActuatorParams, faults: FaultSet, *, seed: int,
-                 dynamic_pressure: Callable[[float], float], rt: int = 5) -> None:
+                 dynamic_pressure: Callable[[float], float], rt: int = 5,
+                 form: ModelForm | None = None, ambient_c: float | None = None,
+                 bus_v: float | None = None) -> None:
         self.icd = icd
         self.names = TerminalNames(icd, rt)
-        self.plant = EmaBatch([RunSpec(params, faults, seed=seed)], powered=True)
+        self.plant = EmaBatch([RunSpec(params, faults, seed=seed, ambient_c=ambient_c,
+                                       bus_v=bus_v, form=form or ModelForm())], powered=True)
         self.rate_hz = float(params.sensors.sample_rate_hz)
         self.dynamic_pressure = dynamic_pressure
         self.command_deg = 0.0

@@ -50,7 +50,13 @@ from drivers.chapter10.writer import Chapter10Writer
 from drivers.monitor import open_monitor
 from mapr_daemon.ema.degradation import Trajectory, trajectory
 from mapr_daemon.ema.faults import FaultSet
-from mapr_daemon.ema.params import default_actuator_path, load_actuator, with_sample_rate
+from mapr_daemon.ema.form import ModelForm
+from mapr_daemon.ema.params import (
+    ActuatorParams,
+    default_actuator_path,
+    load_actuator,
+    with_sample_rate,
+)
 from mapr_daemon.icd import load_icd
 from mapr_daemon.pipeline.settings import DEFAULT_ICD
 from mapr_daemon.testbed.aircraft import Aircraft
@@ -172,18 +178,28 @@ def generate_tail(root: str, spec: FleetSpec, index: int, kind: str | None,
 
 
 def fly_flight(path: str | Path, faults: FaultSet, *, seed: int, start: datetime,
-               bit: bool = True, flight_s: float = 2.0, condition: str = "cruise") -> None:
+               bit: bool = True, flight_s: float = 2.0, condition: str = "cruise",
+               params: ActuatorParams | None = None, form: ModelForm | None = None,
+               ambient_c: float | None = None, bus_v: float | None = None) -> None:
     """One flight of the testbed aircraft, ``faults`` seeded in its EMA, recorded to ``path``.
 
     The flight the archive above is made of, one at a time: ``flight_s`` seconds of bus
     traffic at the named flight ``condition``, the flight control computer asking for a BIT at
     its start when ``bit``. For benches that choose each flight's fault and condition
     themselves (a run-to-failure unit's BIT flights, flown in parallel one task per flight).
-    ``seed`` seeds the aircraft; the bus's own noise is seeded from it too."""
-    params = with_sample_rate(load_actuator(default_actuator_path()), RATE_HZ)
+    ``seed`` seeds the aircraft; the bus's own noise is seeded from it too.
+
+    By default the EMA is the shipped data sheet's twin. A built unit that is not
+    (:mod:`.mismatch`: its own ``params`` and model ``form``) is flown by passing both
+    (``faults`` then hold the unit's own values); ``ambient_c`` and ``bus_v`` fix the
+    flight's ambient temperature and mean bus voltage instead of the plant's draw around the
+    file's values (e.g. commissioning BITs flown over the envelope). With none of these the
+    flight is the one it always was, bit for bit."""
+    params = with_sample_rate(params or load_actuator(default_actuator_path()), RATE_HZ)
     profile = steady_profile(RATE_HZ, condition, duration_s=max(flight_s, 1.0))
     aircraft = Aircraft(load_icd(DEFAULT_ICD), profile, params, faults, seed=seed,
-                        bit_requests_s=(0.0,) if bit else ())
+                        bit_requests_s=(0.0,) if bit else (), form=form, ambient_c=ambient_c,
+                        bus_v=bus_v)
     _fly(aircraft, Path(path), flight_s, start, seed=seed)
 
 

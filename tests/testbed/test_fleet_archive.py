@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
+from typing import Any
 
 from drivers.chapter10.reader import Chapter10Reader
 from mapr_daemon.testbed.fleet import MANIFEST, FleetSpec, generate
@@ -61,3 +62,44 @@ def test_fly_flight_records_the_seeded_fault(tmp_path: Path) -> None:
     records = [r for batch in Chapter10Reader(tmp_path / "a.ch10") for r in batch.records]
     assert len(records) > 300
     assert records[0].extra["epoch_ns"] // 10**9 == int(start.timestamp())
+
+
+def test_fly_flight_flies_a_units_own_parameters_and_form(tmp_path: Path) -> None:
+    """The default flight is the data sheet's twin, unchanged when the sheet and the default
+    form are passed explicitly; a built unit's form and condition reach the plant and the
+    traffic."""
+    from datetime import UTC, datetime
+
+    from mapr_daemon.ema.faults import FaultSet
+    from mapr_daemon.ema.form import ModelForm
+    from mapr_daemon.ema.params import default_actuator_path, load_actuator, with_sample_rate
+    from mapr_daemon.icd import load_icd
+    from mapr_daemon.pipeline.settings import DEFAULT_ICD
+    from mapr_daemon.testbed.aircraft import Aircraft
+    from mapr_daemon.testbed.backend import RATE_HZ
+    from mapr_daemon.testbed.fleet import fly_flight
+    from mapr_daemon.testbed.mismatch import draw_unit
+    from mapr_daemon.testbed.profiles import steady_profile
+
+    start = datetime(2026, 3, 1, 9, 0, tzinfo=UTC)
+    sheet = load_actuator(default_actuator_path())
+    unit = draw_unit(sheet, 5)
+    form = ModelForm(housekeeping_w=3.0, sensor_offset=(("smps_input_current_a", 0.2),))
+    flights: dict[str, dict[str, Any]] = {
+        "default": {}, "explicit": {"params": sheet, "form": ModelForm()},
+        "form": {"params": sheet, "form": form},
+        "unit": {"params": unit.params, "form": unit.form, "ambient_c": -30.0, "bus_v": 23.0}}
+    for name, kwargs in flights.items():
+        fly_flight(tmp_path / f"{name}.ch10", FaultSet(), seed=11, start=start, flight_s=0.3,
+                   condition="climb", **kwargs)
+    data = {name: (tmp_path / f"{name}.ch10").read_bytes() for name in flights}
+    assert data["explicit"] == data["default"]
+    assert data["form"] != data["default"] and data["unit"] != data["default"]
+    profile = steady_profile(RATE_HZ, "climb", duration_s=1.0)
+    aircraft = Aircraft(load_icd(DEFAULT_ICD), profile, with_sample_rate(unit.params, RATE_HZ),
+                        seed=1, form=unit.form, ambient_c=-30.0, bus_v=23.0)
+    (spec,) = aircraft.ema.plant.specs
+    assert spec.form == unit.form and (spec.ambient_c, spec.bus_v) == (-30.0, 23.0)
+    assert spec.params.motor == unit.params.motor
+    twin = Aircraft(load_icd(DEFAULT_ICD), profile, with_sample_rate(sheet, RATE_HZ), seed=1)
+    assert twin.ema.plant.specs[0].form == ModelForm()
