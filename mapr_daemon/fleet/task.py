@@ -173,7 +173,7 @@ def _run(recording: Recording, config: Config, digest: str,
         issues = [str(issue) for issue in reader.issues]
         absent = sorted(set(channels or ()) - reader.channels_seen)
         if absent:   # as every command reading a recording says it: the channel, what it holds
-            from mapr_daemon.cli.traffic.source import holdings
+            from drivers.chapter10.holdings import holdings
             return TaskResult(recording, digest, False,
                               f"channel {', '.join(map(str, absent))} not in the recording "
                               f"(it holds: {holdings(reader)})", issues=issues)

@@ -179,3 +179,5 @@ def test_a_variance_rounded_below_zero_is_restored_not_an_error() -> None:
     assert p[2, 2] <= cap[2] * (1 + 1e-12)
     bad = np.array([[1.0, np.nan], [np.nan, 1.0]])
     assert not _symmetrise_and_cap(bad, np.array([1.0, 1.0]))
+    diverged = np.array([[1.0, 0.0], [0.0, -1e-3]])   # far below zero: not rounding
+    assert not _symmetrise_and_cap(diverged, np.array([1.0, 1.0]))

@@ -19,6 +19,7 @@ from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, TextIO
 
+from drivers.chapter10.holdings import holdings
 from mapr_daemon.cli import exitcodes
 
 if TYPE_CHECKING:   # imported where used: registering the subcommands stays light
@@ -145,25 +146,6 @@ def open_chapter10(path: str, channels: Sequence[int] | None, year: int | None, 
                                name=found.name)
     finally:
         found.done_opening()
-
-
-_TYPE_NAMES = {0x01: "TMATS", 0x11: "time", 0x19: "1553", 0x38: "ARINC 429"}
-
-
-def holdings(reader: Chapter10Reader) -> str:
-    """What the recording held, by packet type and channel: ``TMATS channel 0; time channel
-    2; video (0x40) channels 3, 4`` (``nothing readable`` when no whole packet was met)."""
-    from chapter10.c10 import TYPES
-
-    parts = []
-    for data_type, ids in sorted(reader.walker.types_seen.items()):
-        name = _TYPE_NAMES.get(data_type)
-        if name is None:
-            handler = TYPES.get(data_type)
-            name = f"{handler.__name__ if handler else 'type'} (0x{data_type:02X})"
-        word = "channel" if len(ids) == 1 else "channels"
-        parts.append(f"{name} {word} {', '.join(map(str, sorted(ids)))}")
-    return "; ".join(parts) or "nothing readable"
 
 
 def what_it_holds(reader: Chapter10Reader, wanted: Sequence[int] | None, prog: str, *,

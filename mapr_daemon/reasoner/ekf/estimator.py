@@ -129,7 +129,8 @@ class ParameterEstimator:
         """Symmetrise P and cap each variance at its prior (a congruence keeps P > 0)."""
         p = np.array(self.kf.P, dtype=np.float64)
         if not _symmetrise_and_cap(p, self.p_cap):
-            raise RecordError("covariance has a non-finite entry", field="estimator")
+            raise RecordError("covariance diverged (a non-finite entry or a variance far below "
+                              "zero)", field="estimator")
         self.kf.P = p
 
     @property
@@ -260,6 +261,9 @@ def severity_check(fault: str | None, value: float | None,
 VARIANCE_FLOOR = 1e-12
 """Least variance of a state, as a share of its prior (cap): below it rounding, not
 information, sets the value."""
+ROUNDING = 1e-9
+"""A variance below zero by less than this share of its prior is rounding (restored to the
+floor); by more, the update diverged (an overflowing record) and the record fails."""
 
 
 @kernel
@@ -269,7 +273,8 @@ def _symmetrise_and_cap(p: FloatArray, cap: FloatArray) -> bool:
     set back to :data:`VARIANCE_FLOOR` of its cap with its covariances cleared; then each
     variance above ``cap`` scaled back to it by the congruence ``S P S`` with
     ``S = diag(sqrt(min(1, cap/d)))``, which keeps P positive definite. False (P left
-    symmetrised) only when P has a non-finite entry."""
+    symmetrised) when P has a non-finite entry or a variance far below zero (more than
+    :data:`ROUNDING` of its cap: a diverged update, not rounding)."""
     n = p.shape[0]
     for i in range(n):
         for j in range(n):
@@ -282,6 +287,8 @@ def _symmetrise_and_cap(p: FloatArray, cap: FloatArray) -> bool:
             p[j, i] = m
     for i in range(n):
         floor = VARIANCE_FLOOR * cap[i]
+        if p[i, i] < -ROUNDING * cap[i]:
+            return False   # far below zero: the update diverged, not a rounding
         if p[i, i] < floor:
             for j in range(n):
                 p[i, j] = 0.0
