@@ -9,13 +9,12 @@ The recording is eight 1553 buses written with the project's Chapter 10 packet w
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 from pathlib import Path
 from typing import Any
 
 import pytest
 
+from tests.support.cli_run import mapr
 from tests.support.multibus import RATE_HZ, SECONDS, write_recording
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -24,12 +23,6 @@ READERS = [["decode"], ["monitor"], ["replay"], ["icd", "discover"], ["fleet"]]
 """The commands that read a Chapter 10 recording."""
 
 
-def mapr(*args: str, stdin: bytes = b"") -> subprocess.CompletedProcess[str]:
-    run = subprocess.run([sys.executable, "-m", "mapr_daemon.cli.main", *args], input=stdin,
-                         capture_output=True, cwd=ROOT, check=False,
-                         env={"PYTHONPATH": str(ROOT), "PATH": "/usr/bin:/bin"})
-    return subprocess.CompletedProcess(run.args, run.returncode, run.stdout.decode(),
-                                       run.stderr.decode())
 
 
 def json_lines(text: str) -> list[dict[str, Any]]:

@@ -10,8 +10,6 @@ naming the file and line.
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
@@ -19,18 +17,13 @@ import pytest
 from drivers.mil1553.record import MonitorRecord, TransferFormat
 from mapr_daemon.errors import IcdError
 from mapr_daemon.icd import loads_icd
+from tests.support.cli_run import mapr
 from tests.support.multibus import RATE_HZ, SECONDS, write_recording
 
 ROOT = Path(__file__).resolve().parents[2]
 CHANNELS = list(range(1, 9))
 
 
-def mapr(*args: str, stdin: bytes = b"") -> subprocess.CompletedProcess[str]:
-    run = subprocess.run([sys.executable, "-m", "mapr_daemon.cli.main", *args], input=stdin,
-                         capture_output=True, cwd=ROOT, check=False,
-                         env={"PYTHONPATH": str(ROOT), "PATH": "/usr/bin:/bin"})
-    return subprocess.CompletedProcess(run.args, run.returncode, run.stdout.decode(),
-                                       run.stderr.decode())
 
 
 @pytest.fixture(scope="module")
