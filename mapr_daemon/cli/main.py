@@ -179,6 +179,18 @@ def main(argv: Sequence[str] | None = None) -> int:
             logging.getLogger().removeHandler(handler)
 
 
+def _stopped_by_user(error: BaseException) -> bool:
+    """Whether ``error`` was raised while a KeyboardInterrupt was being handled."""
+    seen: set[int] = set()
+    cause: BaseException | None = error
+    while cause is not None and id(cause) not in seen:
+        if isinstance(cause, KeyboardInterrupt):
+            return True
+        seen.add(id(cause))
+        cause = cause.__context__
+    return False
+
+
 def _run(args: argparse.Namespace) -> int:
     """Validate and run the parsed subcommand, turning expected errors into exit codes."""
     validate = getattr(args, "validate", None)
@@ -190,6 +202,10 @@ def _run(args: argparse.Namespace) -> int:
     try:
         return int(args.func(args))
     except MaprError as error:
+        if _stopped_by_user(error):
+            # Ctrl-C landed inside a backend and its clean-up failed in turn (a loopback's
+            # simulator thread cut off mid-block): the user stopped it, the error is the echo
+            return exitcodes.INTERRUPTED
         print(f"mapr {args.command}: {error}", file=sys.stderr)
         return exit_code_for(error)
     except BrokenPipeError:

@@ -163,3 +163,20 @@ def test_the_table_lists_every_exit_code_and_no_other() -> None:
 def test_each_code_is_what_its_commands_end_with(code: int, tmp_path: Path) -> None:
     codes = CASES[code](tmp_path)
     assert codes and codes == [code] * len(codes), codes
+
+
+def test_an_error_raised_while_ctrl_c_unwinds_still_ends_as_interrupted() -> None:
+    """A backend whose clean-up fails because Ctrl-C cut it off mid-work raises one of our
+    errors while the KeyboardInterrupt is handled: the user stopped the command (130), the
+    error is only the echo of that."""
+    from drivers.errors import BackendError
+    from mapr_daemon.cli.main import _stopped_by_user
+
+    try:
+        try:
+            raise KeyboardInterrupt
+        except KeyboardInterrupt:
+            raise BackendError("the simulator thread stopped mid-block") from None
+    except BackendError as error:
+        assert _stopped_by_user(error)
+    assert not _stopped_by_user(BackendError("no card"))
