@@ -176,6 +176,13 @@ class Reasoner:
         component: str | None = None
         part: str | None = None
         ambiguity: dict[str, Any] | None = None
+        if dec.anomaly and dec.pair is not None:
+            # the member nearer its replace-at threshold leads: the event's fault, part and SoH
+            # are then the same member's
+            lead, other = sorted(dec.pair, key=lambda m: soh.soh(self.params, m.fault,
+                                                                  m.value))
+            dec = dataclasses.replace(dec, fault=lead.fault, severity=lead.severity,
+                                      value=lead.value, unit=lead.unit, pair=(lead, other))
         evidence = dict(dec.evidence)
         if dec.anomaly and dec.fault is not None:
             health = soh.soh(self.params, dec.fault, dec.value)

@@ -82,11 +82,12 @@ def test_two_faults_in_different_parts_are_named_as_the_pair(flown: Flown, name:
     # (the two signatures interact: bench/compound.py prints the error)
     for m in members:
         assert 0.15 < m["severity_fraction_of_range"] <= 1.0, members
-    # the more severe first, and the event's own fault is that one
-    assert dx.fault == members[0]["fault"]
-    assert members[0]["severity_fraction_of_range"] >= members[1]["severity_fraction_of_range"]
-    assert dx.soh == min(m["soh"] for m in members)
-    # the JSON line a user reads carries both
+    # the member nearer its replace-at threshold leads: the event's fault, part and SoH are
+    # that one's
+    assert dx.fault == members[0]["fault"] and dx.part == members[0]["part"]
+    assert members[0]["soh"] <= members[1]["soh"]
+    assert dx.soh == members[0]["soh"]
+    # the JSON a user reads carries both
     assert [m["fault"] for m in dx.to_json()["evidence"]["compound"]["faults"]] \
         == list(dx.faults)
 

@@ -36,6 +36,11 @@ def test_the_map_counts_each_cell_and_names_the_blind_modes() -> None:
     # beyond the envelope the outer bands hold
     assert dm.blind(19.0, -60.0) == ["smps_ron_low"] and dm.blind(31.0, 90.0) == []
     assert DetectionMap.from_json(json.loads(json.dumps(dm.as_json()))) == dm
+    # a cell no run landed in says nothing: not blind, "no runs" in the table
+    sparse = DetectionMap.measure(BUS, AMB, [("esr", 23.0, -20.0, True)])
+    assert sparse.blind(27.0, 60.0) == [] and sparse.runs_per_cell == 0
+    assert "no runs" in "\n".join(sparse.table())
+    assert json.loads(json.dumps(sparse.as_json()))["detected"]["esr"][2][2] is None
     text = "\n".join(dm.table())
     assert "smps_ron_low" in text and "0%*" in text and f"{BLIND_BELOW:.0%}" in text
 
@@ -53,6 +58,5 @@ def test_describe_prints_the_modes_thresholds_and_map(dictionary: Path) -> None:
         [sys.executable, "-m", "mapr_daemon.cli.main", "dictionary", "describe",
          str(dictionary), "--json"], capture_output=True, text=True, timeout=120,
         check=True).stdout)
-    assert doc["detection_map"]["detected"]["esr"] == [list(r) for r in
-                                                       d.detection.detected["esr"]]
+    assert doc["detection_map"] == d.detection.as_json()
     assert doc["thresholds"]["anomaly (likelihood ratio)"] == d.threshold

@@ -101,7 +101,8 @@ class Decision:
     probabilities."""
     pair: tuple[Member, Member] | None = None
     """Two faults in different parts (:mod:`~mapr_daemon.reasoner.diagnosis.compound`), the
-    more severe (as a fraction of range) first; ``fault``, ``severity`` and ``value`` are then
+    more severe (as a fraction of range) first (the reasoner's event puts the member nearer its
+    replace-at threshold first); ``fault``, ``severity`` and ``value`` are then
     the first's. None for a single fault or none."""
     tolerance: float = 1.0
     """How much wider than the healthy noise a correct template's residual may be on this
@@ -173,22 +174,25 @@ def explanation_statistics(d: Dictionary, m: FloatArray, q: float) -> tuple[floa
     c, y, fits = _fits(d, m, q)
     null = fault_models.null_residual(y, fits)
     nt = d.calibration.get("null_threshold", math.inf)
-    single = min(f.residual for f in fits)
+    best = min(fits, key=lambda f: f.residual)
+    if d.templates[best.template].switch:
+        # decide holds only parametric explanations to these tests: not measured here either
+        return math.nan, math.nan
+    single = best.residual
     pairs = compound.fit_pairs(fm, d.templates, y, c, hm.unit_metric)
     pair = min((p.residual for p in pairs), default=single)
     return (compound.pair_gain(single, pair, null, nt),
             compound.unexplained_ratio(single, null, nt))
 
 
-def _pair_severity(fm: fault_models.FaultModels, i: int, other: int, other_severity: float,
+def _pair_severity(fm: fault_models.FaultModels, i: int, other: int, other_row: int,
                    y: FloatArray, c: healthy_model.Conditions) -> float | None:
     """A pair member's severity by its inverse model, read on the run's coordinates ``y``
-    (the model's, not a unit's metric) less the other member's signature at its fitted
-    severity: the pair fit's own grid point is set by the few coordinates where the two
-    signatures overlap, the inverse model weighs every coordinate by how well it predicts
-    the member's severity. None where the template has no inverse model."""
-    k = round(other_severity * (fault_models.SEVERITY_GRID.size - 1))
-    return fault_models.severity(fm, i, y - fm.curve(other, c)[k], c)
+    (the model's, not a unit's metric) less the other member's signature at the row of its
+    curve the pair fit chose: the pair fit's own grid point is set by the few coordinates
+    where the two signatures overlap, the inverse model weighs every coordinate by how well it
+    predicts the member's severity. None where the template has no inverse model."""
+    return fault_models.severity(fm, i, y - fm.curve(other, c)[other_row], c)
 
 
 def _member(t: Template, severity: float) -> Member:
@@ -199,28 +203,34 @@ def _member(t: Template, severity: float) -> Member:
 def _departures(d: Dictionary, hm: healthy_model.HealthyModel, z: FloatArray
                 ) -> dict[str, Any]:
     """Where an unexplained run departs most: the signals (column names' signal part) and the
-    BIT phases (the record's windows, in ms from the BIT's start), by squared standardized
-    departure, largest first."""
+    BIT phases (from the first to the last record row a cell pools, in ms from the BIT's
+    start; a whole-record value, stored on every row alike, is its own phase), by squared
+    standardized departure, largest first."""
     ncol = len(d.columns)
-    rows = hm.cells[:, 0] // ncol
-    cols = hm.cells[:, 0] % ncol
     energy = z**2
     by_signal: dict[str, float] = {}
-    for e, col in zip(energy, cols, strict=True):
-        name = d.columns[int(col)].split(":", 1)[-1]
+    by_phase: dict[tuple[int, int], float] = {}
+    for e, cell in zip(energy, hm.cells, strict=True):
+        name = d.columns[int(cell[0] % ncol)].split(":", 1)[-1]
         by_signal[name] = by_signal.get(name, 0.0) + float(e)
-    by_window: dict[int, float] = {}
-    for e, row in zip(energy, rows, strict=True):
-        by_window[int(row)] = by_window.get(int(row), 0.0) + float(e)
+        rows = sorted({int(r) // ncol for r in cell})
+        span = (-1, -1) if len(cell) > 1 and len(rows) == 1 else (rows[0], rows[-1])
+        by_phase[span] = by_phase.get(span, 0.0) + float(e)
     total = max(float(energy.sum()), 1e-12)
     ms = 1000.0 / d.sample_rate_hz
-    top_w = sorted(by_window.items(), key=lambda kv: -kv[1])[:3]
+    phases = []
+    for (r0, r1), v in sorted(by_phase.items(), key=lambda kv: -kv[1])[:3]:
+        if r0 < 0:
+            phases.append({"whole_record": True, "share": round(v / total, 3)})
+        else:
+            phases.append({"from": round(float(d.window_starts[r0]) * ms, 1),
+                           "to": round((float(d.window_starts[r1]) + d.window_samples) * ms,
+                                       1),
+                           "share": round(v / total, 3)})
     return {
         "signals": [{"signal": k, "share": round(v / total, 3)} for k, v in
                     sorted(by_signal.items(), key=lambda kv: -kv[1])[:3]],
-        "phases_ms": [{"from": round(float(d.window_starts[w]) * ms, 1),
-                       "to": round((float(d.window_starts[w]) + d.window_samples) * ms, 1),
-                       "share": round(v / total, 3)} for w, v in top_w],
+        "phases_ms": phases,
     }
 
 
@@ -335,12 +345,10 @@ def decide(d: Dictionary, m: FloatArray, q: float) -> Decision:
     if pair is not None:
         raw = hm.coordinates(m, c)
         _, fm = _models(d)
-        a = _member(d.templates[pair.first], _pair_severity(fm, pair.first, pair.second,
-                                                            pair.severity_second, raw, c)
-                    or pair.severity_first)
-        b = _member(d.templates[pair.second], _pair_severity(fm, pair.second, pair.first,
-                                                             pair.severity_first, raw, c)
-                    or pair.severity_second)
+        sa = _pair_severity(fm, pair.first, pair.second, pair.row_second, raw, c)
+        sb = _pair_severity(fm, pair.second, pair.first, pair.row_first, raw, c)
+        a = _member(d.templates[pair.first], pair.severity_first if sa is None else sa)
+        b = _member(d.templates[pair.second], pair.severity_second if sb is None else sb)
         first, second = (a, b) if a.severity >= b.severity else (b, a)
         return Decision(True, first.fault, None, first.severity, first.value, first.unit,
                         p_anom, score, d.threshold, evidence, kinds, (first, second), tol)

@@ -36,6 +36,7 @@ import itertools
 from collections.abc import Sequence
 
 import numpy as np
+import numpy.typing as npt
 
 from mapr_daemon.arrays import FloatArray
 from mapr_daemon.reasoner.diagnosis.dictionary import Template
@@ -79,6 +80,10 @@ class PairFit:
     severity_first: float
     severity_second: float
     residual: float
+    row_first: int = 0
+    """The row of :meth:`FaultModels.curve` of ``first`` the fit chose (its smooth curve's
+    rows first, then its grid curve's)."""
+    row_second: int = 0
 
 
 def pairs_of(templates: Sequence[Template]) -> list[tuple[int, int]]:
@@ -90,15 +95,15 @@ def pairs_of(templates: Sequence[Template]) -> list[tuple[int, int]]:
 
 
 def _candidates(models: FaultModels, i: int, c: Conditions,
-                metric: FloatArray | None) -> tuple[FloatArray, FloatArray]:
+                metric: FloatArray | None) -> tuple[FloatArray, FloatArray, npt.NDArray[np.intp]]:
     """Template ``i``'s signature points beyond its healthy band (raw, in the run's metric),
-    and their severities."""
+    their severities and their rows in :meth:`FaultModels.curve`."""
     raw = models.curve(i, c)
     if metric is not None:
         raw = raw @ metric
     sev = np.resize(SEVERITY_GRID, raw.shape[0])
-    keep = sev > models.band(i)
-    return raw[keep], sev[keep]
+    rows = np.flatnonzero(sev > models.band(i))
+    return raw[rows], sev[rows], rows
 
 
 def fit_pairs(models: FaultModels, templates: Sequence[Template], y: FloatArray,
@@ -109,7 +114,7 @@ def fit_pairs(models: FaultModels, templates: Sequence[Template], y: FloatArray,
     cands = {i: _candidates(models, i, c, metric) for pair in pairs_of(templates) for i in pair}
     out = []
     for a, b in pairs_of(templates):
-        (ra, sa), (rb, sb) = cands[a], cands[b]
+        (ra, sa, rows_a), (rb, sb, rows_b) = cands[a], cands[b]
         if ra.shape[0] == 0 or rb.shape[0] == 0:
             continue
         ca, cb = np.arange(0, ra.shape[0], COARSE), np.arange(0, rb.shape[0], COARSE)
@@ -125,7 +130,8 @@ def fit_pairs(models: FaultModels, templates: Sequence[Template], y: FloatArray,
             r = ((compress(ra[ja] + rb[wb]) - yc) ** 2).sum(axis=1)
             jb = int(wb[int(np.argmin(r))])
             res = float(r.min())
-        out.append(PairFit(a, b, float(sa[ja]), float(sb[jb]), res))
+        out.append(PairFit(a, b, float(sa[ja]), float(sb[jb]), res, int(rows_a[ja]),
+                           int(rows_b[jb])))
     return out
 
 

@@ -17,6 +17,7 @@ runs there), and ``mapr dictionary describe`` prints the map.
 from __future__ import annotations
 
 import dataclasses
+import math
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -65,8 +66,11 @@ class DetectionMap:
             i, j = _band(bus_v_edges, bus), _band(ambient_c_edges, amb)
             hits.setdefault(mode, np.zeros((nb, na)))[i, j] += detected
             counts.setdefault(mode, np.zeros((nb, na)))[i, j] += 1
-        share = {m: tuple(tuple(round(float(v), 3) for v in row)
-                          for row in hits[m] / np.maximum(counts[m], 1)) for m in hits}
+        # a cell none of a mode's runs landed in says nothing: NaN, never "blind"
+        share = {m: tuple(tuple(round(float(h / n), 3) if n else math.nan
+                                for h, n in zip(hrow, nrow, strict=True))
+                          for hrow, nrow in zip(hits[m], counts[m], strict=True))
+                 for m in hits}
         per_cell = int(min(c.min() for c in counts.values())) if counts else 0
         return cls(tuple(float(e) for e in bus_v_edges),
                    tuple(float(e) for e in ambient_c_edges), share, per_cell)
@@ -76,17 +80,20 @@ class DetectionMap:
         "no anomaly" about them."""
         i, j = _band(self.bus_v_edges, bus_v), _band(self.ambient_c_edges, ambient_c)
         return sorted(m for m, rows in self.detected.items() if rows[i][j] < BLIND_BELOW)
+        # (NaN < BLIND_BELOW is False: an empty cell names nothing blind)
 
     def as_json(self) -> dict[str, Any]:
         return {"bus_v_edges": list(self.bus_v_edges),
                 "ambient_c_edges": list(self.ambient_c_edges),
-                "detected": {m: [list(r) for r in rows] for m, rows in self.detected.items()},
+                "detected": {m: [[None if math.isnan(v) else v for v in r] for r in rows]
+                             for m, rows in self.detected.items()},
                 "runs_per_cell": self.runs_per_cell}
 
     @classmethod
     def from_json(cls, doc: Mapping[str, Any]) -> DetectionMap:
         return cls(tuple(doc["bus_v_edges"]), tuple(doc["ambient_c_edges"]),
-                   {m: tuple(tuple(float(v) for v in r) for r in rows)
+                   {m: tuple(tuple(math.nan if v is None else float(v) for v in r)
+                             for r in rows)
                     for m, rows in doc["detected"].items()}, int(doc["runs_per_cell"]))
 
     def table(self) -> list[str]:
@@ -94,14 +101,16 @@ class DetectionMap:
         amb = self.ambient_c_edges
         head = " " * 16 + "".join(f"{f'{amb[j]:.0f}..{amb[j + 1]:.0f} C':>14}"
                                   for j in range(len(amb) - 1))
-        out = [f"detected share of the map's runs per cell (at least {self.runs_per_cell} "
-               f"each) at 25-100 % of range, binned by the conditions read from their records "
-               f"(* blind: below {BLIND_BELOW:.0%})"]
+        out = [f"detected share of the map's conclusive runs per cell (at least "
+               f"{self.runs_per_cell} each) at 25-100 % of range, binned by the bus voltage and "
+               f"the power-stage temperature read from their records (* blind: below "
+               f"{BLIND_BELOW:.0%})"]
         bus = self.bus_v_edges
         for mode, rows in self.detected.items():
             out += [f"{mode}", head]
             for i, row in enumerate(rows):
                 out.append(f"{f'{bus[i]:.1f}..{bus[i + 1]:.1f} V':>16}"
-                           + "".join(f"{v:>13.0%}{'*' if v < BLIND_BELOW else ' '}"
+                           + "".join(f"{'no runs':>13} " if math.isnan(v) else
+                                     f"{v:>13.0%}{'*' if v < BLIND_BELOW else ' '}"
                                      for v in row))
         return out

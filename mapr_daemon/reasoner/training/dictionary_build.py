@@ -447,10 +447,17 @@ def fit_ours(d: Dictionary, params: ActuatorParams, spec: DictionarySpec, m: Flo
 def measure_detection(d: Dictionary, params: ActuatorParams, m: FloatArray, q: FloatArray,
                       roles: list[str], conds: list[healthy_model.Conditions]) -> None:
     """The detection map from its runs, decided with the finished dictionary and binned by
-    the conditions read from their own records (as a decision reads them)."""
-    runs = [(roles[i].split(":", 1)[1].split("@", 1)[0], conds[i].supply_v,
-             conds[i].temperature_c, classifier.decide(d, m[i], float(q[i])).anomaly)
-            for i in range(len(roles)) if roles[i].startswith(f"{DETECTION_MAP}:")]
+    the conditions read from their own records (as a decision reads them); inconclusive runs
+    are left out."""
+    runs = []
+    for i in range(len(roles)):
+        if not roles[i].startswith(f"{DETECTION_MAP}:"):
+            continue
+        dec = classifier.decide(d, m[i], float(q[i]))
+        if dec.inconclusive:   # below the supply floor a BIT judges nothing: not a miss
+            continue
+        runs.append((roles[i].split(":", 1)[1].split("@", 1)[0], conds[i].supply_v,
+                     conds[i].temperature_c, dec.anomaly))
     if runs:
         d.detection = detection_map.DetectionMap.measure(
             tuple(detection_map.band_edges(params.bus.min_v, params.bus.max_v)),
@@ -466,13 +473,16 @@ def calibrate_explanations(d: Dictionary, m: FloatArray, q: FloatArray,
     if rows.size == 0:
         return
     stats = np.array([classifier.explanation_statistics(d, m[i], float(q[i])) for i in rows])
+    measured = stats[np.isfinite(stats[:, 0])]   # runs a switch template fits best: not held
+    if measured.shape[0] == 0:
+        return
     d.calibration.update({
-        "fault_calibration_runs": float(rows.size),
-        "pair_gain_max": float(stats[:, 0].max()),
-        "pair_threshold": max(compound.PAIR_MARGIN * float(stats[:, 0].max()),
+        "fault_calibration_runs": float(measured.shape[0]),
+        "pair_gain_max": float(measured[:, 0].max()),
+        "pair_threshold": max(compound.PAIR_MARGIN * float(measured[:, 0].max()),
                               compound.PAIR_FLOOR),
-        "unexplained_max": float(stats[:, 1].max()),
-        "unexplained_threshold": compound.MARGIN * float(stats[:, 1].max())})
+        "unexplained_max": float(measured[:, 1].max()),
+        "unexplained_threshold": compound.MARGIN * float(measured[:, 1].max())})
 
 
 def paper_curves(d: Dictionary, reference_pressure: int = 0) -> dict[str, PaperCurve]:
