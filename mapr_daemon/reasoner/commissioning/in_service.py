@@ -98,6 +98,7 @@ class InServiceLearning:
     _readings: list[FloatArray] = dataclasses.field(default_factory=list)
 
     def __post_init__(self) -> None:
+        self.m, self.q = list(self.m), [float(v) for v in self.q]   # ours, not the caller's
         self._kinds = sorted({t.kind for t in self.model.templates if not t.switch})
         self._commissioned = len(self.m)
         self._calibrate()
