@@ -27,6 +27,8 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from seeds import master
+
 from mapr_daemon.ema.faults import FaultSet
 from mapr_daemon.ema.params import load_actuator
 from mapr_daemon.reasoner.commissioning.bits import FIT_SIGNALS, from_runs, signal_noise
@@ -46,11 +48,8 @@ def main() -> int:
     ap.add_argument("--bits", type=int, default=10)
     ap.add_argument("--seed", type=int, help="master seed (default: drawn afresh, printed)")
     args = ap.parse_args()
-    seed = int(args.seed if args.seed is not None
-               else np.random.SeedSequence().entropy % 2**63)  # type: ignore[operator]
-    print(f"master seed {seed}  (rerun: python3 bench/commission_residuals.py --units "
-          f"{args.units} --bits {args.bits} --seed {seed})")
-    print(f"load average {' '.join(f'{x:.2f}' for x in os.getloadavg())} (2 cores, shared)")
+    seed = master(args.seed, f"python3 bench/commission_residuals.py --units "
+                  f"{args.units} --bits {args.bits}")
     start, cpu0 = time.monotonic(), time.process_time()
     rng = np.random.default_rng(seed)
     decimate = FitOptions().decimate

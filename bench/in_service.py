@@ -33,6 +33,8 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from seeds import master
+
 from mapr_daemon.ema.batch import RunSpec
 from mapr_daemon.ema.faults import SWITCHES, Fault, FaultSet, at_severity
 from mapr_daemon.ema.params import default_actuator_path, load_actuator
@@ -86,11 +88,8 @@ def main() -> int:
     ap.add_argument("--drift-to", type=float, default=0.6)
     ap.add_argument("--seed", type=int, help="master seed (default: drawn afresh, printed)")
     args = ap.parse_args()
-    seed = int(args.seed if args.seed is not None
-               else np.random.SeedSequence().entropy % 2**63)  # type: ignore[operator]
-    print(f"master seed {seed}  (rerun: python3 bench/in_service.py --actuator {args.actuator} "
-          f"--dictionary {args.dictionary} --units {args.units} --seed {seed})")
-    print(f"load average {' '.join(f'{x:.2f}' for x in os.getloadavg())} (2 cores, shared)")
+    seed = master(args.seed, f"python3 bench/in_service.py --actuator {args.actuator} "
+                  f"--dictionary {args.dictionary} --units {args.units}")
     start, cpu0 = time.monotonic(), time.process_time()
     d = Dictionary.load(args.dictionary)
     rng = np.random.default_rng(seed)

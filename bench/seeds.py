@@ -3,6 +3,8 @@ figure depends on a seed set that design choices were made on, and any can be re
 
 from __future__ import annotations
 
+import os
+
 import numpy as np
 
 FIRST = 10_000
@@ -16,4 +18,15 @@ def fresh(seed: int | None) -> int:
     if seed is None:
         seed = FIRST + int(np.random.SeedSequence().entropy % 90_000_000)
     print(f"seed {seed} (rerun with --seed {seed})")
+    return seed
+
+
+def master(seed: int | None, rerun: str) -> int:
+    """A bench's master seed: ``seed`` if given, else 63 bits drawn from the operating system;
+    printed with the command that reruns it (``rerun``, the seed appended) and the load
+    average, the two lines every campaign bench opens with."""
+    if seed is None:
+        seed = int(np.random.SeedSequence().entropy % 2**63)  # type: ignore[operator]
+    print(f"master seed {seed}  (rerun: {rerun} --seed {seed})")
+    print(f"load average {' '.join(f'{x:.2f}' for x in os.getloadavg())} (2 cores, shared)")
     return seed

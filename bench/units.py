@@ -38,6 +38,8 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from seeds import master
+
 from mapr_daemon.ema.batch import RunSpec
 from mapr_daemon.ema.faults import SWITCHES, Fault, FaultSet, at_severity
 from mapr_daemon.ema.params import ActuatorParams, default_actuator_path, load_actuator
@@ -69,11 +71,8 @@ def main() -> int:
                     help="identify each unit and build its dictionary before calibrating")
     ap.add_argument("--spec", type=Path, help="dictionary spec for --identify")
     args = ap.parse_args()
-    seed = int(args.seed if args.seed is not None
-               else np.random.SeedSequence().entropy % 2**63)  # type: ignore[operator]
-    print(f"master seed {seed}  (rerun: python3 bench/units.py --actuator {args.actuator} "
-          f"--dictionary {args.dictionary} --seed {seed})")
-    print(f"load average {' '.join(f'{x:.2f}' for x in os.getloadavg())} (2 cores, shared)")
+    seed = master(args.seed, f"python3 bench/units.py --actuator {args.actuator} "
+                  f"--dictionary {args.dictionary}")
     start, cpu0 = time.monotonic(), time.process_time()
     sheet = load_actuator(args.actuator)
     d = Dictionary.load(args.dictionary)
