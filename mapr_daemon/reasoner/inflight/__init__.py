@@ -1,0 +1,25 @@
+"""In-flight parameter tracking: the EKF on the traffic between BITs (issue 29).
+
+:mod:`.segments` cuts a flight's bus-rate channels into windows with enough excitation for
+each parameter group; :mod:`.tracker` runs the EKF over the qualifying segments and ends the
+flight with one estimate per parameter, its sd and its change from the unit's baseline.
+"""
+
+from mapr_daemon.reasoner.inflight.segments import (
+    CRITERION,
+    Criterion,
+    Excitation,
+    Segment,
+    excitation,
+    select,
+)
+from mapr_daemon.reasoner.inflight.tracker import (
+    FlightEstimate,
+    FlightTracker,
+    Tracked,
+    commission,
+)
+
+__all__ = ["CRITERION", "Criterion", "Excitation", "FlightEstimate", "FlightTracker", "Segment",
+           "Tracked",
+           "commission", "excitation", "select"]
