@@ -136,6 +136,13 @@ class FlightTruth:
     esr_ohm: float
     capacitance_f: float
     ambient_c: float
+    winding_ohm: float
+    """One winding's resistance, the flight's mean (it follows the motor's temperature)."""
+
+    @property
+    def loop_ohm(self) -> float:
+        """Two windings and two switches: the loop resistance outside phase A's sectors."""
+        return 2.0 * (self.winding_ohm + self.ron_ohm)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -154,10 +161,13 @@ def fly(specs: Sequence[RunSpec], profile: Profile, chunk: int = 4000) -> Flown:
     p = plant.p
     n = profile.n_samples
     parts = []
+    winding = np.zeros(p.n)
     for start in range(0, n, chunk):
         stop = min(n, start + chunk)
-        parts.append(plant.advance(stop - start, profile.command_deg[None, start:stop],
-                                   profile.dynamic_pressure_pa[None, start:stop]).channels)
+        block = plant.advance(stop - start, profile.command_deg[None, start:stop],
+                              profile.dynamic_pressure_pa[None, start:stop])
+        parts.append(block.channels)
+        winding += block.truth["winding_resistance_ohm"].sum(axis=1)
     names = list(parts[0])
     joined = {k: np.concatenate([b[k] for b in parts], axis=1) for k in names}
     channels = [{k: np.ascontiguousarray(joined[k][r]) for k in names} for r in range(p.n)]
@@ -165,5 +175,5 @@ def fly(specs: Sequence[RunSpec], profile: Profile, chunk: int = 4000) -> Flown:
         friction_factor=float(p.t_coul[r] / healthy.t_coul[r]),
         ron_a_high_ohm=float(p.r_high[0, r]), ron_ohm=float(p.r_high[1, r]),
         esr_ohm=float(p.esr[r]), capacitance_f=float(p.c_elec[r]),
-        ambient_c=float(p.t_amb[r])) for r in range(p.n)]
+        ambient_c=float(p.t_amb[r]), winding_ohm=float(winding[r] / n)) for r in range(p.n)]
     return Flown(profile, channels, truth)

@@ -17,9 +17,10 @@ from mapr_daemon.reasoner.inflight.tracker import (
     FlightEstimate,
     FlightTracker,
     Tracked,
+    adopt,
     commission,
+    commissioning_values,
 )
 
 __all__ = ["CRITERION", "Criterion", "Excitation", "FlightEstimate", "FlightTracker", "Segment",
-           "Tracked",
-           "commission", "excitation", "select"]
+           "Tracked", "adopt", "commission", "commissioning_values", "excitation", "select"]

@@ -268,31 +268,38 @@ def _split(segs: Sequence[Segment], groups: int) -> list[list[Segment]]:
     return [list(segs[a:b]) for a, b in itertools.pairwise(bounds) if b > a]
 
 
-def commission(tracker: FlightTracker, flights: Sequence[tuple[Mapping[str, FloatArray],
-                                                                float | FloatArray]]) -> Reference:
-    """The unit's in-flight baseline: the mean EKF parameters over healthy flights.
+def commissioning_values(tracker: FlightTracker, channels: Mapping[str, FloatArray],
+                         dynamic_pressure_pa: float | FloatArray) -> dict[str, float]:
+    """One healthy flight's EKF parameters, each from its own pass (:data:`PASSES`), filtered
+    from the tracker's current baseline; parameters no segment informed are left out."""
+    n = np.asarray(channels["position_deg"]).size
+    q = np.broadcast_to(np.asarray(dynamic_pressure_pa, dtype=np.float64), (n,))
+    exc = tracker.excitation(channels)
+    weight, duty = _duty(channels, tracker.plant)
+    out: dict[str, float] = {}
+    for pass_name, (groups, _) in PASSES.items():
+        segs = select(exc, tracker.criterion, groups)
+        if segs:
+            g = tracker._run(segs, channels, q, weight, duty)
+            out.update({k: g.est.value[k] for k in PASS_PARAMETERS[pass_name]})
+    return out
 
-    Each flight's passes (:data:`PASSES`) are filtered from the tracker's current baseline
-    (the data sheet's for a new unit), each over its own qualifying segments; the baseline
-    then moves to the mean of the flights' estimates of each parameter (a parameter no
-    flight informed keeps its value).
-    """
-    vals: dict[str, list[float]] = {k: [] for k in em.PARAMETERS}
-    for channels, q in flights:
-        n = np.asarray(channels["position_deg"]).size
-        qq = np.broadcast_to(np.asarray(q, dtype=np.float64), (n,))
-        exc = tracker.excitation(channels)
-        weight, duty = _duty(channels, tracker.plant)
-        for pass_name, (groups, _) in PASSES.items():
-            segs = select(exc, tracker.criterion, groups)
-            if segs:
-                g = tracker._run(segs, channels, qq, weight, duty)
-                for k in PASS_PARAMETERS[pass_name]:
-                    vals[k].append(g.est.value[k])
-    if not any(vals.values()):
+
+def adopt(tracker: FlightTracker, values: Sequence[Mapping[str, float]]) -> Reference:
+    """Move the tracker's baseline to the mean of healthy flights' values (a parameter no
+    flight informed keeps its value); returns the new baseline."""
+    keys = {k for v in values for k in v}
+    if not keys:
         raise RecordError("no commissioning flight had enough excitation", field="inflight")
     ref = dataclasses.replace(tracker.baseline, value=dict(tracker.baseline.value),
                               history=list(tracker.baseline.history))
-    ref.adapt({k: float(np.mean(v)) for k, v in vals.items() if v})
+    ref.adapt({k: float(np.mean([v[k] for v in values if k in v])) for k in sorted(keys)})
     tracker.baseline = ref
     return ref
+
+
+def commission(tracker: FlightTracker, flights: Sequence[tuple[Mapping[str, FloatArray],
+                                                                float | FloatArray]]) -> Reference:
+    """The unit's in-flight baseline: the mean EKF parameters over healthy flights
+    (:func:`commissioning_values` of each, then :func:`adopt`)."""
+    return adopt(tracker, [commissioning_values(tracker, c, q) for c, q in flights])
