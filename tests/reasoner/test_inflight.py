@@ -21,6 +21,7 @@ from mapr_daemon.errors import RecordError
 from mapr_daemon.reasoner.ekf.model import Plant
 from mapr_daemon.reasoner.inflight import (
     CRITERION,
+    FlightAccumulator,
     FlightTracker,
     commission,
     excitation,
@@ -105,3 +106,42 @@ def test_friction_fault_reads_its_size_and_a_healthy_flight_stays_in_band(
         assert set(est.parameters) == {"friction", "loop_r", "phase_a_ron", "bus0"}
         assert 0.0 < est.filtered_s < est.flight_s
         assert all(t.sd >= t.ekf_sd > 0.0 for t in est.parameters.values())
+
+
+def test_a_streamed_flight_keeps_a_fraction_and_reads_as_the_whole_one(
+        params: ActuatorParams, flights: Flights) -> None:
+    tracker = FlightTracker(params)
+    f = flights.worn
+    whole = tracker.track(f.channels[0], f.profile.dynamic_pressure_pa)
+    acc = FlightAccumulator(tracker)
+    n = f.profile.n_samples
+    kept = 0
+    for start in range(0, n, 3333):  # batches that do not align with the windows
+        stop = min(n, start + 3333)
+        acc.feed({k: v[start:stop] for k, v in f.channels[0].items()},
+                 f.profile.dynamic_pressure_pa[start:stop])
+        kept = max(kept, acc.kept_samples)
+    assert 0 < kept < 0.5 * n
+    streamed = acc.finish()
+    assert streamed is not None
+    assert streamed.flight_s == pytest.approx(whole.flight_s)
+    assert streamed.filtered_s == pytest.approx(whole.filtered_s)
+    for name, t in whole.parameters.items():
+        assert streamed.parameters[name].value == pytest.approx(t.value, rel=1e-6, abs=1e-9)
+        assert streamed.parameters[name].sd == pytest.approx(t.sd, rel=1e-6, abs=1e-9)
+    assert acc.finish() is None  # reset for the next flight
+
+
+def test_a_gap_splits_the_stretch(params: ActuatorParams) -> None:
+    """The same moving stretch fed twice with a gap between: two segments, never one that
+    filters across the jump in time (without the gap it is one)."""
+    sine = _one(params, "sine")
+    tracker = FlightTracker(params)
+    for mark_gap, expected in ((True, 2), (False, 1)):
+        acc = FlightAccumulator(tracker)
+        acc.feed(sine, 1600.0)
+        if mark_gap:
+            acc.gap()
+        acc.feed(sine, 1600.0)
+        segs = acc.segments()
+        assert len(segs) == expected, segs

@@ -125,6 +125,33 @@ class Excitation:
     """First sample of each window."""
     sd: FloatArray
     """``(n_windows, len(GROUPS))`` marginal sd (inf where the window has no information)."""
+    breaks: npt.NDArray[np.bool_] | None = None
+    """Where a window does not follow the one before in time (windows kept from a stream,
+    :class:`~mapr_daemon.reasoner.inflight.accumulate.FlightAccumulator`); None: contiguous."""
+
+    def kept(self, mask: npt.NDArray[np.bool_], offset: int, continues: bool) -> Excitation:
+        """The windows of ``mask``, renumbered from sample ``offset`` of a buffer that holds
+        only kept windows; a window whose predecessor was dropped starts a new stretch (the
+        first one too, unless ``continues``: the window before it, in an earlier chunk, was
+        kept)."""
+        idx = np.flatnonzero(mask)
+        brk = np.ones(idx.size, dtype=np.bool_)
+        brk[1:] = np.diff(idx) > 1
+        if idx.size:
+            brk[0] = not (continues and idx[0] == 0)
+        return Excitation(self.window, offset + np.arange(idx.size, dtype=np.int64) * self.window,
+                          self.sd[idx], brk)
+
+    @classmethod
+    def join(cls, parts: list[Excitation], window: int) -> Excitation:
+        """Kept windows of successive stream chunks, in order (``breaks`` kept)."""
+        if not parts:
+            return cls(window, np.zeros(0, dtype=np.int64), np.zeros((0, len(GROUPS))),
+                       np.zeros(0, dtype=np.bool_))
+        brk = [p.breaks if p.breaks is not None else np.zeros(p.start.size, dtype=np.bool_)
+               for p in parts]
+        return cls(window, np.concatenate([p.start for p in parts]),
+                   np.concatenate([p.sd for p in parts]), np.concatenate(brk))
 
     def qualifies(self, criterion: Criterion) -> npt.NDArray[np.bool_]:
         """``(n_windows, len(GROUPS))``: which windows qualify for which group."""
@@ -246,12 +273,14 @@ def select(exc: Excitation, criterion: Criterion = CRITERION,
     """Merge consecutive windows that qualify for any of ``groups`` into segments."""
     cols = [GROUPS.index(g) for g in groups]
     ok = exc.qualifies(criterion)[:, cols]
-    anyq = ok.any(axis=1)
+    anyq: npt.NDArray[np.bool_] = np.asarray(ok.any(axis=1), dtype=np.bool_)
     if not anyq.any():
         return []
-    flag = np.concatenate(([False], anyq, [False])).astype(np.int8)
-    starts = np.flatnonzero(np.diff(flag) == 1)
-    stops = np.flatnonzero(np.diff(flag) == -1)
+    brk = np.zeros(anyq.size, dtype=np.bool_) if exc.breaks is None else exc.breaks
+    before = np.concatenate(([False], anyq[:-1])) & ~brk      # continues the window before
+    after = np.concatenate((anyq[1:] & ~brk[1:], [False]))    # continued by the window after
+    starts = np.flatnonzero(anyq & ~before)
+    stops = np.flatnonzero(anyq & ~after) + 1
     out: list[Segment] = []
     for a, b in zip(starts, stops, strict=True):
         hit = [bool(h) for h in np.asarray(ok[a:b].any(axis=0)).reshape(-1)]

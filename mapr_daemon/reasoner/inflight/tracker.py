@@ -174,7 +174,15 @@ class FlightTracker:
         t0 = time.thread_time()
         n = np.asarray(channels["position_deg"]).size
         q = np.broadcast_to(np.asarray(dynamic_pressure_pa, dtype=np.float64), (n,))
-        exc = self.excitation(channels)
+        out = self.track_excitation(channels, q, self.excitation(channels), n * self.plant.dt)
+        return dataclasses.replace(out, cpu_s=time.thread_time() - t0)
+
+    def track_excitation(self, channels: Mapping[str, FloatArray], q: FloatArray,
+                         exc: Excitation, flight_s: float) -> FlightEstimate:
+        """The estimate from windows already assessed (``exc`` indexes ``channels``; a
+        stream's kept windows, :class:`~mapr_daemon.reasoner.inflight.accumulate.
+        FlightAccumulator`); ``flight_s`` is the flight's bus time."""
+        t0 = time.thread_time()
         per = exc.qualifies(self.criterion).sum(axis=0) * exc.window * self.plant.dt
         weight, duty = _duty(channels, self.plant)
         out: dict[str, Tracked] = {}
@@ -190,7 +198,7 @@ class FlightTracker:
         if not out:
             raise RecordError("no segment of the flight had enough excitation",
                               field="inflight")
-        return FlightEstimate(out, flight_s=n * self.plant.dt, filtered_s=filtered * self.plant.dt,
+        return FlightEstimate(out, flight_s=flight_s, filtered_s=filtered * self.plant.dt,
                               qualified_s=dict(zip(QUALIFY_GROUPS, map(float, per), strict=True)),
                               cpu_s=time.thread_time() - t0)
 
