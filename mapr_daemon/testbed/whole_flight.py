@@ -37,6 +37,7 @@ import math
 from collections.abc import Sequence
 
 import numpy as np
+from scipy.signal import lfilter
 
 from mapr_daemon.arrays import FloatArray
 from mapr_daemon.ema.batch import RunSpec, build
@@ -79,12 +80,7 @@ def _hold(rate: float, duration_s: float, rng: np.random.Generator, cond: str) -
     n = round(duration_s * rate)
     c = condition(cond)
     a = math.exp(-1.0 / (0.5 * rate))
-    z = rng.standard_normal(n)
-    x = np.empty(n)
-    acc = 0.0
-    for k in range(n):  # a first-order filter: numpy has no recursive filter without scipy
-        acc = a * acc + z[k]
-        x[k] = acc
+    x: FloatArray = lfilter([1.0], [1.0, -a], rng.standard_normal(n))
     x *= 0.3 / max(float(np.std(x)), 1e-12)
     ones = np.ones(n)
     return Profile(name=f"hold@{cond}", time_s=np.arange(1, n + 1) / rate,

@@ -13,12 +13,12 @@ physics the EKF's measurement rows use (:mod:`~mapr_daemon.reasoner.ekf.model`),
 block:
 
 * **friction** — the torque balance ``J*a - T_e - H_m = -f*(B_nom*omega + Tc_nom*sgn(omega))``
-  in the block-mean speed ``omega`` (blocks above :data:`MIN_SPEED_RAD_S`), for the
-  friction *factor* ``f`` the fault scales and the
-  tracker trends (viscous and Coulomb friction apart are not asked of a window: at the
-  speeds flight gives, viscous friction is a tenth of the Coulomb torque); noise ``5 % of
-  |T_e|`` (torque model error, the share the EKF's power row allows) plus the torque of one
-  current-sensor noise rms. Qualifies below :attr:`Criterion.friction_sd`.
+  in the block-mean speed ``omega`` (blocks above :data:`MIN_SPEED_RAD_S`, windows moving
+  for at least :data:`MIN_MOVING` of their blocks), for the friction *factor* ``f`` the
+  fault scales and the tracker trends (viscous and Coulomb friction apart are not asked of a
+  window: at the speeds flight gives, viscous friction is a tenth of the Coulomb torque);
+  noise ``5 % of |T_e|`` (torque model error, the share the EKF's power row allows) plus
+  the torque of one current-sensor noise rms. Qualifies below :attr:`Criterion.friction_sd`.
 * **resistance** — the DC-link power left after the back-EMF power, ``P = R_o*i2_o +
   R_a*i2_a + kappa*omega*T_e`` (``i2`` the squared line current in the four other and the two
   phase-A-high sectors, ``kappa`` an error in the back-EMF constant), noise as the EKF's power
@@ -28,12 +28,14 @@ block:
   are not. The phase-A high-side contrast ``R_a - R_o`` qualifies on its own sd
   (:attr:`Criterion.phase_a_sd`).
 * **bus** — the two DC-bus taps' normal equations (sample-to-sample steps of the DC-link
-  current), information ``Gram/tap_sd**2`` as in the EKF; qualifies below
+  current), information ``Gram/tap_sd**2`` as in the EKF, less the Gram the current sensor's
+  white noise alone gives (its steps are not excitation); qualifies below
   :attr:`Criterion.bus_sd`.
 
 Thresholds are per window; a flight averages many windows, so the per-flight sd is far below
 them. Everything is numpy over all blocks and windows at once (``einsum`` of the regressors,
-a batched 3x3 inverse).
+a batched 3x3 inverse). Only the regressors and the noise set the information, not the
+response, so the air data (the hinge moment) is not needed here.
 
 Example::
 
