@@ -26,6 +26,7 @@ from mapr_daemon.catalog.model import (
     EventFilter,
     Flight,
     Gap,
+    InflightEstimate,
     Session,
     StatsRow,
     event_from_reasoner,
@@ -50,6 +51,6 @@ def default_path() -> str:
 __all__ = [
     "DEFAULT_CATALOG", "DEFAULT_CLEAR_BITS", "ENV_CATALOG", "SCHEMA_VERSION", "ActuatorHealth",
     "BitOutcome", "BitRecord", "CatalogReader", "CatalogWriter", "Episode", "Event",
-    "EventFilter", "Flight", "Gap", "Health", "RtStatsRow", "Session", "StatsRow",
-    "acknowledge", "default_path", "display_name", "event_from_reasoner",
+    "EventFilter", "Flight", "Gap", "Health", "InflightEstimate", "RtStatsRow", "Session",
+    "StatsRow", "acknowledge", "default_path", "display_name", "event_from_reasoner",
 ]

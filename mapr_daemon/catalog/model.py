@@ -189,6 +189,34 @@ class BitRecord:
 
 
 @dataclasses.dataclass(frozen=True)
+class InflightEstimate:
+    """One flight's in-flight estimate of one actuator, as stored (schema v9).
+
+    ``parameters`` maps each trended parameter to ``value``, ``sd``, ``change`` (from the
+    unit's baseline) and ``unit`` (:meth:`mapr_daemon.reasoner.inflight.FlightEstimate.
+    as_event`); ``qualified_s`` the seconds that qualified per parameter group.
+    """
+
+    tail: str
+    asset: str
+    flight: int | None
+    t_ns: int
+    """When the flight ended (absolute ns)."""
+    flight_s: float
+    filtered_s: float
+    parameters: Mapping[str, Mapping[str, Any]]
+    qualified_s: Mapping[str, float]
+    id: int | None = None
+    session_id: int | None = None
+
+    def as_dict(self) -> dict[str, Any]:
+        out = dataclasses.asdict(self)
+        out["parameters"] = {k: dict(v) for k, v in self.parameters.items()}
+        out["qualified_s"] = dict(self.qualified_s)
+        return out
+
+
+@dataclasses.dataclass(frozen=True)
 class Flight:
     """One flight of one aircraft: its number, span and hours."""
 

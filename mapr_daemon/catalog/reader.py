@@ -23,11 +23,20 @@ from collections.abc import Iterator
 from types import TracebackType
 from typing import Any
 
-from mapr_daemon.catalog import actuators, episode_store, history, rt_stats
+from mapr_daemon.catalog import actuators, episode_store, history, inflight, rt_stats
 from mapr_daemon.catalog.actuators import ActuatorHealth, display_name, episode_names
 from mapr_daemon.catalog.connect import describe, open_reader
 from mapr_daemon.catalog.episodes import Episode
-from mapr_daemon.catalog.model import BitRecord, Event, EventFilter, Flight, Gap, Session, StatsRow
+from mapr_daemon.catalog.model import (
+    BitRecord,
+    Event,
+    EventFilter,
+    Flight,
+    Gap,
+    InflightEstimate,
+    Session,
+    StatsRow,
+)
 from mapr_daemon.errors import CatalogError
 
 _EVENT_COLUMNS = ("id, session_id, t_ns, asset, rt, fault, switch, severity, severity_value, "
@@ -227,6 +236,15 @@ class CatalogReader:
             return []
         result: list[BitRecord] = self._read(history.load_bits, asset, tail, None,
                                              self.schema_version)
+        return result
+
+    def inflight(self, asset: str | None = None, tail: str | None = None
+                 ) -> list[InflightEstimate]:
+        """Per-flight in-flight estimates (all actuators or one), oldest flight first; empty
+        before schema v9."""
+        if self.schema_version < inflight.INFLIGHT_SINCE:
+            return []
+        result: list[InflightEstimate] = self._read(inflight.load_inflight, asset, tail)
         return result
 
     def flights(self, tail: str | None = None) -> list[Flight]:

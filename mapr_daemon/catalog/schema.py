@@ -36,6 +36,10 @@ History:
    aircraft-bus voltage, ambient temperature), which the trend weighs its estimates by
    (:mod:`~mapr_daemon.reasoner.prognosis.wear_noise`). BITs stored before keep ``{}`` and are
    weighed by the envelope-wide noise.
+9. ``inflight`` (:mod:`~mapr_daemon.catalog.inflight`): each actuator's per-flight in-flight
+   estimate (the EKF on the traffic between BITs): per trended parameter its value, sd,
+   change from the unit's baseline and unit, and how much of the flight qualified. One row
+   per tail, actuator and flight (a rerun replaces it). Catalogs from before have none.
 """
 
 from __future__ import annotations
@@ -211,6 +215,20 @@ MIGRATIONS: tuple[tuple[str, ...], ...] = (
     ),
     (  # 8: each BIT's flight condition (reasoner/prognosis/wear_noise.py)
         "ALTER TABLE bits ADD COLUMN conditions TEXT NOT NULL DEFAULT '{}'",
+    ),
+    (  # 9: per-flight in-flight estimates (catalog/inflight.py)
+        """CREATE TABLE inflight (
+            id INTEGER PRIMARY KEY,
+            session_id INTEGER REFERENCES sessions(id),
+            tail TEXT NOT NULL DEFAULT '',
+            asset TEXT NOT NULL,
+            flight INTEGER,
+            t_ns INTEGER NOT NULL,
+            flight_s REAL NOT NULL,
+            filtered_s REAL NOT NULL,
+            parameters TEXT NOT NULL DEFAULT '{}',
+            qualified TEXT NOT NULL DEFAULT '{}')""",
+        "CREATE UNIQUE INDEX inflight_flight ON inflight(tail, asset, flight)",
     ),
 )
 

@@ -37,11 +37,11 @@ from types import TracebackType
 from typing import Any, Protocol
 
 from mapr_daemon import __version__
-from mapr_daemon.catalog import episode_store, history, rt_stats
+from mapr_daemon.catalog import episode_store, history, inflight, rt_stats
 from mapr_daemon.catalog.connect import Durability, describe, open_writer
 from mapr_daemon.catalog.episode_batch import fold
 from mapr_daemon.catalog.episodes import DEFAULT_CLEAR_BITS, Detection, Episode, detection_of
-from mapr_daemon.catalog.model import BitOutcome, BitRecord, Event, Flight
+from mapr_daemon.catalog.model import BitOutcome, BitRecord, Event, Flight, InflightEstimate
 from mapr_daemon.errors import CatalogError
 
 UNCLEAN = "unclean"
@@ -271,6 +271,14 @@ class CatalogWriter:
         """Every open fault episode, keyed by ``(asset, part)`` (the daemon compares them
         before and after a write to log what opened and closed)."""
         return episode_store.load_open(self.conn)
+
+    def add_inflight(self, estimates: Iterable[InflightEstimate]) -> None:
+        """Store flights' in-flight estimates in one transaction (:mod:`.inflight`; a flight
+        stored before is replaced)."""
+        batch = list(estimates)
+        if batch:
+            sid = self._session()
+            self._transaction(inflight.insert_inflight, sid, batch)
 
     def save_flights(self, flights: Iterable[Flight]) -> None:
         """Insert or update flights (by tail and number) in one transaction."""

@@ -75,7 +75,9 @@ class ParameterEstimator:
     """One actuator's EKF; :meth:`run` may be called on successive records (flights)."""
 
     def __init__(self, params: ActuatorParams, reference: Reference | None = None,
-                 block: int = em.BLOCK) -> None:
+                 block: int = em.BLOCK, drift_sd: Mapping[str, float] | None = None) -> None:
+        """``drift_sd`` overrides :data:`DRIFT_SD` per state (the in-flight tracker's
+        parameters drift less: within one flight they are nearly constant)."""
         self.plant = em.Plant.of(params)
         self.block = block
         self.reference = reference if reference is not None else Reference.nominal(params)
@@ -83,7 +85,8 @@ class ParameterEstimator:
         self.kf = ExtendedKalmanFilter(dim_x=n, dim_z=4)
         # our propagation is nonlinear: filterpy must only propagate P (issue #181)
         self.kf.predict_x = lambda u=0: None
-        self.kf.Q = np.diag([DRIFT_SD[k] ** 2 for k in em.STATE])
+        drift = {**DRIFT_SD, **(drift_sd or {})}
+        self.kf.Q = np.diag([drift[k] ** 2 for k in em.STATE])
         self.p_cap = np.array([PRIOR_SD[k] ** 2 for k in em.STATE])
         self.steps = 0
         self.reset()
