@@ -28,7 +28,7 @@ import numpy.typing as npt
 from mapr_daemon.arrays import FloatArray
 from mapr_daemon.ema import sensors, temperature
 from mapr_daemon.ema.batch import BatchArrays, RunSpec, build
-from mapr_daemon.ema.params import CHANNELS, CONTROLLER_CHANNELS
+from mapr_daemon.ema.params import CHANNELS, CONTROLLER_CHANNELS, SWITCH_CHANNELS
 from mapr_daemon.ema.step import ACC, STATE, integrate, pack
 from mapr_daemon.errors import ConfigError
 
@@ -120,6 +120,10 @@ class EmaBatch:
         """
         self.specs = tuple(runs)
         self.rngs = [np.random.default_rng(s.seed) for s in self.specs]
+        self.switch_rngs = [np.random.default_rng(np.random.SeedSequence(s.seed).spawn(1)[0])
+                            for s in self.specs]
+        """The switch temperature channels' noise: a stream of its own per run (a child of the
+        run's seed), so the other channels draw exactly what they drew before them."""
         self.p: BatchArrays = _flight_scatter(build(self.specs), self.rngs)
         p = self.p
         self.t = 0.0
@@ -130,6 +134,8 @@ class EmaBatch:
         for name, value in (("motor_c", slow.motor_c), ("stage_c", slow.stage_c),
                             ("bus_drift", slow.bus_drift), ("bus_v", slow.bus_v)):
             self.state[:, _column(name)] = value
+        # the SMPS high side's junction starts settled over the sink on its switching loss
+        self.state[:, _column("hs_rise")] = p.rth_sw_smps * p.p_sw
         self.t_on = 0.0
         """When the SMPS was switched on: its soft start ramps the reference from here."""
         if powered:
@@ -166,6 +172,7 @@ class EmaBatch:
         amb = (np.broadcast_to(p.t_amb[:, None], (p.n, n)) if ambient_c is None
                else _per_run(ambient_c, p.n, n, "ambient_c"))
         z = sensors.draw(self.rngs, n, len(CHANNELS))
+        z_sw = sensors.draw(self.switch_rngs, n, len(SWITCH_CHANNELS), extra=0)
         means = np.empty((len(ACC), p.n, n))
         bus = np.empty((p.n, n))
         rw = np.empty((p.n, n))
@@ -179,10 +186,10 @@ class EmaBatch:
                            self.t, self.t_on, p.step_s, p.samples_per_block,
                            self.sample_period_s, means, bus, rw)
         self.sample_index += n
-        return self._block(means, z, cmd, q, bus, rw, n)
+        return self._block(means, z, z_sw, cmd, q, bus, rw, n)
 
-    def _block(self, m: FloatArray, z: FloatArray, cmd: FloatArray, q: FloatArray,
-               bus: FloatArray, rw: FloatArray, n: int) -> SensorBlock:
+    def _block(self, m: FloatArray, z: FloatArray, z_sw: FloatArray, cmd: FloatArray,
+               q: FloatArray, bus: FloatArray, rw: FloatArray, n: int) -> SensorBlock:
         p = self.p
         r = _ROW
         var = np.maximum(m[r["v_out2"]] - m[r["v_out"]] ** 2, 0.0)
@@ -197,6 +204,9 @@ class EmaBatch:
         duty_lsb = p.duty_lsb[:, None]
         reported = (m[r["sector"]], np.round(m[r["u"]] / duty_lsb) * duty_lsb)
         channels.update(zip(CONTROLLER_CHANNELS, reported, strict=True))
+        switch = np.stack([m[r[k]] for k in ("t_smps_high", "t_smps_low", "t_inv_a_high")])
+        channels.update(zip(SWITCH_CHANNELS, sensors.adc_as(p, "stage_temperature_c", switch,
+                                                           z_sw), strict=True))
         truth = dict(zip(TRUTH, (
             np.degrees(m[r["delta"]]), np.degrees(cmd), m[r["omega"]], m[r["torque"]],
             m[r["hinge"]], m[r["i_cmd"]], m[r["i_q"]], m[r["duty"]], m[r["i_l"]], bus,

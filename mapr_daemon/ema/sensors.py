@@ -21,6 +21,7 @@ import numpy as np
 
 from mapr_daemon.arrays import FloatArray
 from mapr_daemon.ema.batch import BatchArrays
+from mapr_daemon.ema.params import CHANNELS
 
 EXTRA_DRAWS = 2
 """Random columns per sample besides the channels: bus drift and bus ripple."""
@@ -45,9 +46,10 @@ class SlowState:
         return cls(p.t_amb.copy(), p.t_amb.copy(), offset, drift, bus)
 
 
-def draw(rngs: list[np.random.Generator], n_samples: int, n_channels: int) -> FloatArray:
-    """Standard normal draws ``(n_channels + EXTRA_DRAWS, n_runs, n_samples)``."""
-    cols = n_channels + EXTRA_DRAWS
+def draw(rngs: list[np.random.Generator], n_samples: int, n_channels: int,
+         extra: int = EXTRA_DRAWS) -> FloatArray:
+    """Standard normal draws ``(n_channels + extra, n_runs, n_samples)``."""
+    cols = n_channels + extra
     per_run = [g.standard_normal((n_samples, cols)) for g in rngs]
     out: FloatArray = np.stack(per_run, axis=0).transpose(2, 0, 1)
     return out
@@ -62,5 +64,17 @@ def adc(p: BatchArrays, values: FloatArray, z: FloatArray) -> FloatArray:
     if (p.sensor_gain != 1.0).any() or (p.sensor_offset != 0.0).any():
         values = values * p.sensor_gain[:, :, None] + p.sensor_offset[:, :, None]
     noisy = values + p.noise[:, :, None] * z
+    out: FloatArray = np.clip(np.round(noisy / lsb) * lsb, -fs, fs - lsb)
+    return out
+
+
+def adc_as(p: BatchArrays, like: str, values: FloatArray, z: FloatArray) -> FloatArray:
+    """Noise and quantisation of channel ``like`` (one of
+    :data:`~mapr_daemon.ema.params.CHANNELS`) for other sensors of its kind; ``values`` and
+    ``z`` are ``(n_sensors, n_runs, n_samples)``. Ideal: no gain or offset error."""
+    k = CHANNELS.index(like)
+    fs = p.full_scale[k][None, :, None]
+    lsb = p.lsb[k][None, :, None]
+    noisy = values + p.noise[k][None, :, None] * z
     out: FloatArray = np.clip(np.round(noisy / lsb) * lsb, -fs, fs - lsb)
     return out
