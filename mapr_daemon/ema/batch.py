@@ -141,6 +141,8 @@ class BatchArrays:
     tau_sw_smps: FloatArray
     rth_sw_inv: FloatArray
     tau_sw_inv: FloatArray
+    sw_read_every: FloatArray
+    """Output samples per switch temperature reading (each held until the next)."""
     # aircraft bus
     bus_nominal: FloatArray
     bus_mean_sd: FloatArray
@@ -278,6 +280,7 @@ def build(specs: Sequence[RunSpec]) -> BatchArrays:
         tau_sw_smps=col(lambda p: p.switches.smps_time_constant_s),
         rth_sw_inv=col(lambda p: p.switches.inverter_thermal_resistance_k_per_w),
         tau_sw_inv=col(lambda p: p.switches.inverter_time_constant_s),
+        sw_read_every=np.maximum(1.0, np.round(rate / col(lambda p: p.switches.sensor_rate_hz))),
         bus_nominal=_given(specs, "bus_v", col(lambda p: p.bus.nominal_v)),
         bus_mean_sd=_spread(specs, "bus_v", col(lambda p: p.bus.flight_mean_sd_v)),
         bus_drift_sd=col(lambda p: p.bus.drift_sd_v),

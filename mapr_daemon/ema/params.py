@@ -131,23 +131,26 @@ class SwitchThermalParams:
     junction by their own loss (conduction, plus the SMPS's switching loss on its high side);
     the junction's rise over the sink (the power stage's temperature) settles at
     ``resistance * loss`` with the time constant. A temperature-sensing MOSFET (an on-die diode)
-    reads it; docs/ema-model.md gives the values' sources.
+    reads it ``sensor_rate_hz`` times a second (each reading held until the next, as a slow
+    ADC channel multiplexed over the sensors); docs/ema-model.md gives the values' sources.
     """
 
     smps_thermal_resistance_k_per_w: float
     smps_time_constant_s: float
     inverter_thermal_resistance_k_per_w: float
     inverter_time_constant_s: float
+    sensor_rate_hz: float
 
 
 DEFAULT_SWITCHES = SwitchThermalParams(
     smps_thermal_resistance_k_per_w=3.6, smps_time_constant_s=0.5,
-    inverter_thermal_resistance_k_per_w=1.65, inverter_time_constant_s=0.5)
+    inverter_thermal_resistance_k_per_w=1.65, inverter_time_constant_s=0.5,
+    sensor_rate_hz=100.0)
 """An actuator file without a ``switches`` section: IRF520N-class SMPS switches (TO-220
 datasheet: Rth(j-c) 3.1 K/W, case to sink 0.5 K/W greased) and an IRF540N-class inverter
 switch (Rth(j-c) 1.15 K/W plus 0.5 K/W); time constants our reading of such parts' transient
-thermal impedance (settled within about a second). docs/ema-model.md, "Switch
-temperatures"."""
+thermal impedance (settled within about a second); read at 100 Hz, the rate the ICD's
+slow block carries temperatures at. docs/ema-model.md, "Switch temperatures"."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -391,6 +394,10 @@ def _check_consistency(p: ActuatorParams, path: str) -> None:
     if p.bit.amplitude_deg >= p.surface.travel_deg:
         raise ConfigError(f"must be below surface.travel_deg ({p.surface.travel_deg:g})",
                           path=path, field="bit.amplitude_deg")
+    if p.switches.sensor_rate_hz > p.sensors.sample_rate_hz:
+        raise ConfigError(f"must not exceed sensors.sample_rate_hz "
+                          f"({p.sensors.sample_rate_hz:g})", path=path,
+                          field="switches.sensor_rate_hz")
     if p.envelope.ambient_min_c >= p.envelope.ambient_max_c:
         raise ConfigError("ambient_min_c must be below ambient_max_c", path=path,
                           field="envelope.ambient_min_c")

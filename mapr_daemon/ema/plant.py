@@ -124,6 +124,8 @@ class EmaBatch:
                             for s in self.specs]
         """The switch temperature channels' noise: a stream of its own per run (a child of the
         run's seed), so the other channels draw exactly what they drew before them."""
+        self.switch_held = np.zeros((len(SWITCH_CHANNELS), len(self.specs)))
+        """The switch sensors' last readings (held between readings, across chunks)."""
         self.p: BatchArrays = _flight_scatter(build(self.specs), self.rngs)
         p = self.p
         self.t = 0.0
@@ -204,11 +206,27 @@ class EmaBatch:
         duty_lsb = p.duty_lsb[:, None]
         reported = (m[r["sector"]], np.round(m[r["u"]] / duty_lsb) * duty_lsb)
         channels.update(zip(CONTROLLER_CHANNELS, reported, strict=True))
-        switch = np.stack([m[r[k]] for k in ("t_smps_high", "t_smps_low", "t_inv_a_high")])
-        channels.update(zip(SWITCH_CHANNELS, sensors.adc_as(p, "stage_temperature_c", switch,
-                                                           z_sw), strict=True))
+        channels.update(zip(SWITCH_CHANNELS, self._switch_readings(m, z_sw, first, n),
+                            strict=True))
         truth = dict(zip(TRUTH, (
             np.degrees(m[r["delta"]]), np.degrees(cmd), m[r["omega"]], m[r["torque"]],
             m[r["hinge"]], m[r["i_cmd"]], m[r["i_q"]], m[r["duty"]], m[r["i_l"]], bus,
             np.array(q), rw), strict=True))
         return SensorBlock(time_s=time_s, channels=channels, truth=truth)
+
+    def _switch_readings(self, m: FloatArray, z: FloatArray, first: int,
+                         n: int) -> FloatArray:
+        """The switch temperature channels ``(3, n_runs, n)`` of samples ``first..first+n``:
+        read like the stage temperature (its noise and quantisation) at every
+        ``sw_read_every``-th sample of the run (sample 0 first), held in between."""
+        p = self.p
+        values = np.stack([m[_ROW[k]] for k in ("t_smps_high", "t_smps_low", "t_inv_a_high")])
+        read = sensors.adc_as(p, "stage_temperature_c", values, z)
+        g = first + np.arange(n)
+        every = p.sw_read_every.astype(np.int64)[:, None]
+        at = g[None, :] - g[None, :] % every - first          # (runs, n): the reading's index
+        taken = np.take_along_axis(read, np.maximum(at, 0)[None, :, :], axis=2)
+        out: FloatArray = np.where((at >= 0)[None, :, :], taken, self.switch_held[:, :, None])
+        if n:
+            self.switch_held = out[:, :, -1].copy()
+        return out

@@ -83,7 +83,7 @@ def test_a_file_without_the_switches_section_gets_the_documented_defaults() -> N
 def test_the_switches_section_is_read_and_checked_like_any_other() -> None:
     text = TEXT + ("\nswitches:\n  smps_thermal_resistance_k_per_w: 5.0\n"
                    "  smps_time_constant_s: 1.0\n  inverter_thermal_resistance_k_per_w: 2.0\n"
-                   "  inverter_time_constant_s: 0.4\n")
+                   "  inverter_time_constant_s: 0.4\n  sensor_rate_hz: 100.0\n")
     params = parse_actuator(text)
     assert params.switches.smps_thermal_resistance_k_per_w == 5.0
     bad = text.replace("  smps_time_constant_s: 1.0\n", "  smps_time_constant: 1.0\n")
@@ -147,3 +147,13 @@ def test_switch_channels_follow_the_stage_sensor_and_their_nodes() -> None:
     p_sw = params.smps.switching_loss_w
     assert rise[0] == pytest.approx(3.6 * p_sw, abs=0.1)
     assert rise[1] == pytest.approx(10.0 * p_sw, abs=0.1)
+
+
+def test_switch_sensors_read_at_their_rate_and_hold_in_between() -> None:
+    params = load_actuator(default_actuator_path())
+    block = EmaBatch([RunSpec(params, seed=5)]).advance(100, 0.0, 0.0)
+    every = round(params.sensors.sample_rate_hz / params.switches.sensor_rate_hz)
+    for name in ("smps_high_side_temperature_c", "smps_low_side_temperature_c"):
+        x = block.channels[name][0].reshape(-1, every)
+        assert (x == x[:, :1]).all()                      # held within a reading period
+        assert len(np.unique(x[:, 0])) > 1                # and read anew (noise) each period
