@@ -191,6 +191,9 @@ def build(specs: Sequence[RunSpec]) -> BatchArrays:
         if s.params.sensors.step_s != step or s.params.sensors.sample_rate_hz != rate:
             raise ConfigError("runs of one batch must share step_s and sample_rate_hz",
                               field="sensors")
+        if s.params.switches.sensor_rate_hz != specs[0].params.switches.sensor_rate_hz:
+            raise ConfigError("runs of one batch must share switches.sensor_rate_hz",
+                              field="switches")
     ps = [fl.apply(s.params, s.faults) for s in specs]
 
     def col(get: object) -> FloatArray:

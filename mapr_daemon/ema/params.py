@@ -131,8 +131,8 @@ class SwitchThermalParams:
     junction by their own loss (conduction, plus the SMPS's switching loss on its high side);
     the junction's rise over the sink (the power stage's temperature) settles at
     ``resistance * loss`` with the time constant. A temperature-sensing MOSFET (an on-die diode)
-    reads it ``sensor_rate_hz`` times a second (each reading held until the next, as a slow
-    ADC channel multiplexed over the sensors); docs/ema-model.md gives the values' sources.
+    reads it ``sensor_rate_hz`` times a second through an integrating ADC (each reading the
+    mean over its period, held until the next); docs/ema-model.md gives the values' sources.
     """
 
     smps_thermal_resistance_k_per_w: float

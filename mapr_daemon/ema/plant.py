@@ -126,6 +126,8 @@ class EmaBatch:
         run's seed), so the other channels draw exactly what they drew before them."""
         self.switch_held = np.zeros((len(SWITCH_CHANNELS), len(self.specs)))
         """The switch sensors' last readings (held between readings, across chunks)."""
+        self.switch_sum = np.zeros((len(SWITCH_CHANNELS), len(self.specs)))
+        """... and the sum of their samples in the reading period under way."""
         self.p: BatchArrays = _flight_scatter(build(self.specs), self.rngs)
         p = self.p
         self.t = 0.0
@@ -216,17 +218,41 @@ class EmaBatch:
 
     def _switch_readings(self, m: FloatArray, z: FloatArray, first: int,
                          n: int) -> FloatArray:
-        """The switch temperature channels ``(3, n_runs, n)`` of samples ``first..first+n``:
-        read like the stage temperature (its noise and quantisation) at every
-        ``sw_read_every``-th sample of the run (sample 0 first), held in between."""
+        """The switch temperature channels ``(3, n_runs, n)`` of samples ``first..first+n``.
+
+        Their sensors are read as the stage temperature's (its noise per sample, its
+        quantisation) by an integrating ADC at ``switches.sensor_rate_hz``: each reading is
+        the mean over its ``sw_read_every`` samples, quantised, and is what the channel holds
+        from the end of its period to the end of the next (the first period holds the first
+        sample's value with a reading's noise). Partial periods carry across chunks, so a run
+        reads the same however it is chunked.
+        """
         p = self.p
-        values = np.stack([m[_ROW[k]] for k in ("t_smps_high", "t_smps_low", "t_inv_a_high")])
-        read = sensors.adc_as(p, "stage_temperature_c", values, z)
-        g = first + np.arange(n)
-        every = p.sw_read_every.astype(np.int64)[:, None]
-        at = g[None, :] - g[None, :] % every - first          # (runs, n): the reading's index
-        taken = np.take_along_axis(read, np.maximum(at, 0)[None, :, :], axis=2)
-        out: FloatArray = np.where((at >= 0)[None, :, :], taken, self.switch_held[:, :, None])
-        if n:
-            self.switch_held = out[:, :, -1].copy()
+        k = CHANNELS.index("stage_temperature_c")
+        values = np.stack([m[_ROW[c]] for c in ("t_smps_high", "t_smps_low", "t_inv_a_high")])
+        noisy = values + p.noise[k][None, :, None] * z
+        every = int(p.sw_read_every[0])
+        if first == 0:
+            start = values[:, :, 0] + p.noise[k][None, :] * z[:, :, 0] / np.sqrt(every)
+            self.switch_held = sensors.quantise_as(p, "stage_temperature_c", start)
+            self.switch_sum = np.zeros_like(self.switch_held)
+        steps = np.arange(n)
+        ends = steps[(first + steps + 1) % every == 0]          # last sample of each period
+        cum = np.cumsum(noisy, axis=2)
+        readings = np.empty((*noisy.shape[:2], ends.size))
+        for i, j in enumerate(ends):
+            lo = j - every + 1
+            total = cum[:, :, j] - (cum[:, :, lo - 1] if lo > 0 else 0.0)
+            readings[:, :, i] = total + (self.switch_sum if lo < 0 else 0.0)
+        readings = sensors.quantise_as(p, "stage_temperature_c", readings / every)
+        latest = np.searchsorted(ends, steps, side="left") - 1  # the last period ended before
+        out: FloatArray = np.where(
+            latest[None, None, :] >= 0, readings[:, :, np.maximum(latest, 0)] if ends.size
+            else self.switch_held[:, :, None], self.switch_held[:, :, None])
+        if ends.size:
+            self.switch_held = readings[:, :, -1]
+            tail = cum[:, :, -1] - cum[:, :, ends[-1]]
+            self.switch_sum = tail
+        elif n:
+            self.switch_sum = self.switch_sum + cum[:, :, -1]
         return out

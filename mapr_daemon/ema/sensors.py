@@ -68,13 +68,13 @@ def adc(p: BatchArrays, values: FloatArray, z: FloatArray) -> FloatArray:
     return out
 
 
-def adc_as(p: BatchArrays, like: str, values: FloatArray, z: FloatArray) -> FloatArray:
-    """Noise and quantisation of channel ``like`` (one of
-    :data:`~mapr_daemon.ema.params.CHANNELS`) for other sensors of its kind; ``values`` and
-    ``z`` are ``(n_sensors, n_runs, n_samples)``. Ideal: no gain or offset error."""
+def quantise_as(p: BatchArrays, like: str, values: FloatArray) -> FloatArray:
+    """Quantisation and clipping of channel ``like`` (one of
+    :data:`~mapr_daemon.ema.params.CHANNELS`) for other sensors of its kind; ``values`` are
+    ``(n_sensors, n_runs, ...)``."""
     k = CHANNELS.index(like)
-    fs = p.full_scale[k][None, :, None]
-    lsb = p.lsb[k][None, :, None]
-    noisy = values + p.noise[k][None, :, None] * z
-    out: FloatArray = np.clip(np.round(noisy / lsb) * lsb, -fs, fs - lsb)
+    shape = (1, -1) + (1,) * (values.ndim - 2)
+    fs = p.full_scale[k].reshape(shape)
+    lsb = p.lsb[k].reshape(shape)
+    out: FloatArray = np.clip(np.round(values / lsb) * lsb, -fs, fs - lsb)
     return out
