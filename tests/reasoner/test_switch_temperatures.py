@@ -6,6 +6,8 @@ channels alone barely see it, and a record without them is flagged, not a crash.
 from __future__ import annotations
 
 import dataclasses
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -113,6 +115,11 @@ def test_a_record_without_the_switch_temperatures_is_flagged_not_a_crash(
     ds[True].save(path)
     d = Dictionary.load(path)
     assert d.signals == ds[True].signals
+    described = subprocess.run([sys.executable, "-m", "mapr_daemon.cli.main", "dictionary",
+                                "describe", str(path)], capture_output=True, text=True,
+                               timeout=120, check=True).stdout
+    assert ("switch temperatures: read (smps_high_side_temperature_c, "
+            "smps_low_side_temperature_c, inverter_a_high_temperature_c") in described
     record = {k: v[0] for k, v in runs["healthy"].channels.items()
               if k != "smps_low_side_temperature_c"}
     diagnosis = Reasoner(d, params).diagnose_or_flag(record, runs["healthy"].command_deg,
