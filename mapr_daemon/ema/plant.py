@@ -232,7 +232,7 @@ class EmaBatch:
         values = np.stack([m[_ROW[c]] for c in ("t_smps_high", "t_smps_low", "t_inv_a_high")])
         noisy = values + p.noise[k][None, :, None] * z
         every = int(p.sw_read_every[0])
-        if first == 0:
+        if first == 0 and n:
             start = values[:, :, 0] + p.noise[k][None, :] * z[:, :, 0] / np.sqrt(every)
             self.switch_held = sensors.quantise_as(p, "stage_temperature_c", start)
             self.switch_sum = np.zeros_like(self.switch_held)

@@ -161,3 +161,13 @@ def test_switch_sensors_integrate_over_their_period_and_hold_in_between() -> Non
         # a reading averages its period's samples: sqrt(20) less noise than the stage's own
         # 2 kHz samples (what is left is mostly the 0.1 K quantisation)
         assert np.std(np.diff(x[:, 0])) < 0.5 * np.std(np.diff(stage))
+
+
+def test_an_empty_chunk_first_changes_nothing() -> None:
+    params = load_actuator(default_actuator_path())
+    plant = EmaBatch([RunSpec(params, seed=9)])
+    plant.advance(0, 0.0, 0.0)
+    after = plant.advance(60, 0.0, 0.0).channels
+    direct = EmaBatch([RunSpec(params, seed=9)]).advance(60, 0.0, 0.0).channels
+    for name in direct:
+        np.testing.assert_array_equal(after[name], direct[name])
