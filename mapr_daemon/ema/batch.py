@@ -136,6 +136,13 @@ class BatchArrays:
     tau_m: FloatArray
     rth_s: FloatArray
     tau_s: FloatArray
+    rth_sw_smps: FloatArray
+    """Per-switch junction-to-sink nodes (:class:`~mapr_daemon.ema.params.SwitchThermalParams`)."""
+    tau_sw_smps: FloatArray
+    rth_sw_inv: FloatArray
+    tau_sw_inv: FloatArray
+    sw_read_every: FloatArray
+    """Output samples per switch temperature reading (each held until the next)."""
     # aircraft bus
     bus_nominal: FloatArray
     bus_mean_sd: FloatArray
@@ -184,6 +191,9 @@ def build(specs: Sequence[RunSpec]) -> BatchArrays:
         if s.params.sensors.step_s != step or s.params.sensors.sample_rate_hz != rate:
             raise ConfigError("runs of one batch must share step_s and sample_rate_hz",
                               field="sensors")
+        if s.params.switches.sensor_rate_hz != specs[0].params.switches.sensor_rate_hz:
+            raise ConfigError("runs of one batch must share switches.sensor_rate_hz",
+                              field="switches")
     ps = [fl.apply(s.params, s.faults) for s in specs]
 
     def col(get: object) -> FloatArray:
@@ -269,6 +279,11 @@ def build(specs: Sequence[RunSpec]) -> BatchArrays:
         tau_m=col(lambda p: p.thermal.motor_time_constant_s),
         rth_s=col(lambda p: p.thermal.stage_thermal_resistance_k_per_w),
         tau_s=col(lambda p: p.thermal.stage_time_constant_s),
+        rth_sw_smps=col(lambda p: p.switches.smps_thermal_resistance_k_per_w),
+        tau_sw_smps=col(lambda p: p.switches.smps_time_constant_s),
+        rth_sw_inv=col(lambda p: p.switches.inverter_thermal_resistance_k_per_w),
+        tau_sw_inv=col(lambda p: p.switches.inverter_time_constant_s),
+        sw_read_every=np.maximum(1.0, np.round(rate / col(lambda p: p.switches.sensor_rate_hz))),
         bus_nominal=_given(specs, "bus_v", col(lambda p: p.bus.nominal_v)),
         bus_mean_sd=_spread(specs, "bus_v", col(lambda p: p.bus.flight_mean_sd_v)),
         bus_drift_sd=col(lambda p: p.bus.drift_sd_v),

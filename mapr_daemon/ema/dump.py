@@ -11,10 +11,21 @@ import dataclasses
 import json
 from pathlib import Path
 
-from mapr_daemon.ema.params import CHANNELS, SECTION_NAMES, ActuatorParams
+from mapr_daemon.ema.params import (
+    CHANNELS,
+    OPTIONAL_SECTIONS,
+    SECTION_NAMES,
+    ActuatorParams,
+)
 
 SECTIONS = SECTION_NAMES
 """Every section the loader requires (one list: a section added there is written here)."""
+
+
+_DEFAULTS = {f.name: f.default for f in dataclasses.fields(ActuatorParams)
+             if f.name in OPTIONAL_SECTIONS}
+"""The optional sections' defaults: a section at its default is not written (the file then
+reads as one written before the section existed)."""
 
 
 def _num(value: float) -> str:
@@ -28,7 +39,9 @@ def dump_actuator(params: ActuatorParams, header: str = "",
     notes = notes or {}
     lines = [f"# {line}".rstrip() for line in header.splitlines()]
     lines.append(f"name: {json.dumps(params.name)}")
-    for section in SECTIONS:
+    optional = [name for name in OPTIONAL_SECTIONS
+                if getattr(params, name) != _DEFAULTS[name]]
+    for section in (*SECTIONS, *optional):
         block = getattr(params, section)
         lines.append("")
         lines.append(f"{section}:")

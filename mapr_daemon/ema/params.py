@@ -5,7 +5,10 @@ The YAML (``configs/actuators/*.yaml``) has one mapping per block — ``smps``, 
 ``bit`` (the drive's stored built-in-test motion) — whose keys are
 the field names below, SI units spelled in the name (``_ohm``, ``_h``, ``_f``, ``_hz``...).
 Every key is required and no unknown key is allowed, so a typo is a :class:`ConfigError`
-naming ``file:line: section.key``, never a silently ignored value.
+naming ``file:line: section.key``, never a silently ignored value. One section is optional:
+``switches`` (the per-switch thermal nodes behind the switch temperature channels,
+:class:`SwitchThermalParams`); a file without it gets :data:`DEFAULT_SWITCHES`, and when
+present every key of it is required like any other section's.
 
 Example::
 
@@ -121,6 +124,36 @@ class ThermalParams:
 
 
 @dataclasses.dataclass(frozen=True)
+class SwitchThermalParams:
+    """First-order thermal nodes of single power switches, each above the shared heat sink.
+
+    The SMPS's high and low side and the inverter's phase-A high side each heat their own
+    junction by their own loss (conduction, plus the SMPS's switching loss on its high side);
+    the junction's rise over the sink (the power stage's temperature) settles at
+    ``resistance * loss`` with the time constant. A temperature-sensing MOSFET (an on-die diode)
+    reads it ``sensor_rate_hz`` times a second through an integrating ADC (each reading the
+    mean over its period, held until the next); docs/ema-model.md gives the values' sources.
+    """
+
+    smps_thermal_resistance_k_per_w: float
+    smps_time_constant_s: float
+    inverter_thermal_resistance_k_per_w: float
+    inverter_time_constant_s: float
+    sensor_rate_hz: float
+
+
+DEFAULT_SWITCHES = SwitchThermalParams(
+    smps_thermal_resistance_k_per_w=3.6, smps_time_constant_s=0.5,
+    inverter_thermal_resistance_k_per_w=1.65, inverter_time_constant_s=0.5,
+    sensor_rate_hz=100.0)
+"""An actuator file without a ``switches`` section: IRF520N-class SMPS switches (TO-220
+datasheet: Rth(j-c) 3.1 K/W, case to sink 0.5 K/W greased) and an IRF540N-class inverter
+switch (Rth(j-c) 1.15 K/W plus 0.5 K/W); time constants our reading of such parts' transient
+thermal impedance (settled within about a second); read at 100 Hz, the rate the ICD's
+slow block carries temperatures at. docs/ema-model.md, "Switch temperatures"."""
+
+
+@dataclasses.dataclass(frozen=True)
 class BusParams:
     """Aircraft 28 V DC bus feeding the SMPS (MIL-STD-704 normal band 22-29 V)."""
 
@@ -199,6 +232,8 @@ class ActuatorParams:
     envelope: EnvelopeParams
     sensors: SensorParams
     bit: BitParams
+    switches: SwitchThermalParams = DEFAULT_SWITCHES
+    """Optional in the file (:data:`DEFAULT_SWITCHES` when absent)."""
 
 
 CHANNELS: tuple[str, ...] = (
@@ -217,7 +252,14 @@ instant (phase A's high side is the PWM'd switch in sectors 1 and 2 for positive
 period, signed with the drive direction (+ = positive torque), as the controller knows it:
 exact, in whole counts of its PWM timer (``inverter.pwm_counter_period``) averaged over the
 PWM periods of a sample."""
-OUTPUT_CHANNELS: tuple[str, ...] = CHANNELS + CONTROLLER_CHANNELS
+SWITCH_CHANNELS: tuple[str, ...] = (
+    "smps_high_side_temperature_c", "smps_low_side_temperature_c",
+    "inverter_a_high_temperature_c")
+"""Per-switch junction temperatures (:class:`SwitchThermalParams`), after the controller's
+channels: sensors an actuator may or may not have (the ICD carries them or not). Sampled
+like ``stage_temperature_c`` (its full scale, bits and noise), with noise of their own
+stream, so every channel before them is the same with or without them."""
+OUTPUT_CHANNELS: tuple[str, ...] = CHANNELS + CONTROLLER_CHANNELS + SWITCH_CHANNELS
 """Every channel a plant block carries, in order."""
 
 _T = TypeVar("_T")
@@ -228,6 +270,8 @@ _SECTIONS: dict[str, type[Any]] = {
 }
 SECTION_NAMES: tuple[str, ...] = tuple(_SECTIONS)
 """The actuator file's numeric sections besides ``sensors``, in the order files write them."""
+OPTIONAL_SECTIONS: dict[str, type[Any]] = {"switches": SwitchThermalParams}
+"""Sections a file may leave out (the dataclass field's default then holds)."""
 _MAY_BE_ZERO_OR_NEGATIVE = {
     "ch0", "ch_delta_per_rad", "ambient_c", "loop_kd", "soft_start_s", "noise_rms",
     "drift_sd_v", "flight_mean_sd_v", "ripple_rms_v", "source_resistance_ohm",
@@ -316,13 +360,17 @@ def parse_actuator(text: str, path: str = "<string>") -> ActuatorParams:
     if name_item is None or not isinstance(name_item[1], yaml.ScalarNode):
         raise ConfigError("missing or not a string", path=path, line=_line(root), field="name")
     for key, (key_node, _) in items.items():
-        if key not in _SECTIONS and key not in ("name", "sensors"):
+        if key not in _SECTIONS and key not in OPTIONAL_SECTIONS and key not in ("name",
+                                                                                "sensors"):
             raise ConfigError("unknown section", path=path, line=_line(key_node), field=key)
     built: dict[str, Any] = {}
     for section, cls in _SECTIONS.items():
         if section not in items:
             raise ConfigError("missing section", path=path, line=_line(root), field=section)
         built[section] = _section(cls, items[section][1], path, section)
+    for section, cls in OPTIONAL_SECTIONS.items():
+        if section in items:
+            built[section] = _section(cls, items[section][1], path, section)
     if "sensors" not in items:
         raise ConfigError("missing section", path=path, line=_line(root), field="sensors")
     built["sensors"] = _sensors(items["sensors"][1], path)
@@ -346,6 +394,10 @@ def _check_consistency(p: ActuatorParams, path: str) -> None:
     if p.bit.amplitude_deg >= p.surface.travel_deg:
         raise ConfigError(f"must be below surface.travel_deg ({p.surface.travel_deg:g})",
                           path=path, field="bit.amplitude_deg")
+    if p.switches.sensor_rate_hz > p.sensors.sample_rate_hz:
+        raise ConfigError(f"must not exceed sensors.sample_rate_hz "
+                          f"({p.sensors.sample_rate_hz:g})", path=path,
+                          field="switches.sensor_rate_hz")
     if p.envelope.ambient_min_c >= p.envelope.ambient_max_c:
         raise ConfigError("ambient_min_c must be below ambient_max_c", path=path,
                           field="envelope.ambient_min_c")

@@ -28,7 +28,7 @@ import numpy.typing as npt
 from mapr_daemon.arrays import FloatArray
 from mapr_daemon.ema import sensors, temperature
 from mapr_daemon.ema.batch import BatchArrays, RunSpec, build
-from mapr_daemon.ema.params import CHANNELS, CONTROLLER_CHANNELS
+from mapr_daemon.ema.params import CHANNELS, CONTROLLER_CHANNELS, SWITCH_CHANNELS
 from mapr_daemon.ema.step import ACC, STATE, integrate, pack
 from mapr_daemon.errors import ConfigError
 
@@ -120,6 +120,14 @@ class EmaBatch:
         """
         self.specs = tuple(runs)
         self.rngs = [np.random.default_rng(s.seed) for s in self.specs]
+        self.switch_rngs = [np.random.default_rng(np.random.SeedSequence(s.seed).spawn(1)[0])
+                            for s in self.specs]
+        """The switch temperature channels' noise: a stream of its own per run (a child of the
+        run's seed), so the other channels draw exactly what they drew before them."""
+        self.switch_held = np.zeros((len(SWITCH_CHANNELS), len(self.specs)))
+        """The switch sensors' last readings (held between readings, across chunks)."""
+        self.switch_sum = np.zeros((len(SWITCH_CHANNELS), len(self.specs)))
+        """... and the sum of their samples in the reading period under way."""
         self.p: BatchArrays = _flight_scatter(build(self.specs), self.rngs)
         p = self.p
         self.t = 0.0
@@ -130,6 +138,8 @@ class EmaBatch:
         for name, value in (("motor_c", slow.motor_c), ("stage_c", slow.stage_c),
                             ("bus_drift", slow.bus_drift), ("bus_v", slow.bus_v)):
             self.state[:, _column(name)] = value
+        # the SMPS high side's junction starts settled over the sink on its switching loss
+        self.state[:, _column("hs_rise")] = p.rth_sw_smps * p.p_sw
         self.t_on = 0.0
         """When the SMPS was switched on: its soft start ramps the reference from here."""
         if powered:
@@ -166,6 +176,7 @@ class EmaBatch:
         amb = (np.broadcast_to(p.t_amb[:, None], (p.n, n)) if ambient_c is None
                else _per_run(ambient_c, p.n, n, "ambient_c"))
         z = sensors.draw(self.rngs, n, len(CHANNELS))
+        z_sw = sensors.draw(self.switch_rngs, n, len(SWITCH_CHANNELS), extra=0)
         means = np.empty((len(ACC), p.n, n))
         bus = np.empty((p.n, n))
         rw = np.empty((p.n, n))
@@ -179,10 +190,10 @@ class EmaBatch:
                            self.t, self.t_on, p.step_s, p.samples_per_block,
                            self.sample_period_s, means, bus, rw)
         self.sample_index += n
-        return self._block(means, z, cmd, q, bus, rw, n)
+        return self._block(means, z, z_sw, cmd, q, bus, rw, n)
 
-    def _block(self, m: FloatArray, z: FloatArray, cmd: FloatArray, q: FloatArray,
-               bus: FloatArray, rw: FloatArray, n: int) -> SensorBlock:
+    def _block(self, m: FloatArray, z: FloatArray, z_sw: FloatArray, cmd: FloatArray,
+               q: FloatArray, bus: FloatArray, rw: FloatArray, n: int) -> SensorBlock:
         p = self.p
         r = _ROW
         var = np.maximum(m[r["v_out2"]] - m[r["v_out"]] ** 2, 0.0)
@@ -197,8 +208,51 @@ class EmaBatch:
         duty_lsb = p.duty_lsb[:, None]
         reported = (m[r["sector"]], np.round(m[r["u"]] / duty_lsb) * duty_lsb)
         channels.update(zip(CONTROLLER_CHANNELS, reported, strict=True))
+        channels.update(zip(SWITCH_CHANNELS, self._switch_readings(m, z_sw, first, n),
+                            strict=True))
         truth = dict(zip(TRUTH, (
             np.degrees(m[r["delta"]]), np.degrees(cmd), m[r["omega"]], m[r["torque"]],
             m[r["hinge"]], m[r["i_cmd"]], m[r["i_q"]], m[r["duty"]], m[r["i_l"]], bus,
             np.array(q), rw), strict=True))
         return SensorBlock(time_s=time_s, channels=channels, truth=truth)
+
+    def _switch_readings(self, m: FloatArray, z: FloatArray, first: int,
+                         n: int) -> FloatArray:
+        """The switch temperature channels ``(3, n_runs, n)`` of samples ``first..first+n``.
+
+        Their sensors are read as the stage temperature's (its noise per sample, its
+        quantisation) by an integrating ADC at ``switches.sensor_rate_hz``: each reading is
+        the mean over its ``sw_read_every`` samples, quantised, and is what the channel holds
+        from the end of its period to the end of the next (the first period holds the first
+        sample's value with a reading's noise). Partial periods carry across chunks, so a run
+        reads the same however it is chunked.
+        """
+        p = self.p
+        k = CHANNELS.index("stage_temperature_c")
+        values = np.stack([m[_ROW[c]] for c in ("t_smps_high", "t_smps_low", "t_inv_a_high")])
+        noisy = values + p.noise[k][None, :, None] * z
+        every = int(p.sw_read_every[0])
+        if first == 0 and n:
+            start = values[:, :, 0] + p.noise[k][None, :] * z[:, :, 0] / np.sqrt(every)
+            self.switch_held = sensors.quantise_as(p, "stage_temperature_c", start)
+            self.switch_sum = np.zeros_like(self.switch_held)
+        steps = np.arange(n)
+        ends = steps[(first + steps + 1) % every == 0]          # last sample of each period
+        cum = np.cumsum(noisy, axis=2)
+        readings = np.empty((*noisy.shape[:2], ends.size))
+        for i, j in enumerate(ends):
+            lo = j - every + 1
+            total = cum[:, :, j] - (cum[:, :, lo - 1] if lo > 0 else 0.0)
+            readings[:, :, i] = total + (self.switch_sum if lo < 0 else 0.0)
+        readings = sensors.quantise_as(p, "stage_temperature_c", readings / every)
+        latest = np.searchsorted(ends, steps, side="left") - 1  # the last period ended before
+        out: FloatArray = np.where(
+            latest[None, None, :] >= 0, readings[:, :, np.maximum(latest, 0)] if ends.size
+            else self.switch_held[:, :, None], self.switch_held[:, :, None])
+        if ends.size:
+            self.switch_held = readings[:, :, -1]
+            tail = cum[:, :, -1] - cum[:, :, ends[-1]]
+            self.switch_sum = tail
+        elif n:
+            self.switch_sum = self.switch_sum + cum[:, :, -1]
+        return out

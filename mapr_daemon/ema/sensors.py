@@ -21,6 +21,7 @@ import numpy as np
 
 from mapr_daemon.arrays import FloatArray
 from mapr_daemon.ema.batch import BatchArrays
+from mapr_daemon.ema.params import CHANNELS
 
 EXTRA_DRAWS = 2
 """Random columns per sample besides the channels: bus drift and bus ripple."""
@@ -45,9 +46,10 @@ class SlowState:
         return cls(p.t_amb.copy(), p.t_amb.copy(), offset, drift, bus)
 
 
-def draw(rngs: list[np.random.Generator], n_samples: int, n_channels: int) -> FloatArray:
-    """Standard normal draws ``(n_channels + EXTRA_DRAWS, n_runs, n_samples)``."""
-    cols = n_channels + EXTRA_DRAWS
+def draw(rngs: list[np.random.Generator], n_samples: int, n_channels: int,
+         extra: int = EXTRA_DRAWS) -> FloatArray:
+    """Standard normal draws ``(n_channels + extra, n_runs, n_samples)``."""
+    cols = n_channels + extra
     per_run = [g.standard_normal((n_samples, cols)) for g in rngs]
     out: FloatArray = np.stack(per_run, axis=0).transpose(2, 0, 1)
     return out
@@ -63,4 +65,16 @@ def adc(p: BatchArrays, values: FloatArray, z: FloatArray) -> FloatArray:
         values = values * p.sensor_gain[:, :, None] + p.sensor_offset[:, :, None]
     noisy = values + p.noise[:, :, None] * z
     out: FloatArray = np.clip(np.round(noisy / lsb) * lsb, -fs, fs - lsb)
+    return out
+
+
+def quantise_as(p: BatchArrays, like: str, values: FloatArray) -> FloatArray:
+    """Quantisation and clipping of channel ``like`` (one of
+    :data:`~mapr_daemon.ema.params.CHANNELS`) for other sensors of its kind; ``values`` are
+    ``(n_sensors, n_runs, ...)``."""
+    k = CHANNELS.index(like)
+    shape = (1, -1) + (1,) * (values.ndim - 2)
+    fs = p.full_scale[k].reshape(shape)
+    lsb = p.lsb[k].reshape(shape)
+    out: FloatArray = np.clip(np.round(values / lsb) * lsb, -fs, fs - lsb)
     return out

@@ -46,6 +46,10 @@ The equations (docs/ema-model.md has the model and its sources):
   phase's back-EMF from the true one through the general legs).
 * Once per sample: temperatures (exact first order), the aircraft bus (Ornstein-Uhlenbeck
   drift, ripple, clipped to the normal band), the winding resistance from the motor temperature.
+* Switch temperatures: the SMPS's high and low side and the inverter's phase-A high side each
+  a first-order node above the power stage's (the sink's) temperature, driven by the loss that
+  switch carries in each step (the SMPS high side also takes the lumped switching loss); they
+  only read the step's values, so every other output is the same with or without them.
 """
 
 from __future__ import annotations
@@ -71,9 +75,11 @@ SCALARS = (
     "area_chord", "ch0", "ch_delta", "travel_rad", "kp_pos", "ki_pos", "kd_pos", "i_lim", "kp_i",
     "ki_i", "rth_m", "tau_m", "rth_s", "tau_s", "bus_nominal", "bus_drift_sd", "bus_tau",
     "bus_ripple", "bus_min", "bus_max", "r_source", "r_loop", "breakaway", "w_stribeck",
-    "voltage_mode", "n_cur", "n_pos", "hk_w", "hk_var", "hk_period", "hall_offset")
-"""BatchArrays fields of shape ``(n,)`` the step reads, in parameter-row order (the last ten:
-the drive's loop resistance and the run's model form, :mod:`mapr_daemon.ema.form`)."""
+    "voltage_mode", "n_cur", "n_pos", "hk_w", "hk_var", "hk_period", "hall_offset",
+    "rth_sw_smps", "tau_sw_smps", "rth_sw_inv", "tau_sw_inv")
+"""BatchArrays fields of shape ``(n,)`` the step reads, in parameter-row order (ten before the
+last four: the drive's loop resistance and the run's model form, :mod:`mapr_daemon.ema.form`;
+the last four: the switch temperature nodes)."""
 PHASED = ("r_high", "r_low", "short_high", "short_low", "open_high", "open_low")
 """BatchArrays fields of shape ``(3, n)``: three columns each (phases A, B, C)."""
 EXTRA = ("z_sw", "z_pwm", "bus_offset")
@@ -85,7 +91,8 @@ PAR = SCALARS + tuple(f"{name}_{ph}" for name in PHASED for ph in "abc") + EXTRA
  T_COUL, W_COUL, RATIO, ETA, AREA_CHORD, CH0, CH_DELTA, TRAVEL_RAD, KP_POS, KI_POS, KD_POS,
  I_LIM, KP_I, KI_I, RTH_M, TAU_M, RTH_S, TAU_S, BUS_NOMINAL, BUS_DRIFT_SD, BUS_TAU, BUS_RIPPLE,
  BUS_MIN, BUS_MAX, R_SOURCE, R_LOOP, BREAKAWAY, W_STRIBECK, VOLTAGE_MODE, N_CUR, N_POS, HK_W,
- HK_VAR, HK_PERIOD, HALL_OFFSET) = range(len(SCALARS))
+ HK_VAR, HK_PERIOD, HALL_OFFSET, RTH_SW_SMPS, TAU_SW_SMPS, RTH_SW_INV,
+ TAU_SW_INV) = range(len(SCALARS))
 (R_HIGH_A, R_LOW_A, SHORT_HIGH_A, SHORT_LOW_A, OPEN_HIGH_A,
  OPEN_LOW_A) = range(len(SCALARS), len(SCALARS) + 3 * len(PHASED), 3)
 """First column (phase A) of each per-phase parameter; B and C follow."""
@@ -94,15 +101,17 @@ Z_SW, Z_PWM, BUS_OFFSET = range(len(PAR) - len(EXTRA), len(PAR))
 STATE = ("i_l", "v_c", "v_out", "integ", "deriv", "prev_err", "duty",
          "pos_integ", "cur_integ", "i_cmd", "i_q", "i_a", "i_b", "i_c", "vn",
          "omega", "theta", "i_in", "motor_c", "stage_c", "bus_drift", "bus_v", "u",
-         "cur_count", "pos_count")
+         "cur_count", "pos_count", "hs_rise", "ls_rise", "ah_rise")
 """Columns of the state matrix: SMPS, loops, windings, mechanics, supply, temperatures, bus,
-the drive's held duty and its steps left until the next current- and position-loop update."""
+the drive's held duty and its steps left until the next current- and position-loop update,
+then the three switch junctions' rises over the power stage (K)."""
 ACC = ("i_dc", "i_a", "i_b", "i_c", "v_out", "delta", "v_in", "i_in", "v_out2", "ripple2",
        "p_motor", "p_stage", "torque", "omega", "hinge", "i_cmd", "i_q", "duty", "i_l", "u",
-       "sector")
+       "sector", "t_smps_high", "t_smps_low", "t_inv_a_high")
 """Rows of :func:`integrate`'s output: step means over each sample, except ``p_motor`` and
-``p_stage`` (replaced by the motor and stage temperatures after the sample) and ``sector``
-(the Hall sector, 1-6, of the sample's last step)."""
+``p_stage`` (replaced by the motor and stage temperatures after the sample), ``sector``
+(the Hall sector, 1-6, of the sample's last step) and the three switch temperatures after the
+sample."""
 
 PLUS = (0, 0, 1, 1, 2, 2)
 """The "+" phase (back-EMF flat top at +1) of each Hall sector 0-5 (inverter.POSITIVE)."""
@@ -165,6 +174,7 @@ def _run(pr: FloatArray, x: FloatArray, cmd_rad: FloatArray, q: FloatArray, amb:
      pos_count) = (
         x[0], x[1], x[2], x[3], x[4], x[5], x[6], x[7], x[8], x[9], x[10], x[11], x[12],
         x[13], x[14], x[15], x[16], x[17], x[18], x[19], x[20], x[21], x[22], x[23], x[24])
+    hs_rise, ls_rise, ah_rise = x[25], x[26], x[27]
     pp, k_e, r_source = pr[POLE_PAIRS], pr[K_E], pr[R_SOURCE]
     soft_start, v_ref, tf_v = max(pr[SOFT_START], 1e-12), pr[V_REF], pr[TF_V]
     kp_v, ki_v, kd_v = pr[KP_V], pr[KI_V], pr[KD_V]
@@ -209,6 +219,8 @@ def _run(pr: FloatArray, x: FloatArray, cmd_rad: FloatArray, q: FloatArray, amb:
     # once-per-sample constants (sensors): thermal and bus decays
     am = math.exp(-dt / pr[TAU_M])
     ast = math.exp(-dt / pr[TAU_S])
+    a_sw, a_inv = math.exp(-dt / pr[TAU_SW_SMPS]), math.exp(-dt / pr[TAU_SW_INV])
+    rth_sw, rth_inv = pr[RTH_SW_SMPS], pr[RTH_SW_INV]
     ab = math.exp(-dt / pr[BUS_TAU])
     drift_gain = pr[BUS_DRIFT_SD] * math.sqrt(1.0 - ab * ab)
     n_steps = float(spb)
@@ -223,6 +235,7 @@ def _run(pr: FloatArray, x: FloatArray, cmd_rad: FloatArray, q: FloatArray, amb:
             p_hk = pr[HK_W] * (1.0 + pr[HK_VAR] * math.sin(_TWO_PI * t / pr[HK_PERIOD]))
         a_dc = a_a = a_b = a_c = a_v = a_d = a_vin = a_iin = a_v2 = a_r2 = 0.0
         a_pm = a_ps = a_tq = a_om = a_hg = a_ic = a_iq = a_du = a_il = a_u = 0.0
+        a_phs = a_pls = a_pah = 0.0
         sec = 0
         for _ in range(spb):
             # Hall sector and the idle phase's back-EMF (the "+"/"-" phases on their flat tops)
@@ -299,7 +312,8 @@ def _run(pr: FloatArray, x: FloatArray, cmd_rad: FloatArray, q: FloatArray, amb:
                     sh0 = 1.0 if kp_ph == 0 else (-1.0 if km_ph == 0 else s_id)
                     sh1 = 1.0 if kp_ph == 1 else (-1.0 if km_ph == 1 else s_id)
                     sh2 = 1.0 if kp_ph == 2 else (-1.0 if km_ph == 2 else s_id)
-                g_shoot, i_ext, p_inv = _legs(pr, hi_ph, lo_ph, au, vdc, i0, i1, i2, scratch)
+                g_shoot, i_ext, p_inv, p_ah = _legs(pr, hi_ph, lo_ph, au, vdc, i0, i1, i2,
+                                                    scratch)
             else:
                 # intact bridge: the PWM'd leg (high side on for au of the period, low side
                 # the rest), the return leg (low side on), the idle leg (its diodes decide)
@@ -307,6 +321,10 @@ def _run(pr: FloatArray, x: FloatArray, cmd_rad: FloatArray, q: FloatArray, amb:
                 i_ext = au * i_hi + (i_id if i_id < 0.0 else 0.0)
                 p_inv = (r_hi * i_hi * i_hi + pr[R_LOW_A + lo_ph] * i_lo * i_lo
                          + vd * abs(i_id) + r_diode * i_id * i_id)
+                # phase A's high side: PWM'd (on for au), or the idle leg's high diode
+                p_ah = (au * rh * i_hi * i_hi if hi_ph == 0 else
+                        (vd * -i_id + r_diode * i_id * i_id if id_ph == 0 and i_id < 0.0
+                         else 0.0))
             i_dc = i_ext + g_shoot * vdc
             # sub-step ripple (V^2) for the RMS detector
             dv = vin - v_out
@@ -321,6 +339,9 @@ def _run(pr: FloatArray, x: FloatArray, cmd_rad: FloatArray, q: FloatArray, amb:
             i_l_prev = i_l
             r_sw = ron_lo + duty * d_ron
             p_smps = i_l * i_l * r_sw
+            a_phs += duty * ron_hi * i_l * i_l
+            a_pls += (1.0 - duty) * ron_lo * i_l * i_l
+            a_pah += p_ah
             # SMPS power stage, exact for the step
             r_tot = r_sw + r_dcr
             if r_tot != key_r or g_shoot != key_g:
@@ -428,11 +449,20 @@ def _run(pr: FloatArray, x: FloatArray, cmd_rad: FloatArray, q: FloatArray, amb:
         out[10, s] = motor_c
         out[11, s] = stage_c
         out[20, s] = sec + 1.0
+        # switch junctions over the sink (the stage), exact first order like the others
+        p_hs, p_ls, p_a = a_phs / n_steps + p_sw, a_pls / n_steps, a_pah / n_steps
+        hs_rise = rth_sw * p_hs + (hs_rise - rth_sw * p_hs) * a_sw
+        ls_rise = rth_sw * p_ls + (ls_rise - rth_sw * p_ls) * a_sw
+        ah_rise = rth_inv * p_a + (ah_rise - rth_inv * p_a) * a_inv
+        out[21, s] = stage_c + hs_rise
+        out[22, s] = stage_c + ls_rise
+        out[23, s] = stage_c + ah_rise
     state = (i_l, v_c, v_out, integ, deriv, prev_err, duty, pos_integ, cur_integ, i_cmd, i_q,
              i0, i1, i2, vn, omega, theta, i_in, motor_c, stage_c, drift, bus_v, u, cur_count,
              pos_count)
     for k in range(25):
         x[k] = state[k]
+    x[25], x[26], x[27] = hs_rise, ls_rise, ah_rise
     return t
 
 
@@ -468,18 +498,20 @@ def _stick_slip(omega: float, load: float, t_coul: float, t_break: float, w_s: f
 
 @kernel
 def _legs(pr: FloatArray, hi_ph: int, lo_ph: int, au: float, vdc: float, i0: float, i1: float,
-          i2: float, scratch: FloatArray) -> tuple[float, float, float]:
+          i2: float, scratch: FloatArray) -> tuple[float, float, float, float]:
     """Every leg of a bridge with shorted or open switches, averaged over a PWM period.
 
     Each leg's period splits into fractions with only the high switch on, only the low, both
     (shoot-through: a divider across the DC link) or neither (the body diodes: positive current
     returns through the low diode, negative through the high). Fills ``scratch`` rows 0-3 with
     each leg's Thevenin voltage and resistance, whether it floats and whether it is diode-only;
-    returns the shoot-through conductance, the DC-link current without the shoot-through term
-    and the bridge's conduction loss.
+    returns the shoot-through conductance, the DC-link current without the shoot-through term,
+    the bridge's conduction loss and phase A's high-side switch's share of it (its channel,
+    the leg current while it alone is on, the shoot-through current while both are, its body
+    diode's when the leg floats on negative current).
     """
     vd, r_diode = pr[V_DIODE], pr[R_DIODE]
-    g_shoot = i_ext = p_inv = 0.0
+    g_shoot = i_ext = p_inv = p_ah = 0.0
     for k in range(3):
         ik = i0 if k == 0 else (i1 if k == 1 else i2)
         a_h = au if k == hi_ph else 0.0
@@ -505,8 +537,12 @@ def _legs(pr: FloatArray, hi_ph: int, lo_ph: int, au: float, vdc: float, i0: flo
         sw = f_high * rh * sq + f_low2 * rl * sq
         sw += f_both * (rh * rl / r_sum) * sq
         p_inv += sw + f_none * (vd * abs(ik) + r_diode * sq)
+        if k == 0:
+            i_st = vdc / r_sum
+            p_ah = (f_high * rh * sq + f_both * rh * i_st * i_st
+                    + (f_none * (vd * -ik + r_diode * sq) if ik < 0.0 else 0.0))
     p_inv += g_shoot * vdc * vdc
-    return g_shoot, i_ext, p_inv
+    return g_shoot, i_ext, p_inv, p_ah
 
 
 @kernel

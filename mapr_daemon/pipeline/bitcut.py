@@ -66,9 +66,13 @@ class BitCutter:
 
     def __init__(self, bit: BitParams, sample_rate_hz: float, *,
                  signals: Mapping[str, str] | None = None) -> None:
-        role = wiring.by_role(wiring.DEFAULT_SIGNALS if signals is None else signals)
+        wired = wiring.DEFAULT_SIGNALS if signals is None else signals
+        role = wiring.by_role(wired)
         self.channels = {role[c]: c for c in CHANNELS}
         """ICD signal -> reasoner sensor channel."""
+        self.optional = {role[c]: c for c in wiring.switch_channels(wired)}
+        """ICD signal -> optional reasoner channel (the switch temperatures, when wired): a
+        BIT is cut without one the bus did not carry, and the reasoner says what it lacks."""
         self.request, self.pressure, self.timebase = \
             role[wiring.REQUEST], role[wiring.PRESSURE], role[wiring.TIMEBASE]
         self.drive = tuple(role.get(r) for r in (wiring.SECTOR, wiring.DUTY, wiring.DIRECTION))
@@ -76,7 +80,7 @@ class BitCutter:
         """The BIT motion on the record's grid (its command is what the drive followed)."""
         self.period_ns = 1e9 / sample_rate_hz
         self.span_ns = int(self.profile.n_samples * self.period_ns)
-        names = (*self.channels, self.request, self.pressure,
+        names = (*self.channels, *self.optional, self.request, self.pressure,
                  *(d for d in self.drive if d is not None))
         self.buffers: dict[str, tuple[list[FloatArray], list[FloatArray]]] = {
             name: ([], []) for name in names}
@@ -176,6 +180,10 @@ class BitCutter:
             if t.size < 2 or t[0] > grid[0] + 0.05e9 or t[-1] < grid[-1] - 0.05e9:
                 return CutBit(request, onset, {}, q, missing=icd_name)
             channels[channel] = np.interp(grid, t, v)
+        for icd_name, channel in self.optional.items():
+            t, v = self._series(icd_name)
+            if t.size >= 2 and t[0] <= grid[0] + 0.05e9 and t[-1] >= grid[-1] - 0.05e9:
+                channels[channel] = np.interp(grid, t, v)
         channels.update(self._drive_state(grid))
         return CutBit(request, onset, channels, q)
 

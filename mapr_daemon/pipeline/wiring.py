@@ -17,7 +17,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 
-from mapr_daemon.ema.params import CHANNELS
+from mapr_daemon.ema.params import CHANNELS, SWITCH_CHANNELS
 from mapr_daemon.icd import Icd
 
 REQUEST = "bit_request"
@@ -28,7 +28,10 @@ SECTOR, DUTY, DIRECTION = "commutation_sector", "pwm_duty", "drive_direction"
 """Optional roles: the drive's Hall sector, and its duty as sign-magnitude; they become the
 reasoner's ``commutation_sector`` and signed ``inverter_duty`` when the bus carries them."""
 REQUIRED = (*CHANNELS, REQUEST, PRESSURE)
-OPTIONAL = (SECTOR, DUTY, DIRECTION)
+OPTIONAL = (SECTOR, DUTY, DIRECTION, *SWITCH_CHANNELS)
+"""Roles and channels an aircraft may or may not carry: the drive's state, and the power
+switches' temperatures (:data:`~mapr_daemon.ema.params.SWITCH_CHANNELS`) when its EMA has
+temperature-sensing switches."""
 TIMEBASE = "phase_a_current_a"
 """The channel whose sample times are a BIT record's grid."""
 
@@ -43,6 +46,21 @@ DEFAULT_SIGNALS: dict[str, str] = {
     "commutation_sector": SECTOR, "pwm_duty": DUTY, "drive_direction": DIRECTION,
 }
 """ICD signal -> reasoner channel or role, for ``configs/icd/ema-testbed.yaml``."""
+
+
+SWITCH_SIGNALS: dict[str, str] = {
+    **DEFAULT_SIGNALS, "smps_high_side_temperature": "smps_high_side_temperature_c",
+    "smps_low_side_temperature": "smps_low_side_temperature_c",
+    "inverter_a_high_temperature": "inverter_a_high_temperature_c"}
+"""ICD signal -> reasoner channel or role, for ``configs/icd/ema-testbed-switch-temperatures.yaml``
+(the shipped table with the switch temperatures in its slow block)."""
+
+
+def switch_channels(signals: Mapping[str, str]) -> tuple[str, ...]:
+    """The switch temperature channels a wiring carries (in
+    :data:`~mapr_daemon.ema.params.SWITCH_CHANNELS` order)."""
+    carried = set(signals.values())
+    return tuple(c for c in SWITCH_CHANNELS if c in carried)
 
 
 def problems(signals: Mapping[str, str]) -> list[tuple[str | None, str]]:

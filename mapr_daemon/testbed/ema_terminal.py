@@ -58,6 +58,11 @@ POWER_CHANNELS = {"smps_input_voltage": "smps_input_voltage_v",
 SLOW_CHANNELS = {"motor_temperature": "motor_temperature_c",
                  "power_stage_temperature": "stage_temperature_c"}
 """Shipped ICD parameter name -> plant channel, per sample block."""
+SWITCH_SLOW_CHANNELS = {"smps_high_side_temperature": "smps_high_side_temperature_c",
+                        "smps_low_side_temperature": "smps_low_side_temperature_c",
+                        "inverter_a_high_temperature": "inverter_a_high_temperature_c"}
+"""Optional slow-block channels (configs/icd/ema-testbed-switch-temperatures.yaml): the EMA
+sends those its table's slow block has."""
 
 TRANSMIT_ROLES = ("fast_block", "power_block", "slow_block", "position_feedback", "bit_result")
 RECEIVE_ROLES = ("position_command", "bit_request")
@@ -120,11 +125,15 @@ def power_values(latest: Latest, seq: IntArray) -> dict[str, Any]:
     return values
 
 
-def slow_values(latest: Latest, seq: IntArray, rate_hz: float) -> dict[str, Any]:
-    """Temperatures at 100 Hz from the plant's rate."""
+def slow_values(latest: Latest, seq: IntArray, rate_hz: float,
+                optional: Sequence[str] = ()) -> dict[str, Any]:
+    """Temperatures at 100 Hz from the plant's rate; ``optional``: the
+    :data:`SWITCH_SLOW_CHANNELS` the table's slow block carries."""
     step = max(1, round(rate_hz / 100.0))
     values: dict[str, Any] = {icd_name: latest(plant_name, 5, step)
                               for icd_name, plant_name in SLOW_CHANNELS.items()}
+    values.update({icd_name: latest(SWITCH_SLOW_CHANNELS[icd_name], 5, step)
+                   for icd_name in optional})
     values["slow_seq"] = seq
     return values
 
@@ -217,6 +226,9 @@ class EmaTerminal:
                  bus_v: float | None = None) -> None:
         self.icd = icd
         self.names = TerminalNames(icd, rt)
+        slow = {p.name for p in self.names.messages["slow_block"].all_parameters()}
+        self.slow_optional = tuple(k for k in SWITCH_SLOW_CHANNELS if self.names.param(k) in slow)
+        """The optional channels this EMA's slow block carries (its switch temperatures)."""
         self.plant = EmaBatch([RunSpec(params, faults, seed=seed, ambient_c=ambient_c,
                                        bus_v=bus_v, form=form or ModelForm())], powered=True)
         self.rate_hz = float(params.sensors.sample_rate_hz)
@@ -346,7 +358,7 @@ class EmaTerminal:
     def slow_block(self, t_ns: int) -> list[int]:
         self.run_to(t_ns)
         return self._encode("slow_block", _row(slow_values(
-            self.latest, np.array([self._next("slow")]), self.rate_hz)))
+            self.latest, np.array([self._next("slow")]), self.rate_hz, self.slow_optional)))
 
     def feedback(self, t_ns: int) -> list[int]:
         self.run_to(t_ns)
@@ -411,7 +423,7 @@ class EmaTerminal:
         if role == "power_block":
             return power_values(latest, seq)
         if role == "slow_block":
-            return slow_values(latest, seq, self.rate_hz)
+            return slow_values(latest, seq, self.rate_hz, self.slow_optional)
         if role == "position_feedback":
             return feedback_values(latest, seq, self.rate_hz, np.array([r[2] for r in rows]),
                                    np.array([r[3] for r in rows]))

@@ -35,7 +35,12 @@ from mapr_daemon.arrays import FloatArray
 from mapr_daemon.ema import inverter, step
 from mapr_daemon.ema.batch import RunSpec, build
 from mapr_daemon.ema.faults import Fault, FaultSet
-from mapr_daemon.ema.params import OUTPUT_CHANNELS, default_actuator_path, load_actuator
+from mapr_daemon.ema.params import (
+    CHANNELS,
+    CONTROLLER_CHANNELS,
+    default_actuator_path,
+    load_actuator,
+)
 from mapr_daemon.ema.plant import EmaBatch
 from mapr_daemon.testbed.profiles import Profile, bit_profile
 from mapr_daemon.testbed.profiles_jsbsim import jsbsim_flight
@@ -62,6 +67,9 @@ KNIFE_EDGE: dict[str, FaultSet] = {
 }
 ALL = {**FAULTS, **KNIFE_EDGE}
 WINDOWS = 40
+RECORDED = CHANNELS + CONTROLLER_CHANNELS
+"""The channels the reference file holds (the switch temperatures came after it; they have
+their own tests, tests/ema/test_switch_temperatures.py)."""
 PROFILES = ("bit", "jsbsim")
 
 
@@ -89,7 +97,7 @@ def summary(signals: dict[str, FloatArray]) -> dict[str, FloatArray]:
 def simulate(command_deg: FloatArray, q: FloatArray, powered: bool) -> dict[str, FloatArray]:
     block = EmaBatch(specs(), powered=powered).advance(command_deg.size, command_deg, q)
     out = {f"ch/{k}": v for k, v in summary(
-        {k: block.channels[k] for k in OUTPUT_CHANNELS}).items()}
+        {k: block.channels[k] for k in RECORDED}).items()}
     out.update({f"truth/{k}": v for k, v in summary(block.truth).items()})
     return out
 
@@ -152,7 +160,7 @@ def test_strict_runs_match_the_reference(
 def test_knife_edge_runs_match_the_reference_statistics(
         runs: tuple[dict[str, FloatArray], dict[str, FloatArray]]) -> None:
     ref, got = runs
-    for name in OUTPUT_CHANNELS:
+    for name in RECORDED:
         for stat in ("mean", "std"):
             key = f"ch/{name}/{stat}"
             a, b = got[key][len(FAULTS):], ref[key][len(FAULTS):]

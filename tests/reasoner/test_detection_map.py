@@ -54,9 +54,11 @@ def test_describe_prints_the_modes_thresholds_and_map(dictionary: Path) -> None:
     assert out.returncode == 0, out.stderr
     assert "parametric modes: esr, friction" in out.stdout
     assert "pair gain (two faults)" in out.stdout and "where each mode is seen" in out.stdout
+    assert "switch temperatures: not read" in out.stdout
     doc = json.loads(subprocess.run(
         [sys.executable, "-m", "mapr_daemon.cli.main", "dictionary", "describe",
          str(dictionary), "--json"], capture_output=True, text=True, timeout=120,
         check=True).stdout)
     assert doc["detection_map"] == d.detection.as_json()
+    assert doc["switch_temperatures"] == []
     assert doc["thresholds"]["anomaly (likelihood ratio)"] == d.threshold

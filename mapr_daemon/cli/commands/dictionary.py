@@ -129,9 +129,11 @@ def run_describe(args: argparse.Namespace) -> int:
     import json
 
     from mapr_daemon.reasoner.diagnosis.dictionary import Dictionary
+    from mapr_daemon.reasoner.diagnosis.features import SWITCH_SOURCES
 
     d = Dictionary.load(args.dictionary)
     cal = d.calibration
+    sensed = [SWITCH_SOURCES[s] for s in d.signals if s in SWITCH_SOURCES]
     kinds = sorted({t.kind for t in d.templates if not t.switch})
     switches = sorted(f"{t.kind} {t.switch}" for t in d.templates if t.switch)
     thresholds = {"anomaly (likelihood ratio)": d.threshold,
@@ -143,7 +145,8 @@ def run_describe(args: argparse.Namespace) -> int:
     doc = {"file": str(args.dictionary), "actuator": d.actuator,
            "sample_rate_hz": d.sample_rate_hz, "parametric_modes": kinds,
            "switch_faults": switches, "false_alarm_rate": cal.get("false_alarm_rate"),
-           "calibrated_to_a_unit": unit, "thresholds": thresholds,
+           "calibrated_to_a_unit": unit, "switch_temperatures": sensed,
+           "thresholds": thresholds,
            "detection_map": None if d.detection is None else d.detection.as_json()}
     if args.json:
         print(json.dumps(doc, indent=2))
@@ -152,6 +155,8 @@ def run_describe(args: argparse.Namespace) -> int:
           f"{', calibrated to a unit' if unit else ''}")
     print(f"parametric modes: {', '.join(kinds)}")
     print(f"switch faults: {', '.join(switches) or 'none'}")
+    print("switch temperatures: " + (f"read ({', '.join(sensed)}; a record without them is "
+                                     "flagged)" if sensed else "not read"))
     print(f"false-alarm rate per BIT: {cal.get('false_alarm_rate', float('nan')):g}")
     for name, value in thresholds.items():
         print(f"  {name:<44} {'-' if value is None else f'{value:.4g}'}")

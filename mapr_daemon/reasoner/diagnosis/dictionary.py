@@ -38,7 +38,11 @@ from mapr_daemon.arrays import FloatArray
 from mapr_daemon.errors import ConfigError, RecordError
 from mapr_daemon.reasoner.diagnosis.detection_map import DetectionMap
 from mapr_daemon.reasoner.diagnosis.fault_models import FaultModels
-from mapr_daemon.reasoner.diagnosis.features import derived_signals, feature_matrix
+from mapr_daemon.reasoner.diagnosis.features import (
+    derived_signals,
+    feature_matrix,
+    missing_sources,
+)
 from mapr_daemon.reasoner.diagnosis.healthy_model import HealthyModel, pressure_weights
 
 FORMAT = "mapr-dictionary/4"
@@ -96,6 +100,10 @@ class DictionarySpec:
     """Least covariance shrinkage of the healthy model (Ledoit-Wolf's estimate if larger)."""
     knots: tuple[float, ...] = (0.0, 0.125, 0.25, 0.375, 0.5, 0.625, 0.75, 0.875, 1.0)
     seed_base: int = 0
+    switch_temperatures: bool = False
+    """Build with the power switches' temperatures
+    (:data:`~mapr_daemon.reasoner.diagnosis.features.SWITCH_SIGNALS`): for an actuator whose
+    EMA carries them on the bus; its records must then carry them too."""
 
     @classmethod
     def load(cls, path: str | Path) -> DictionarySpec:
@@ -185,6 +193,10 @@ class Dictionary:
         n = int(np.asarray(channels["position_deg"]).shape[-1])
         if n < need:
             raise RecordError(f"a BIT record needs {need} samples, got {n}", field="signals")
+        lacking = missing_sources(self.signals, tuple(channels))
+        if lacking:
+            raise RecordError("the dictionary was built with the switch temperatures; the "
+                              f"record has no {', '.join(lacking)}", field="signals")
         sig = derived_signals({k: np.atleast_2d(np.asarray(v, dtype=np.float64))
                                for k, v in channels.items()},
                               np.asarray(command_deg, dtype=np.float64))

@@ -59,6 +59,17 @@ the share of time in them (phase A's high-side Ron is only visible per sector), 
 record's sector-resolved loop resistance (:mod:`~mapr_daemon.reasoner.diagnosis.sector`; one value
 per
 record, repeated over its samples)."""
+SWITCH_SIGNALS: tuple[str, ...] = ("smps_high_side_rise_k", "smps_low_side_rise_k",
+                                   "inverter_a_high_rise_k")
+"""Ours, when the actuator has temperature-sensing power switches and the dictionary is built
+with them (``switch_temperatures: true``): each switch's junction temperature over the power
+stage's (the heat sink's), which takes out the ambient and the stage's slow warming and leaves
+the switch's own loss (:data:`SWITCH_SOURCES`)."""
+SWITCH_SOURCES: dict[str, str] = dict(zip(SWITCH_SIGNALS, (
+    "smps_high_side_temperature_c", "smps_low_side_temperature_c",
+    "inverter_a_high_temperature_c"), strict=True))
+"""Each switch signal's temperature channel (the stage's, ``stage_temperature_c``, is the
+other input)."""
 CURRENT_GROUP: tuple[str, ...] = PAPER_SIGNALS[:3]
 DEFAULT_WINDOW = 32
 WINDOWS_PER_SIDE = 4
@@ -171,6 +182,11 @@ def derived_signals(channels: Mapping[str, FloatArray],
         out["smps_loss_w"] = vin * iin - vbus * idc
     if "commutation_sector" in channels and "inverter_duty" in channels:
         out.update(sector_signals(channels))
+    if "stage_temperature_c" in channels:
+        stage = np.asarray(channels["stage_temperature_c"], dtype=np.float64)
+        for name, source in SWITCH_SOURCES.items():
+            if source in channels:
+                out[name] = np.asarray(channels[source], dtype=np.float64) - stage
     return out
 
 
@@ -195,12 +211,27 @@ def sector_signals(channels: Mapping[str, FloatArray]) -> dict[str, FloatArray]:
     return out
 
 
-def reasoner_signals(channels: Sequence[str]) -> tuple[str, ...]:
+def reasoner_signals(channels: Sequence[str],
+                     switch_temperatures: bool = False) -> tuple[str, ...]:
     """Our M's signals for records carrying ``channels``: :data:`EXTENDED_SIGNALS`, plus
-    :data:`SECTOR_SIGNALS` when the drive reports its sector and duty."""
-    if "commutation_sector" in channels and "inverter_duty" in channels:
-        return (*EXTENDED_SIGNALS, *SECTOR_SIGNALS)
-    return EXTENDED_SIGNALS
+    :data:`SECTOR_SIGNALS` when the drive reports its sector and duty, plus
+    :data:`SWITCH_SIGNALS` when asked for (a dictionary built with the switch temperatures:
+    the plant always has them, an aircraft may not, so they are the dictionary's choice)."""
+    base = ((*EXTENDED_SIGNALS, *SECTOR_SIGNALS)
+            if "commutation_sector" in channels and "inverter_duty" in channels
+            else EXTENDED_SIGNALS)
+    return (*base, *SWITCH_SIGNALS) if switch_temperatures else base
+
+
+def missing_sources(signals: Sequence[str], channels: Sequence[str]) -> list[str]:
+    """The channels a record lacks for ``signals`` that only optional sensors give (the
+    switch temperatures): what to name when a dictionary built with them meets a record
+    without them."""
+    have = set(channels)
+    need = [SWITCH_SOURCES[s] for s in signals if s in SWITCH_SOURCES]
+    if any(s in SWITCH_SOURCES for s in signals):
+        need.append("stage_temperature_c")
+    return [c for c in dict.fromkeys(need) if c not in have]
 
 
 def column_names(signals: Sequence[str]) -> list[str]:

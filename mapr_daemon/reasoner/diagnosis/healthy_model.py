@@ -39,9 +39,10 @@ RECORD_MEANS: tuple[str, ...] = (
     "dc_link_current_a", "phase_a_current_a", "phase_b_current_a", "phase_c_current_a",
     "dc_bus_voltage_v", "position_deg", "smps_input_current_a", "ripple_rms_v",
     "tracking_error_deg", "smps_loss_w", "duty_a_high", "duty_other", "dc_link_a_high_a",
-    "a_high_share")
+    "a_high_share", "smps_high_side_rise_k", "smps_low_side_rise_k", "inverter_a_high_rise_k")
 """Signals whose window mean over the record rows is a cell of the healthy model (the sector
-signals only when the dictionary has them)."""
+and switch temperature signals only when the dictionary has them; the switch temperatures
+only by their means: read at 100 Hz, their spread and spectra inside a window are noise)."""
 RECORD_SPREADS: tuple[str, ...] = ("dc_link_current_a", "phase_a_current_a", "dc_bus_voltage_v",
                                    "ripple_rms_v")
 """... and whose window standard deviation is one too (the fast response inside a window)."""

@@ -63,6 +63,7 @@ from mapr_daemon.reasoner.diagnosis.false_alarm import calibrate_gaussian
 from mapr_daemon.reasoner.diagnosis.features import (
     EXTENDED_SIGNALS,
     SECTOR_SIGNALS,
+    SWITCH_SIGNALS,
     WindowSpec,
     column_names,
     derived_signals,
@@ -99,12 +100,14 @@ benches score severity on)."""
 
 
 def run_matrices(runs: Runs, starts: np.ndarray, length: int,
-                 signals: tuple[str, ...] | None = None) -> FloatArray:
+                 signals: tuple[str, ...] | None = None, *,
+                 switch_temperatures: bool = False) -> FloatArray:
     """M ``(n, W, C)`` of every run (corner windows, then the record rows); ``signals`` by
     default :func:`~mapr_daemon.reasoner.diagnosis.features.reasoner_signals` of the runs'
-    channels."""
+    channels (with the switch temperatures' when ``switch_temperatures``)."""
     sig = derived_signals(runs.channels, runs.command_deg)
-    names = reasoner_signals(tuple(runs.channels)) if signals is None else signals
+    names = (reasoner_signals(tuple(runs.channels), switch_temperatures) if signals is None
+             else signals)
     return feature_matrix(sig, starts, length, runs.sample_rate_hz, names)
 
 
@@ -243,7 +246,8 @@ def build_matrices(params: ActuatorParams, spec: DictionarySpec, runs: BitRuns,
     corners, n_samples = bit_layout(params)
     starts = windows(spec, corners, n_samples)
     m = stream_matrices(params, runs, starts, spec.window_samples, progress=progress,
-                        workers=workers, runs_per_batch=runs_per_batch)
+                        workers=workers, runs_per_batch=runs_per_batch,
+                        switch_temperatures=spec.switch_temperatures)
     return m, runs.dynamic_pressure_pa.copy(), starts
 
 
@@ -251,12 +255,17 @@ def stream_matrices(params: ActuatorParams, runs: BitRuns, starts: np.ndarray, l
                     signals: tuple[str, ...] | None = None,
                     progress: Callable[[float], None] | None = None, *,
                     workers: int | None = None,
-                    runs_per_batch: int = RUNS_PER_BATCH) -> FloatArray:
+                    runs_per_batch: int = RUNS_PER_BATCH,
+                    switch_temperatures: bool = False) -> FloatArray:
     """M ``(n, W, C)`` of every run, as :func:`run_matrices` of :func:`simulate_bit` gives it,
     bit for bit, but flown and reduced batch by batch on ``workers`` threads: each batch's raw
     channels are dropped once its M is computed, so memory holds M and ``workers`` batches."""
     m: FloatArray | None = None
-    for lo, part in stream_bit(params, runs, lambda r: run_matrices(r, starts, length, signals),
+
+    def reduce(r: Runs) -> FloatArray:
+        return run_matrices(r, starts, length, signals, switch_temperatures=switch_temperatures)
+
+    for lo, part in stream_bit(params, runs, reduce,
                                runs_per_batch=runs_per_batch, workers=workers,
                                progress=progress):
         if m is None:
@@ -326,8 +335,11 @@ def assemble(params: ActuatorParams, spec: DictionarySpec, m: FloatArray, q: Flo
             templates.append(Template(f"{kind}:{sw}", kind, sw, (1.0,), (1.0,), "on/off"))
             tpl_m.append(np.stack([m[role == f"{kind}:{sw}@{q:g}"]
                                    for q in spec.pressures_pa])[paper_cells])
-    signals = EXTENDED_SIGNALS if m.shape[2] == len(column_names(EXTENDED_SIGNALS)) else \
-        (*EXTENDED_SIGNALS, *SECTOR_SIGNALS)
+    switch = SWITCH_SIGNALS if spec.switch_temperatures else ()
+    signals: tuple[str, ...] = (
+        (*EXTENDED_SIGNALS, *switch)
+        if m.shape[2] == len(column_names((*EXTENDED_SIGNALS, *switch)))
+        else (*EXTENDED_SIGNALS, *SECTOR_SIGNALS, *switch))
     columns = tuple(column_names(signals))
     if len(columns) != m.shape[2]:
         raise ConfigError(f"M has {m.shape[2]} columns, no known signal set has",

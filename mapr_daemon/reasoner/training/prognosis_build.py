@@ -121,8 +121,8 @@ def build_prognostic_model(d: Dictionary, params: ActuatorParams, spec: BuildSpe
     seeds = [TRAINING_SEED + i for i in range(len(train))] + \
         [CALIBRATION_SEED + i for i in range(len(cal))]
     runs = BitRuns.of([fault_at(params, k, h) for k, h in todo], q, seeds, amb, bus)
-    m = stream_matrices(params, runs, d.window_starts, d.window_samples, progress=progress,
-                        workers=workers)
+    m = stream_matrices(params, runs, d.window_starts, d.window_samples, d.signals,
+                        progress=progress, workers=workers)
     y, c = wear_estimators.observations(d, m, q)
     n = len(train)
     estimators = wear_estimators.fit_kinds(kinds, y[:n], c[:n], np.array([h for _, h in train]),

@@ -158,7 +158,8 @@ def observe_units(d: Dictionary, params: ActuatorParams, units: Sequence[tuple[s
     fs += [at(k, h) for k, h in train]
     qs += [float(q) for q in trng.uniform(100.0, 2400.0, len(train))]
     seeds += [TRAINING_BIT_SEED + i for i in range(len(train))]
-    m = stream_matrices(params, BitRuns.of(fs, qs, seeds), d.window_starts, d.window_samples)
+    m = stream_matrices(params, BitRuns.of(fs, qs, seeds), d.window_starts, d.window_samples,
+                        d.signals)
     y, c = wear_estimators.observations(d, m, qs)
     n_cal = n_units + len(cal)
     models = wear_estimators.fit_kinds(kinds, y[n_cal:], c[n_cal:], np.array([h for _, h in train]),
