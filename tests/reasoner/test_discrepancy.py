@@ -1,5 +1,6 @@
-"""The learned discrepancy on a unit our model cannot express: a housekeeping load on the
-supply and sensor offsets (an explicit model form, the rest of the unit the data sheet's).
+"""The learned discrepancy on a unit our model cannot express (a housekeeping load on the
+supply and sensor offsets: an explicit model form, the rest of the unit the data sheet's), and
+a faulted BIT's mode and severity read against that unit's baseline.
 
 One module-level batch: six healthy BITs to learn from and three held-out healthy BITs, at
 different conditions above the supply floor, plus one faulted BIT (the severity test). The
@@ -21,6 +22,7 @@ from mapr_daemon.ema.form import ModelForm
 from mapr_daemon.ema.params import ActuatorParams, default_actuator_path, load_actuator
 from mapr_daemon.errors import ConfigError
 from mapr_daemon.reasoner.commissioning import discrepancy as dsc
+from mapr_daemon.reasoner.commissioning import severity
 from mapr_daemon.reasoner.commissioning.bits import FIT_SIGNALS, BitRecord, from_runs
 from mapr_daemon.reasoner.commissioning.flight import noise_scale
 from mapr_daemon.reasoner.commissioning.record import CommissioningRecord
@@ -112,3 +114,14 @@ def test_record_without_discrepancy_still_loads() -> None:
     assert rec.discrepancy is None and rec.converged is False
     again = CommissioningRecord.from_json(rec.to_json())
     assert again == rec
+
+
+def test_fault_read_against_the_units_baseline(unit: Unit, learned: dsc.Discrepancy) -> None:
+    kind, sev, _ = FAULT
+    r = severity.read(unit.sheet, unit.sheet, learned, unit.faulted, DECIMATE)
+    assert r.mode == kind and abs(r.severity - sev) < 0.1, r
+    assert r.healthy_cost - r.cost > 1.0
+    # a healthy BIT of the unit: no fault explains much of it
+    h = severity.read(unit.sheet, unit.sheet, learned, unit.held[0], DECIMATE,
+                      kinds=(kind, "esr"), terminal=False)
+    assert h.healthy_cost - h.cost < 0.5 and h.healthy_cost < 3.0, h

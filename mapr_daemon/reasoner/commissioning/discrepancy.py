@@ -63,6 +63,8 @@ RIDGES = (0.1, 1.0, 10.0)
 """Ridge penalties tried, on standardised features (in units of one BIT's weight)."""
 LENGTHS = (0.0, 1.0, 2.0)
 """Kernel lengths tried, in feature sds (0: the linear kernel alone)."""
+SPREAD_SMOOTH = 9
+"""Decimated steps (45 ms at the default grid) the per-time healthy spread is averaged over."""
 MIN_BITS = 3
 """Fewer healthy BITs than this leave nothing to hold out: no discrepancy is learned."""
 FORMAT = "mapr-discrepancy/1"
@@ -117,6 +119,10 @@ class SignalFit:
     """Leave-one-out RMS with no correction (the identified model's own misfit)."""
     held_out: float
     """Leave-one-out RMS with the chosen correction."""
+    spread: FloatArray
+    """(T,) the chosen correction's leave-one-out RMS at each time (over the BITs, smoothed
+    over :data:`SPREAD_SMOOTH` steps, at least 1): where in the profile a healthy BIT is
+    expected to depart from the prediction (a transient more than a hold)."""
 
     @property
     def rank(self) -> int:
@@ -163,9 +169,10 @@ class Discrepancy:
         return scaled
 
     def healthy_spread(self) -> FloatArray:
-        """(K,) per signal the held-out RMS left by model plus correction, channel units:
-        how far a healthy BIT is expected to sit from the prediction."""
-        return np.array([f.held_out for f in self.fits]) * self.scale
+        """(K, T) per signal and time the held-out RMS left by model plus correction, channel
+        units: how far a healthy BIT is expected to sit from the prediction."""
+        out: FloatArray = np.stack([f.spread for f in self.fits]) * self.scale[:, None]
+        return out
 
     def summary(self) -> dict[str, object]:
         """What the record keeps: per signal the rank, ridge, kernel length and held-out RMS
@@ -188,6 +195,7 @@ class Discrepancy:
             arrays[f"{k}.mean"] = f.mean
             arrays[f"{k}.basis"] = f.basis
             arrays[f"{k}.dual"] = f.dual
+            arrays[f"{k}.spread"] = f.spread
         meta = {"format": FORMAT, "decimate": self.decimate,
                 "signals": list(FIT_SIGNALS), "features": list(FEATURES),
                 "fits": [[f.ridge, f.length, f.held_out_none, f.held_out] for f in self.fits]}
@@ -208,7 +216,8 @@ class Discrepancy:
                     raise ConfigError("signals or features differ from this version's",
                                       path=str(path))
                 fits = tuple(SignalFit(z[f"{k}.drift"], z[f"{k}.mean"], z[f"{k}.basis"],
-                                       z[f"{k}.dual"], float(r), float(ln), float(a), float(b))
+                                       z[f"{k}.dual"], float(r), float(ln), float(a), float(b),
+                                       z[f"{k}.spread"])
                              for k, (r, ln, a, b) in zip(FIT_SIGNALS, meta["fits"],
                                                           strict=True))
                 return cls(int(meta["decimate"]), z["scale"], z["center"], z["spread"],
@@ -255,11 +264,11 @@ def _drift_fit(z: FloatArray, reg: FloatArray) -> FloatArray:
 
 
 def _held_out(z: FloatArray, f: FloatArray, reg: FloatArray | None, rank: int, ridge: float,
-              length: float) -> float:
-    """Leave-one-out RMS of predicting each BIT's residual from the others' (with the drift
-    term when ``reg`` is given)."""
+              length: float) -> FloatArray:
+    """Per time ``(T,)``, the mean square over BITs of predicting each BIT's residual from the
+    others' (with the drift term when ``reg`` is given)."""
     n = z.shape[0]
-    sq = 0.0
+    sq = np.zeros(z.shape[1])
     for i in range(n):
         keep = np.arange(n) != i
         zk, zi = z[keep], z[i]
@@ -271,8 +280,18 @@ def _held_out(z: FloatArray, f: FloatArray, reg: FloatArray | None, rank: int, r
         x = (f[keep] - c) / s
         mean, basis, dual = _train(zk, x, rank, ridge, length)
         pred = mean + (kernel(((f[i] - c) / s)[None, :], x, length) @ dual)[0] @ basis
-        sq += float(np.mean((zi - pred) ** 2))
-    return float(np.sqrt(sq / n))
+        sq += (zi - pred) ** 2
+    out: FloatArray = sq / n
+    return out
+
+
+def _smooth_spread(ms: FloatArray) -> FloatArray:
+    """The per-time RMS from per-time mean squares, averaged over :data:`SPREAD_SMOOTH`
+    steps and never below 1 (the sensor noise)."""
+    kernel_ = np.ones(SPREAD_SMOOTH) / SPREAD_SMOOTH
+    padded = np.pad(ms, SPREAD_SMOOTH // 2, mode="edge")
+    out: FloatArray = np.maximum(np.sqrt(np.convolve(padded, kernel_, mode="valid")), 1.0)
+    return out
 
 
 def learn(residuals: FloatArray, feats: FloatArray, drift: FloatArray, scale: FloatArray,
@@ -293,21 +312,23 @@ def learn(residuals: FloatArray, feats: FloatArray, drift: FloatArray, scale: Fl
     for k in range(z_all.shape[1]):
         z = z_all[:, k, :]
         none = float(np.sqrt(np.mean(z**2)))
-        best: tuple[float, bool, int, float, float] | None = None
+        best: tuple[float, bool, int, float, float, FloatArray] | None = None
         for use_drift in (False, True):
             for rank in range(min(MAX_RANK, n - 2) + 1):
                 for ridge in RIDGES if rank else RIDGES[:1]:
                     for length in LENGTHS if rank else LENGTHS[:1]:
-                        err = _held_out(z, feats, reg if use_drift else None, rank, ridge,
-                                        length)
+                        ms = _held_out(z, feats, reg if use_drift else None, rank, ridge,
+                                       length)
+                        err = float(np.sqrt(np.mean(ms)))
                         if best is None or err < best[0] * (1.0 - 1e-6):
-                            best = (err, use_drift, rank, ridge, length)
+                            best = (err, use_drift, rank, ridge, length, ms)
         assert best is not None
-        err, use_drift, rank, ridge, length = best
+        err, use_drift, rank, ridge, length, ms = best
         beta = _drift_fit(z, reg) if use_drift else np.zeros(reg.shape[1])
         z = z - np.einsum("j,njt->nt", beta, reg)
         mean, basis, dual = _train(z, x, rank, ridge, length)
-        fits.append(SignalFit(beta, mean, basis, dual, ridge, length, none, err))
+        fits.append(SignalFit(beta, mean, basis, dual, ridge, length, none, err,
+                              _smooth_spread(ms)))
     return Discrepancy(decimate, np.asarray(scale, dtype=np.float64), center, spread, x,
                        tuple(fits))
 
