@@ -15,8 +15,12 @@ down to the noise): the data sheet's model, the identified model, and the identi
 plus the discrepancy; median and worst over the units. Also per unit the identification's
 iterations and convergence, the discrepancy's ranks, and seeds, CPU, wall and load.
 
+``--twin`` flies the data sheet's own twin instead (its parameters, the plant's own form):
+what is left then is the floor no condition-driven correction can reach — the flight's own
+friction scatter, the aircraft bus's drift and ripple, the sensor noise.
+
 Run:  python3 bench/commission_residuals.py [--units 4] [--bits 12] [--held-out 6]
-      [--seed N] [--actuator FILE ...]
+      [--seed N] [--actuator FILE ...] [--twin]
 """
 
 from __future__ import annotations
@@ -34,6 +38,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from seeds import master
 
 from mapr_daemon.ema.faults import FaultSet
+from mapr_daemon.ema.form import ModelForm
 from mapr_daemon.ema.params import ActuatorParams, load_actuator
 from mapr_daemon.reasoner.commissioning.bits import FIT_SIGNALS, BitRecord, from_runs
 from mapr_daemon.reasoner.commissioning.discrepancy import correction_for, learn_unit
@@ -75,9 +80,12 @@ def main() -> int:
     ap.add_argument("--bits", type=int, default=12)
     ap.add_argument("--held-out", type=int, default=6)
     ap.add_argument("--seed", type=int, help="master seed (default: drawn afresh, printed)")
+    ap.add_argument("--twin", action="store_true", help="the data sheet's twin, not mismatched "
+                    "units: the floor")
     args = ap.parse_args()
     seed = master(args.seed, f"python3 bench/commission_residuals.py --units {args.units} "
-                  f"--bits {args.bits} --held-out {args.held_out}")
+                  f"--bits {args.bits} --held-out {args.held_out}"
+                  + (" --twin" if args.twin else ""))
     start, cpu0 = time.monotonic(), time.process_time()
     rng = np.random.default_rng(seed)
     dec = FitOptions().decimate
@@ -87,7 +95,10 @@ def main() -> int:
         scale = noise_scale(sheet, dec)
         table: dict[str, list[np.ndarray]] = {c: [] for c in columns}
         notes = []
-        for unit in fleet(sheet, args.units, int(rng.integers(2**31))):
+        units = fleet(sheet, args.units, int(rng.integers(2**31)))
+        if args.twin:
+            units = [Unit(u.seed, sheet, sheet, ModelForm(), {}) for u in units]
+        for unit in units:
             comm = unit_bits(sheet, unit, [FaultSet()] * args.bits, rng, "commission")
             held = unit_bits(sheet, unit, [FaultSet()] * args.held_out, rng, "held-out")
             ident = identify(sheet, comm)
@@ -104,7 +115,8 @@ def main() -> int:
             notes.append(f"unit {unit.seed}: {len(ident.bits)} BITs used, {ident.iterations} "
                          f"iterations, {'converged' if ident.converged else 'NOT CONVERGED'}, "
                          f"discrepancy ranks {ranks}")
-        print(f"\n{sheet.name}: {args.units} mismatched units, {args.bits} commissioning and "
+        print(f"\n{sheet.name}: {args.units} {'twins' if args.twin else 'mismatched units'}, "
+              f"{args.bits} commissioning and "
               f"{args.held_out} held-out healthy BITs each")
         for n in notes:
             print("  " + n)

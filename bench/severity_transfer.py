@@ -105,8 +105,11 @@ def main() -> int:
     ap.add_argument("--per-mode", type=int, default=2)
     ap.add_argument("--seed", type=int, help="master seed (default: drawn afresh, printed)")
     args = ap.parse_args()
+    files = "".join(f" --actuator {a}" for a in args.actuator or []) + "".join(
+        f" --dictionary {d}" for d in args.dictionary or [])
     seed = master(args.seed, f"python3 bench/severity_transfer.py --units {args.units} "
-                  f"--bits {args.bits} --healthy {args.healthy} --per-mode {args.per_mode}")
+                  f"--bits {args.bits} --healthy {args.healthy} --per-mode {args.per_mode}"
+                  + files)
     start, cpu0 = time.monotonic(), time.process_time()
     rng = np.random.default_rng(seed)
     dec = FitOptions().decimate
