@@ -118,6 +118,10 @@ def main() -> int:
     for path, dict_path in zip(actuators, dictionaries, strict=True):
         sheet = load_actuator(path)
         d = Dictionary.load(dict_path) if dict_path else None
+        if d is not None and d.sample_rate_hz != sheet.sensors.sample_rate_hz:
+            print(f"{dict_path}: built at {d.sample_rate_hz:g} Hz, {path} samples at "
+                  f"{sheet.sensors.sample_rate_hz:g} Hz", file=sys.stderr)
+            return 2
         with_disc: list[Row] = []
         without: list[Row] = []
         by_dict: list[Row] = []
