@@ -52,6 +52,9 @@ def test_commission_writes_actuator_record_and_dictionary(
     assert [b.source for b in rec.bits] == [str(files / "bit0.npz"), str(files / "bit1.npz")]
     assert rec.dictionary == "dictionary.npz" and rec.identified_actuator == "actuator.yaml"
     assert rec.skipped == ()
+    # two BITs leave none to hold out: no discrepancy is learned, and it says so
+    assert rec.discrepancy is None and not (out / "discrepancy.npz").exists()
+    assert "2 BITs: learning the model's discrepancy needs at least 3" in cap.err
     assert [e.path for e in rec.parameters] == ["motor.back_emf_v_s_per_rad",
                                                 "motor.inertia_kg_m2"]
     d = Dictionary.load(out / "dictionary.npz")

@@ -22,6 +22,7 @@ from mapr_daemon.ema.params import default_actuator_path, load_actuator, with_sa
 from mapr_daemon.ema.run import RunResult
 from mapr_daemon.icd import load_icd
 from mapr_daemon.reasoner.commissioning.bits import BitRecord, condition
+from mapr_daemon.reasoner.commissioning.discrepancy import Discrepancy
 from mapr_daemon.reasoner.commissioning.record import read_record
 from mapr_daemon.reasoner.diagnosis.dictionary import Dictionary
 from mapr_daemon.testbed.aircraft import Aircraft
@@ -115,6 +116,10 @@ def test_the_bits_flown_are_found_in_the_recording_and_commissioned_from(
     ident = load_actuator(out / "actuator.yaml")
     assert rec.identified_actuator == "actuator.yaml" and rec.dictionary == "dictionary.npz"
     assert Dictionary.load(out / "dictionary.npz").actuator == ident.name
+    # what the identified model still misses on these BITs, learned and saved beside it
+    assert rec.discrepancy is not None and rec.discrepancy["file"] == "discrepancy.npz"
+    assert Discrepancy.load(out / "discrepancy.npz").bits == BITS
+    assert "discrepancy learned" in cap.err and "fit converged in" in cap.out
 
 
 def test_the_same_bits_as_npz_and_as_recording_identify_the_same_unit(

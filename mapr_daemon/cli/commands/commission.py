@@ -189,7 +189,9 @@ def run(args: argparse.Namespace) -> int:
     for e in ident.estimates:
         print(f"{e.path:<30} {e.datasheet:>11.5g} {e.value:>11.5g} {100 * e.sd_rel:>6.2f}  "
               f"{'yes' if e.identifiable else 'no'}")
+    fit = (f"converged in {ident.iterations} iterations" if ident.converged else
+           f"NOT converged after {ident.iterations} iterations")
     print(f"{len(ident.bits)} BITs used, {len(ident.skipped) + len(skipped_files)} skipped; "
-          f"{ident.model_runs} model runs in {ident.wall_s:.1f} s; wrote "
+          f"fit {fit}; {ident.model_runs} model runs in {ident.wall_s:.1f} s; wrote "
           + ", ".join(str(f) for f in done.files))
     return exitcodes.OK

@@ -11,6 +11,13 @@ parameter's value), ``confidence``, ``parameters``, ``soh``, ``component``, ``ru
 run has no trend, see ``mapr prognose``), ``evidence``. ``--paper`` uses the paper's
 chosen-curve classifier instead of ours.
 
+``--commissioned DIR`` (a ``mapr commission`` folder with a learned discrepancy) adds a second
+reading, ``baseline``: the run's fault mode and severity read against the unit's own
+commissioned healthy behaviour, identified model plus discrepancy (docs/commissioning.md,
+"Reading a fault against the unit's baseline"): ``mode`` (null: no fault explains the run
+better than none), ``switch``, ``severity`` (fraction of the Table 1 range), ``value`` (the
+faulted parameter's), ``explained`` and ``cost``. The dictionary's decision is unchanged.
+
 The runs of a file are independent: each is diagnosed by a fresh reasoner, so its event is
 the one ``--index`` gives it alone. ``--same-unit`` says they are successive BITs of one
 actuator instead: one reasoner, in file order, adapts its reference model across them
@@ -49,6 +56,9 @@ def add_subparser(subparsers: Any) -> None:
                    help="the runs are successive BITs of one actuator: adapt the reference "
                         "model across them, in file order (default: each run on its own)")
     p.add_argument("--paper", action="store_true", help="the paper's curve classifier")
+    p.add_argument("--commissioned", type=Path, metavar="DIR",
+                   help="a mapr commission folder: add the reading against the unit's "
+                        "commissioned baseline")
     p.set_defaults(func=run)
 
 
@@ -67,6 +77,10 @@ def run(args: argparse.Namespace) -> int:
         return exitcodes.USAGE
     params = load_actuator(args.actuator or default_actuator_path())
     unit = Reasoner(d, params) if args.same_unit else None
+    baseline = None
+    if args.commissioned is not None:
+        from mapr_daemon.reasoner.commissioning.baseline import Baseline
+        baseline = Baseline.load(args.commissioned)
     flagged = 0
     for i in range(runs.n) if args.index is None else [args.index]:
         reasoner = unit if unit is not None else Reasoner(d, params)
@@ -75,5 +89,9 @@ def run(args: argparse.Namespace) -> int:
                                               float(runs.dynamic_pressure_pa[i]),
                                               paper=args.paper)
         flagged += diagnosis.error is not None
-        print(json.dumps({"run": i, **diagnosis.to_json()}), flush=True)
+        line = {"run": i, **diagnosis.to_json()}
+        if baseline is not None:
+            line["baseline"] = baseline.to_json(baseline.read(
+                channels, runs.command_deg, float(runs.dynamic_pressure_pa[i])))
+        print(json.dumps(line), flush=True)
     return exitcodes.DATAERR if flagged else exitcodes.OK

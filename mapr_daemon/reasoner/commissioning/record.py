@@ -16,7 +16,16 @@ on it. Format ``mapr-commissioning/1``::
                "friction_factor": 0.97, "residual": 0.3}, ...],
      "skipped": [{"bit": "bits.npz#3", "reason": "non-finite values in position_deg"}],
      "correlation": [[1.0, ...], ...], "fit": {"iterations": 15, "converged": true,
-     "model_runs": 1188, "wall_s": 7.1}}
+     "model_runs": 1188, "wall_s": 7.1},
+     "unit_calibration": {...},
+     "discrepancy": {"file": "discrepancy.npz", "criterion": ..., "bits": 12,
+                     "features": [...], "signals": {"position_deg": {"rank": 2, ...,
+                     "held_out_rms_model": 240.1, "held_out_rms_corrected": 30.2}, ...}}}
+
+``discrepancy`` (None in records written before it existed, or with too few BITs) says
+what the learned discrepancy
+(:mod:`~mapr_daemon.reasoner.commissioning.discrepancy`) explains: per signal the held-out
+residual without and with it, in noise units.
 
 ``value`` is what the identified actuator file holds (the fit where identifiable, else the
 data sheet's); ``sd_rel`` the posterior sd of its logarithm (a relative sd).
@@ -61,11 +70,16 @@ class CommissioningRecord:
     """What calibrating the dictionary to the unit's own BITs did
     (:class:`~mapr_daemon.reasoner.commissioning.calibrate.UnitCalibration`); None without a
     dictionary."""
+    discrepancy: dict[str, Any] | None = None
+    """The learned discrepancy's file and summary
+    (:meth:`~mapr_daemon.reasoner.commissioning.discrepancy.Discrepancy.summary`); None when
+    none was learned."""
 
     @classmethod
     def of(cls, ident: Identification, tolerances: tuple[Tolerance, ...], datasheet: str,
            identified_actuator: str, dictionary: str | None,
-           unit_calibration: dict[str, Any] | None = None) -> CommissioningRecord:
+           unit_calibration: dict[str, Any] | None = None,
+           discrepancy: dict[str, Any] | None = None) -> CommissioningRecord:
         """The record of ``ident``, stamped now (UTC)."""
         return cls(
             created=datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
@@ -76,7 +90,7 @@ class CommissioningRecord:
             residual_after=dict(ident.residual_after), bits=ident.bits, skipped=ident.skipped,
             correlation=ident.correlation, iterations=ident.iterations,
             converged=ident.converged, model_runs=ident.model_runs, wall_s=ident.wall_s,
-            unit_calibration=unit_calibration)
+            unit_calibration=unit_calibration, discrepancy=discrepancy)
 
     def to_json(self) -> dict[str, Any]:
         return {
@@ -92,6 +106,7 @@ class CommissioningRecord:
             "fit": {"iterations": self.iterations, "converged": self.converged,
                     "model_runs": self.model_runs, "wall_s": self.wall_s},
             "unit_calibration": self.unit_calibration,
+            "discrepancy": self.discrepancy,
         }
 
     @classmethod
@@ -119,7 +134,8 @@ class CommissioningRecord:
                 correlation=tuple(tuple(float(v) for v in row) for row in doc["correlation"]),
                 iterations=int(fit["iterations"]), converged=bool(fit["converged"]),
                 model_runs=int(fit["model_runs"]), wall_s=float(fit["wall_s"]),
-                unit_calibration=doc.get("unit_calibration"))
+                unit_calibration=doc.get("unit_calibration"),
+                discrepancy=doc.get("discrepancy"))
         except (KeyError, TypeError, ValueError, AttributeError) as error:
             raise ConfigError(f"malformed commissioning record ({error})", path=path) from None
 

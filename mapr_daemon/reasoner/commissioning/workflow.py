@@ -7,7 +7,9 @@ BITs skipped with its reason; a Chapter 10 recording's BITs are cut by
 :func:`mapr_daemon.pipeline.recorded_bits.bits_from_recording`, above this package: it needs
 the ICD and the daemon's BIT cutter), :func:`commission` does the rest and writes, into one
 folder, ``actuator.yaml`` (the identified actuator, loadable like any actuator file),
-``commissioning.json`` (what was identified, with sd, from which BITs) and ``dictionary.npz``.
+``commissioning.json`` (what was identified, with sd, from which BITs), ``discrepancy.npz``
+(what the identified model still misses on the unit's healthy BITs,
+:mod:`~mapr_daemon.reasoner.commissioning.discrepancy`) and ``dictionary.npz``.
 """
 
 from __future__ import annotations
@@ -23,9 +25,10 @@ import numpy as np
 from mapr_daemon.ema.dump import write_actuator
 from mapr_daemon.ema.params import ActuatorParams
 from mapr_daemon.errors import ConfigError
-from mapr_daemon.reasoner.commissioning.bits import BitRecord, from_runs
+from mapr_daemon.reasoner.commissioning import discrepancy as dsc
+from mapr_daemon.reasoner.commissioning.bits import FIT_SIGNALS, BitRecord, from_runs
 from mapr_daemon.reasoner.commissioning.calibrate import MIN_BITS, calibrate_unit
-from mapr_daemon.reasoner.commissioning.identify import Identification, identify
+from mapr_daemon.reasoner.commissioning.identify import FitOptions, Identification, identify
 from mapr_daemon.reasoner.commissioning.prior import Tolerance
 from mapr_daemon.reasoner.commissioning.record import CommissioningRecord, write_record
 from mapr_daemon.reasoner.diagnosis.dictionary import DictionarySpec
@@ -35,6 +38,7 @@ from mapr_daemon.reasoner.training.dictionary_build import build
 ACTUATOR_FILE = "actuator.yaml"
 RECORD_FILE = "commissioning.json"
 DICTIONARY_FILE = "dictionary.npz"
+DISCREPANCY_FILE = "discrepancy.npz"
 
 Say = Callable[[str], None]
 """Where the workflow's one-line reports go (the CLI prefixes them and prints to stderr)."""
@@ -49,11 +53,15 @@ class Commissioned:
     folder: Path
     dictionary: str | None
     """The dictionary's file name in :attr:`folder`; None when none was built."""
+    discrepancy: str | None = None
+    """The learned discrepancy's file name in :attr:`folder`; None when none was learned."""
 
     @property
     def files(self) -> list[Path]:
         """Every file written, in the order written."""
-        return [self.folder / ACTUATOR_FILE, self.folder / RECORD_FILE] + \
+        return [self.folder / ACTUATOR_FILE] + \
+            ([self.folder / self.discrepancy] if self.discrepancy else []) + \
+            [self.folder / RECORD_FILE] + \
             ([self.folder / self.dictionary] if self.dictionary else [])
 
 
@@ -124,11 +132,37 @@ def commission(params: ActuatorParams, datasheet: str, records: Sequence[BitReco
     header = (f"{params.name}, identified by mapr commission from {len(ident.bits)} healthy "
               f"BITs\n(data sheet {datasheet}; record {RECORD_FILE})")
     write_actuator(out / ACTUATOR_FILE, ident.params, header, identification_notes(ident))
+    if not ident.converged:
+        say(f"identification did NOT converge in {ident.iterations} iterations: the identified "
+            "values are its last iterate (the record says converged: false); commission again "
+            "from more BITs or check them")
+    discrepancy, disc_summary = learn_discrepancy(ident, records, out, say)
     dictionary = calibration = None
     if spec is not None:
         dictionary, calibration = unit_dictionary(
             ident.params, spec, out, [r for r in records if (r.source, r.index) in used], say)
     record = CommissioningRecord.of(ident, tolerances, datasheet, ACTUATOR_FILE, dictionary,
-                                    calibration)
+                                    calibration, disc_summary)
     write_record(out / RECORD_FILE, record)
-    return Commissioned(ident, record, out, dictionary)
+    return Commissioned(ident, record, out, dictionary, discrepancy)
+
+
+def learn_discrepancy(ident: Identification, records: Sequence[BitRecord], out: Path,
+                      say: Say) -> tuple[str | None, dict[str, Any] | None]:
+    """Learn what the identified model still misses on the BITs the identification used
+    (:func:`~.discrepancy.learn_unit`), save it into ``out``; its file name and summary, or
+    (None, None) with fewer than :data:`~.discrepancy.MIN_BITS` BITs (said in one line)."""
+    used = {(b.source, b.index) for b in ident.bits}
+    bits = [r for r in records if (r.source, r.index) in used]
+    if len(bits) < dsc.MIN_BITS:
+        say(f"{len(bits)} BITs: learning the model's discrepancy needs at least "
+            f"{dsc.MIN_BITS}; none learned")
+        return None, None
+    disc = dsc.learn_unit(ident.params, bits, FitOptions().decimate)
+    disc.save(out / DISCREPANCY_FILE)
+    summary = disc.summary()
+    say("discrepancy learned on the unit's healthy BITs; held-out residual per signal, noise "
+        "units, model -> corrected: " + ", ".join(
+            f"{k} {f.held_out_none:.3g} -> {f.held_out:.3g}"
+            for k, f in zip(FIT_SIGNALS, disc.fits, strict=True)))
+    return DISCREPANCY_FILE, {"file": DISCREPANCY_FILE, **summary}

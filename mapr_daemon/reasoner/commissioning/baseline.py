@@ -1,0 +1,84 @@
+"""The unit's commissioned baseline, loaded from a ``mapr commission`` folder, and a BIT read
+against it: the second reading ``mapr diagnose --commissioned DIR`` reports beside the
+dictionary's decision.
+
+A commissioning folder holds the identified actuator (``actuator.yaml``), the record
+(``commissioning.json``) and, when enough BITs were used, the learned discrepancy
+(``discrepancy.npz``). :meth:`Baseline.load` puts them together; the data sheet the fault
+ranges are measured on is the identified actuator with each identified parameter set back to
+its data sheet value (both are in the record), so the folder alone is enough.
+:meth:`Baseline.read` is :func:`~mapr_daemon.reasoner.commissioning.severity.read` on one BIT.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+from typing import Any
+
+from mapr_daemon.arrays import FloatArray
+from mapr_daemon.ema.faults import PARAMETRIC, at_severity
+from mapr_daemon.ema.params import ActuatorParams, load_actuator
+from mapr_daemon.errors import ConfigError
+from mapr_daemon.reasoner.commissioning import prior as ip
+from mapr_daemon.reasoner.commissioning.bits import BitRecord, unusable
+from mapr_daemon.reasoner.commissioning.discrepancy import Discrepancy
+from mapr_daemon.reasoner.commissioning.record import read_record
+from mapr_daemon.reasoner.commissioning.severity import HEALTHY, Reading, read
+
+RECORD_FILE = "commissioning.json"
+
+
+@dataclasses.dataclass(frozen=True)
+class Baseline:
+    """A unit's commissioned healthy behaviour: identified model plus learned discrepancy."""
+
+    params: ActuatorParams
+    """The identified actuator."""
+    datasheet: ActuatorParams
+    """The data sheet (fault ranges are fractions of its Table 1 range)."""
+    discrepancy: Discrepancy
+
+    @classmethod
+    def load(cls, folder: str | Path) -> Baseline:
+        """The baseline of a ``mapr commission`` folder; :class:`ConfigError` when its record
+        has no discrepancy (commissioned from fewer than 3 BITs, or before there was one)."""
+        d = Path(folder)
+        record = read_record(d / RECORD_FILE)
+        if not record.discrepancy or "file" not in record.discrepancy:
+            raise ConfigError("the commissioning record has no learned discrepancy "
+                              "(commission again from 3 BITs or more)",
+                              path=str(d / RECORD_FILE), field="discrepancy")
+        params = load_actuator(d / record.identified_actuator)
+        back = {e.path: e.datasheet / ip.get(params, e.path) for e in record.parameters}
+        datasheet = ip.scaled(params, back)
+        disc = Discrepancy.load(d / str(record.discrepancy["file"]))
+        return cls(params, datasheet, disc)
+
+    def read(self, channels: dict[str, FloatArray], command_deg: FloatArray,
+             dynamic_pressure_pa: float) -> Reading | str:
+        """The BIT's mode and severity against the baseline, or why it cannot be read."""
+        bit = BitRecord(channels, command_deg, dynamic_pressure_pa,
+                        self.params.sensors.sample_rate_hz, "run", 0)
+        why = unusable(self.params, bit)
+        if why is not None:
+            return why
+        return read(self.params, self.datasheet, self.discrepancy, bit,
+                    self.discrepancy.decimate)
+
+    def to_json(self, reading: Reading | str) -> dict[str, Any]:
+        """A reading as the JSON ``mapr diagnose`` prints under ``baseline``: the mode (null
+        for healthy), the switch, the severity as a fraction of range and as the faulted
+        parameter's value, and how much of the record the fault explains (``explained``: the
+        mean square, in healthy spreads, of "no fault" minus that of the reading)."""
+        if isinstance(reading, str):
+            return {"unreadable": reading}
+        value = None
+        if reading.mode in PARAMETRIC:
+            value = at_severity(self.datasheet, reading.mode,
+                                min(max(reading.severity, 0.0), 1.0)).value
+        return {"mode": None if reading.mode == HEALTHY else reading.mode,
+                "switch": reading.switch or None,
+                "severity": round(reading.severity, 4), "value": value,
+                "explained": round(reading.healthy_cost - reading.cost, 4),
+                "cost": round(reading.cost, 4)}
