@@ -129,6 +129,10 @@ class ShapePrior:
     corr: float = 0.0
     scatter0: float = 0.0
     scatter1: float = 0.0
+    life_df: float = math.inf
+    """Degrees of freedom of the Student-t the life is held with (``inf``: a normal, as
+    learned; :meth:`with_life` sets :data:`LIFE_DF`). The shape given the life stays
+    normal; only how far the life may stray from ``life_mean`` is heavy-tailed."""
 
     @classmethod
     def learn(cls, kind: str, trajectories: list[tuple[FloatArray, FloatArray]]) -> ShapePrior:
@@ -169,10 +173,12 @@ class ShapePrior:
         return float(crossing(SHAPES[kind], np.array([math.exp(self.mean)]),
                               np.array([amp]))[0])
 
-    def with_life(self, kind: str, life_sd: float, life_flights: float | None = None
-                  ) -> ShapePrior:
-        """The same aging *shape*, with the life held as ``log(life) ~ N(log(life_flights),
-        life_sd)`` (``life_flights`` None: this prior's own median life).
+    def with_life(self, kind: str, life_sd: float, life_flights: float | None = None,
+                  life_df: float | None = None) -> ShapePrior:
+        """The same aging *shape*, with the life held as ``log(life)`` Student-t about
+        ``log(life_flights)`` with scale ``life_sd`` and ``life_df`` degrees of freedom
+        (``life_flights`` None: this prior's own median life; ``life_df`` None:
+        :data:`LIFE_DF`; ``inf``: a normal, the prior as it was before issue 28).
 
         What the training units tell reliably is the shape of aging given a life (an
         exponential that fails late bends late: the conditional of ``log theta`` given
@@ -181,37 +187,58 @@ class ShapePrior:
         own spread (sd 0.17 in the logarithm) states intervals that miss when the real parts
         live twice or half as long. ``life_sd`` is never narrowed below the learned spread.
         For a fixed-amplitude kind the shape parameter *is* the life (``theta = c/life``),
-        so its mean moves with the life and its sd becomes ``life_sd``."""
+        so its mean moves with the life and its sd becomes ``life_sd``.
+
+        Why heavy tails: a normal on ``log(life)`` charges a unit that lives a third of the
+        prior's life ``(ln 3/sd)**2/2`` nats however strongly its own readings say so, and the
+        charge grows without bound the further off the prior is; a Student-t charges about
+        the same near the centre but only ``(df+1)/2*log(z**2/df)`` far out, so a trend that
+        clearly disagrees with the fleet wins, while a trend that says little (early life,
+        noisy readings) still leans on the fleet's life, with wider bounds."""
+        df = LIFE_DF if life_df is None else life_df
         sd = max(life_sd, self.life_sd if self.life_sd > 0.0 else self.sd)
         target = math.log(life_flights if life_flights is not None
                           else self.life_flights(kind))
         if self.life_sd <= 0.0:
             shift = target - math.log(self.life_flights(kind))
-            return dataclasses.replace(self, mean=self.mean - shift, sd=sd)
+            return dataclasses.replace(self, mean=self.mean - shift, sd=sd, life_df=df)
         cond_sd = self.sd * math.sqrt(1.0 - self.corr ** 2)
         slope = self.corr * self.sd / self.life_sd   # E[log theta | log life] per log life
         sd_t = math.sqrt(cond_sd ** 2 + (slope * sd) ** 2)
         return dataclasses.replace(self, mean=self.mean + slope * (target - self.life_mean),
                                    sd=sd_t, life_mean=target, life_sd=sd,
-                                   corr=slope * sd / sd_t)
+                                   corr=slope * sd / sd_t, life_df=df)
 
     def logpdf(self, theta: FloatArray) -> FloatArray:
-        """Log density of the shape parameter alone (up to a constant)."""
+        """Log density of the shape parameter alone (up to a constant): normal, or, where the
+        amplitude is fixed and the shape parameter *is* the life (``theta = c/life``), with
+        the life's tails (:attr:`life_df`)."""
         z = (np.log(theta) - self.mean) / self.sd
-        out: FloatArray = -0.5 * z * z
-        return out
+        return _standard_logpdf(z, self.life_df)
 
     def joint_logpdf(self, theta: FloatArray, life: FloatArray) -> FloatArray:
-        """Log density of ``(theta, life)`` on their grid ``(theta, life)`` (up to a constant)."""
-        zt = ((np.log(theta) - self.mean) / self.sd)[:, None]
+        """Log density of ``(theta, life)`` on their grid ``(theta, life)`` (up to a
+        constant): the life's marginal (normal or Student-t, :attr:`life_df`) times the
+        shape's normal conditional given the life (with ``life_df`` inf, the joint normal)."""
         zl = ((np.log(life) - self.life_mean) / self.life_sd)[None, :]
         r = self.corr
-        out: FloatArray = -0.5 * (zt * zt - 2.0 * r * zt * zl + zl * zl) / (1.0 - r * r)
+        cond = (np.log(theta) - self.mean)[:, None] - r * self.sd * zl
+        zc = cond / (self.sd * math.sqrt(1.0 - r * r))
+        out: FloatArray = -0.5 * zc * zc + _standard_logpdf(zl, self.life_df)
         return out
 
     def scatter(self, h: FloatArray) -> FloatArray:
         out: FloatArray = self.scatter0 + self.scatter1 * np.clip(h, 0.0, 1.5)
         return out
+
+
+def _standard_logpdf(z: FloatArray, df: float) -> FloatArray:
+    """Log density of a standard normal (``df`` inf) or Student-t, up to a constant."""
+    if math.isinf(df):
+        out: FloatArray = -0.5 * z * z
+    else:
+        out = -0.5 * (df + 1.0) * np.log1p(z * z / df)
+    return out
 
 
 LIVES: FloatArray = np.logspace(1.0, 4.3, 331)
@@ -222,6 +249,9 @@ two either way at one sd). Chosen on kept fleet catalogs with the prior's life o
 factor of two either way: the learned spread (0.17) covered the true RUL at too few BITs,
 looser ones held it (docs/reasoner-measured.md, "The fleet prior's life: how 0.7 was
 chosen")."""
+LIFE_DF = math.inf
+"""Degrees of freedom of the Student-t a life nobody stated (or the user's figure) is held
+with (:meth:`ShapePrior.with_life`)."""
 
 
 def _joint_draws(shape: str, n: FloatArray, y: FloatArray, w: FloatArray, prior: ShapePrior,
