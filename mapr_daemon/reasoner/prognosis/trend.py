@@ -53,6 +53,14 @@ SHAPES: dict[str, str] = {
 }
 """The shape family each aging kind is fitted with."""
 
+CLOCK: dict[str, float] = {"exponential": 1.0, "reciprocal": 1.0, "power": 0.0}
+"""How the shape parameter scales with the part's life: ``theta ~ life**-c``. A part that
+lives a third as long is taken to age along the same path on a clock three times faster,
+the assumption behind accelerated aging (an acceleration factor rescales time): an
+exponential's rate ``b`` and the reciprocal's ``k`` are rates (``c`` 1: ``b*life``, the
+number of e-foldings over the life, is what units share), the power law's exponent ``p``
+is a pure number (``c`` 0)."""
+
 FIXED_AMPLITUDE: dict[str, float] = {"esr": 1.0 / (FAILURE["esr"] - 1.0)}
 """Kinds whose amplitude the physics fixes (the rest fit ``A``)."""
 
@@ -160,10 +168,12 @@ class ShapePrior:
         if fixed is not None:
             return cls(float(np.mean(logs)), spread, scatter0=s0, scatter1=s1)
         life_sd = max(float(np.std(lives, ddof=1)), 0.02)
-        corr = 0.0  # a shape parameter the fleet shares (friction's p) is not tied to life
-        if np.ptp(logs) > 0.0 and np.ptp(lives) > 0.0:
-            corr = min(max(float(np.corrcoef(logs, lives)[0, 1]), -0.95), 0.95)
-        return cls(float(np.mean(logs)), spread, float(np.mean(lives)), life_sd, corr, s0, s1)
+        # the shape on the part's own clock (CLOCK): what the units share whatever their life
+        c = CLOCK[shape]
+        own = max(float(np.std(np.add(logs, np.multiply(c, lives)), ddof=1)), 0.05)
+        sd = math.hypot(own, c * life_sd)
+        return cls(float(np.mean(logs)), sd, float(np.mean(lives)), life_sd,
+                   0.0 - c * life_sd / sd, s0, s1)
 
     def life_flights(self, kind: str) -> float:
         """The median life (flights from new to the threshold) this prior expects."""
@@ -202,12 +212,14 @@ class ShapePrior:
         if self.life_sd <= 0.0:
             shift = target - math.log(self.life_flights(kind))
             return dataclasses.replace(self, mean=self.mean - shift, sd=sd, life_df=df)
-        cond_sd = self.sd * math.sqrt(1.0 - self.corr ** 2)
-        slope = self.corr * self.sd / self.life_sd   # E[log theta | log life] per log life
-        sd_t = math.sqrt(cond_sd ** 2 + (slope * sd) ** 2)
-        return dataclasses.replace(self, mean=self.mean + slope * (target - self.life_mean),
-                                   sd=sd_t, life_mean=target, life_sd=sd,
-                                   corr=slope * sd / sd_t, life_df=df)
+        c = CLOCK[SHAPES[kind]]
+        # log theta + c*log life: the shape on the part's own clock, as the units showed it
+        own = math.sqrt(max(self.sd ** 2 + (c * self.life_sd) ** 2
+                            + 2.0 * c * self.corr * self.sd * self.life_sd, 0.05 ** 2))
+        sd_t = math.hypot(own, c * sd)
+        return dataclasses.replace(
+            self, mean=self.mean - c * (target - self.life_mean), sd=sd_t, life_mean=target,
+            life_sd=sd, corr=0.0 - c * sd / sd_t, life_df=df)
 
     def logpdf(self, theta: FloatArray) -> FloatArray:
         """Log density of the shape parameter alone (up to a constant): normal, or, where the
@@ -249,7 +261,7 @@ two either way at one sd). Chosen on kept fleet catalogs with the prior's life o
 factor of two either way: the learned spread (0.17) covered the true RUL at too few BITs,
 looser ones held it (docs/reasoner-measured.md, "The fleet prior's life: how 0.7 was
 chosen")."""
-LIFE_DF = math.inf
+LIFE_DF = 2.0
 """Degrees of freedom of the Student-t a life nobody stated (or the user's figure) is held
 with (:meth:`ShapePrior.with_life`)."""
 
