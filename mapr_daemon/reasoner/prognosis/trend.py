@@ -255,15 +255,20 @@ def _standard_logpdf(z: FloatArray, df: float) -> FloatArray:
 
 LIVES: FloatArray = np.logspace(1.0, 4.3, 331)
 """Lives (flights from 0 to the threshold) of the joint grid: 10 to 20,000 flights."""
-LIFE_SD = 0.7
-"""How loosely the fleet prior holds a life nobody stated: sd of ``log(life)`` (a factor of
-two either way at one sd). Chosen on kept fleet catalogs with the prior's life off by a
-factor of two either way: the learned spread (0.17) covered the true RUL at too few BITs,
-looser ones held it (docs/reasoner-measured.md, "The fleet prior's life: how 0.7 was
-chosen")."""
+LIFE_SD = 1.0
+"""How loosely the fleet prior holds a life nobody stated: the scale of ``log(life)``'s
+Student-t (:data:`LIFE_DF`; a factor of 2.7 either way at one scale). 0.7 (a normal) was
+chosen on kept fleet catalogs with the prior's life off by a factor of two either way
+(docs/reasoner-measured.md, "The fleet prior's life: how 0.7 was chosen"); once the shape
+given the life ran on the part's own clock (:data:`CLOCK`, issue 28), 1.0 with
+:data:`LIFE_DF` held the true RUL at more points on units living 70 flights and scored
+alpha-lambda as well or better at 200 and 400 (design seeds; docs/reasoner-measured.md,
+"Fast-aging units")."""
 LIFE_DF = 2.0
-"""Degrees of freedom of the Student-t a life nobody stated (or the user's figure) is held
-with (:meth:`ShapePrior.with_life`)."""
+"""Degrees of freedom of the Student-t a life is held with (:meth:`ShapePrior.with_life`):
+a unit whose own trend clearly says it lives three or five times shorter or longer than
+the fleet's life is not charged without bound for it, as a normal charges it (the normal's
+``z**2/2`` against the t's ``3/2*log(1 + z**2/2)``: 4.5 against 2.1 nats at ``z`` = 3)."""
 
 
 def _joint_draws(shape: str, n: FloatArray, y: FloatArray, w: FloatArray, prior: ShapePrior,
@@ -348,6 +353,12 @@ def fit_rul(flights: FloatArray, h_est: FloatArray, now: float, kind: str, noise
         post /= post.sum()
         idx = rng.choice(theta.size, size=n_draws, p=post)
         th = theta[idx]
+        if fixed is not None:
+            # the shape parameter alone sets the crossing: spread each draw over its grid
+            # cell (in the logarithm), or a well-read unit's interval collapses to one cell,
+            # 3 % of the life wide (a flight or two of a short life's RUL), and misses
+            th = np.exp(np.log(th) + np.gradient(np.log(theta))[idx]
+                        * (rng.random(n_draws) - 0.5))
         a = amp[idx] + rng.standard_normal(n_draws) / np.sqrt(precision[idx])
     if cens.any() and noise.floor is not None:
         # censored BITs: weight each draw by P(its estimate would sit at the floor)
