@@ -90,7 +90,7 @@ FIRST_FLIGHT = 1.0
 ``mapr replay --flight``) and the BIT is flown at a flight's start, so at flight ``N``'s BIT
 the part has flown ``N - 1`` flights: the age the trend's aging shapes count from (``h = 0``
 at age 0). Counting from ``N`` put the part's new state one flight early and read every
-RUL about a flight late (issue 28: a flight is 2 % of a 50-flight life, 7 % of its RUL at
+RUL about a flight late (issue 28: a flight is 2 % of a 50-flight life, 8 % of its RUL at
 three quarters of it)."""
 
 

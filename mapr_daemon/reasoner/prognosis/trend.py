@@ -121,10 +121,12 @@ class ShapePrior:
     curvature of an exponential is barely identifiable from the flat early part of a noisy
     trend, and the median RUL falls back to the straight-line extrapolation.
 
-    Where the amplitude is free, the prior is a joint normal of ``(log theta, log life)``
-    (``life`` the flight where ``h`` reaches 1): the two are tied (an exponential that bends
-    late must start low), and the fleet's spread of lives bounds what a noisy early trend
-    can claim. ``scatter0 + scatter1*h`` is the sd of the part's own flight-to-flight scatter
+    Where the amplitude is free, the prior is on ``(log theta, log life)`` (``life`` the
+    flight where ``h`` reaches 1): the two are tied (an exponential that bends late must
+    start low; :data:`CLOCK`: the shape given the life is the units' shape on the part's own
+    clock), and the fleet's spread of lives bounds what a noisy early trend can claim. As
+    learned, the pair is normal; :meth:`with_life` holds the life with a Student-t
+    (:attr:`life_df`) and keeps the shape's normal conditional given the life. ``scatter0 + scatter1*h`` is the sd of the part's own flight-to-flight scatter
     about its smooth aging path (measured on the same units); the trend adds it to the
     estimate's noise, since the threshold is crossed by the smooth path.
     """
