@@ -126,9 +126,10 @@ class ShapePrior:
     start low; :data:`CLOCK`: the shape given the life is the units' shape on the part's own
     clock), and the fleet's spread of lives bounds what a noisy early trend can claim. As
     learned, the pair is normal; :meth:`with_life` holds the life with a Student-t
-    (:attr:`life_df`) and keeps the shape's normal conditional given the life. ``scatter0 + scatter1*h`` is the sd of the part's own flight-to-flight scatter
-    about its smooth aging path (measured on the same units); the trend adds it to the
-    estimate's noise, since the threshold is crossed by the smooth path.
+    (:attr:`life_df`) and keeps the shape's normal conditional given the life.
+    ``scatter0 + scatter1*h`` is the sd of the part's own flight-to-flight scatter about
+    its smooth aging path (measured on the same units); the trend adds it to the estimate's
+    noise, since the threshold is crossed by the smooth path.
     """
 
     mean: float
