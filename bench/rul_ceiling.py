@@ -2,6 +2,7 @@
 
     python3 bench/rul_ceiling.py [--units-per-kind 10] [--noise 0,0.03,0.05,0.08,0.11]
                                  [--mean-life 200] [--bit-every 4] [--seed N]
+                                 [--lives 70,100,200,400 --prior unstated]
 
 Run-to-failure units of each trended kind (:func:`mapr_daemon.ema.degradation.trajectory`,
 fresh seeds each run, printed), a BIT every ``--bit-every`` flights. Each BIT's degradation
@@ -15,6 +16,13 @@ that
 noise, with the same rules as bench/fleet_rul.py (bench/rul_scoring.py): alpha-lambda (alpha
 0.2, lambda 0.5 and 0.75) by the median, and coverage of the 90 % interval at every BIT from a
 quarter of life on.
+
+``--lives`` scores units of several mean lives in turn (each with its own unit seeds, drawn
+from the run's seed) against one fleet prior learned at 200 flights: ``--prior learned``
+holds that life as tightly as the training units' spread (as before), ``--prior unstated``
+as the daemon holds a life nobody stated (:meth:`~mapr_daemon.reasoner.prognosis.trend
+.ShapePrior.with_life` with :data:`~mapr_daemon.reasoner.prognosis.trend.LIFE_SD`): how the
+trend does on parts that live a third, half or twice as long as the prior says (issue 28).
 
 Read beside bench/fleet_rul.py, whose per-BIT estimates err by sd 0.07-0.11 of the threshold
 (it prints them): the figure at that sigma is what the product can reach with the
@@ -32,7 +40,7 @@ from pathlib import Path
 
 import numpy as np
 from rul_scoring import Point, kind_summary, score_points
-from seeds import fresh
+from seeds import master
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
@@ -76,28 +84,57 @@ def main() -> int:
                     help="per-BIT estimate sd values, in units of the failure threshold")
     ap.add_argument("--mean-life", type=float, default=200.0,
                     help="mean life of the units (the fleet prior's: 200 flights)")
+    ap.add_argument("--lives", help="several mean lives, comma-separated (overrides "
+                    "--mean-life)")
+    ap.add_argument("--prior", choices=("learned", "unstated"), default="learned",
+                    help="the fleet prior's life held as learned, or as the daemon holds a "
+                         "life nobody stated")
     ap.add_argument("--bit-every", type=int, default=4)
     ap.add_argument("--kinds", default=",".join(KINDS))
     ap.add_argument("--seed", type=int)
     args = ap.parse_args()
-    seed = fresh(args.seed)
+    argv = sys.argv[1:]
+    rest = [a for i, a in enumerate(argv) if not a.startswith("--seed")
+            and not (i > 0 and argv[i - 1] == "--seed")]
+    seed = master(args.seed, " ".join(["python3 bench/rul_ceiling.py", *rest]))
     rng = np.random.default_rng(seed)
     params = load_actuator(default_actuator_path())
     kinds = [k.strip() for k in args.kinds.split(",") if k.strip()]
     sigmas = [float(s) for s in args.noise.split(",")]
-    units = [(k, int(rng.integers(SEED_BASE, 2 * SEED_BASE)))
-             for k in kinds for _ in range(args.units_per_kind)]
     priors = {k: learn_prior(params, k, 30) for k in kinds}
-    print(f"{len(units)} units ({args.units_per_kind} per kind), mean life {args.mean_life:g} "
-          f"flights, a BIT every {args.bit_every}; unit seeds "
-          + ", ".join(f"{k}={s}" for k, s in units))
+    if args.prior == "unstated":
+        priors = {k: p.with_life(k, trend.LIFE_SD) for k, p in priors.items()}
+    print("fleet prior: learned at 200 flights, its life held "
+          + ("as learned" if args.prior == "learned" else
+             f"as a life nobody stated (scale {trend.LIFE_SD:g}, "
+             f"{getattr(trend, 'LIFE_DF', float('inf')):g} degrees of freedom; inf: a "
+             "normal, the code before issue 28)"))
+    lives = [float(v) for v in args.lives.split(",")] if args.lives else [args.mean_life]
     wall, cpu = time.monotonic(), time.process_time()
+    for life in lives:
+        units = [(k, int(rng.integers(SEED_BASE, 2 * SEED_BASE)))
+                 for k in kinds for _ in range(args.units_per_kind)]
+        print(f"\n#### {len(units)} units ({args.units_per_kind} per kind), mean life "
+              f"{life:g} flights, a BIT every {args.bit_every}; unit seeds "
+              + ", ".join(f"{k}={s}" for k, s in units))
+        one_life(units, sigmas, args.bit_every, life, priors, params, kinds)
+    usage = resource.getrusage(resource.RUSAGE_SELF)
+    print(f"\n{time.monotonic() - wall:.0f} s wall, {time.process_time() - cpu:.0f} s CPU, "
+          f"peak memory {usage.ru_maxrss / 1024:.0f} MB, load average "
+          f"{' '.join(f'{x:.2f}' for x in os.getloadavg())} (1, 5, 15 min)")
+    return 0
+
+
+def one_life(units: list[tuple[str, int]], sigmas: list[float], bit_every: int,
+             mean_life: float, priors: dict[str, trend.ShapePrior], params: ActuatorParams,
+             kinds: list[str]) -> None:
+    """Score ``units`` of one mean life at each noise and print the table."""
     print(f"\n{'sigma':>6}  alpha-lambda (all, worst kind)  coverage (all, worst kind, worst "
           "unit)   per kind: alpha-lambda / coverage")
     for sigma in sigmas:
         scores = []
         for i, (kind, s) in enumerate(units):
-            eol, pts = unit_points(kind, s, sigma, args.bit_every, args.mean_life,
+            eol, pts = unit_points(kind, s, sigma, bit_every, mean_life,
                                    priors[kind], params)
             scores.append(score_points(f"U{i + 1:02d}", kind, eol, pts, LAMBDAS, ALPHA,
                                        leads=False))
@@ -120,10 +157,6 @@ def main() -> int:
             for k in [*kinds, "all"]:
                 print("   " + kind_summary(k, [sc for sc in scores
                                                if k == "all" or sc.kind == k]))
-    usage = resource.getrusage(resource.RUSAGE_SELF)
-    print(f"\n{time.monotonic() - wall:.0f} s wall, {time.process_time() - cpu:.0f} s CPU, "
-          f"peak memory {usage.ru_maxrss / 1024:.0f} MB, load average {os.getloadavg()[0]:.2f}")
-    return 0
 
 
 if __name__ == "__main__":

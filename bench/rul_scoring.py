@@ -103,7 +103,9 @@ def score_points(tail: str, kind: str, eol: float, points: Sequence[Point],
 
 def kind_summary(name: str, scores: Sequence[UnitScore]) -> str:
     """One line: alpha-lambda pass rate, pooled coverage (per-unit mean and worst), the
-    share of points within +-20 %, the leading mode's hit rate, points without prediction."""
+    share of points within +-20 %, the leading mode's hit rate, points without prediction,
+    and the median ratio of stated to true RUL (late above 1) with the coverage, before half
+    life and from half life on."""
     if not scores:
         return f"{name:>14}: no units"
     al = [v for s in scores for v in s.alpha_lambda.values()]
@@ -114,13 +116,25 @@ def kind_summary(name: str, scores: Sequence[UnitScore]) -> str:
     said = [p for p in pts if p.est is not None]
     worst = min(covs, default=math.nan)
     lead = _share([p.lead == s.kind for s in scores for p in s.points if s.leads])
+    early = [p for s in scores for p in s.points if p.flight < 0.5 * s.eol]
+    late = [p for s in scores for p in s.points if p.flight >= 0.5 * s.eol]
     return (f"{name:>14}: alpha-lambda {_pct(_share(al))} ({sum(al)}/{len(al)}, worst unit "
             f"{_pct(min(unit_al))}); coverage of the 90 % interval {_pct(cover)} of "
             f"{len(pts)} points (unit mean {_pct(_mean(covs))}, worst {_pct(worst)}); within "
             f"+-20 % {_pct(_share([p.within for p in pts]))}; leading mode = true kind "
             f"{_pct(lead)}; no prediction {sum(p.est is None for p in pts)} (coverage of "
             f"the points with one {_pct(_share([p.covered for p in said]))}, within +-20 % "
-            f"{_pct(_share([p.within for p in said]))})")
+            f"{_pct(_share([p.within for p in said]))}); median stated/true RUL before half "
+            f"life {_ratio(early)} (coverage {_pct(_share([p.covered for p in early]))}), from "
+            f"half life on {_ratio(late)} ({_pct(_share([p.covered for p in late]))})")
+
+
+def _ratio(points: Sequence[Point]) -> str:
+    """The median of stated over true RUL (above 1: late), in the logarithm; a RUL beyond
+    the horizon counts as late, a missing one is left out."""
+    r = [math.log(max(p.est, 0.1) / p.true) if math.isfinite(p.est) else math.inf
+         for p in points if p.est is not None and p.true > 0]
+    return f"{math.exp(float(np.median(r))):.2f}x" if r else "n/a"
 
 
 def _share(flags: Sequence[bool]) -> float:

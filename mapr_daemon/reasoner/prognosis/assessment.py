@@ -85,6 +85,13 @@ HORIZON_LIVES = 3.0
 INTERVAL = 0.90
 """Coverage of the stated RUL interval (its 5 % and 95 % points)."""
 TERMINAL = ("short", "open")
+FIRST_FLIGHT = 1.0
+"""The number of a part's first flight. Flights are numbered from 1 (the daemon's flight log,
+``mapr replay --flight``) and the BIT is flown at a flight's start, so at flight ``N``'s BIT
+the part has flown ``N - 1`` flights: the age the trend's aging shapes count from (``h = 0``
+at age 0). Counting from ``N`` put the part's new state one flight early and read every
+RUL about a flight late (issue 28: a flight is 2 % of a 50-flight life, 8 % of its RUL at
+three quarters of it)."""
 
 
 def assess(model: PrognosticModel, flights: Sequence[float],
@@ -104,6 +111,7 @@ def assess(model: PrognosticModel, flights: Sequence[float],
         return Health(1.0, None, note="no BIT yet")
     fl = np.asarray(flights, dtype=np.float64)
     now = float(fl[-1])
+    age = np.maximum(fl - FIRST_FLIGHT, 0.0)   # flights flown before each BIT
     cond = scaled_rows([model.scaled(conditions[i]) if i < len(conditions) else None
                         for i in range(fl.size)], fl.size)
     modes: dict[str, dict[str, Any]] = {}
@@ -124,7 +132,8 @@ def assess(model: PrognosticModel, flights: Sequence[float],
             rul = RulEstimate(0.0, 0.0, 0.0, np.zeros(1), horizon(model, kind))
             row.update(rul=0.0, low=0.0, high=0.0)
         elif np.unique(fl[keep]).size >= 3:
-            rul = trend.fit_rul(fl[keep], est[keep], now, kind, noise, model.priors.get(kind),
+            rul = trend.fit_rul(age[keep], est[keep], now - FIRST_FLIGHT, kind, noise,
+                                model.priors.get(kind),
                                 seed=seed, horizon=horizon(model, kind),
                                 conditions=cond[keep])
             row.update(rul=_finite(rul.rul), low=_finite(rul.lower), high=_finite(rul.upper))
