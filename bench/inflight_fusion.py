@@ -5,7 +5,9 @@ trajectory`, lives 200 +/- 30 %); each BIT's raw friction estimate drawn from th
 prognostic model's *measured* per-BIT noise (``offset + gain*h + (sd0 + sd1*h)*e``, its
 floor applied), each flight's in-flight change drawn from the tracker's *measured* error
 (docs/reasoner.md: twin units rms 0.006 of the failure threshold with stated sd 0.023;
-mismatched units rms 0.14, stated sd 0.046), from flight 4 on (flights 1-3 commission the
+mismatched units rms 0.14, stated sd 0.046) against that flight's friction, which is the
+aging path times the flight's grease scatter (lognormal, sd 0.1: the plant's), from flight
+4 on (flights 1-3 commission the
 baseline). At 50 % and 75 % of each unit's life the trend (the demo model's fleet prior)
 gives a RUL: alpha-lambda (alpha 0.2) and 90 % interval coverage, PBIT every flight and
 every 4 flights.
@@ -63,8 +65,14 @@ def main() -> None:
                     est = np.maximum(est, noise.floor)
                 for scen, (err, stated) in ERRORS.items():
                     n_in = np.arange(4, now + 1, dtype=np.float64)
-                    obs = [(float(n), float(h_path[int(n)] + err * rng.standard_normal()),
-                            stated) for n in n_in]
+                    # the flight's own friction: the path times its grease scatter
+                    # (lognormal, the actuator file's friction_flight_sd), then the tracker's
+                    # error against that flight's friction
+                    ratio = (1.0 + scale * h_path[n_in.astype(int)]) * np.exp(
+                        params.motor.friction_flight_sd * rng.standard_normal(n_in.size))
+                    seen = (ratio - 1.0) / scale + err * rng.standard_normal(n_in.size)
+                    obs = [(float(n), float(v), stated) for n, v in zip(n_in, seen,
+                                                                        strict=True)]
                     for mode, extra in (("bits", []), ("bits+inflight", obs)):
                         if mode == "bits" and scen != "twin":
                             continue

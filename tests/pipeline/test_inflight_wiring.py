@@ -18,19 +18,15 @@ from mapr_daemon.ema.batch import RunSpec
 from mapr_daemon.ema.faults import Fault, FaultSet
 from mapr_daemon.ema.params import ActuatorParams, default_actuator_path, load_actuator
 from mapr_daemon.icd import Series, load_icd
-from mapr_daemon.pipeline.bitcut import INITIATED_BIT, BitCutter
+from mapr_daemon.pipeline.bitcut import BitCutter
 from mapr_daemon.pipeline.inflight import InflightWatch
 from mapr_daemon.reasoner.inflight.baseline import COMMISSIONING_FLIGHTS
+from mapr_daemon.testbed.flight_series import flight_series
 from mapr_daemon.testbed.whole_flight import flight_profile, fly
 from mapr_daemon.views.figures import inflight_lines
 
 ROOT = Path(__file__).resolve().parents[2]
 ICD = load_icd(ROOT / "configs" / "icd" / "ema-testbed.yaml")
-SIGNAL = {"phase_a_current_a": "phase_current_a", "phase_b_current_a": "phase_current_b",
-          "phase_c_current_a": "phase_current_c", "dc_link_current_a": "dc_link_current",
-          "dc_bus_voltage_v": "dc_bus_voltage", "position_deg": "surface_position"}
-
-
 @pytest.fixture(scope="module")
 def params() -> ActuatorParams:
     return load_actuator(default_actuator_path())
@@ -49,29 +45,9 @@ def flights(params: ActuatorParams) -> list[dict[str, np.ndarray]]:
     return out
 
 
-def _series(name: str, t: np.ndarray, v: np.ndarray) -> Series:
-    return Series(ICD.parameter(name)[1], t.astype(np.int64), v.astype(np.float64),
-                  np.zeros(t.size, dtype=np.int64), np.zeros(t.size, dtype=np.uint8))
-
-
-def _batches(ch: dict[str, np.ndarray], t0: int, rate: float, bit_at_s: float,
-             batch_s: float = 2.0) -> list[dict[str, Series]]:
-    """The flight as decoded series in batches (``q``: the flight's dynamic pressure); a BIT
-    request at ``bit_at_s``."""
-    n = ch["position_deg"].size
-    t = t0 + (np.arange(n) * 1e9 / rate).astype(np.int64)
-    per = int(batch_s * rate)
-    out = []
-    for a in range(0, n, per):
-        sl = slice(a, min(a + per, n))
-        s = {SIGNAL[k]: _series(SIGNAL[k], t[sl], ch[k][sl]) for k in SIGNAL}
-        every = int(rate / 50)   # the air-data computer's 50 Hz
-        s["dynamic_pressure"] = _series("dynamic_pressure", t[sl][::every], ch["q"][sl][::every])
-        tr = t[sl][:: int(rate / 10)]
-        req = np.where(np.abs(tr - (t0 + bit_at_s * 1e9)) < 0.05e9, INITIATED_BIT, 0)
-        s["bit_request"] = _series("bit_request", tr, req.astype(np.float64))
-        out.append(s)
-    return out
+def _batches(ch: dict[str, np.ndarray], t0: int, rate: float, bit_at_s: float
+             ) -> list[dict[str, Series]]:
+    return flight_series(ch, ch["q"], rate, t0, (bit_at_s,), icd=ICD)
 
 
 def test_each_flight_ends_with_a_row_and_a_worn_unit_reads_its_friction_change(

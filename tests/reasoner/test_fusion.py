@@ -12,7 +12,7 @@ import numpy as np
 
 from mapr_daemon.ema.degradation import FAILURE, trajectory
 from mapr_daemon.ema.params import default_actuator_path, load_actuator
-from mapr_daemon.reasoner.prognosis.fusion import fit_rul_fused, observation
+from mapr_daemon.reasoner.prognosis.fusion import fit_rul_fused, inflated, observation
 from mapr_daemon.reasoner.prognosis.trend import Noise
 
 
@@ -45,3 +45,13 @@ def test_only_a_commissioned_friction_change_is_an_observation() -> None:
     kind, h, sd = observation("friction", {"change": 0.5, "sd_change": 0.04}) or ("", 0, 0)
     assert kind == "friction" and h == 0.5 / (FAILURE["friction"] - 1.0)
     assert sd == 0.04 / (FAILURE["friction"] - 1.0)
+
+
+def test_in_flight_scatter_beyond_the_stated_sd_widens_it_and_honest_sds_stay() -> None:
+    rng = np.random.default_rng(9)
+    n = np.arange(4, 80, dtype=np.float64)
+    wide = [(float(k), float(0.01 * k / 80 + 0.14 * rng.standard_normal()), 0.046) for k in n]
+    honest = [(float(k), float(0.023 * rng.standard_normal()), 0.023) for k in n]
+    widened = inflated(wide)[0][2]
+    assert 0.1 < widened < 0.2, f"the 0.14 scatter was stated 0.046 and widened to {widened}"
+    assert inflated(honest)[0][2] < 0.023 * 1.3

@@ -7,7 +7,8 @@ the measured noise of its estimator at that BIT's flight condition
 (:mod:`mapr_daemon.reasoner.inflight`) carries the tracker's stated sd. Both are points on
 the same degradation path, so :func:`fit_rul_fused` fits them together: the BITs as
 :func:`~.trend.fit_rul` reads them (calibrated, dead-zone readings censored), the flights'
-estimates as ``h`` with variance ``sd^2``, each plus the part's own flight-to-flight scatter
+estimates as ``h`` with variance ``sd^2`` (the stated sd widened by the flights' own
+scatter, :func:`inflated`), each plus the part's own flight-to-flight scatter
 about its smooth path (the fleet prior's), since the threshold is crossed by the smooth path.
 
 Which in-flight parameter trends which aging kind (:data:`INFLIGHT_KINDS`): only
@@ -36,6 +37,33 @@ from mapr_daemon.reasoner.prognosis.rul import RulEstimate, quantiles
 
 INFLIGHT_KINDS: dict[str, str] = {"friction": "friction"}
 """In-flight parameter -> the aging kind whose degradation its change measures."""
+MIN_FOR_SCATTER = 5
+"""In-flight observations needed before their own scatter can widen their stated sd."""
+CHI2_1_MEDIAN = 0.454936
+"""Median of a chi-square with one degree of freedom (a squared standard normal)."""
+
+
+def inflated(inflight: Sequence[tuple[float, float, float]]
+             ) -> list[tuple[float, float, float]]:
+    """The observations with their sd widened by their own flight-to-flight scatter.
+
+    The tracker's stated sd is its error against *that flight's* parameter; what the trend
+    needs is the error against the part's smooth aging path, which also holds the flight's
+    own scatter (a healthy unit's grease moves friction ~10 % from flight to flight) and,
+    on a unit whose model is wrong, errors the stated sd does not cover (docs/reasoner.md:
+    rms 0.14 against a stated 0.046 on mismatched units). Successive flights' differences
+    measure both without a model of the path (it moves little in one flight): the factor is
+    the root of the median of ``d^2 / (s_i^2 + s_j^2)`` over consecutive pairs, over its
+    value for honest sds (the chi-square's median), never below 1. Medians, so a few bad
+    flights do not set it."""
+    obs = sorted(inflight)
+    if len(obs) < MIN_FOR_SCATTER:
+        return list(obs)
+    a = np.asarray(obs, dtype=np.float64)
+    d2 = np.diff(a[:, 1]) ** 2
+    s2 = a[:-1, 2] ** 2 + a[1:, 2] ** 2
+    factor = math.sqrt(max(float(np.median(d2 / np.maximum(s2, 1e-18))) / CHI2_1_MEDIAN, 1.0))
+    return [(n, h, sd * factor) for n, h, sd in obs]
 
 
 def observation(name: str, parameter: Mapping[str, Any]) -> tuple[str, float, float] | None:
@@ -70,7 +98,7 @@ def fit_rul_fused(flights: FloatArray, h_est: FloatArray, now: float, kind: str,
     c = None if conditions is None else np.asarray(conditions, dtype=np.float64)[~cens]
     y_bit = noise.calibrate(est[~cens], c) if (~cens).any() else np.zeros(0)
     var_bit = noise.h_sd(y_bit, c) ** 2 if y_bit.size else np.zeros(0)
-    obs = np.asarray(inflight, dtype=np.float64).reshape(-1, 3)
+    obs = np.asarray(inflated(inflight), dtype=np.float64).reshape(-1, 3)
     n = np.concatenate((n_all[~cens], obs[:, 0]))
     y = np.concatenate((y_bit, obs[:, 1]))
     var = np.concatenate((var_bit, obs[:, 2] ** 2))
