@@ -132,14 +132,20 @@ INFLIGHT_ORDER: tuple[str, ...] = ("friction", "loop_r", "phase_a_ron", "bus0")
 
 
 def inflight_change(name: str, parameter: Mapping[str, Any]) -> str:
-    """One in-flight parameter's change from the unit's baseline, with its sd:
-    ``friction +0.12 +/- 0.03 x baseline``; ``baseline pending 2/3`` until it is
-    commissioned; three significant figures everywhere."""
+    """One in-flight parameter's change from the unit's baseline with its sd, both to the
+    sd's second significant digit: ``friction +0.500 +/- 0.020 x baseline``;
+    ``friction baseline pending 2/3`` until the baseline is commissioned."""
     change, sd = _float(parameter.get("change")), _float(parameter.get("sd_change"))
     unit = str(parameter.get("unit", ""))
     if change is None:
         return f"{name} baseline {parameter.get('baseline', 'pending')}"
-    return f"{name} {change:+.3g} +/- {sd if sd is None else float(f'{sd:.2g}')} {unit}".rstrip()
+    if sd is None or not sd > 0.0:
+        return f"{name} {change:+.3g} {unit}".rstrip()
+    digits = max(0, 1 - math.floor(math.log10(sd)))
+    text = f"{change:+.{digits}f}"
+    if float(text) == 0.0:
+        text = f"{0.0:+.{digits}f}"
+    return f"{name} {text} +/- {sd:.{digits}f} {unit}".rstrip()
 
 
 def inflight_lines(row: Any) -> list[str]:
