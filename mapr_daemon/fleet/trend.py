@@ -70,7 +70,7 @@ class FleetTrend:
         trended = pipe.trend(outcomes)
         watches = {w.asset: w for w in pipe.inflight}
         rows = [dataclasses.replace(r, parameters=watches[r.asset].baseline.rebase(
-            r.parameters)) for r in inflight if r.asset in watches]
+            r.parameters, r.flight)) for r in inflight if r.asset in watches]
         if pipe.trending is not None:
             pipe.trending.add_inflight(rows)
         return trended, pipe.pending_flights(), rows

@@ -76,7 +76,7 @@ class InflightWatch:
 
     def resume(self, rows: Sequence[InflightEstimate]) -> None:
         """Continue the baseline from this actuator's stored rows (oldest first)."""
-        self.baseline.resume(r.parameters for r in rows if r.asset == self.asset)
+        self.baseline.resume((r.flight, r.parameters) for r in rows if r.asset == self.asset)
 
     def feed(self, series: Mapping[str, Series]) -> None:
         """Take a batch of decoded series (in time order, as the pipeline gets them)."""
@@ -167,5 +167,5 @@ class InflightWatch:
             tail=tail, asset=self.asset, flight=flight,
             t_ns=time.time_ns() if t_ns is None else int(t_ns),
             flight_s=round(flight_s, 3), filtered_s=round(estimate.filtered_s, 3),
-            parameters=self.baseline.rebase(estimate.as_event()),
+            parameters=self.baseline.rebase(estimate.as_event(), flight),
             qualified_s={k: round(v, 3) for k, v in estimate.qualified_s.items()})

@@ -38,37 +38,44 @@ class Baseline:
     """One actuator's baseline per trended parameter: its first flights' values."""
 
     flights: int = COMMISSIONING_FLIGHTS
-    seen: dict[str, list[float]] = dataclasses.field(default_factory=dict)
+    seen: dict[str, dict[int, float]] = dataclasses.field(default_factory=dict)
+    """Per parameter, the commissioning flights' values by flight number (a flight stored
+    again, after a restart within it, replaces its own value)."""
 
     def value(self, name: str) -> float | None:
         """The commissioned value of ``name`` (None: still pending)."""
-        vals = self.seen.get(name, [])
+        vals = list(self.seen.get(name, {}).values())
         return sum(vals) / len(vals) if len(vals) >= self.flights else None
 
-    def learn(self, values: Mapping[str, float]) -> None:
-        """A flight's values (data-sheet terms) count towards a baseline still pending."""
+    def learn(self, values: Mapping[str, float], flight: int | None = None) -> None:
+        """A flight's values (data-sheet terms) count towards a baseline still pending
+        (``flight`` None: a flight of its own)."""
         for name, v in values.items():
-            vals = self.seen.setdefault(name, [])
-            if len(vals) < self.flights and math.isfinite(v):
-                vals.append(float(v))
+            vals = self.seen.setdefault(name, {})
+            key = flight if flight is not None else -1 - len(vals)
+            if (key in vals or len(vals) < self.flights) and math.isfinite(v):
+                vals[key] = float(v)
 
-    def resume(self, rows: Iterable[Mapping[str, Mapping[str, Any]]]) -> None:
-        """Rebuild from stored rows' ``parameters`` (oldest flight first)."""
-        for params in rows:
+    def resume(self, rows: Iterable[tuple[int | None, Mapping[str, Mapping[str, Any]]]]
+               ) -> None:
+        """Rebuild from stored rows' flight and ``parameters`` (oldest flight first)."""
+        for flight, params in rows:
             self.learn({k: float(p["value"]) for k, p in params.items()
-                        if isinstance(p.get("value"), (int, float))})
+                        if isinstance(p.get("value"), (int, float))}, flight)
 
-    def rebase(self, parameters: Mapping[str, Mapping[str, Any]]) -> dict[str, dict[str, Any]]:
+    def rebase(self, parameters: Mapping[str, Mapping[str, Any]], flight: int | None = None
+               ) -> dict[str, dict[str, Any]]:
         """A flight's parameters (each with ``value`` against the data sheet and ``sd``:
         :meth:`FlightEstimate.as_event`, or a row stored without a baseline) as stored: per
         parameter ``value``, ``sd``, ``change`` and ``sd_change`` from the baseline (None
         while pending), ``baseline`` (its value, or ``"pending k/K"``) and ``unit``. A flight
         that completes a baseline is a commissioning flight (pending too); then it counts.
-        Call once per flight, in flight order."""
+        Call once per flight (``flight``: its number), in flight order."""
         out: dict[str, dict[str, Any]] = {}
         for name, p in parameters.items():
             value, sd_v = float(p["value"]), float(p["sd"])
-            base = self.value(name)
+            commissioning = flight is not None and flight in self.seen.get(name, {})
+            base = None if commissioning else self.value(name)
             change: float | None = None
             sd: float | None = None
             if base is not None:
@@ -76,13 +83,15 @@ class Baseline:
                     change, sd = value / base - 1.0, sd_v / base
                 else:
                     change, sd = value - base, sd_v
-            done = len(self.seen.get(name, []))
+            keys = list(self.seen.get(name, {}))
+            place = keys.index(flight) + 1 if flight is not None and commissioning \
+                else len(keys) + 1
             out[name] = {
                 "value": float(f"{value:.6g}"), "sd": float(f"{sd_v:.3g}"),
                 "change": None if change is None else float(f"{change:.4g}"),
                 "sd_change": None if sd is None else float(f"{sd:.3g}"),
                 "baseline": (float(f"{base:.6g}") if base is not None
-                             else f"pending {done + 1}/{self.flights}"),
+                             else f"pending {place}/{self.flights}"),
                 "unit": p.get("unit", UNITS.get(name, ""))}
-        self.learn({k: float(p["value"]) for k, p in parameters.items()})
+        self.learn({k: float(p["value"]) for k, p in parameters.items()}, flight)
         return out
