@@ -136,6 +136,15 @@ class Pipeline:
                 self.ended += self.end_flight()
             self.trending.log.declare(number, hours)
 
+    def carry_inflight(self, old: Pipeline) -> None:
+        """Keep the flight in progress across a reload: each actuator configured as before
+        (same asset settings, in-flight tracking still on) keeps ``old``'s tracker state."""
+        before = {w.asset: w for w in old.inflight}
+        same = {w.asset.name for w in self.watched for o in old.watched
+                if o.asset == w.asset and w.watch is not None}
+        self.inflight = [before[w.asset] if w.asset in before and w.asset in same else w
+                         for w in self.inflight]
+
     def end_flight(self) -> list[InflightEstimate]:
         """The flight the in-flight trackers hold has ended (a recording's end, the daemon
         stopping): each actuator's row (none where no window qualified), also added to its

@@ -430,6 +430,10 @@ class Service:
             pipe.resume(*self.catalog.history(config.aircraft.tail))
         except CatalogError as error:
             log.error("catalog: %s (the trends restart empty)", error)
+        if config.aircraft.tail == old.aircraft.tail:
+            pipe.carry_inflight(self.pipe)   # the flight in progress goes on being tracked
+        else:
+            self._inflight(self.pipe.end_flight())
         self.pipe, self.config = pipe, config
         self.health_log.rul_warn_flights = config.health.rul_warn_flights
         if restart:

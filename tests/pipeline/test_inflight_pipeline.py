@@ -72,3 +72,24 @@ def test_in_flight_tracking_can_be_turned_off(records: list[object], tmp_path: P
     pipe.declare_flight(1)
     pipe.process(records, clock)  # type: ignore[arg-type]
     assert pipe.inflight == [] and pipe.end_flight() == []
+
+
+def test_a_reload_within_the_flight_keeps_tracking_it(records: list[object],
+                                                      tmp_path: Path) -> None:
+    config = _config(tmp_path, True)
+    whole = build_pipeline(config)  # type: ignore[arg-type]
+    whole.declare_flight(1)
+    whole.process(records, BusClock("recording"))  # type: ignore[arg-type]
+    [expected] = whole.end_flight()
+    before = build_pipeline(config)  # type: ignore[arg-type]
+    clock = BusClock("recording")
+    before.declare_flight(1)
+    half = len(records) // 2
+    before.process(records[:half], clock)  # type: ignore[arg-type]
+    after = build_pipeline(config)  # type: ignore[arg-type]   # the daemon's reload
+    after.declare_flight(1)
+    after.carry_inflight(before)
+    after.process(records[half:], clock)  # type: ignore[arg-type]
+    [row] = after.end_flight()
+    assert row.flight_s == expected.flight_s
+    assert row.parameters["friction"]["value"] == expected.parameters["friction"]["value"]
