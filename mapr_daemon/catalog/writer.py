@@ -262,10 +262,13 @@ class CatalogWriter:
         first = self._transaction(work)
         return [] if first is None else list(range(int(first), int(first) + len(rows)))
 
-    def history(self, tail: str = "") -> tuple[list[BitRecord], list[Flight]]:
-        """One aircraft's BIT history and flights, for the trend to continue from."""
+    def history(self, tail: str = ""
+                ) -> tuple[list[BitRecord], list[Flight], list[InflightEstimate]]:
+        """One aircraft's BIT history, flights and in-flight rows, for the trend (and each
+        actuator's in-flight baseline) to continue from."""
         conn = self.conn
-        return history.load_bits(conn, tail=tail), history.load_flights(conn, tail)
+        return (history.load_bits(conn, tail=tail), history.load_flights(conn, tail),
+                inflight.load_inflight(conn, tail=tail))
 
     def open_episodes(self) -> dict[tuple[str, str], Episode]:
         """Every open fault episode, keyed by ``(asset, part)`` (the daemon compares them

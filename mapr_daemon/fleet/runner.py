@@ -28,7 +28,7 @@ from collections.abc import Callable, Collection, Sequence
 from typing import TYPE_CHECKING, Any
 
 from mapr_daemon.catalog import BitOutcome
-from mapr_daemon.catalog.model import Flight
+from mapr_daemon.catalog.model import Flight, InflightEstimate
 from mapr_daemon.catalog.recordings import DONE, FAILED, RecordingRow, store_recording, stored
 from mapr_daemon.catalog.writer import CatalogWriter
 from mapr_daemon.errors import ClusterError
@@ -177,11 +177,14 @@ class FleetRun:
                            result.events)
         outcomes: list[BitOutcome] = []
         flights: list[Flight] = []
+        inflight: list[InflightEstimate] = []
         if result.ok:
-            outcomes, flights = self.trend.flight(recording.tail, recording.flight,
-                                                  result.flight_hours, result.outcomes)
+            outcomes, flights, inflight = self.trend.flight(
+                recording.tail, recording.flight, result.flight_hours, result.outcomes,
+                result.inflight)
         if store_recording(self.catalog, row, outcomes, flights):
             if result.ok:
+                self.catalog.add_inflight(inflight)
                 summary.stored += 1
                 summary.events += result.events
                 summary.bits += len(outcomes)

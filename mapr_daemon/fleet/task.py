@@ -35,6 +35,7 @@ from collections.abc import Collection
 from drivers.chapter10.reader import Chapter10Reader
 from drivers.errors import MaprError
 from mapr_daemon.catalog import BitOutcome
+from mapr_daemon.catalog.model import InflightEstimate
 from mapr_daemon.fleet.archive import Recording
 from mapr_daemon.pipeline.clock import BusClock
 from mapr_daemon.pipeline.pipeline import Pipeline, build_pipeline
@@ -90,6 +91,10 @@ class TaskResult:
     """Bus time from the first record to the last."""
     actuator_seen: bool = False
     task_s: float = 0.0
+    inflight: list[InflightEstimate] = dataclasses.field(default_factory=list)
+    """Each actuator's in-flight estimate of the recording's flight, its change not yet
+    against the unit's baseline (the client's :class:`~.trend.FleetTrend` sets it, in
+    flight order)."""
     """Wall time of the task on its worker."""
 
     @property
@@ -127,7 +132,11 @@ def _fresh(config: Config) -> Pipeline:
             watch = BitWatch(unit, signals=w.asset.signals, bit=old.params.bit,
                              paper=watch.paper)
         watched.append(Watched(w.asset, watch))
-    return dataclasses.replace(cached, stream=SignalStream(cached.icd), watched=watched)
+    from mapr_daemon.pipeline.pipeline import watch_inflight
+    inflight = [watch_inflight(w.asset.name, w.watch) for w in watched
+                if w.watch is not None] if cached.inflight else []
+    return dataclasses.replace(cached, stream=SignalStream(cached.icd), watched=watched,
+                               inflight=inflight, ended=[])
 
 
 def process_recording(job: Job) -> TaskResult:
@@ -170,6 +179,7 @@ def _run(recording: Recording, config: Config, digest: str,
             seen |= result.actuator_seen
             failures += [f.error for f in result.failures]
             outcomes += [_in_fleet(o, tail, recording) for o in result.outcomes]
+        inflight = pipe.end_flight()   # the recording is one flight
         issues = [str(issue) for issue in reader.issues]
         absent = sorted(set(channels or ()) - reader.channels_seen)
         if absent:   # as every command reading a recording says it: the channel, what it holds
@@ -180,7 +190,9 @@ def _run(recording: Recording, config: Config, digest: str,
     finally:
         reader.close()
     return TaskResult(recording, digest, True, None, outcomes, failures, issues, messages,
-                      0.0 if first is None else (last - first) / 1e9, seen)
+                      0.0 if first is None else (last - first) / 1e9, seen,
+                      inflight=[dataclasses.replace(r, tail=tail, flight=recording.flight)
+                                for r in inflight])
 
 
 def _in_fleet(outcome: BitOutcome, tail: str, recording: Recording) -> BitOutcome:

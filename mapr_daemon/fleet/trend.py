@@ -21,7 +21,7 @@ import dataclasses
 from collections.abc import Sequence
 
 from mapr_daemon.catalog import BitOutcome
-from mapr_daemon.catalog.model import Flight
+from mapr_daemon.catalog.model import Flight, InflightEstimate
 from mapr_daemon.catalog.writer import CatalogWriter
 from mapr_daemon.fleet.config import FleetConfig
 from mapr_daemon.pipeline.pipeline import Pipeline, build_pipeline
@@ -44,7 +44,10 @@ class FleetTrend:
             base = self._base(self.configs.for_tail(tail))
             trending = None if base.trending is None else Trending(
                 tail, base.config.aircraft.flight_gap_s, base.trending.models)
-            pipe = dataclasses.replace(base, trending=trending)
+            from mapr_daemon.pipeline.pipeline import watch_inflight
+            inflight = [watch_inflight(w.asset.name, w.watch) for w in base.watched
+                        if w.watch is not None] if base.inflight else []
+            pipe = dataclasses.replace(base, trending=trending, inflight=inflight, ended=[])
             pipe.resume(*self.catalog.history(tail))
             self._tails[tail] = pipe
         return pipe
@@ -57,13 +60,20 @@ class FleetTrend:
         return base
 
     def flight(self, tail: str, flight: int, hours: float | None,
-               outcomes: Sequence[BitOutcome]) -> tuple[list[BitOutcome], list[Flight]]:
+               outcomes: Sequence[BitOutcome], inflight: Sequence[InflightEstimate] = ()
+               ) -> tuple[list[BitOutcome], list[Flight], list[InflightEstimate]]:
         """One recording of ``tail``: its outcomes trended as flight ``flight`` of ``hours``,
-        and the flights to store with them."""
+        the flights to store with them, and its in-flight rows against each actuator's
+        baseline (which they then join, as the trend does)."""
         pipe = self.pipeline(tail)
         pipe.declare_flight(flight, hours)
         trended = pipe.trend(outcomes)
-        return trended, pipe.pending_flights()
+        watches = {w.asset: w for w in pipe.inflight}
+        rows = [dataclasses.replace(r, parameters=watches[r.asset].baseline.rebase(
+            r.parameters, r.flight)) for r in inflight if r.asset in watches]
+        if pipe.trending is not None:
+            pipe.trending.add_inflight(rows)
+        return trended, pipe.pending_flights(), rows
 
     def forget(self, tail: str) -> None:
         """Drop the tail's state (its next recording resumes from the catalog): after a

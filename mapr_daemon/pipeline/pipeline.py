@@ -32,12 +32,13 @@ from typing import TYPE_CHECKING, Any
 
 from drivers.mil1553.record import MonitorRecord
 from mapr_daemon.catalog import BitOutcome, Event, event_from_reasoner
-from mapr_daemon.catalog.model import BitRecord, Flight
+from mapr_daemon.catalog.model import BitRecord, Flight, InflightEstimate
 from mapr_daemon.errors import ConfigError
 from mapr_daemon.icd import Icd, Series, SignalStream, load_icd
 from mapr_daemon.pipeline import wiring
 from mapr_daemon.pipeline.bitwatch import BitFound, BitWatch
 from mapr_daemon.pipeline.clock import BusClock, stamp, traffic_span
+from mapr_daemon.pipeline.inflight import InflightWatch
 from mapr_daemon.pipeline.settings import AssetConfig, PipelineConfig
 
 if TYPE_CHECKING:
@@ -74,6 +75,9 @@ class Batch:
     """Whether the batch carried any of the assets' sensor channels."""
     flights: list[Flight] = dataclasses.field(default_factory=list)
     """Flights changed by this batch (to save with the outcomes)."""
+    inflight: list[InflightEstimate] = dataclasses.field(default_factory=list)
+    """Flights ended before this batch: each actuator's in-flight estimate
+    (:mod:`.inflight`; :meth:`CatalogWriter.add_inflight`)."""
 
 
 @dataclasses.dataclass
@@ -93,6 +97,10 @@ class Pipeline:
     stream: SignalStream
     watched: list[Watched]
     trending: Trending | None = None
+    inflight: list[InflightWatch] = dataclasses.field(default_factory=list)
+    """Each diagnosed actuator's in-flight tracker (empty: ``reasoner.inflight: false``)."""
+    ended: list[InflightEstimate] = dataclasses.field(default_factory=list)
+    """In-flight rows of flights ended outside :meth:`process` (a declared flight)."""
 
     @property
     def asset(self) -> AssetConfig:
@@ -107,19 +115,45 @@ class Pipeline:
     def bits_seen(self) -> int:
         return sum(w.bits_seen for w in self.watches)
 
-    def resume(self, bits: Sequence[BitRecord], flights: Sequence[Flight]) -> None:
-        """Continue the trend from the catalog's history (this aircraft's rows)."""
+    def resume(self, bits: Sequence[BitRecord], flights: Sequence[Flight],
+               inflight: Sequence[InflightEstimate] = ()) -> None:
+        """Continue the trend from the catalog's history (this aircraft's rows): the BITs,
+        the flights and the in-flight rows (each actuator's baseline and friction trend)."""
+        for w in self.inflight:
+            w.resume(inflight)
         if self.trending is None:
             return
         from mapr_daemon.pipeline.trending import Trending, history_from_bits
         self.trending = Trending(self.trending.tail, self.config.aircraft.flight_gap_s,
-                                 self.trending.models, history_from_bits(bits), flights)
+                                 self.trending.models, history_from_bits(bits, inflight),
+                                 flights)
 
     def declare_flight(self, number: int, hours: float | None = None) -> None:
         """The traffic from now on is this flight (a replay's or fleet run's, known from its
         file), of ``hours`` (else its span)."""
         if self.trending is not None:
+            if any(w.flight not in (None, number) for w in self.inflight):
+                self.ended += self.end_flight()
             self.trending.log.declare(number, hours)
+
+    def carry_inflight(self, old: Pipeline) -> None:
+        """Keep the flight in progress across a reload: each actuator configured as before
+        (same asset settings, in-flight tracking still on) keeps ``old``'s tracker state."""
+        before = {w.asset: w for w in old.inflight}
+        same = {w.asset.name for w in self.watched for o in old.watched
+                if o.asset == w.asset and w.watch is not None}
+        self.inflight = [before[w.asset] if w.asset in before and w.asset in same else w
+                         for w in self.inflight]
+
+    def end_flight(self) -> list[InflightEstimate]:
+        """The flight the in-flight trackers hold has ended (a recording's end, the daemon
+        stopping): each actuator's row (none where no window qualified), also added to its
+        trend. The trackers start the next flight."""
+        tail = self.config.aircraft.tail if self.trending is None else self.trending.tail
+        rows = [r for w in self.inflight if (r := w.finish(tail)) is not None]
+        if self.trending is not None:
+            self.trending.add_inflight(rows)
+        return rows
 
     def process(self, records: Sequence[MonitorRecord] | Ms1553Batch, clock: BusClock
                 ) -> Batch:
@@ -149,9 +183,26 @@ class Pipeline:
                 end = self._when(stamp(traffic_span(records)[1]), clock)
             outcomes = self.trending.annotate_batch(outcomes, end)
             flights = self.trending.log.pop_changed() if outcomes else []
+        inflight = self._track(series, clock)
         events = [o.event for o in outcomes if o.event is not None]
         return Batch(series, [bit for _, bit in found], events, outcomes, failures, seen,
-                     flights)
+                     flights, inflight)
+
+    def _track(self, series: dict[str, Series], clock: BusClock) -> list[InflightEstimate]:
+        """Feed the batch to the in-flight trackers; the rows of flights that ended (the
+        flight log moved on: this batch is the next flight's)."""
+        rows, self.ended = self.ended, []
+        if not self.inflight:
+            return rows
+        now = None if self.trending is None else self.trending.log.number
+        if any(w.flight is not None and w.flight != now for w in self.inflight):
+            rows += self.end_flight()
+        for w in self.inflight:
+            w.flight = now
+            w.feed(series)
+            if w.end_ns is not None:
+                w.end_abs = self._when(stamp(w.end_ns), clock)
+        return rows
 
     def trend(self, outcomes: Sequence[BitOutcome]) -> list[BitOutcome]:
         """Flights and health for outcomes processed elsewhere (a fleet run's workers)."""
@@ -211,7 +262,14 @@ def build_pipeline(config: PipelineConfig, *, trend: bool = True) -> Pipeline:
     if trend and models:
         from mapr_daemon.pipeline.trending import Trending
         trending = Trending(config.aircraft.tail, config.aircraft.flight_gap_s, models)
-    return Pipeline(config, icd, SignalStream(icd), watched, trending)
+    inflight = [watch_inflight(w.asset.name, w.watch) for w in watched
+                if w.watch is not None] if getattr(config.reasoner, "inflight", True) else []
+    return Pipeline(config, icd, SignalStream(icd), watched, trending, inflight)
+
+
+def watch_inflight(asset: str, watch: BitWatch) -> InflightWatch:
+    """The in-flight tracker of an actuator the reasoner watches (its data sheet and wiring)."""
+    return InflightWatch(asset, watch.reasoner.params, watch.cutter)
 
 
 def _reasoner(config: PipelineConfig, asset: AssetConfig, i: int, path: str, loaded: dict[str, Any]

@@ -61,6 +61,9 @@ class ReasonerConfig:
     threshold: float | None = None
     """Anomaly threshold override (None: the dictionary's own calibration)."""
     paper: bool = False
+    inflight: bool = True
+    """Track each diagnosed actuator's parameters on the traffic between BITs and store one
+    estimate per flight (:mod:`~mapr_daemon.pipeline.inflight`); False: BITs only."""
 
 
 class PipelineConfig(Protocol):

@@ -16,6 +16,10 @@ name, its TMATS) *declares* it instead (:meth:`FlightLog.declare`): the whole re
 that flight, of the declared hours (else its traffic's span). Flight hours at a BIT count
 flights never seen (a fleet archive may hold only the BIT flights) at the mean of those seen;
 RUL in hours is RUL in flights times that mean.
+
+**In-flight estimates.** Each flight's in-flight row (:mod:`.inflight`) joins its actuator's
+history as it ends; the RUL of a kind the tracker resolves (friction) fuses them with the
+BITs (:mod:`mapr_daemon.reasoner.prognosis.fusion`), each with its own noise.
 """
 
 from __future__ import annotations
@@ -25,9 +29,10 @@ import math
 from collections.abc import Mapping, Sequence
 
 from mapr_daemon.catalog import BitOutcome, Event
-from mapr_daemon.catalog.model import BitRecord, Flight
+from mapr_daemon.catalog.model import BitRecord, Flight, InflightEstimate
 from mapr_daemon.findings import Health
 from mapr_daemon.reasoner.prognosis.assessment import INTERVAL, assess
+from mapr_daemon.reasoner.prognosis.fusion import observation
 from mapr_daemon.reasoner.prognosis.prognostic_model import PrognosticModel
 
 NS_PER_HOUR = 3_600_000_000_000
@@ -134,6 +139,24 @@ class AssetHistory:
     wear: list[Mapping[str, float]] = dataclasses.field(default_factory=list)
     conditions: list[Mapping[str, float] | None] = dataclasses.field(default_factory=list)
     """Each BIT's flight condition (None where not stored)."""
+    inflight: dict[str, dict[int, tuple[float, float, float]]] = dataclasses.field(
+        default_factory=dict)
+    """Per aging kind, per flight its in-flight observation ``(flight, h, sd)``
+    (:func:`~mapr_daemon.reasoner.prognosis.fusion.observation`; a flight stored again
+    replaces its own)."""
+
+    def add_inflight(self, row: InflightEstimate) -> None:
+        """A flight's in-flight row: the parameters that trend an aging kind."""
+        if row.flight is None:
+            return
+        for name, p in row.parameters.items():
+            obs = observation(name, p)
+            if obs is not None:
+                kind, h, sd = obs
+                self.inflight.setdefault(kind, {})[row.flight] = (float(row.flight), h, sd)
+
+    def observations(self) -> dict[str, list[tuple[float, float, float]]]:
+        return {k: [v[f] for f in sorted(v)] for k, v in self.inflight.items()}
 
     def add(self, flight: float, wear: Mapping[str, float],
             conditions: Mapping[str, float] | None) -> None:
@@ -145,13 +168,17 @@ class AssetHistory:
         self.conditions.append(dict(conditions) if conditions else None)
 
 
-def history_from_bits(bits: Sequence[BitRecord]) -> dict[str, AssetHistory]:
+def history_from_bits(bits: Sequence[BitRecord],
+                      inflight: Sequence[InflightEstimate] = ()) -> dict[str, AssetHistory]:
     """Each actuator's trend history from its stored BITs (oldest first): the BITs with a
-    flight and estimates, with their flight conditions where stored."""
+    flight and estimates, with their flight conditions where stored; and its flights'
+    in-flight rows."""
     history: dict[str, AssetHistory] = {}
     for b in bits:
         if b.flight is not None and b.wear:
             history.setdefault(b.asset, AssetHistory()).add(b.flight, b.wear, b.conditions)
+    for r in inflight:
+        history.setdefault(r.asset, AssetHistory()).add_inflight(r)
     return history
 
 
@@ -173,6 +200,12 @@ class Trending:
     def observe(self, t_ns: int) -> None:
         """The actuators' traffic was on the bus at ``t_ns`` (epoch ns)."""
         self.log.observe(t_ns)
+
+    def add_inflight(self, rows: Sequence[InflightEstimate]) -> None:
+        """Flights' in-flight rows: the next BIT's RUL fuses them (:mod:`.inflight`)."""
+        for r in rows:
+            if r.asset in self.history:
+                self.history[r.asset].add_inflight(r)
 
     def annotate_batch(self, outcomes: Sequence[BitOutcome], traffic_end_ns: int | None
                        ) -> list[BitOutcome]:
@@ -218,7 +251,8 @@ class Trending:
         hist.add(flight, o.wear, o.conditions)
         fault = None if o.event is None else o.event.fault
         h = assess(model, hist.flights, hist.wear, diagnosed=fault, seed=len(hist.flights),
-                   conditions=hist.conditions, also=_also(o.event))
+                   conditions=hist.conditions, also=_also(o.event),
+                   inflight=hist.observations())
         return h.with_hours(self.log.mean_hours(), INTERVAL)
 
 

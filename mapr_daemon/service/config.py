@@ -138,7 +138,8 @@ def parse(raw: Any, path: str) -> Config:
     testbed = _testbed(r, raw)
     reasoner = read_section(r, raw, "reasoner", ReasonerConfig, {
         "dictionary": ("path", {"optional": True}),
-        "threshold": ("float", {"minimum": 1e-9, "optional": True}), "paper": ("bool", {})})
+        "threshold": ("float", {"minimum": 1e-9, "optional": True}), "paper": ("bool", {}),
+        "inflight": ("bool", {})})
     catalog = read_section(r, raw, "catalog", CatalogConfig, {
         "path": ("path", {}), "durability": ("str", {"choices": ("power-loss", "crash")}),
         "stats_interval_s": ("float", {"minimum": 0.1}),

@@ -34,6 +34,7 @@ from drivers.monitor import BusStatistics
 from drivers.rtstats import TrafficStatistics
 from mapr_daemon import __version__
 from mapr_daemon.catalog import CatalogWriter, display_name
+from mapr_daemon.catalog.model import InflightEstimate
 from mapr_daemon.errors import CatalogError, ConfigError
 from mapr_daemon.pipeline.clock import BusClock
 from mapr_daemon.pipeline.pipeline import Pipeline, build_pipeline
@@ -240,6 +241,7 @@ class Service:
         if self.recorder is not None:
             self.recorder.close()
         self._written(self.spool.flush())   # a last try for what is held
+        self._inflight(self.pipe.end_flight())   # the flight so far (a restart replaces it)
         if self.spool.held_bits:
             log.error("stopping with the catalog unwritable: %d BITs (%d events) not written",
                       self.spool.held_bits, self.spool.held_events)
@@ -307,6 +309,16 @@ class Service:
         if batch.outcomes:  # the events, and every BIT's effect on the fault episodes
             self._log(self.health_log.observe(batch.outcomes))
             self._written(self.spool.submit(batch.outcomes, batch.flights))
+        self._inflight(batch.inflight)
+
+    def _inflight(self, rows: list[InflightEstimate]) -> None:
+        """Ended flights' in-flight rows (per actuator) into the catalog."""
+        for row in rows:
+            log.info("flight %s of %s: in-flight estimate stored (%s)", row.flight,
+                     display_name(self.config.aircraft.tail, row.asset),
+                     ", ".join(f"{k} {p.get('change')}" for k, p in row.parameters.items()))
+        if rows:
+            self._catalog(self.catalog.add_inflight, rows)
 
     def _written(self, batches: list[Written]) -> None:
         """Count and log (info: the proof it is durable) the events of batches the catalog
@@ -418,6 +430,10 @@ class Service:
             pipe.resume(*self.catalog.history(config.aircraft.tail))
         except CatalogError as error:
             log.error("catalog: %s (the trends restart empty)", error)
+        if config.aircraft.tail == old.aircraft.tail:
+            pipe.carry_inflight(self.pipe)   # the flight in progress goes on being tracked
+        else:
+            self._inflight(self.pipe.end_flight())
         self.pipe, self.config = pipe, config
         self.health_log.rul_warn_flights = config.health.rul_warn_flights
         if restart:

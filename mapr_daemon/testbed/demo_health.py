@@ -79,7 +79,7 @@ def diagnose_into_catalog(config: Config, records: Sequence[MonitorRecord],
     pipe = build_pipeline(config)
     catalog.parent.mkdir(parents=True, exist_ok=True)
     with CatalogWriter(catalog) as writer:
-        bits, flights = writer.history(config.aircraft.tail)
+        bits, flights, _ = writer.history(config.aircraft.tail)
         pipe.resume(bits, flights)
         # each run is the aircraft's next flight, however soon it follows the last: told
         # from the traffic, runs within aircraft.flight_gap_s would be one flight

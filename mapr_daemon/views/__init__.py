@@ -22,6 +22,7 @@ from mapr_daemon.views.export import (
     write_csv,
     write_episodes,
     write_events_jsonl,
+    write_inflight,
     write_json,
 )
 from mapr_daemon.views.health import bit_json, bits_table, health_json, health_table
@@ -41,5 +42,5 @@ __all__ = [
     "bit_json", "bits_table", "episode_json", "episodes_table", "event_detail", "event_json",
     "events_table", "gaps_table", "health_json", "health_table", "rt_stats_table",
     "stats_table", "trend_table", "write_bits", "write_csv", "write_episodes",
-    "write_events_jsonl", "write_json",
+    "write_events_jsonl", "write_inflight", "write_json",
 ]

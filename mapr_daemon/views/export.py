@@ -14,12 +14,13 @@ from __future__ import annotations
 
 import csv
 import json
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from typing import IO, Any
 
 from mapr_daemon.catalog.episodes import Episode
-from mapr_daemon.catalog.model import BitRecord, Event
+from mapr_daemon.catalog.model import BitRecord, Event, InflightEstimate
 from mapr_daemon.utc import fmt_time
+from mapr_daemon.views.figures import inflight_change, inflight_json
 from mapr_daemon.views.health import bit_json
 from mapr_daemon.views.text import episode_json, event_json
 
@@ -99,11 +100,54 @@ def _write_jsonl(rows: Iterable[dict[str, Any]], out: IO[str]) -> int:
     return n
 
 
-def write_bits(records: Sequence[BitRecord], fmt: str, out: IO[str]) -> int:
-    """BIT history as ``csv`` (flat) or ``jsonl``/``json`` lines; returns the row count."""
+INFLIGHT_COLUMNS = ("id", "session_id", "tail", "asset", "flight", "time_utc", "t_ns",
+                    "flight_s", "filtered_s")
+"""The fixed columns of ``catalog export --what inflight --format csv`` (then per parameter
+``<name>_value``, ``_sd``, ``_change``, ``_sd_change``, ``_baseline``, ``_text``)."""
+INFLIGHT_FIGURES = ("value", "sd", "change", "sd_change", "baseline")
+
+
+def flat_inflight(r: InflightEstimate, prefix: str = "") -> dict[str, Any]:
+    """One flight's in-flight estimate as a flat row (``prefix`` before the per-parameter
+    columns: ``inflight_`` beside a BIT's)."""
+    row: dict[str, Any] = {} if prefix else {
+        "id": r.id, "session_id": r.session_id, "tail": r.tail, "asset": r.asset,
+        "flight": r.flight, "time_utc": fmt_time(r.t_ns), "t_ns": r.t_ns,
+        "flight_s": r.flight_s, "filtered_s": r.filtered_s}
+    for name, p in r.parameters.items():
+        for key in INFLIGHT_FIGURES:
+            row[f"{prefix}{name}_{key}"] = p.get(key)
+        row[f"{prefix}{name}_text"] = inflight_change(name, p)
+    return row
+
+
+def write_inflight(rows: Sequence[InflightEstimate], fmt: str, out: IO[str]) -> int:
+    """Per-flight in-flight estimates as ``csv`` (flat) or JSON lines; the row count."""
     if fmt == "csv":
-        return _write_csv([flat_bit(r) for r in records], BIT_COLUMNS, out)
-    return _write_jsonl(({"time_utc": fmt_time(r.t_ns), **bit_json(r)} for r in records), out)
+        return _write_csv([flat_inflight(r) for r in rows], INFLIGHT_COLUMNS, out)
+    return _write_jsonl(({"tail": r.tail, "asset": r.asset, "time_utc": fmt_time(r.t_ns),
+                          **inflight_json(r)} for r in rows), out)
+
+
+def write_bits(records: Sequence[BitRecord], fmt: str, out: IO[str],
+               inflight: Mapping[tuple[str, str, int | None], InflightEstimate] | None = None
+               ) -> int:
+    """BIT history as ``csv`` (flat) or ``jsonl``/``json`` lines; returns the row count.
+    ``inflight`` by (tail, asset, flight): each BIT carries its flight's in-flight estimate
+    beside its own readings (``inflight_<name>_<figure>`` columns; ``inflight`` in JSON)."""
+    found = inflight or {}
+    if fmt == "csv":
+        rows = []
+        for r in records:
+            row = flat_bit(r)
+            est = found.get((r.tail, r.asset, r.flight))
+            if est is not None:
+                row.update(flat_inflight(est, "inflight_"))
+            rows.append(row)
+        return _write_csv(rows, BIT_COLUMNS, out)
+    return _write_jsonl(({"time_utc": fmt_time(r.t_ns), **bit_json(r),
+                          "inflight": (None if (e := found.get((r.tail, r.asset, r.flight)))
+                                       is None else inflight_json(e))} for r in records), out)
 
 
 def write_episodes(episodes: Sequence[Episode], fmt: str, out: IO[str]) -> int:

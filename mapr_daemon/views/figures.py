@@ -125,3 +125,45 @@ def severity_text(mode: str | None, value: float | None, unit: str | None,
 
 __all__ = ["health_rul", "health_summary", "number", "rul_text", "severity_text",
            "soh_meaning", "soh_text"]
+
+
+INFLIGHT_ORDER: tuple[str, ...] = ("friction", "loop_r", "phase_a_ron", "bus0")
+"""The in-flight parameters in the order every view lists them."""
+
+
+def inflight_change(name: str, parameter: Mapping[str, Any]) -> str:
+    """One in-flight parameter's change from the unit's baseline with its sd, both to the
+    sd's second significant digit: ``friction +0.500 +/- 0.020 x baseline``;
+    ``friction baseline pending 2/3`` until the baseline is commissioned."""
+    change, sd = _float(parameter.get("change")), _float(parameter.get("sd_change"))
+    unit = str(parameter.get("unit", ""))
+    if change is None:
+        return f"{name} baseline {parameter.get('baseline', 'pending')}"
+    if sd is None or not sd > 0.0:
+        return f"{name} {change:+.3g} {unit}".rstrip()
+    digits = max(0, 1 - math.floor(math.log10(sd)))
+    text = f"{change:+.{digits}f}"
+    if float(text) == 0.0:
+        text = f"{0.0:+.{digits}f}"
+    return f"{name} {text} +/- {sd:.{digits}f} {unit}".rstrip()
+
+
+def inflight_lines(row: Any) -> list[str]:
+    """A flight's in-flight estimate (:class:`~mapr_daemon.catalog.model.InflightEstimate`)
+    as lines: the flight and how much of it qualified, then one line per parameter."""
+    params: Mapping[str, Mapping[str, Any]] = row.parameters
+    head = (f"flight {row.flight if row.flight is not None else '-'}: in-flight estimate "
+            f"from {row.filtered_s:.0f} s of {row.flight_s:.0f} s")
+    names = [n for n in INFLIGHT_ORDER if n in params] + \
+        [n for n in params if n not in INFLIGHT_ORDER]
+    return [head, *(f"  {inflight_change(n, params[n])}" for n in names)]
+
+
+def inflight_json(row: Any) -> dict[str, Any]:
+    """The same row for ``--json`` and the export: flight, seconds and per parameter its
+    stored figures with the text the tables print."""
+    params: Mapping[str, Mapping[str, Any]] = row.parameters
+    return {"flight": row.flight, "t_ns": row.t_ns, "flight_s": row.flight_s,
+            "filtered_s": row.filtered_s, "qualified_s": dict(row.qualified_s),
+            "parameters": {n: {**dict(p), "text": inflight_change(n, p)}
+                           for n, p in params.items()}}

@@ -36,6 +36,7 @@ from mapr_daemon.catalog.reader import CatalogReader
 from mapr_daemon.ema.degradation import FAILURE
 from mapr_daemon.findings import Health
 from mapr_daemon.utc import fmt_time
+from mapr_daemon.views.figures import INFLIGHT_ORDER, inflight_change
 from mapr_daemon.views.health import fmt_episodes, fmt_rul, fmt_soh
 from mapr_daemon.views.text import fault_name, fmt_severity, fmt_trend
 
@@ -270,7 +271,26 @@ def _actuator(reader: CatalogReader, a: ActuatorHealth, rank: int) -> str:
                f"(flight {_e(a.last.flight)}).</p>")
     return (f'<section id="{_e(a.name)}"><h2>{rank}. {_e(a.name)}</h2>{line}{service}'
             f"{_plot(reader, a)}<h3>Fault episodes</h3>{_episodes(reader, a)}"
-            f"<h3>Last BIT's evidence</h3>{_evidence(reader, a)}</section>")
+            f"<h3>Last BIT's evidence</h3>{_evidence(reader, a)}"
+            f"<h3>In-flight estimates</h3>{_inflight(reader, a)}</section>")
+
+
+INFLIGHT_SHOWN = 5
+"""The last flights' in-flight estimates the report lists per actuator."""
+
+
+def _inflight(reader: CatalogReader, a: ActuatorHealth) -> str:
+    """The actuator's last flights' in-flight estimates (change from its commissioned
+    baseline per parameter, as every view writes it), beside its BIT readings above."""
+    rows = [r for r in reader.inflight(a.asset, a.tail)][-INFLIGHT_SHOWN:]
+    if not rows:
+        return ('<p class="muted">None stored (the tracker runs between BITs; '
+                "reasoner.inflight).</p>")
+    names = [n for n in INFLIGHT_ORDER if any(n in r.parameters for r in rows)]
+    return _table(("flight", "filtered / flight (s)", *names),
+                  [(r.flight, f"{r.filtered_s:.0f} / {r.flight_s:.0f}",
+                    *(inflight_change(n, r.parameters[n]).removeprefix(f"{n} ")
+                      if n in r.parameters else "-" for n in names)) for r in rows], {0})
 
 
 def _overview(ranked: Sequence[ActuatorHealth]) -> str:

@@ -55,7 +55,7 @@ def test_nested_commands_and_positional_choices(bash_script: Path) -> None:
     assert complete(bash_script, "mapr", "catalog", "export", "--format", "") == [
         "csv", "json", "jsonl"]
     assert complete(bash_script, "mapr", "catalog", "export", "--what", "") == [
-        "events", "bits", "episodes"]
+        "events", "bits", "episodes", "inflight"]
     assert complete(bash_script, "mapr", "completion", "") == ["bash", "zsh"]
 
 

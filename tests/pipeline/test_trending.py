@@ -176,7 +176,7 @@ def test_the_history_is_stored_and_a_restart_continues_the_trend(
             first.log.declare(n)
             fly(first, n)
             writer.add_bits(first.annotate([bit(n, esr(n))]), first.log.pop_changed())
-        bits, flights = writer.history("N101")
+        bits, flights, _ = writer.history("N101")
     assert [b.flight for b in bits] == list(range(2, 32, 2))
     assert bits[-1].health.mode == "esr" and bits[-1].wear == {"esr": esr(30)}
     assert [f.flight for f in flights] == list(range(2, 32, 2))
@@ -241,7 +241,7 @@ def test_the_conditions_are_stored_and_reloaded_with_the_history(
             writer.add_bits(first.annotate([dataclasses.replace(bit(n, 0.05),
                                                                 conditions=LOW_BUS)]),
                             first.log.pop_changed())
-        bits, flights = writer.history("N101")
+        bits, flights, _ = writer.history("N101")
     assert [dict(b.conditions) for b in bits] == [LOW_BUS, LOW_BUS]
     resumed = Trending("N101", 900.0, {"EMA1": model}, history_from_bits(bits), flights)
     resumed.log.declare(3)

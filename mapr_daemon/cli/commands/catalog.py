@@ -3,7 +3,7 @@
     mapr catalog list --since 7d --asset EMA1 --min-severity 0.3
     mapr catalog show 42
     mapr catalog export --format csv -o faults.csv --since 2026-05-01
-    mapr catalog export --what bits --format csv -o bits.csv   (or episodes; --format jsonl)
+    mapr catalog export --what bits --format csv -o bits.csv   (or episodes, inflight; jsonl)
     mapr catalog trend EMA1 --plot ema1.png            (--hours: x in flight hours)
     mapr catalog stats --since 2h
     mapr catalog episodes --open --asset EMA1
@@ -107,10 +107,12 @@ def add_subparser(subparsers: Any) -> None:
     p = actions.add_parser("export", parents=[common],
                            help="events, BIT history or episodes as CSV or JSON (lines)")
     _filters(p)
-    p.add_argument("--what", choices=["events", "bits", "episodes"], default="events",
-                   help="events (default), bits (every BIT with its health and wear) or "
-                        "episodes; bits take --asset/--fault/--since/--until, episodes "
-                        "--asset")
+    p.add_argument("--what", choices=["events", "bits", "episodes", "inflight"],
+                   default="events",
+                   help="events (default), bits (every BIT with its health and wear, and its "
+                        "flight's in-flight estimate), episodes or inflight (each actuator's "
+                        "per-flight estimate); bits take --asset/--fault/--since/--until, "
+                        "episodes --asset, inflight --asset/--since/--until")
     p.add_argument("--format", choices=["csv", "json", "jsonl"], default=None,
                    help="csv (the default; flat, events keep params/evidence as JSON text), "
                         "jsonl (one record a line) or json (events: one array; else as "
@@ -242,7 +244,13 @@ def _export(reader: CatalogReader, args: argparse.Namespace, events: Iterable[Ev
                    if (args.since is None or r.t_ns >= args.since)
                    and (args.until is None or r.t_ns < args.until)
                    and (args.fault is None or r.fault == args.fault)]
-        return views.write_bits(records, args.format, out)
+        inflight = {(r.tail, r.asset, r.flight): r for r in reader.inflight()}
+        return views.write_bits(records, args.format, out, inflight)
+    if args.what == "inflight":
+        rows = [r for r in reader.inflight(args.asset)
+                if (args.since is None or r.t_ns >= args.since)
+                and (args.until is None or r.t_ns < args.until)]
+        return views.write_inflight(rows, args.format, out)
     if args.what == "episodes":
         return views.write_episodes(reader.episodes(asset=args.asset), args.format, out)
     if args.format == "jsonl":

@@ -37,20 +37,29 @@ def run(args: argparse.Namespace) -> int:
     from mapr_daemon.catalog import CatalogReader, default_path
     from mapr_daemon.errors import CatalogError
     from mapr_daemon.views import health_json, health_table
+    from mapr_daemon.views.figures import inflight_json, inflight_lines
 
     path = args.catalog or default_path()
     try:
         with CatalogReader(path) as reader:
             rows = reader.health()
+            latest = {(r.tail, r.asset): r for r in reader.inflight()}   # oldest first
     except CatalogError as error:
         where = f"{error.path}: " if error.path is not None else ""
         print(f"mapr health: {where}{error.detail}", file=sys.stderr)
         return exitcodes.NOINPUT
     if args.json:
-        json.dump([health_json(r) for r in rows], sys.stdout, indent=1, sort_keys=True)
+        out = []
+        for r in rows:   # each actuator's last in-flight estimate beside its BIT figures
+            flight = latest.get((r.tail, r.asset))
+            out.append({**health_json(r),
+                        "inflight": None if flight is None else inflight_json(flight)})
+        json.dump(out, sys.stdout, indent=1, sort_keys=True)
         sys.stdout.write("\n")
     elif not rows:
         print(f"no BIT history in {path} yet (the daemon, replay or fleet writes it)")
     else:
         print(health_table(rows))
+        for (tail, asset), flight in sorted(latest.items()):
+            print(f"{tail + '/' if tail else ''}{asset} " + "\n".join(inflight_lines(flight)))
     return exitcodes.OK

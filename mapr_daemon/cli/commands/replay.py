@@ -41,6 +41,7 @@ from mapr_daemon.errors import CatalogError, ConfigError
 if TYPE_CHECKING:
     from drivers.mil1553.record import MonitorRecord
     from mapr_daemon.catalog import CatalogWriter
+    from mapr_daemon.catalog.model import InflightEstimate
     from mapr_daemon.cli.traffic.source import Chapter10Input
     from mapr_daemon.pipeline.pipeline import Batch, Pipeline
     from mapr_daemon.service.config import Config
@@ -207,6 +208,7 @@ class Replay:
         from mapr_daemon.pipeline.clock import BusClock
         self.stats = BusStatistics()
         self.events = 0
+        self.inflight_rows = 0
         self.error_messages = 0
         self.issues_seen = 0
         self.clock = BusClock("recording")
@@ -274,6 +276,13 @@ class Replay:
             for o in result.outcomes]
         if outcomes:  # the events, and every BIT's effect on the fault episodes
             self.events += len(self.catalog.add_bits(outcomes, result.flights))
+        self._inflight(result.inflight)
+
+    def _inflight(self, rows: list[InflightEstimate]) -> None:
+        """Flights' in-flight rows into the catalog (docs/reasoner.md, in-flight tracking)."""
+        if rows:
+            self.catalog.add_inflight(rows)
+            self.inflight_rows += len(rows)
 
     def _when(self, bus_ns: int) -> int:
         absolute = self.clock.absolute(bus_ns)
@@ -302,6 +311,7 @@ class Replay:
                 self.catalog.add_stats(first + offset, last + offset, stats)
             else:
                 self.catalog.add_stats(self.started_ns, time.time_ns(), stats)
+        self._inflight(self.pipe.end_flight())   # the recording's end ends its flight
         self.catalog.save_flights(self.pipe.pending_flights())
         session = self.catalog.session_id
         self.catalog.close(reason)
@@ -322,6 +332,8 @@ class Replay:
                              f"{rts}) found in the recording: nothing to diagnose")
             else:
                 lines.append(f"diagnosis: {self.pipe.bits_seen} built-in tests diagnosed, "
-                             f"{self.events} anomaly events written")
+                             f"{self.events} anomaly events written, "
+                             f"{self.inflight_rows} in-flight estimates (per actuator and "
+                             "flight)")
         lines.append(f"catalog {self.catalog.path}: session {session}")
         return "\n".join(lines)

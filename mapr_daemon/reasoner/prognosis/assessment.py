@@ -30,7 +30,8 @@ estimate of every aging kind
   evidenced kind SoH is 1.0 and there is no RUL: nothing is wearing measurably;
 * **RUL** of the leading mode in flights, the median and a 90 % interval (5 % and 95 %
   points of the trend's draws, :func:`~.trend.fit_rul`: the kind's aging shape with the
-  fleet prior); in flight hours by the actuator's mean flight length so far. ``inf`` where
+  fleet prior; friction's per-flight in-flight estimates fused in, :mod:`.fusion`); in
+  flight hours by the actuator's mean flight length so far. ``inf`` where
   the trend does not reach the threshold within its horizon (:data:`HORIZON` flights, or
   :data:`HORIZON_LIVES` times the part's expected life if longer); 0 once the mode's
   degradation is past its threshold. A trend needs BITs on three flights or more.
@@ -58,7 +59,7 @@ import numpy as np
 from mapr_daemon.arrays import FloatArray
 from mapr_daemon.findings import Health
 from mapr_daemon.reasoner.diagnosis.parts import PART_OF
-from mapr_daemon.reasoner.prognosis import trend
+from mapr_daemon.reasoner.prognosis import fusion, trend
 from mapr_daemon.reasoner.prognosis.rul import RulEstimate
 from mapr_daemon.reasoner.prognosis.wear_noise import scaled_rows
 
@@ -97,14 +98,17 @@ three quarters of it)."""
 def assess(model: PrognosticModel, flights: Sequence[float],
            estimates: Sequence[Mapping[str, float]], diagnosed: str | None = None,
            seed: int = 0, conditions: Sequence[Mapping[str, float] | None] = (),
-           also: Sequence[str] = ()) -> Health:
+           also: Sequence[str] = (),
+           inflight: Mapping[str, Sequence[tuple[float, float, float]]] | None = None
+           ) -> Health:
     """Health after the last BIT of ``flights``/``estimates`` (oldest first); ``diagnosed``
     is the classifier's fault at that BIT (None when nominal), ``also`` the other fault of a
     compound diagnosis; ``conditions``: each BIT's
     flight condition
     (:meth:`~mapr_daemon.reasoner.prognosis.prognostic_model.PrognosticModel.bit_conditions`;
     missing or None
-    where not stored)."""
+    where not stored); ``inflight``: per kind the flights' in-flight observations
+    ``(flight, h, sd)`` the RUL fuses with the BITs (:mod:`.fusion`)."""
     if diagnosed in TERMINAL:
         return Health(0.0, diagnosed, 0.0, 0.0, 0.0, note="terminal fault: the part has failed")
     if not flights:
@@ -125,18 +129,21 @@ def assess(model: PrognosticModel, flights: Sequence[float],
             readings[kind] = (h, z, est, keep)
     for kind, (h, z, est, keep) in readings.items():
         noise = model.noise[kind]
+        obs = (inflight or {}).get(kind, ())
         evidenced = kind == diagnosed or z > _bar(kind, diagnosed, readings)
         row: dict[str, Any] = {"h": round(h, 4), "z": round(z, 2), "evidenced": evidenced}
         rul = None
         if evidenced and h >= 1.0:   # past its failure threshold: failed now, nothing to fit
             rul = RulEstimate(0.0, 0.0, 0.0, np.zeros(1), horizon(model, kind))
             row.update(rul=0.0, low=0.0, high=0.0)
-        elif np.unique(fl[keep]).size >= 3:
-            rul = trend.fit_rul(age[keep], est[keep], now - FIRST_FLIGHT, kind, noise,
-                                model.priors.get(kind),
-                                seed=seed, horizon=horizon(model, kind),
-                                conditions=cond[keep])
+        elif np.unique(np.concatenate((fl[keep], [o[0] for o in obs]))).size >= 3:
+            aged = [(max(o[0] - FIRST_FLIGHT, 0.0), o[1], o[2]) for o in obs]
+            rul = fusion.fit_rul_fused(age[keep], est[keep], now - FIRST_FLIGHT, kind, noise,
+                                       model.priors.get(kind), aged, seed=seed,
+                                       horizon=horizon(model, kind), conditions=cond[keep])
             row.update(rul=_finite(rul.rul), low=_finite(rul.lower), high=_finite(rul.upper))
+            if obs:
+                row["inflight_flights"] = len(obs)
         modes[kind] = row
         if evidenced:
             candidates.append((math.inf if rul is None else rul.rul, -h, kind, rul))
