@@ -23,8 +23,9 @@ Each family has one nonlinear parameter (``b``, ``k``, ``p``) and a linear ampli
 The fit is Bayesian on a grid of the nonlinear parameter, flat in its logarithm and wide
 enough to know nothing of the unit's life, or weighted by a fleet prior
 (:class:`ShapePrior`). Given it, ``A`` is linear-Gaussian (weighted least squares with the
-per-BIT estimate's *measured* noise, :class:`Noise`), and the grid's marginal likelihoods
-weight it. Draws of ``(parameter, A)`` give the flight where ``h`` crosses 1 in closed form;
+per-BIT estimate's *measured* noise, :class:`Noise`, its errors AR(1) from BIT to BIT,
+:data:`SERIAL_RHO`), and the grid's marginal likelihoods weight it. Draws of
+``(parameter, A)`` give the flight where ``h`` crosses 1 in closed form;
 their 5/50/95 % points are the RUL and its bounds. An estimate in the estimator's dead
 zone (:attr:`Noise.floor`) is censored: it weights the draws by the chance of reading the
 floor, measured as a function of the degradation (importance resampling), instead of being
