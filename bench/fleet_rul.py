@@ -110,6 +110,7 @@ from mapr_daemon.ema.degradation import Trajectory, trajectory
 from mapr_daemon.ema.faults import Fault, FaultSet, nominal_value
 from mapr_daemon.ema.params import default_actuator_path, load_actuator
 from mapr_daemon.ema.profile import CONDITIONS
+from mapr_daemon.reasoner.prognosis import trend
 from mapr_daemon.reasoner.prognosis.assessment import assess
 from mapr_daemon.reasoner.prognosis.prognostic_model import PrognosticModel
 from mapr_daemon.reasoner.prognosis.soh import degradation
@@ -452,7 +453,24 @@ def print_errors(conn: sqlite3.Connection, units: Sequence[Unit], model: Prognos
               + ", ".join(f"{m} {n}" for m, n in leads.most_common()))
         print(f"  {k:>14}: {err.size} BITs, error mean {err.mean():+.3f} sd {err.std():.3f}; "
               f"stated sd mean {sd.mean():.3f}; |error| > 1.645 stated sd in "
-              f"{100 * np.mean(np.abs(z) > 1.645):.0f} % (10 % if calibrated)")
+              f"{100 * np.mean(np.abs(z) > 1.645):.0f} % (10 % if calibrated); "
+              f"lag-one correlation of the standardised errors {lag_one(parts):+.2f} "
+              f"(successive BITs of a unit, about zero: {trend.SERIAL_RHO:+.2f} in the trend)")
+    zs = [e / np.maximum(s, 1e-9) for u in units if u.kind in kinds
+          for e, s in [estimate_errors(conn, u, model)]]
+    print(f"  {'all':>14}: lag-one correlation of the standardised errors "
+          f"{lag_one([(z, np.ones_like(z)) for z in zs]):+.2f}")
+
+
+def lag_one(parts: Sequence[tuple[FloatArray, FloatArray]]) -> float:
+    """Pooled lag-one correlation of successive BITs' standardised errors ``err/sd`` over
+    units, about zero (not each unit's mean: a bias a unit keeps is correlation too)."""
+    zs = [e / np.maximum(s, 1e-9) for e, s in parts if e.size >= 2]
+    if not zs:
+        return math.nan
+    num = sum(float(z[1:] @ z[:-1]) for z in zs)
+    den = sum(0.5 * float(z[1:] @ z[1:] + z[:-1] @ z[:-1]) for z in zs)
+    return num / den if den > 0.0 else math.nan
 
 
 def print_healthy(conn: sqlite3.Connection, units: Sequence[Unit]) -> None:

@@ -23,8 +23,9 @@ Each family has one nonlinear parameter (``b``, ``k``, ``p``) and a linear ampli
 The fit is Bayesian on a grid of the nonlinear parameter, flat in its logarithm and wide
 enough to know nothing of the unit's life, or weighted by a fleet prior
 (:class:`ShapePrior`). Given it, ``A`` is linear-Gaussian (weighted least squares with the
-per-BIT estimate's *measured* noise, :class:`Noise`), and the grid's marginal likelihoods
-weight it. Draws of ``(parameter, A)`` give the flight where ``h`` crosses 1 in closed form;
+per-BIT estimate's *measured* noise, :class:`Noise`, its errors AR(1) from BIT to BIT,
+:data:`SERIAL_RHO`), and the grid's marginal likelihoods weight it. Draws of
+``(parameter, A)`` give the flight where ``h`` crosses 1 in closed form;
 their 5/50/95 % points are the RUL and its bounds. An estimate in the estimator's dead
 zone (:attr:`Noise.floor`) is censored: it weights the draws by the chance of reading the
 floor, measured as a function of the degradation (importance resampling), instead of being
@@ -274,14 +275,45 @@ the fleet's life is not charged without bound for it, as a normal charges it (th
 ``z**2/2`` against the t's ``3/2*log(1 + z**2/2)``: 4.5 against 2.1 nats at ``z`` = 3)."""
 
 
+SERIAL_RHO = 0.14
+"""Correlation of successive BITs' standardised estimate errors (AR(1), one step per
+successive trended BIT): the trend's likelihood whitens its residuals with it
+(:func:`_whiten`), so a run of low readings counts for less than as many independent ones
+and the interval widens to match. Measured, not chosen: the pooled lag-one correlation of
+``(estimate - truth)/stated sd`` over the run-to-failure units of three kept design
+catalogs of ``bench/fleet_rul.py`` (mean lives 70, 200 and 400 flights; 20 units, 693 BITs;
++0.26, +0.10 and +0.12 apart; the bench prints it). The calibration BITs cannot measure it
+(each is a unit of its own at one degradation) nor the fleet prior's training units (their
+true paths only, no estimates); docs/reasoner-measured.md, "Fast-aging units"."""
+
+
+def _whiten(x: FloatArray, rho: float) -> FloatArray:
+    """AR(1) prewhitening along the last axis of standardised residuals (``x`` already
+    divided by their sd): ``u_0 = x_0``, ``u_i = (x_i - rho x_{i-1}) / sqrt(1 - rho**2)``;
+    the ``u`` are independent unit normals when the ``x`` are AR(1) with ``rho``, so sums
+    of their squares are the correlated likelihood (its log-determinant is fixed by
+    ``rho`` and the weights alone, the same at every grid value). The step is per
+    successive BIT, not per flight: what correlates the errors (the estimator's bias moving
+    slowly with the degradation and the unit) is not a clock."""
+    if rho == 0.0 or x.shape[-1] < 2:
+        return x
+    out = np.array(x, dtype=np.float64, copy=True)
+    out[..., 1:] = (x[..., 1:] - rho * x[..., :-1]) / math.sqrt(1.0 - rho * rho)
+    return out
+
+
 def _joint_draws(shape: str, n: FloatArray, y: FloatArray, w: FloatArray, prior: ShapePrior,
-                 n_draws: int, rng: np.random.Generator) -> tuple[FloatArray, FloatArray]:
+                 n_draws: int, rng: np.random.Generator, rho: float = 0.0
+                 ) -> tuple[FloatArray, FloatArray]:
     """Draws of ``(theta, A)`` from the posterior on the ``(theta, life)`` grid, where the
-    amplitude is the one that puts ``h = 1`` at the life: ``A = 1/g_theta(life)``."""
+    amplitude is the one that puts ``h = 1`` at the life: ``A = 1/g_theta(life)``; the
+    errors AR(1) with ``rho`` per successive BIT."""
     theta = _GRIDS[shape]
-    g = basis(shape, theta, n)
+    s = np.sqrt(w)
+    g = _whiten(basis(shape, theta, n) * s, rho)
+    yw = _whiten(y * s, rho)
     amp = 1.0 / np.maximum(basis(shape, theta, LIVES), 1e-300)
-    sgg, sgy, syy = (g * g) @ w, g @ (w * y), float(w @ (y * y))
+    sgg, sgy, syy = (g * g).sum(axis=1), g @ yw, float(yw @ yw)
     loglik = -0.5 * (syy - 2.0 * amp * sgy[:, None] + amp * amp * sgg[:, None])
     loglik = loglik + prior.joint_logpdf(theta, LIVES)
     post = np.exp(loglik - loglik.max()).ravel()
@@ -298,33 +330,40 @@ def _joint_draws(shape: str, n: FloatArray, y: FloatArray, w: FloatArray, prior:
 
 
 def _grid_fit(shape: str, n: FloatArray, y: FloatArray, w: FloatArray,
-              fixed_amp: float | None) -> tuple[tuple[FloatArray, FloatArray], FloatArray]:
-    """Per grid value: the amplitude's mean and precision, and the log marginal likelihood."""
+              fixed_amp: float | None, rho: float = 0.0
+              ) -> tuple[tuple[FloatArray, FloatArray], FloatArray]:
+    """Per grid value: the amplitude's mean and precision, and the log marginal likelihood
+    (weighted least squares, the errors AR(1) with ``rho`` per successive BIT)."""
     theta = _GRIDS[shape]
     g = basis(shape, theta, n)
     ok = np.isfinite(g).all(axis=1)
     g = np.where(np.isfinite(g), g, 0.0)
+    s = np.sqrt(w)
     if fixed_amp is not None:
-        r = y[None, :] - fixed_amp * g
+        r = _whiten((y[None, :] - fixed_amp * g) * s, rho)
         amp = np.full(theta.size, fixed_amp)
-        loglik = np.where(ok, -0.5 * (r * r) @ w, -np.inf)
+        loglik = np.where(ok, -0.5 * (r * r).sum(axis=1), -np.inf)
         return (amp, np.full(theta.size, np.inf)), loglik
-    sgg = (g * g) @ w
-    sgy = g @ (w * y)
+    g = _whiten(g * s, rho)
+    yw = _whiten(y * s, rho)
+    sgg = (g * g).sum(axis=1)
+    sgy = g @ yw
     ok &= sgg > 0.0
     sgg = np.where(ok, sgg, 1.0)
     amp = sgy / sgg
-    rss = float(w @ (y * y)) - sgy * amp
+    rss = float(yw @ yw) - sgy * amp
     return (amp, sgg), np.where(ok, -0.5 * rss - 0.5 * np.log(sgg), -np.inf)
 
 
 def fit_rul(flights: FloatArray, h_est: FloatArray, now: float, kind: str, noise: Noise,
             prior: ShapePrior | None = None, n_draws: int = 2000, seed: int = 0,
-            horizon: float = 2000.0, conditions: FloatArray | None = None) -> RulEstimate:
+            horizon: float = 2000.0, conditions: FloatArray | None = None,
+            rho: float | None = None) -> RulEstimate:
     """RUL at flight ``now`` of a component of ``kind`` from per-BIT degradation estimates;
     ``conditions (n, 3)``: each BIT's scaled flight condition (NaN rows unknown), at which
     the noise model reads its estimate and weighs it (:meth:`Noise.calibrate`,
-    :meth:`Noise.h_sd`)."""
+    :meth:`Noise.h_sd`); ``rho``: the correlation of successive BITs' standardised errors
+    (None: :data:`SERIAL_RHO`)."""
     if kind not in SHAPES:
         raise ConfigError(f"no aging shape for {kind!r}", field="kind")
     shape = SHAPES[kind]
@@ -344,12 +383,13 @@ def fit_rul(flights: FloatArray, h_est: FloatArray, now: float, kind: str, noise
         var = var + prior.scatter(y) ** 2
     w = 1.0 / var
     rng = np.random.default_rng(seed)
+    r1 = SERIAL_RHO if rho is None else rho
     fixed = FIXED_AMPLITUDE.get(kind)
     if prior is not None and fixed is None and prior.life_sd > 0.0:
-        th, a = _joint_draws(shape, n, y, w, prior, n_draws, rng)
+        th, a = _joint_draws(shape, n, y, w, prior, n_draws, rng, r1)
     else:
         theta = _GRIDS[shape]
-        (amp, precision), loglik = _grid_fit(shape, n, y, w, fixed)
+        (amp, precision), loglik = _grid_fit(shape, n, y, w, fixed, r1)
         if prior is not None:
             loglik = loglik + prior.logpdf(theta)
         post = np.exp(loglik - loglik.max())
