@@ -20,10 +20,13 @@ from __future__ import annotations
 import argparse
 import math
 import os
+import sys
 import time
 from pathlib import Path
 
 import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from bench.seeds import master
 from mapr_daemon.ema.degradation import FAILURE, trajectory

@@ -27,13 +27,11 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
-from scipy.special import ndtr
 
 from mapr_daemon.arrays import FloatArray
 from mapr_daemon.ema.degradation import FAILURE
-from mapr_daemon.errors import ConfigError
 from mapr_daemon.reasoner.prognosis import trend
-from mapr_daemon.reasoner.prognosis.rul import RulEstimate, quantiles
+from mapr_daemon.reasoner.prognosis.rul import RulEstimate
 
 INFLIGHT_KINDS: dict[str, str] = {"friction": "friction"}
 """In-flight parameter -> the aging kind whose degradation its change measures."""
@@ -89,46 +87,6 @@ def fit_rul_fused(flights: FloatArray, h_est: FloatArray, now: float, kind: str,
     if not inflight:
         return trend.fit_rul(flights, h_est, now, kind, noise, prior, n_draws, seed, horizon,
                              conditions)
-    if kind not in trend.SHAPES:
-        raise ConfigError(f"no aging shape for {kind!r}", field="kind")
-    shape = trend.SHAPES[kind]
-    n_all = np.asarray(flights, dtype=np.float64)
-    est = np.asarray(h_est, dtype=np.float64)
-    cens = noise.censored(est) if est.size else np.zeros(0, dtype=bool)
-    c = None if conditions is None else np.asarray(conditions, dtype=np.float64)[~cens]
-    y_bit = noise.calibrate(est[~cens], c) if (~cens).any() else np.zeros(0)
-    var_bit = noise.h_sd(y_bit, c) ** 2 if y_bit.size else np.zeros(0)
     obs = np.asarray(inflated(inflight), dtype=np.float64).reshape(-1, 3)
-    n = np.concatenate((n_all[~cens], obs[:, 0]))
-    y = np.concatenate((y_bit, obs[:, 1]))
-    var = np.concatenate((var_bit, obs[:, 2] ** 2))
-    if np.unique(n).size < 3:
-        raise ConfigError("need at least three flights to trend", field="flights")
-    if prior is not None:
-        var = var + prior.scatter(y) ** 2
-    w = 1.0 / np.maximum(var, 1e-12)
-    rng = np.random.default_rng(seed)
-    fixed = trend.FIXED_AMPLITUDE.get(kind)
-    if prior is not None and fixed is None and prior.life_sd > 0.0:
-        th, a = trend._joint_draws(shape, n, y, w, prior, n_draws, rng)
-    else:
-        theta = trend._GRIDS[shape]
-        (amp, precision), loglik = trend._grid_fit(shape, n, y, w, fixed)
-        if prior is not None:
-            loglik = loglik + prior.logpdf(theta)
-        post = np.exp(loglik - loglik.max())
-        idx = rng.choice(theta.size, size=n_draws, p=post / post.sum())
-        th = theta[idx]
-        a = amp[idx] + rng.standard_normal(n_draws) / np.sqrt(precision[idx])
-    if cens.any() and noise.floor is not None:   # as fit_rul: censored BITs weight the draws
-        h_c = a[:, None] * trend.basis(shape, th, n_all[cens])
-        h_c = np.where(np.isfinite(h_c), h_c, 1e6)
-        z = (noise.detection - h_c) / noise.detection_sd
-        logw = np.log(np.maximum(ndtr(z), 1e-300)).sum(axis=1)
-        wts = np.exp(logw - logw.max())
-        pick = rng.choice(n_draws, size=n_draws, p=wts / wts.sum())
-        th, a = th[pick], a[pick]
-    ruls = np.maximum(trend.crossing(shape, th, a) - now, 0.0)
-    ruls = np.where(ruls > horizon, math.inf, ruls)
-    q5, q50, q95 = quantiles(ruls)
-    return RulEstimate(q50, q5, q95, ruls, horizon=horizon)
+    return trend.fit_rul(flights, h_est, now, kind, noise, prior, n_draws, seed, horizon,
+                         conditions, extra=(obs[:, 0], obs[:, 1], obs[:, 2]))

@@ -287,31 +287,34 @@ catalogs of ``bench/fleet_rul.py`` (mean lives 70, 200 and 400 flights; 20 units
 true paths only, no estimates); docs/reasoner-measured.md, "Fast-aging units"."""
 
 
-def _whiten(x: FloatArray, rho: float) -> FloatArray:
+def _whiten(x: FloatArray, rho: float, chain: int | None = None) -> FloatArray:
     """AR(1) prewhitening along the last axis of standardised residuals (``x`` already
     divided by their sd): ``u_0 = x_0``, ``u_i = (x_i - rho x_{i-1}) / sqrt(1 - rho**2)``;
     the ``u`` are independent unit normals when the ``x`` are AR(1) with ``rho``, so sums
     of their squares are the correlated likelihood (its log-determinant is fixed by
     ``rho`` and the weights alone, the same at every grid value). The step is per
     successive BIT, not per flight: what correlates the errors (the estimator's bias moving
-    slowly with the degradation and the unit) is not a clock."""
-    if rho == 0.0 or x.shape[-1] < 2:
+    slowly with the degradation and the unit) is not a clock. ``chain``: only the first
+    ``chain`` columns are the BITs' chain; the rest (in-flight observations, another
+    estimator's errors) stay independent."""
+    k = x.shape[-1] if chain is None else min(chain, x.shape[-1])
+    if rho == 0.0 or k < 2:
         return x
     out = np.array(x, dtype=np.float64, copy=True)
-    out[..., 1:] = (x[..., 1:] - rho * x[..., :-1]) / math.sqrt(1.0 - rho * rho)
+    out[..., 1:k] = (x[..., 1:k] - rho * x[..., :k - 1]) / math.sqrt(1.0 - rho * rho)
     return out
 
 
 def _joint_draws(shape: str, n: FloatArray, y: FloatArray, w: FloatArray, prior: ShapePrior,
-                 n_draws: int, rng: np.random.Generator, rho: float = 0.0
-                 ) -> tuple[FloatArray, FloatArray]:
+                 n_draws: int, rng: np.random.Generator, rho: float = 0.0,
+                 chain: int | None = None) -> tuple[FloatArray, FloatArray]:
     """Draws of ``(theta, A)`` from the posterior on the ``(theta, life)`` grid, where the
     amplitude is the one that puts ``h = 1`` at the life: ``A = 1/g_theta(life)``; the
     errors AR(1) with ``rho`` per successive BIT."""
     theta = _GRIDS[shape]
     s = np.sqrt(w)
-    g = _whiten(basis(shape, theta, n) * s, rho)
-    yw = _whiten(y * s, rho)
+    g = _whiten(basis(shape, theta, n) * s, rho, chain)
+    yw = _whiten(y * s, rho, chain)
     amp = 1.0 / np.maximum(basis(shape, theta, LIVES), 1e-300)
     sgg, sgy, syy = (g * g).sum(axis=1), g @ yw, float(yw @ yw)
     loglik = -0.5 * (syy - 2.0 * amp * sgy[:, None] + amp * amp * sgg[:, None])
@@ -330,7 +333,7 @@ def _joint_draws(shape: str, n: FloatArray, y: FloatArray, w: FloatArray, prior:
 
 
 def _grid_fit(shape: str, n: FloatArray, y: FloatArray, w: FloatArray,
-              fixed_amp: float | None, rho: float = 0.0
+              fixed_amp: float | None, rho: float = 0.0, chain: int | None = None
               ) -> tuple[tuple[FloatArray, FloatArray], FloatArray]:
     """Per grid value: the amplitude's mean and precision, and the log marginal likelihood
     (weighted least squares, the errors AR(1) with ``rho`` per successive BIT)."""
@@ -340,12 +343,12 @@ def _grid_fit(shape: str, n: FloatArray, y: FloatArray, w: FloatArray,
     g = np.where(np.isfinite(g), g, 0.0)
     s = np.sqrt(w)
     if fixed_amp is not None:
-        r = _whiten((y[None, :] - fixed_amp * g) * s, rho)
+        r = _whiten((y[None, :] - fixed_amp * g) * s, rho, chain)
         amp = np.full(theta.size, fixed_amp)
         loglik = np.where(ok, -0.5 * (r * r).sum(axis=1), -np.inf)
         return (amp, np.full(theta.size, np.inf)), loglik
-    g = _whiten(g * s, rho)
-    yw = _whiten(y * s, rho)
+    g = _whiten(g * s, rho, chain)
+    yw = _whiten(y * s, rho, chain)
     sgg = (g * g).sum(axis=1)
     sgy = g @ yw
     ok &= sgg > 0.0
@@ -358,38 +361,48 @@ def _grid_fit(shape: str, n: FloatArray, y: FloatArray, w: FloatArray,
 def fit_rul(flights: FloatArray, h_est: FloatArray, now: float, kind: str, noise: Noise,
             prior: ShapePrior | None = None, n_draws: int = 2000, seed: int = 0,
             horizon: float = 2000.0, conditions: FloatArray | None = None,
-            rho: float | None = None) -> RulEstimate:
+            rho: float | None = None,
+            extra: tuple[FloatArray, FloatArray, FloatArray] | None = None) -> RulEstimate:
     """RUL at flight ``now`` of a component of ``kind`` from per-BIT degradation estimates;
     ``conditions (n, 3)``: each BIT's scaled flight condition (NaN rows unknown), at which
     the noise model reads its estimate and weighs it (:meth:`Noise.calibrate`,
     :meth:`Noise.h_sd`); ``rho``: the correlation of successive BITs' standardised errors
-    (None: :data:`SERIAL_RHO`)."""
+    (None: :data:`SERIAL_RHO`). ``extra``: other observations of the same degradation
+    ``(flights, h, sd)``, already in ``h`` with their own sd and independent errors (the
+    in-flight tracker's, :mod:`.fusion`); with them fewer than three BITs may trend, as long
+    as three flights are observed."""
     if kind not in SHAPES:
         raise ConfigError(f"no aging shape for {kind!r}", field="kind")
     shape = SHAPES[kind]
     n_all = np.asarray(flights, dtype=np.float64)
     est = np.asarray(h_est, dtype=np.float64)
-    if n_all.size < 3:
-        raise ConfigError("need at least three BITs to trend", field="flights")
-    cens = noise.censored(est)
-    if (~cens).sum() < 2:  # nothing above the dead zone yet: no degradation to trend
+    xn, xh, xsd = (np.zeros(0), np.zeros(0), np.zeros(0)) if extra is None else (
+        np.asarray(extra[0], dtype=np.float64), np.asarray(extra[1], dtype=np.float64),
+        np.asarray(extra[2], dtype=np.float64))
+    if np.unique(np.concatenate((n_all, xn))).size < 3 or (extra is None and n_all.size < 3):
+        raise ConfigError("need at least three BITs (or flights observed) to trend",
+                          field="flights")
+    cens = noise.censored(est) if est.size else np.zeros(0, dtype=bool)
+    if (~cens).sum() + xn.size < 2:  # nothing above the dead zone yet: no degradation to trend
         return RulEstimate(math.inf, math.inf, math.inf, np.full(n_draws, math.inf),
                            horizon=horizon)
-    n = n_all[~cens]
     c = None if conditions is None else np.asarray(conditions, dtype=np.float64)[~cens]
-    y = noise.calibrate(est[~cens], c)
-    var = noise.h_sd(y, c) ** 2
+    y_bit = noise.calibrate(est[~cens], c) if (~cens).any() else np.zeros(0)
+    chain = y_bit.size   # the BITs' AR(1) chain comes first, the extra observations after
+    n = np.concatenate((n_all[~cens], xn))
+    y = np.concatenate((y_bit, xh))
+    var = np.concatenate((noise.h_sd(y_bit, c) ** 2 if chain else np.zeros(0), xsd ** 2))
     if prior is not None:
         var = var + prior.scatter(y) ** 2
-    w = 1.0 / var
+    w = 1.0 / np.maximum(var, 1e-12)
     rng = np.random.default_rng(seed)
     r1 = SERIAL_RHO if rho is None else rho
     fixed = FIXED_AMPLITUDE.get(kind)
     if prior is not None and fixed is None and prior.life_sd > 0.0:
-        th, a = _joint_draws(shape, n, y, w, prior, n_draws, rng, r1)
+        th, a = _joint_draws(shape, n, y, w, prior, n_draws, rng, r1, chain)
     else:
         theta = _GRIDS[shape]
-        (amp, precision), loglik = _grid_fit(shape, n, y, w, fixed, r1)
+        (amp, precision), loglik = _grid_fit(shape, n, y, w, fixed, r1, chain)
         if prior is not None:
             loglik = loglik + prior.logpdf(theta)
         post = np.exp(loglik - loglik.max())
