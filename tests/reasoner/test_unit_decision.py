@@ -161,3 +161,11 @@ def test_no_second_reading_without_a_commissioning_folder(bench: Bench) -> None:
     d = _held(bench, r, 4)
     assert not {"baseline", "dictionary", "reading"} & set(d.evidence)
     assert np.isfinite(d.confidence)
+
+
+def test_the_config_key_is_read_relative_to_the_config_file(tmp_path: Path) -> None:
+    from mapr_daemon.service.config import load_config
+
+    path = tmp_path / "mapr.yaml"
+    path.write_text("assets:\n  - {name: EMA1, rt: 5, commissioned: units/ema1}\n")
+    assert load_config(path).assets[0].commissioned == str(tmp_path / "units" / "ema1")
