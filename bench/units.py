@@ -157,6 +157,9 @@ def main() -> int:
             tc = time.monotonic()
             reasoner = Reasoner(unit_d, sheet, baseline=_baseline(sheet, runs, comm))
             t_commission += time.monotonic() - tc
+            print(f"  unit {u + 1}/{len(units)}: identified and discrepancy learned in "
+                  f"{time.monotonic() - tc:.1f} s (wall {time.monotonic() - start:.0f} s so "
+                  f"far)", flush=True)
         healthy_read = 0
         for i in own:
             if who[i][1] == "commission":
