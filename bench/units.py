@@ -18,11 +18,21 @@ dictionary
 built on the identified actuator (``--spec``, default the shipped one), then calibrated to
 the unit; slower (a dictionary per unit).
 
+With ``--baseline`` each unit is also commissioned as ``mapr commission`` does it for the
+baseline reading: its parameters identified from the same BITs and the model's discrepancy
+learned on them (:func:`mapr_daemon.reasoner.commissioning.discrepancy.learn_unit`); every BIT
+the calibrated dictionary flags then goes through the product's path
+(:meth:`mapr_daemon.reasoner.reasoner.Reasoner.against_baseline`, what the daemon does for an
+asset with ``commissioned:``), and a third table gives the decisions with the baseline reading
+on. The CPU time of each reading is printed (mean and worst), and ``--healthy-reads`` of each
+unit's healthy BITs are read against the baseline whatever the dictionary says, to show how
+often a healthy BIT's reading would pass the "explains" rule.
+
 Seeds: a master seed, drawn afresh unless ``--seed`` is given, is printed first; the fleet,
 conditions, magnitudes and per-run noise seeds (10^9..2^62) come from it.
 
 Run:  python3 bench/units.py --actuator FILE --dictionary DICT [--units 30]
-      [--commission-bits 20] [--healthy 20] [--seed N]
+      [--commission-bits 20] [--healthy 20] [--seed N] [--baseline [--healthy-reads 3]]
 """
 
 from __future__ import annotations
@@ -44,10 +54,14 @@ from mapr_daemon.ema.batch import RunSpec
 from mapr_daemon.ema.faults import SWITCHES, Fault, FaultSet, at_severity
 from mapr_daemon.ema.params import ActuatorParams, default_actuator_path, load_actuator
 from mapr_daemon.reasoner.commissioning import calibrate
+from mapr_daemon.reasoner.commissioning.baseline import Baseline
 from mapr_daemon.reasoner.commissioning.bits import from_runs
-from mapr_daemon.reasoner.commissioning.identify import identify
+from mapr_daemon.reasoner.commissioning.discrepancy import learn_unit
+from mapr_daemon.reasoner.commissioning.identify import FitOptions, identify
+from mapr_daemon.reasoner.commissioning.unit_decision import explains
 from mapr_daemon.reasoner.diagnosis import classifier, parts
 from mapr_daemon.reasoner.diagnosis.dictionary import Dictionary, DictionarySpec
+from mapr_daemon.reasoner.reasoner import Reasoner
 from mapr_daemon.reasoner.training.corpus import Runs, simulate_bit
 from mapr_daemon.reasoner.training.dictionary_build import build, run_matrices
 from mapr_daemon.testbed.mismatch import fleet
@@ -70,9 +84,16 @@ def main() -> int:
     ap.add_argument("--identify", action="store_true",
                     help="identify each unit and build its dictionary before calibrating")
     ap.add_argument("--spec", type=Path, help="dictionary spec for --identify")
+    ap.add_argument("--baseline", action="store_true",
+                    help="also identify each unit, learn its discrepancy and decide with the "
+                         "reading against its baseline (the daemon's assets[].commissioned)")
+    ap.add_argument("--healthy-reads", type=int, default=3,
+                    help="with --baseline: healthy BITs per unit read against the baseline "
+                         "whatever the dictionary says")
     args = ap.parse_args()
     seed = master(args.seed, f"python3 bench/units.py --actuator {args.actuator} "
-                  f"--dictionary {args.dictionary}")
+                  f"--dictionary {args.dictionary} --units {args.units}"
+                  + (" --baseline" if args.baseline else ""))
     start, cpu0 = time.monotonic(), time.process_time()
     sheet = load_actuator(args.actuator)
     d = Dictionary.load(args.dictionary)
@@ -114,6 +135,10 @@ def main() -> int:
           f"({args.commission_bits} commissioning BITs per unit)")
     before: list[classifier.Decision | None] = []
     after: list[classifier.Decision | None] = []
+    with_base: list[classifier.Decision | None] = []
+    read_cpu: list[float] = []
+    healthy_reads: list[tuple[bool, float]] = []  # explains, cost drop
+    t_commission = 0.0
     widened: list[int] = []
     raised: dict[str, list[float]] = {}
     t0 = time.monotonic()
@@ -127,22 +152,68 @@ def main() -> int:
         widened.append(report.widened_cells)
         for stat, (old, new) in report.thresholds.items():
             raised.setdefault(stat, []).append(new / old)
+        reasoner = None
+        if args.baseline:
+            tc = time.monotonic()
+            reasoner = Reasoner(unit_d, sheet, baseline=_baseline(sheet, runs, comm))
+            t_commission += time.monotonic() - tc
+            print(f"  unit {u + 1}/{len(units)}: identified and discrepancy learned in "
+                  f"{time.monotonic() - tc:.1f} s (wall {time.monotonic() - start:.0f} s so "
+                  f"far)", flush=True)
+        healthy_read = 0
         for i in own:
             if who[i][1] == "commission":
                 continue
             before.append(classifier.decide(d, m[i], q[i]))
-            after.append(classifier.decide(unit_d, m[i], q[i]))
+            dec = classifier.decide(unit_d, m[i], q[i])
+            after.append(dec)
+            if reasoner is None:
+                continue
+            channels = {k: v[i] for k, v in runs.channels.items()}
+            if dec.anomaly and not dec.inconclusive:
+                c0 = time.process_time()
+                dec = reasoner.against_baseline(dec, channels, runs.command_deg, q[i])
+                read_cpu.append(time.process_time() - c0)
+            with_base.append(dec)
+            if who[i][1] == "healthy" and healthy_read < args.healthy_reads:
+                assert reasoner.baseline is not None
+                healthy_read += 1
+                r = reasoner.baseline.read(channels, runs.command_deg, q[i])
+                healthy_reads.append((explains(r), 0.0 if isinstance(r, str)
+                                      else r.healthy_cost - r.cost))
     print(f"calibrated and decided in {time.monotonic() - t0:.1f} s; cells widened > 2x per "
           f"unit: median {int(np.median(widened))}, max {max(widened)}; thresholds raised by "
           + ", ".join(f"{k} x{np.median(v):.2f} median, x{max(v):.2f} max"
                       for k, v in raised.items()))
     scored = [w for w in who if w[1] != "commission"]
-    for name, decs in (("the data sheet's dictionary", before),
-                       ("calibrated to each unit", after)):
+    blocks = [("the data sheet's dictionary", before), ("calibrated to each unit", after)]
+    if args.baseline:
+        blocks.append(("calibrated to each unit + the reading against its baseline "
+                       "(assets[].commissioned)", with_base))
+        drops = [x for _, x in healthy_reads]
+        print(f"baseline: identified + discrepancy learned in {t_commission:.1f} s wall for "
+              f"{len(units)} units; {len(read_cpu)} flagged BITs read against it, CPU per "
+              f"reading mean {np.mean(read_cpu) if read_cpu else 0:.2f} s, worst "
+              f"{max(read_cpu, default=0.0):.2f} s; {len(healthy_reads)} healthy BITs read "
+              f"whatever the dictionary said: {sum(e for e, _ in healthy_reads)} would be "
+              f"explained as a fault, cost drop median {np.median(drops) if drops else 0:.2f},"
+              f" largest {max(drops, default=0.0):.2f}")
+    for name, decs in blocks:
         report_block(name, scored, decs)
     print(f"\ntotal wall {time.monotonic() - start:.1f} s, CPU {time.process_time() - cpu0:.1f}"
           f" s; load average {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
     return 0
+
+
+def _baseline(sheet: ActuatorParams, runs: Runs, comm: list[int]) -> Baseline:
+    """The unit's commissioned baseline as ``mapr commission`` writes it: the actuator
+    identified from ``comm`` and the discrepancy learned on the BITs the identification used
+    (fault ranges on the data sheet)."""
+    bits = from_runs(runs, "bench", comm)
+    ident = identify(sheet, bits)
+    used = {b.index for b in ident.bits}
+    disc = learn_unit(ident.params, [b for b in bits if b.index in used], FitOptions().decimate)
+    return Baseline(ident.params, sheet, disc)
 
 
 def _identified(sheet: ActuatorParams, runs: Runs, comm: list[int],

@@ -44,6 +44,8 @@ from mapr_daemon.pipeline.settings import AssetConfig, PipelineConfig
 if TYPE_CHECKING:
     from drivers.chapter10.ms1553_batch import Ms1553Batch
     from mapr_daemon.pipeline.trending import Trending
+    from mapr_daemon.reasoner.commissioning.baseline import Baseline
+    from mapr_daemon.reasoner.diagnosis.dictionary import Dictionary
     from mapr_daemon.reasoner.prognosis.prognostic_model import PrognosticModel
 
 
@@ -297,7 +299,30 @@ def _reasoner(config: PipelineConfig, asset: AssetConfig, i: int, path: str, loa
             raise ConfigError(error.detail, path=config.source,
                               field=f"assets[{i}].expected_life_flights") from None
     params = load_actuator(asset.actuator)
-    reasoner = Reasoner(loaded[path], params, prognostic=model)
+    baseline = None if asset.commissioned is None else _baseline(config, asset, i, loaded[path])
+    reasoner = Reasoner(loaded[path], params, prognostic=model, baseline=baseline)
     watch = BitWatch(reasoner, signals=asset.signals, bit=params.bit,
                      threshold=config.reasoner.threshold, paper=config.reasoner.paper)
     return watch, model
+
+
+def _baseline(config: PipelineConfig, asset: AssetConfig, i: int, dictionary: Dictionary
+              ) -> Baseline:
+    """The asset's commissioned baseline; one ConfigError (``assets[i].commissioned``, the
+    file that is wrong named in the message) when the folder cannot be used."""
+    from mapr_daemon.reasoner.commissioning.baseline import Baseline
+    field = f"assets[{i}].commissioned"
+    assert asset.commissioned is not None
+    try:
+        baseline = Baseline.load(asset.commissioned)
+    except ConfigError as error:
+        raise ConfigError(str(error), path=config.source, field=field) from None
+    except (OSError, ValueError, KeyError, TypeError) as error:
+        raise ConfigError(f"cannot read the commissioning folder {asset.commissioned}: {error}",
+                          path=config.source, field=field) from None
+    rate = baseline.params.sensors.sample_rate_hz
+    if abs(rate - dictionary.sample_rate_hz) > 1e-9:
+        raise ConfigError(f"the commissioned unit {asset.commissioned} is at {rate:g} Hz, its "
+                          f"dictionary at {dictionary.sample_rate_hz:g} Hz", path=config.source,
+                          field=field)
+    return baseline

@@ -41,6 +41,11 @@ class AssetConfig:
     """Per aging kind, the life the fleet's parts are expected to reach, in flights (the
     user's reliability figure; the trend holds it loosely). Absent: the prognostic model's
     own, which is the aging model's assumption (200 flights)."""
+    commissioned: str | None = None
+    """The unit's ``mapr commission`` folder (None: the dictionary alone). With it, every BIT
+    the dictionary flags is also read against the unit's commissioned baseline, which gives
+    the event's mode, part and severity when it explains the BIT
+    (:mod:`mapr_daemon.reasoner.commissioning.unit_decision`)."""
 
 
 @dataclasses.dataclass(frozen=True)

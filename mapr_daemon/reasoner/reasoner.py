@@ -46,6 +46,7 @@ from mapr_daemon.reasoner.ekf.model import NEEDED
 from mapr_daemon.reasoner.prognosis import soh
 
 if TYPE_CHECKING:
+    from mapr_daemon.reasoner.commissioning.baseline import Baseline
     from mapr_daemon.reasoner.prognosis.prognostic_model import PrognosticModel
 
 RECORD_ERRORS: tuple[type[Exception], ...] = (RecordError, ValueError, ArithmeticError)
@@ -79,12 +80,21 @@ class Reasoner:
     reference moves to the mean of those estimates, and that record's event says so in
     ``evidence.model_adaptation`` (which parameters, from what to what). Later records'
     ``evidence.parameter_changes`` are measured from the adapted model.
+
+    With the unit's commissioned ``baseline`` (a ``mapr commission`` folder,
+    :class:`~mapr_daemon.reasoner.commissioning.baseline.Baseline`), every BIT the dictionary
+    flags is also read against it, and the event's mode, part and severity are the baseline
+    reading's when it explains the BIT
+    (:func:`~mapr_daemon.reasoner.commissioning.unit_decision.combine`); both readings are in
+    the evidence. Detection, and every BIT the dictionary calls nominal, are unchanged.
     """
 
     def __init__(self, dictionary: Dictionary, params: ActuatorParams,
-                 confirm_after: int = 3, prognostic: PrognosticModel | None = None) -> None:
+                 confirm_after: int = 3, prognostic: PrognosticModel | None = None,
+                 baseline: Baseline | None = None) -> None:
         self.dictionary = dictionary
         self.params = params
+        self.baseline = baseline
         self.prognostic = prognostic
         """With it, each event carries ``wear``: the BIT's degradation estimate per aging
         kind, what the actuator's trend is fitted on
@@ -119,6 +129,8 @@ class Reasoner:
         if not (math.isfinite(dec.score) and math.isfinite(dec.confidence)):
             raise RecordError(f"the classifier's statistic is not finite (score {dec.score}, "
                               f"confidence {dec.confidence})", field="classifier")
+        if self.baseline is not None and dec.anomaly and not dec.inconclusive:
+            dec = self.against_baseline(dec, channels, command_deg, dynamic_pressure_pa)
         diagnosis = self.event(dec, est)
         if est is not None:
             diagnosis = diagnosis.with_evidence(**self._adapt(est))
@@ -129,6 +141,27 @@ class Reasoner:
                 conditions=self.prognostic.bit_conditions(self.dictionary, m,
                                                           dynamic_pressure_pa))
         return diagnosis
+
+    def against_baseline(self, dec: classifier.Decision, channels: Mapping[str, FloatArray],
+                         command_deg: FloatArray, dynamic_pressure_pa: float
+                         ) -> classifier.Decision:
+        """``dec`` weighed with the BIT's reading against :attr:`baseline` (which must be
+        set). A BIT the baseline cannot read (a channel it needs missing, a numerical refusal)
+        keeps the dictionary's decision, the reason in ``evidence.baseline.unreadable``."""
+        from mapr_daemon.reasoner.commissioning.unit_decision import combine
+
+        assert self.baseline is not None
+        rate = self.baseline.params.sensors.sample_rate_hz
+        reading: Any
+        if abs(rate - self.dictionary.sample_rate_hz) > 1e-9:
+            reading = (f"the baseline is at {rate:g} Hz, the record at "
+                       f"{self.dictionary.sample_rate_hz:g} Hz")
+        else:
+            try:
+                reading = self.baseline.read(dict(channels), command_deg, dynamic_pressure_pa)
+            except RECORD_ERRORS as error:
+                reading = f"{type(error).__name__}: {error}"
+        return combine(dec, reading, self.baseline)
 
     def diagnose_or_flag(self, channels: Mapping[str, FloatArray], command_deg: FloatArray,
                          dynamic_pressure_pa: float, paper: bool = False) -> Diagnosis:

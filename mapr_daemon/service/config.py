@@ -205,7 +205,7 @@ def _assets(r: SectionReader, root: Node, value: Any) -> tuple[AssetConfig, ...]
             extra["actuator"] = r.value(item, "actuator", prefix, raw["actuator"], "path")
         if "signals" in raw:
             extra["signals"] = _signals(r, item, prefix, raw["signals"])
-        for key in ("dictionary", "prognosis"):
+        for key in ("dictionary", "prognosis", "commissioned"):
             if key in raw:
                 extra[key] = r.value(item, key, prefix, raw[key], "path", optional=True)
         if "expected_life_flights" in raw:

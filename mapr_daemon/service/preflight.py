@@ -106,7 +106,8 @@ def _file_backend(config: Config, where: Node | None, path: str) -> None:
 
 
 def _assets(config: Config, root: Node | None, path: str) -> None:
-    """Every asset's actuator file, dictionary and prognostic model exist and are readable."""
+    """Every asset's actuator file, dictionary, prognostic model and commissioning record
+    exist and are readable (what is inside them is checked when the pipeline loads them)."""
     items = root.get("assets") if root is not None else None
     for i, asset in enumerate(config.assets):
         node = items[i] if isinstance(items, list) and i < len(items) else None
@@ -116,6 +117,12 @@ def _assets(config: Config, root: Node | None, path: str) -> None:
             problem = None if name is None else _unreadable(Path(name))
             if problem:
                 raise _error(where, key, f"assets[{i}].{key}", f"{name}: {problem}", path)
+        if asset.commissioned is not None:
+            record = Path(asset.commissioned) / "commissioning.json"
+            problem = _unreadable(record)
+            if problem:
+                raise _error(where, "commissioned", f"assets[{i}].commissioned",
+                             f"{record}: {problem} (a mapr commission folder)", path)
 
 
 def _reasoner_dictionary(config: Config, root: Node | None, path: str) -> None:
