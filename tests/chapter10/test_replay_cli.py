@@ -151,7 +151,8 @@ def test_a_recorded_bit_flight_is_diagnosed_as_the_daemon_would(
     assert code == exitcodes.OK
     lines = out.splitlines()
     assert lines[1].startswith("ICD ema-testbed: ") and ", 0 not in the table" in lines[1]
-    assert lines[2] == "diagnosis: 1 built-in tests diagnosed, 1 anomaly events written"
+    assert lines[2] == ("diagnosis: 1 built-in tests diagnosed, 1 anomaly events written, "
+                        "0 in-flight estimates stored (one per actuator and flight)")
     with CatalogReader(db) as catalog:
         (event,) = catalog.events()
         (session,) = catalog.sessions()

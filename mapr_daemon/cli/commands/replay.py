@@ -333,7 +333,7 @@ class Replay:
             else:
                 lines.append(f"diagnosis: {self.pipe.bits_seen} built-in tests diagnosed, "
                              f"{self.events} anomaly events written, "
-                             f"{self.inflight_rows} in-flight estimates (per actuator and "
-                             "flight)")
+                             f"{self.inflight_rows} in-flight estimates stored (one per "
+                             "actuator and flight)")
         lines.append(f"catalog {self.catalog.path}: session {session}")
         return "\n".join(lines)

@@ -33,8 +33,8 @@ from mapr_daemon.reasoner.commissioning.bits import (
     fit_signals,
     signal_noise,
 )
+from mapr_daemon.reasoner.commissioning.problem import FRICTION
 
-FRICTION = ("motor.viscous_friction_nm_s", "motor.coulomb_friction_nm")
 CHUNK = 500
 
 
