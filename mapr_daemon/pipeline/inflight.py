@@ -73,13 +73,27 @@ class InflightWatch:
         """Time tag of the last sample fed."""
         self.end_abs: int | None = None
         """Absolute time (epoch ns) of the last sample fed (the pipeline's clock)."""
+        self.skipped = 0
+        """Batches the tracker could not use (see :meth:`feed`)."""
+        self.last_error: str | None = None
 
     def resume(self, rows: Sequence[InflightEstimate]) -> None:
         """Continue the baseline from this actuator's stored rows (oldest first)."""
         self.baseline.resume((r.flight, r.parameters) for r in rows if r.asset == self.asset)
 
     def feed(self, series: Mapping[str, Series]) -> None:
-        """Take a batch of decoded series (in time order, as the pipeline gets them)."""
+        """Take a batch of decoded series (in time order, as the pipeline gets them). The
+        tracker is a second reading beside the BITs: a batch it cannot use costs its own
+        stretch (counted in :attr:`skipped`, the error kept in :attr:`last_error`), never
+        the daemon, the replay or the BITs."""
+        try:
+            self._feed(series)
+        except (ArithmeticError, ValueError, IndexError, np.linalg.LinAlgError) as exc:
+            self.skipped += 1
+            self.last_error = f"{type(exc).__name__}: {exc}"
+            self._gap()
+
+    def _feed(self, series: Mapping[str, Series]) -> None:
         tb = series.get(self.timebase)
         self._requests(series)
         if tb is None or tb.t_ns.size == 0:
@@ -95,7 +109,11 @@ class InflightWatch:
             same = s.t_ns.size == t.size and np.array_equal(s.t_ns, tb.t_ns)
             channels[channel] = v if same else np.interp(t, s.t_ns.astype(np.float64), v)
         q = self._pressure(series, t)
-        keep = ~self._in_bit(t)
+        # a sample the decoder could not read (NaN: a short message, a bad word) is not
+        # flight traffic: it splits the stretch as a BIT does, never reaches the estimator
+        finite = np.isfinite(q) & np.logical_and.reduce(
+            [np.isfinite(v) for v in channels.values()])
+        keep = ~self._in_bit(t) & finite
         cut = np.flatnonzero(np.diff(t) > JUMP * self.period_ns) + 1
         starts = np.concatenate(([0], cut))
         stops = np.concatenate((cut, [t.size]))
@@ -111,8 +129,8 @@ class InflightWatch:
         for a, b in itertools.pairwise(bounds):
             if b <= a or not keep[a]:
                 continue
-            if self.last_t is None or t[a] - self.last_t > JUMP * self.period_ns:
-                self.acc.gap()
+            if self.last_t is None or a > 0 or t[a] - self.last_t > JUMP * self.period_ns:
+                self.acc.gap()   # after a jump, a BIT or unreadable samples: not contiguous
             self.acc.feed({k: v[a:b] for k, v in channels.items()}, q[a:b])
             self.last_t = float(t[b - 1])
 
@@ -147,7 +165,9 @@ class InflightWatch:
         vq = np.asarray(s.value, dtype=np.float64).reshape(tq.size, -1)[:, 0]
         idx = np.searchsorted(tq, t, side="right") - 1
         out = np.where(idx >= 0, vq[np.maximum(idx, 0)], self.q)
-        self.q = float(vq[-1])
+        readable = vq[np.isfinite(vq)]
+        if readable.size:   # an unreadable pressure is never carried into later batches
+            self.q = float(readable[-1])
         return out
 
     def finish(self, tail: str) -> InflightEstimate | None:
@@ -156,8 +176,8 @@ class InflightWatch:
         flight_s = self.acc.samples / (1e9 / self.period_ns)
         try:
             estimate = self.acc.finish()
-        except RecordError:
-            estimate = None
+        except (RecordError, ArithmeticError, ValueError, np.linalg.LinAlgError):
+            estimate = None   # no estimate this flight; the flight's BITs are unaffected
         self.last_t = None
         flight, self.flight = self.flight, None
         t_ns, self.end_abs = self.end_abs, None

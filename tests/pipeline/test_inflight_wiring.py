@@ -8,6 +8,7 @@ BIT request in the middle: the BIT's samples are not flight traffic.
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -99,3 +100,24 @@ def test_a_restart_continues_the_baseline_from_the_stored_rows(
     again.resume(rows)
     assert again.baseline.value("friction") == pytest.approx(
         first.baseline.value("friction"))
+
+
+def test_unreadable_samples_cost_their_stretch_not_the_flight(
+        params: ActuatorParams, flights: list[dict[str, np.ndarray]]) -> None:
+    """A short message decodes to NaN: those samples never reach the estimator (which would
+    fail on them), the batch is not lost, and the flight still ends with its row."""
+    rate = params.sensors.sample_rate_hz
+    watch = InflightWatch("EMA1", params, BitCutter(params.bit, rate))
+    watch.flight = 1
+    for i, batch in enumerate(_batches(flights[0], int(1e12), rate, bit_at_s=20.0)):
+        if i == 1:
+            current = watch.signals["phase_a_current_a"]
+            s = batch[current]
+            value = np.array(s.value, dtype=np.float64, copy=True)
+            value[: min(10, value.size)] = np.nan
+            batch = {**batch, current: dataclasses.replace(s, value=value)}
+        watch.feed(batch)
+    row = watch.finish("N1")
+    assert row is not None
+    assert watch.skipped == 0   # the NaN samples were left out, nothing had to be skipped
+    assert row.flight_s > 0.8 * (flights[0]["position_deg"].size / rate - 2.0)
