@@ -159,7 +159,9 @@ class Reasoner:
         else:
             try:
                 reading = self.baseline.read(dict(channels), command_deg, dynamic_pressure_pa)
-            except RECORD_ERRORS as error:
+            except (*RECORD_ERRORS, IndexError, KeyError, TypeError) as error:
+                # a second reading: whatever it cannot read (a record, or a baseline whose
+                # arrays do not fit it) leaves the dictionary's decision, never loses it
                 reading = f"{type(error).__name__}: {error}"
         return combine(dec, reading, self.baseline)
 

@@ -141,6 +141,12 @@ def test_an_unusable_commissioning_folder_is_one_config_error_naming_the_file(
     message = str(caught.value)
     assert message.startswith("x.yaml: assets[0].commissioned: ")
     assert str(broken / "discrepancy.npz") in message and len(message.splitlines()) == 1
+    # a file cut short (a copy interrupted): still one line naming it, not a traceback
+    whole = (unit / "discrepancy.npz").read_bytes()
+    (broken / "discrepancy.npz").write_bytes(whole[: len(whole) // 2])
+    with pytest.raises(ConfigError) as caught:
+        build_pipeline(_config(bench, tmp_path, broken), trend=False)   # type: ignore[arg-type]
+    assert str(broken / "discrepancy.npz") in str(caught.value)
     # a missing folder stops `mapr run --check` with the config exit code, in one line
     config = tmp_path / "mapr.yaml"
     config.write_text(f"reasoner:\n  dictionary: {tmp_path / 'd.npz'}\nassets:\n"

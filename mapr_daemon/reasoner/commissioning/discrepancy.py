@@ -39,6 +39,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import zipfile
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -224,8 +225,11 @@ class Discrepancy:
                            z["learned_on"], fits)
         except OSError as error:
             raise ConfigError(f"cannot read: {error}", path=str(path)) from None
-        except (KeyError, ValueError, TypeError) as error:
-            raise ConfigError(f"malformed discrepancy file ({error})", path=str(path)) from None
+        except (KeyError, ValueError, TypeError, AttributeError, IndexError,
+                zipfile.BadZipFile, EOFError) as error:
+            # a truncated file (a bad zip), a meta that is JSON but not an object: one line
+            raise ConfigError(f"malformed discrepancy file ({type(error).__name__}: {error})",
+                              path=str(path)) from None
 
 
 def _components(z: FloatArray, rank: int) -> tuple[FloatArray, FloatArray]:
