@@ -54,6 +54,9 @@ RECORD_ERRORS: tuple[type[Exception], ...] = (RecordError, ValueError, Arithmeti
 checks (:class:`~mapr_daemon.errors.RecordError`) and the numerical libraries' refusals
 (numpy's ``LinAlgError`` and scipy's non-finite checks are ``ValueError``; ``ArithmeticError``
 covers division and overflow). A configuration error stays fatal: it would fail every record."""
+BASELINE_ERRORS: tuple[type[Exception], ...] = (*RECORD_ERRORS, IndexError, KeyError, TypeError)
+"""What the unit's baseline reading may fail with on one record (a baseline whose arrays do not
+fit it as well): the dictionary's decision stands, the reason in the evidence."""
 
 
 def check_record(channels: Mapping[str, FloatArray]) -> None:
@@ -159,7 +162,7 @@ class Reasoner:
         else:
             try:
                 reading = self.baseline.read(dict(channels), command_deg, dynamic_pressure_pa)
-            except (*RECORD_ERRORS, IndexError, KeyError, TypeError) as error:
+            except BASELINE_ERRORS as error:
                 # a second reading: whatever it cannot read (a record, or a baseline whose
                 # arrays do not fit it) leaves the dictionary's decision, never loses it
                 reading = f"{type(error).__name__}: {error}"
