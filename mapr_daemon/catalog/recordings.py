@@ -23,7 +23,8 @@ import dataclasses
 import sqlite3
 from collections.abc import Sequence
 
-from mapr_daemon.catalog.model import BitOutcome, Flight
+from mapr_daemon.catalog.inflight import insert_inflight
+from mapr_daemon.catalog.model import BitOutcome, Flight, InflightEstimate
 from mapr_daemon.catalog.writer import CatalogWriter, now_ns
 from mapr_daemon.errors import CatalogError
 
@@ -91,9 +92,11 @@ def _episodes_as(outcome: BitOutcome) -> str:
 
 
 def store_recording(writer: CatalogWriter, row: RecordingRow,
-                    outcomes: Sequence[BitOutcome], flights: Sequence[Flight] = ()) -> bool:
+                    outcomes: Sequence[BitOutcome], flights: Sequence[Flight] = (),
+                    inflight: Sequence[InflightEstimate] = ()) -> bool:
     """Store one recording's row, its BITs (plain asset and ``tail``; events and episodes
-    under ``TAIL/ASSET``) and the ``flights`` they were flown on in one transaction; False
+    under ``TAIL/ASSET``), the ``flights`` they were flown on and the flight's ``inflight``
+    estimates in one transaction (a recording marked done always has all of them); False
     (nothing written) if the catalog already holds it as done. A failed row is replaced."""
     stamp = row.processed_ns or now_ns()
     session = writer.session_id
@@ -112,6 +115,8 @@ def store_recording(writer: CatalogWriter, row: RecordingRow,
             "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
             (row.digest, row.path, row.tail, int(row.flight), row.flight_hours, row.status,
              row.error, int(row.bits), int(row.events), session, stamp, row.config_digest))
+        if inflight:
+            insert_inflight(conn, session, list(inflight))
         written = True
         return True
 

@@ -182,9 +182,8 @@ class FleetRun:
             outcomes, flights, inflight = self.trend.flight(
                 recording.tail, recording.flight, result.flight_hours, result.outcomes,
                 result.inflight)
-        if store_recording(self.catalog, row, outcomes, flights):
+        if store_recording(self.catalog, row, outcomes, flights, inflight):
             if result.ok:
-                self.catalog.add_inflight(inflight)
                 summary.stored += 1
                 summary.events += result.events
                 summary.bits += len(outcomes)
