@@ -14,7 +14,8 @@ the self-pipe (:mod:`.wakeup`) or a timer is due — no polling. SIGTERM/SIGINT 
 the session (exit 0 well within a second); SIGHUP reloads the config and ICD, keeping the old
 ones if the new ones are invalid. A failing backend becomes a catalog gap and a retry, never
 an exit; a reasoner that falls behind becomes a log line, a STATUS and a catalog gap. A
-catalog write that fails keeps its BITs in memory and retries them (:mod:`.spool`); a BIT the
+catalog write that fails keeps its BITs in memory and retries them (:mod:`.spool`), and
+ended flights' in-flight rows likewise (:meth:`Service._retry_inflight`); a BIT the
 reasoner fails on is counted and logged as a reasoner failure (monitoring went on: it is no
 gap).
 """
@@ -51,6 +52,11 @@ from mapr_daemon.service.wakeup import Doorbell, SignalPipe
 log = logging.getLogger("mapr")
 TURN_S = 0.05
 """Longest the loop handles queued work before it looks at signals and timers again."""
+INFLIGHT_RETRY_S = 5.0
+"""How often held in-flight rows are offered to a catalog that refused them."""
+INFLIGHT_HELD = 10_000
+"""In-flight rows held at most while the catalog cannot be written (a row per actuator and
+flight: years of flights of a few actuators); beyond, the oldest go."""
 
 
 def prepare(config: Config) -> Pipeline:
@@ -81,6 +87,9 @@ class Service:
             raise ConfigError(str(error), path=config.source, field="catalog.path") from None
         self.spool = CatalogSpool(self.catalog.add_bits)
         """Diagnosed BITs on their way to the catalog, held while it cannot be written."""
+        self.inflight_held: list[InflightEstimate] = []
+        """Ended flights' in-flight rows the catalog could not take yet (retried, as BITs)."""
+        self._inflight_retry_at = 0.0
         self.queue: queue.Queue[Item] = queue.Queue(maxsize=config.queue_batches)
         self.doorbell = Doorbell()
         self.reader: BusReader | None = None
@@ -177,6 +186,7 @@ class Service:
                 backlog = self._work(TURN_S)
                 self._check_dropped()
                 self._written(self.spool.retry())
+                self._retry_inflight()
                 self._timers()
                 timeout = 0.0 if backlog else self._until_due()
         finally:
@@ -245,6 +255,9 @@ class Service:
         if self.spool.held_bits:
             log.error("stopping with the catalog unwritable: %d BITs (%d events) not written",
                       self.spool.held_bits, self.spool.held_events)
+        if self.inflight_held:
+            log.error("stopping with the catalog unwritable: %d in-flight estimates not "
+                      "written", len(self.inflight_held))
         try:
             self._flush_stats()
             if self.gap_id is not None:
@@ -317,8 +330,27 @@ class Service:
             log.info("flight %s of %s: in-flight estimate stored (%s)", row.flight,
                      display_name(self.config.aircraft.tail, row.asset),
                      ", ".join(f"{k} {p.get('change')}" for k, p in row.parameters.items()))
-        if rows:
-            self._catalog(self.catalog.add_inflight, rows)
+        self.inflight_held += rows
+        self._retry_inflight(force=True)
+
+    def _retry_inflight(self, force: bool = False) -> None:
+        """Write the held in-flight rows; while the catalog cannot take them they are held
+        (the newest :data:`INFLIGHT_HELD` at most) and retried every
+        :data:`INFLIGHT_RETRY_S`, since the trend already counts them: a row lost would move
+        the unit's in-flight baseline after a restart."""
+        if not self.inflight_held or (not force and time.monotonic() < self._inflight_retry_at):
+            return
+        try:
+            self.catalog.add_inflight(self.inflight_held)
+        except CatalogError as error:
+            first = self._inflight_retry_at == 0.0
+            self.inflight_held = self.inflight_held[-INFLIGHT_HELD:]
+            self._inflight_retry_at = time.monotonic() + INFLIGHT_RETRY_S
+            (log.error if first else log.debug)(
+                "catalog: %s (%d in-flight estimates held, retried every %g s)", error,
+                len(self.inflight_held), INFLIGHT_RETRY_S)
+            return
+        self.inflight_held, self._inflight_retry_at = [], 0.0
 
     def _written(self, batches: list[Written]) -> None:
         """Count and log (info: the proof it is durable) the events of batches the catalog

@@ -62,3 +62,33 @@ def test_the_daemon_names_actuators_tail_slash_actuator_as_health_does(
     assert "event 7 written: N900/EMA1 anomaly, fault esr, confidence 0.90" in mapr_log.text
     service.catalog.close("test")
     service.doorbell.close()
+
+
+def test_in_flight_rows_the_catalog_refuses_are_held_and_arrive_once(
+        tmp_path: Path, mapr_log: pytest.LogCaptureFixture) -> None:
+    """A catalog locked by another writer when a flight ends: its in-flight row is held (the
+    trend already counts it) and written once the lock is gone, not dropped."""
+    from mapr_daemon.catalog.model import InflightEstimate
+
+    path = tmp_path / "catalog.sqlite"
+    service = Service(Config(catalog=CatalogConfig(path=str(path))), None)
+    service.catalog.open_session(backend="testbed", config_hash="x")
+    service.catalog.conn.execute("PRAGMA busy_timeout = 20")   # a locked write fails at once
+    row = InflightEstimate(tail="N1", asset="EMA1", flight=4, t_ns=1, flight_s=250.0,
+                           filtered_s=50.0, parameters={"friction": {"value": 1.1}},
+                           qualified_s={"friction": 50.0})
+    other = sqlite3.connect(path, isolation_level=None)
+    other.execute("BEGIN EXCLUSIVE")
+    with mapr_log.at_level(logging.ERROR, logger="mapr"):
+        service._inflight([row])
+    assert service.inflight_held == [row]
+    assert "1 in-flight estimates held" in mapr_log.text
+    other.execute("ROLLBACK")
+    other.close()
+    service._retry_inflight(force=True)
+    service._retry_inflight(force=True)
+    assert service.inflight_held == []
+    service.catalog.close("test")
+    service.doorbell.close()
+    with sqlite3.connect(path) as conn:
+        assert conn.execute("SELECT flight FROM inflight").fetchall() == [(4,)]
