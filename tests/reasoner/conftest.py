@@ -8,6 +8,8 @@ magnitudes between the dictionary's) are what the classifier tests decide on.
 from __future__ import annotations
 
 import dataclasses
+import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -75,3 +77,27 @@ def bench() -> Bench:
     d = dictionary_build.assemble(params, SPEC, m[own], runs.dynamic_pressure_pa[own],
                        [r for r in roles if r != "held"], starts, runs.sample_rate_hz)
     return Bench(params, d, runs, m, m[role == "held"], runs.dynamic_pressure_pa[role == "held"])
+
+
+def commissioned_folder(bench: Bench, folder: Path, count: int = 6) -> Path:
+    """A ``mapr commission`` folder made from the first ``count`` of the bench's own healthy
+    runs (the unit is the data sheet's twin: what the callers test is the reading's wiring,
+    not what the discrepancy learns): the actuator, the learned discrepancy and the record."""
+    from mapr_daemon.ema.dump import write_actuator
+    from mapr_daemon.reasoner.commissioning.bits import from_runs
+    from mapr_daemon.reasoner.commissioning.discrepancy import learn_unit
+
+    own = bench.runs.n - len(HELD_OUT)
+    healthy = [i for i in range(own) if bench.runs.labels[i] == "healthy"][:count]
+    write_actuator(folder / "actuator.yaml", bench.params)
+    learn_unit(bench.params, from_runs(bench.runs, "bench", healthy), 10).save(
+        folder / "discrepancy.npz")
+    record = {"format": "mapr-commissioning/1", "created": "2025-01-01T00:00:00+00:00",
+              "actuator": bench.params.name, "datasheet": "sheet.yaml",
+              "identified_actuator": "actuator.yaml", "dictionary": None, "parameters": [],
+              "tolerances": [], "residual_rms": {"before": {}, "after": {}}, "bits": [],
+              "skipped": [], "correlation": [],
+              "fit": {"iterations": 3, "converged": True, "model_runs": 10, "wall_s": 1.0},
+              "discrepancy": {"file": "discrepancy.npz"}}
+    (folder / "commissioning.json").write_text(json.dumps(record))
+    return folder

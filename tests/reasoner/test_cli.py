@@ -12,13 +12,10 @@ import pytest
 from mapr_daemon.cli.main import main
 from mapr_daemon.ema import dataset
 from mapr_daemon.ema.batch import RunSpec
-from mapr_daemon.ema.dump import write_actuator
 from mapr_daemon.ema.faults import Fault, FaultSet, at_severity
 from mapr_daemon.ema.run import RunResult
-from mapr_daemon.reasoner.commissioning.bits import from_runs
-from mapr_daemon.reasoner.commissioning.discrepancy import learn_unit
 from mapr_daemon.testbed.profiles import bit_profile
-from tests.reasoner.conftest import HELD_OUT, Bench
+from tests.reasoner.conftest import HELD_OUT, Bench, commissioned_folder
 
 
 def _write_runs(bench: Bench, rows: list[int], path: Path) -> None:
@@ -99,22 +96,9 @@ def test_diagnose_adds_the_reading_against_a_commissioned_baseline(
         bench: Bench, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     # a commissioning folder made from six of the bench's healthy runs (the unit is the data
     # sheet's twin here: the discrepancy has little to learn, the reading is what is tested)
-    own = bench.runs.n - len(HELD_OUT)
-    healthy = [i for i in range(own) if bench.runs.labels[i] == "healthy"][:6]
-    bits = from_runs(bench.runs, "bench", healthy)
     folder = tmp_path / "unit"
     folder.mkdir()
-    write_actuator(folder / "actuator.yaml", bench.params)
-    learn_unit(bench.params, bits, 10).save(folder / "discrepancy.npz")
-    record: dict[str, object] = {
-              "format": "mapr-commissioning/1", "created": "2025-01-01T00:00:00+00:00",
-              "actuator": bench.params.name, "datasheet": "sheet.yaml",
-              "identified_actuator": "actuator.yaml", "dictionary": None, "parameters": [],
-              "tolerances": [], "residual_rms": {"before": {}, "after": {}}, "bits": [],
-              "skipped": [], "correlation": [],
-              "fit": {"iterations": 3, "converged": True, "model_runs": 10, "wall_s": 1.0},
-              "discrepancy": {"file": "discrepancy.npz"}}
-    (folder / "commissioning.json").write_text(json.dumps(record))
+    commissioned_folder(bench, folder)
     dpath = tmp_path / "d.npz"
     bench.dictionary.save(dpath)
     _write_runs(bench, [0, 4], tmp_path / "runs.npz")   # healthy, friction@0.8
@@ -127,6 +111,7 @@ def test_diagnose_adds_the_reading_against_a_commissioned_baseline(
     assert base["value"] == pytest.approx(1 + 4 * base["severity"], rel=1e-3)
     assert base["explained"] > 10 * abs(healthy_line["baseline"]["explained"])
     # a record without a discrepancy cannot give the second reading: a config error (78)
+    record = json.loads((folder / "commissioning.json").read_text())
     del record["discrepancy"]
     (folder / "commissioning.json").write_text(json.dumps(record))
     assert main(["diagnose", str(tmp_path / "runs.npz"), "--dictionary", str(dpath),

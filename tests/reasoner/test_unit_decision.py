@@ -5,7 +5,6 @@ it; without one the events are as before; a folder that cannot be used is one co
 from __future__ import annotations
 
 import dataclasses
-import json
 import subprocess
 import sys
 from pathlib import Path
@@ -13,17 +12,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mapr_daemon.ema.dump import write_actuator
 from mapr_daemon.errors import ConfigError
 from mapr_daemon.findings import Diagnosis
 from mapr_daemon.reasoner.commissioning.baseline import Baseline
-from mapr_daemon.reasoner.commissioning.bits import from_runs
-from mapr_daemon.reasoner.commissioning.discrepancy import learn_unit
 from mapr_daemon.reasoner.commissioning.severity import Reading
 from mapr_daemon.reasoner.commissioning.unit_decision import MIN_EXPLAINED, combine
 from mapr_daemon.reasoner.diagnosis.classifier import Decision
 from mapr_daemon.reasoner.reasoner import Reasoner
-from tests.reasoner.conftest import HELD_OUT, Bench
+from tests.reasoner.conftest import HELD_OUT, Bench, commissioned_folder
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -32,21 +28,7 @@ ROOT = Path(__file__).resolve().parents[2]
 def unit(bench: Bench, tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A commissioning folder made from six of the bench's healthy runs (the unit is the
     data sheet's twin here: what is tested is the wiring of the reading into the event)."""
-    own = bench.runs.n - len(HELD_OUT)
-    healthy = [i for i in range(own) if bench.runs.labels[i] == "healthy"][:6]
-    folder = tmp_path_factory.mktemp("unit")
-    write_actuator(folder / "actuator.yaml", bench.params)
-    learn_unit(bench.params, from_runs(bench.runs, "bench", healthy), 10).save(
-        folder / "discrepancy.npz")
-    record = {"format": "mapr-commissioning/1", "created": "2025-01-01T00:00:00+00:00",
-              "actuator": bench.params.name, "datasheet": "sheet.yaml",
-              "identified_actuator": "actuator.yaml", "dictionary": None, "parameters": [],
-              "tolerances": [], "residual_rms": {"before": {}, "after": {}}, "bits": [],
-              "skipped": [], "correlation": [],
-              "fit": {"iterations": 3, "converged": True, "model_runs": 10, "wall_s": 1.0},
-              "discrepancy": {"file": "discrepancy.npz"}}
-    (folder / "commissioning.json").write_text(json.dumps(record))
-    return folder
+    return commissioned_folder(bench, tmp_path_factory.mktemp("unit"))
 
 
 def _held(bench: Bench, reasoner: Reasoner, j: int) -> Diagnosis:
