@@ -94,22 +94,24 @@ def bit_record(row: Sequence[Any], conditions: str = "{}") -> BitRecord:
                      json.loads(conditions))
 
 
+def equal_to(**columns: str | None) -> tuple[str, list[str]]:
+    """`` WHERE a = ? AND b = ?`` over the columns given a value (None: any), and its
+    arguments; ``""`` when none is given."""
+    given = [(name, value) for name, value in columns.items() if value is not None]
+    if not given:
+        return "", []
+    return (" WHERE " + " AND ".join(f"{name} = ?" for name, _ in given),
+            [value for _, value in given])
+
+
 def load_bits(conn: sqlite3.Connection, asset: str | None = None, tail: str | None = None,
               last: int | None = None, version: int | None = None) -> list[BitRecord]:
     """BIT history (all assets, or one), oldest first; ``last``: only the newest N per call;
     ``version``: the file's schema version when it may predate :data:`CONDITIONS_SINCE` (a
     reader does not migrate), None for a file at the latest."""
-    where, args = [], []
-    if asset is not None:
-        where.append("asset = ?")
-        args.append(asset)
-    if tail is not None:
-        where.append("tail = ?")
-        args.append(tail)
+    where, args = equal_to(asset=asset, tail=tail)
     conditions = "conditions" if version is None or version >= CONDITIONS_SINCE else "'{}'"
-    sql = f"SELECT {BIT_SELECT}, {conditions} FROM bits"
-    if where:
-        sql += " WHERE " + " AND ".join(where)
+    sql = f"SELECT {BIT_SELECT}, {conditions} FROM bits{where}"
     sql += " ORDER BY coalesce(flight, 0), t_ns, id"
     rows = [bit_record(r[:-1], r[-1]) for r in conn.execute(sql, args)]
     return rows if last is None else rows[-last:]

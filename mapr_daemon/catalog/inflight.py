@@ -18,6 +18,7 @@ import sqlite3
 from collections.abc import Sequence
 from typing import Any
 
+from mapr_daemon.catalog.history import equal_to
 from mapr_daemon.catalog.model import InflightEstimate
 
 INFLIGHT_SINCE = 9
@@ -53,17 +54,9 @@ def insert_inflight(conn: sqlite3.Connection, session_id: int | None,
 def load_inflight(conn: sqlite3.Connection, asset: str | None = None,
                   tail: str | None = None) -> list[InflightEstimate]:
     """Per-flight estimates (all actuators, or one), oldest flight first."""
-    where, args = [], []
-    if asset is not None:
-        where.append("asset = ?")
-        args.append(asset)
-    if tail is not None:
-        where.append("tail = ?")
-        args.append(tail)
+    where, args = equal_to(asset=asset, tail=tail)
     sql = ("SELECT id, session_id, tail, asset, flight, t_ns, flight_s, filtered_s, parameters,"
-           " qualified FROM inflight")
-    if where:
-        sql += " WHERE " + " AND ".join(where)
+           f" qualified FROM inflight{where}")
     sql += " ORDER BY tail, asset, coalesce(flight, 0), t_ns, id"
     return [InflightEstimate(tail=r[2], asset=r[3], flight=r[4], t_ns=int(r[5]),
                              flight_s=float(r[6]), filtered_s=float(r[7]),
