@@ -12,17 +12,30 @@ else, or missed; the pair members' severity error when the pair is named; and fo
 faults how many were named right, as a pair, or unexplained. The pairs with the SMPS
 low-side Ron are on their own rows: the bus barely sees that fault (docs/reasoner-measured.md).
 
+With ``--baseline`` (needs ``--units``) each unit is also commissioned as ``mapr commission``
+does it (``bench/units.py``'s ``--baseline``: its parameters identified from the same healthy
+BITs and the model's discrepancy learned on them), and every BIT the calibrated dictionary
+flags goes through the product's path (``Reasoner.against_baseline``: the reading against the
+unit's baseline, single faults and pairs, weighed by ``unit_decision.combine``); a second pair
+of tables gives those decisions, and the CPU time of each reading (mean and worst) is printed.
+``--healthy-reads N`` healthy BITs per unit are read against the baseline whatever the
+dictionary says, and what the rule would make of them is printed (what a healthy BIT leaves,
+and what a second fault gains on it by chance). ``--dump FILE`` writes one JSON line per
+scored BIT (unit, truth, the decisions, the
+reading's costs): what a decision rule is chosen on, on design seeds.
+
 Seeds: a master seed, drawn afresh unless ``--seed`` is given, is printed first; the fleet,
 conditions, magnitudes and per-run noise seeds come from it.
 
 Run:  python3 bench/compound.py --dictionary DICT [--actuator FILE] [--per-pair 8]
-      [--per-kind 8] [--units 0] [--seed N]
+      [--per-kind 8] [--units 0] [--seed N] [--baseline [--dump FILE]]
 """
 
 from __future__ import annotations
 
 import argparse
 import itertools
+import json
 import os
 import sys
 import time
@@ -34,14 +47,17 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from seeds import master
+from units import _baseline as commissioned_baseline
 
 from mapr_daemon.ema.batch import RunSpec
 from mapr_daemon.ema.faults import FaultSet, at_severity
 from mapr_daemon.ema.params import default_actuator_path, load_actuator
 from mapr_daemon.reasoner.commissioning import calibrate
+from mapr_daemon.reasoner.commissioning.unit_decision import verdict
 from mapr_daemon.reasoner.diagnosis import classifier
 from mapr_daemon.reasoner.diagnosis.dictionary import Dictionary
 from mapr_daemon.reasoner.diagnosis.parts import PART_OF
+from mapr_daemon.reasoner.reasoner import Reasoner
 from mapr_daemon.reasoner.training.corpus import simulate_bit
 from mapr_daemon.reasoner.training.dictionary_build import run_matrices
 from mapr_daemon.testbed.mismatch import fleet
@@ -49,7 +65,10 @@ from mapr_daemon.testbed.mismatch import fleet
 GROUND_SHARE = 0.25
 HIDDEN = "smps_ron_low"
 """The fault the bus barely sees: its pairs are reported apart."""
-OUTCOMES = ("pair", "unexplained", "one of the two", "other", "missed")
+OUTCOMES = ("pair", "unexplained", "one of the two", "wrong single", "other pair", "missed")
+"""A compound BIT named as its pair, as unexplained, as one of its two faults alone (right
+about one part, silent about the other), as a single fault that is neither, as another pair,
+or not at all."""
 
 
 def outcome(truth: set[str], dec: classifier.Decision) -> str:
@@ -59,8 +78,8 @@ def outcome(truth: set[str], dec: classifier.Decision) -> str:
     if dec.fault is None:
         return "unexplained"
     if dec.pair is not None:
-        return "pair" if {m.fault for m in dec.pair} == truth else "other"
-    return "one of the two" if dec.fault in truth else "other"
+        return "pair" if {m.fault for m in dec.pair} == truth else "other pair"
+    return "one of the two" if dec.fault in truth else "wrong single"
 
 
 def main() -> int:
@@ -72,9 +91,21 @@ def main() -> int:
     ap.add_argument("--units", type=int, default=0, help="mismatched units (0: the twin)")
     ap.add_argument("--commission-bits", type=int, default=20)
     ap.add_argument("--seed", type=int, help="master seed (default: drawn afresh, printed)")
+    ap.add_argument("--baseline", action="store_true",
+                    help="also commission each unit's baseline and decide flagged BITs with "
+                         "the reading against it (needs --units)")
+    ap.add_argument("--healthy-reads", type=int, default=2,
+                    help="with --baseline: healthy BITs per unit read against the baseline "
+                         "whatever the dictionary says")
+    ap.add_argument("--dump", type=Path, help="with --baseline: one JSON line per scored BIT")
     args = ap.parse_args()
+    if args.baseline and not args.units:
+        ap.error("--baseline needs --units (mismatched units to commission)")
     seed = master(args.seed, f"python3 bench/compound.py --actuator {args.actuator} "
-                  f"--dictionary {args.dictionary} --units {args.units}")
+                  f"--dictionary {args.dictionary} --units {args.units} --per-pair "
+                  f"{args.per_pair} --per-kind {args.per_kind}"
+                  + (f" --baseline --healthy-reads {args.healthy_reads}" if args.baseline
+                     else ""))
     start, cpu0 = time.monotonic(), time.process_time()
     sheet = load_actuator(args.actuator)
     d = Dictionary.load(args.dictionary)
@@ -89,10 +120,11 @@ def main() -> int:
 
     def add(u: int, role: str, truth: dict[str, float]) -> None:
         faults = FaultSet.of([at_severity(sheet, k, s) for k, s in truth.items()])
-        kw = {"seed": int(rng.integers(10**9, 2**62)),
-              "ambient_c": float(rng.uniform(env.ambient_min_c, env.ambient_max_c)),
-              "bus_v": float(rng.uniform(sheet.bus.min_v, sheet.bus.max_v))}
-        specs.append(RunSpec(sheet, faults, **kw) if u < 0 else units[u].spec(faults, **kw))
+        run_seed = int(rng.integers(10**9, 2**62))
+        amb = float(rng.uniform(env.ambient_min_c, env.ambient_max_c))
+        bus = float(rng.uniform(sheet.bus.min_v, sheet.bus.max_v))
+        specs.append(RunSpec(sheet, faults, seed=run_seed, ambient_c=amb, bus_v=bus) if u < 0
+                     else units[u].spec(faults, seed=run_seed, ambient_c=amb, bus_v=bus))
         q.append(0.0 if rng.random() < GROUND_SHARE
                  else float(rng.uniform(0.0, env.max_dynamic_pressure_pa)))
         who.append((u, role, truth))
@@ -101,6 +133,9 @@ def main() -> int:
         if u >= 0:
             for _ in range(args.commission_bits):
                 add(u, "commission", {})
+            if args.baseline:
+                for _ in range(args.healthy_reads):
+                    add(u, "healthy", {})
         for a, b in pairs:
             for _ in range(args.per_pair):
                 sa, sb = rng.uniform(0.35, 1.0, 2)
@@ -115,27 +150,89 @@ def main() -> int:
           f"({'the data sheet twin' if not units else f'{len(units)} mismatched units'})")
     t0 = time.monotonic()
     decs: dict[int, classifier.Decision] = {}
+    with_base: dict[int, classifier.Decision] = {}
+    read_cpu: list[float] = []
+    healthy: list[tuple[str, float]] = []  # verdict and cost of healthy BITs, read regardless
+    dump = args.dump.open("w") if args.dump else None
     for u in range(len(units)) if units else [-1]:
         own = [i for i, w in enumerate(who) if w[0] == u]
         base = d
+        reasoner = None
         if u >= 0:
             comm = [i for i in own if who[i][1] == "commission"]
             base, _ = calibrate.calibrate_unit(d, m[comm], np.asarray(q)[comm])
+            if args.baseline:
+                tc = time.monotonic()
+                reasoner = Reasoner(base, sheet,
+                                    baseline=commissioned_baseline(sheet, runs, comm))
+                print(f"  unit {u + 1}/{len(units)}: identified and discrepancy learned in "
+                      f"{time.monotonic() - tc:.1f} s (wall {time.monotonic() - start:.0f} s "
+                      f"so far)", flush=True)
         for i in own:
-            if who[i][1] != "commission":
-                decs[i] = classifier.decide(base, m[i], q[i])
+            if who[i][1] == "commission":
+                continue
+            if who[i][1] == "healthy":
+                assert reasoner is not None and reasoner.baseline is not None
+                channels = {k: v[i] for k, v in runs.channels.items()}
+                r = reasoner.baseline.read(channels, runs.command_deg, q[i])
+                healthy.append((verdict(r), 0.0 if isinstance(r, str) else r.cost))
+                if dump is not None:
+                    dump.write(json.dumps({"unit": u, "role": "healthy", "verdict": healthy[-1][0],
+                                           "baseline": reasoner.baseline.to_json(r)}) + "\n")
+                continue
+            decs[i] = dec = classifier.decide(base, m[i], q[i])
+            if reasoner is None:
+                continue
+            if dec.anomaly and not dec.inconclusive:
+                channels = {k: v[i] for k, v in runs.channels.items()}
+                c0 = time.process_time()
+                dec = reasoner.against_baseline(dec, channels, runs.command_deg, q[i])
+                read_cpu.append(time.process_time() - c0)
+            with_base[i] = dec
+            if dump is not None:
+                dump.write(json.dumps(_record(who[i], q[i], decs[i], dec)) + "\n")
+    if dump is not None:
+        dump.close()
     print(f"decided in {time.monotonic() - t0:.1f} s")
-    report_pairs(pairs, who, decs)
-    report_singles(kinds, who, decs)
+    blocks = [("the dictionary, calibrated to each unit" if units else "the dictionary",
+               decs)]
+    if args.baseline:
+        blocks.append(("+ the reading against each unit's baseline (single faults and pairs)",
+                       with_base))
+        print(f"{len(read_cpu)} flagged BITs read against the baseline: CPU per reading mean "
+              f"{np.mean(read_cpu) if read_cpu else 0:.2f} s, worst "
+              f"{max(read_cpu, default=0.0):.2f} s")
+        costs = [c for _, c in healthy]
+        said = Counter(v for v, _ in healthy)
+        print(f"{len(healthy)} healthy BITs read against the baseline whatever the dictionary "
+              f"said: cost median {np.median(costs) if costs else 0:.2f}, largest "
+              f"{max(costs, default=0.0):.2f} (healthy spreads squared); the rule's verdict as "
+              f"if flagged: {said['pair']} a pair, {said['single']} a single fault, "
+              f"{said['unexplained']} unexplained, {said['dictionary']} left to the dictionary")
+    for name, block in blocks:
+        print(f"\n######## {name}")
+        report_pairs(pairs, who, block)
+        report_singles(kinds, who, block)
     print(f"\ntotal wall {time.monotonic() - start:.1f} s, CPU {time.process_time() - cpu0:.1f}"
           f" s; load average {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
     return 0
 
 
+def _record(w: tuple[int, str, dict[str, float]], q: float, dictionary: classifier.Decision,
+            dec: classifier.Decision) -> dict[str, object]:
+    """One scored BIT for ``--dump``: its truth, both decisions and the baseline reading."""
+    def brief(x: classifier.Decision) -> dict[str, object]:
+        return {"anomaly": x.anomaly, "fault": x.fault, "severity": x.severity,
+                "pair": None if x.pair is None else [[m.fault, m.severity] for m in x.pair]}
+    return {"unit": w[0], "role": w[1], "truth": w[2], "q": q, "dictionary": brief(dictionary),
+            "decision": brief(dec), "baseline": dec.evidence.get("baseline")}
+
+
 def report_pairs(pairs: list[tuple[str, str]], who: list[tuple[int, str, dict[str, float]]],
                  decs: dict[int, classifier.Decision]) -> None:
     """Per pair the outcomes; totals with and without the hidden fault; pair severity errors."""
-    print(f"\n== two faults at once (35-100 % of range each)\n{'pair':>36} {'BITs':>5} "
+    print(f"\n== two faults at once (35-100 % of range each; the severity error of a pair named"
+          f" right is each member's, fraction of range)\n{'pair':>36} {'BITs':>5} "
           + " ".join(f"{o:>15}" for o in OUTCOMES) + f" {'sev err mean/max':>17}")
     totals = {"seen": Counter[str](), "hidden": Counter[str]()}
     for a, b in pairs:
@@ -157,8 +254,8 @@ def report_pairs(pairs: list[tuple[str, str]], who: list[tuple[int, str, dict[st
         ok = c["pair"] + c["unexplained"]
         print(f"{label:>36} {c['n']:5d} "
               + " ".join(f"{c[o]:5d} ({100 * c[o] / n:5.1f}%)" for o in OUTCOMES)
-              + f"   pair or unexplained {100 * ok / n:.1f} %, one wrong single "
-                f"{100 * c['one of the two'] / n:.1f} %")
+              + f"   pair or unexplained {100 * ok / n:.1f} %, a single fault (one of the two"
+                f" or neither) {100 * (c['one of the two'] + c['wrong single']) / n:.1f} %")
 
 
 def report_singles(kinds: list[str], who: list[tuple[int, str, dict[str, float]]],

@@ -7,7 +7,8 @@ A commissioning folder holds the identified actuator (``actuator.yaml``), the re
 (``discrepancy.npz``). :meth:`Baseline.load` puts them together; the data sheet the fault
 ranges are measured on is the identified actuator with each identified parameter set back to
 its data sheet value (both are in the record), so the folder alone is enough.
-:meth:`Baseline.read` is :func:`~mapr_daemon.reasoner.commissioning.severity.read` on one BIT.
+:meth:`Baseline.read` is :func:`~mapr_daemon.reasoner.commissioning.severity.read` on one BIT,
+pairs of two faults included (:mod:`~mapr_daemon.reasoner.commissioning.pairs`).
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ from mapr_daemon.errors import ConfigError
 from mapr_daemon.reasoner.commissioning import prior as ip
 from mapr_daemon.reasoner.commissioning.bits import BitRecord, unusable
 from mapr_daemon.reasoner.commissioning.discrepancy import Discrepancy
+from mapr_daemon.reasoner.commissioning.pairs import TOP
 from mapr_daemon.reasoner.commissioning.record import read_record
 from mapr_daemon.reasoner.commissioning.severity import HEALTHY, Reading, read
 
@@ -56,29 +58,40 @@ class Baseline:
         return cls(params, datasheet, disc)
 
     def read(self, channels: dict[str, FloatArray], command_deg: FloatArray,
-             dynamic_pressure_pa: float) -> Reading | str:
-        """The BIT's mode and severity against the baseline, or why it cannot be read."""
+             dynamic_pressure_pa: float, pairs: int = TOP) -> Reading | str:
+        """The BIT's mode and severity against the baseline, or why it cannot be read;
+        ``pairs``: how many of the best single modes' pairs are searched (0: singles only,
+        about half the CPU)."""
         bit = BitRecord(channels, command_deg, dynamic_pressure_pa,
                         self.params.sensors.sample_rate_hz, "run", 0)
         why = unusable(self.params, bit)
         if why is not None:
             return why
         return read(self.params, self.datasheet, self.discrepancy, bit,
-                    self.discrepancy.decimate)
+                    self.discrepancy.decimate, pairs=pairs)
 
     def to_json(self, reading: Reading | str) -> dict[str, Any]:
         """A reading as the JSON ``mapr diagnose`` prints under ``baseline``: the mode (null
         for healthy), the switch, the severity as a fraction of range and as the faulted
         parameter's value, and how much of the record the fault explains (``explained``: the
-        mean square, in healthy spreads, of "no fault" minus that of the reading)."""
+        mean square, in healthy spreads, of "no fault" minus that of the reading) and, when
+        pairs were searched, the best pair (``pair``: both modes, their severities and its
+        cost, named or not)."""
         if isinstance(reading, str):
             return {"unreadable": reading}
         value = None
         if reading.mode in PARAMETRIC:
             value = at_severity(self.datasheet, reading.mode,
                                 min(max(reading.severity, 0.0), 1.0)).value
-        return {"mode": None if reading.mode == HEALTHY else reading.mode,
-                "switch": reading.switch or None,
-                "severity": round(reading.severity, 4), "value": value,
-                "explained": round(reading.healthy_cost - reading.cost, 4),
-                "cost": round(reading.cost, 4)}
+        out: dict[str, Any] = {"mode": None if reading.mode == HEALTHY else reading.mode,
+                               "switch": reading.switch or None,
+                               "severity": round(reading.severity, 4), "value": value,
+                               "explained": round(reading.healthy_cost - reading.cost, 4),
+                               "cost": round(reading.cost, 4)}
+        if reading.pair is not None:
+            p = reading.pair
+            out["pair"] = {"modes": [p.first, p.second],
+                           "severities": [round(p.severity_first, 4),
+                                          round(p.severity_second, 4)],
+                           "cost": round(p.cost, 4)}
+        return out

@@ -21,6 +21,12 @@ for all modes and switches of one BIT), refined around the best grid point of th
 (a second call) and interpolated by a parabola through the three best points. Severity is
 the fraction of the data sheet's Table 1 range (:func:`~mapr_daemon.ema.faults.at_severity`),
 the scale the dictionary reports on.
+
+With ``pairs`` > 0 the best pair of two parametric faults in different parts among the
+``pairs`` best single modes is searched as well
+(:func:`~mapr_daemon.reasoner.commissioning.pairs.search`) and carried in
+:attr:`Reading.pair`; whether it is named is
+:func:`~mapr_daemon.reasoner.commissioning.unit_decision.named_pair`'s rule.
 """
 
 from __future__ import annotations
@@ -36,6 +42,7 @@ from mapr_daemon.ema.params import ActuatorParams
 from mapr_daemon.reasoner.commissioning.bits import BitRecord
 from mapr_daemon.reasoner.commissioning.discrepancy import Discrepancy, correction_for
 from mapr_daemon.reasoner.commissioning.flight import Flight, fly, noise_scale, recorded
+from mapr_daemon.reasoner.commissioning.pairs import PairReading, search
 
 GRID: tuple[float, ...] = (0.03, 0.08, 0.15, 0.25, 0.35, 0.45, 0.55, 0.65, 0.75, 0.875, 1.0)
 """Severities tried first for every parametric mode (fractions of the Table 1 range)."""
@@ -59,6 +66,10 @@ class Reading:
     """The same for "no fault": ``healthy_cost - cost`` is what the fault explains."""
     costs: dict[str, float]
     """Best cost per mode (``short``/``open`` over their switches)."""
+    pair: PairReading | None = None
+    """The best pair of two faults in different parts, when pairs were searched (whatever
+    its cost: :func:`~mapr_daemon.reasoner.commissioning.unit_decision.named_pair` decides
+    whether it is named)."""
 
 
 def _weights(params: ActuatorParams, disc: Discrepancy | None, decimate: int) -> FloatArray:
@@ -85,11 +96,12 @@ def _parabola(s: FloatArray, c: FloatArray) -> float:
 
 def read(params: ActuatorParams, datasheet: ActuatorParams, disc: Discrepancy | None,
          bit: BitRecord, decimate: int, kinds: Sequence[str] = tuple(PARAMETRIC),
-         terminal: bool = True) -> Reading:
+         terminal: bool = True, pairs: int = 0) -> Reading:
     """The mode and severity of ``bit`` against the unit's baseline: ``params`` (the
     identified actuator) plus ``disc`` (None: the model alone). ``datasheet`` gives the
     faults' ranges. ``kinds``: the parametric modes considered; ``terminal``: whether
-    shorted and open switches are."""
+    shorted and open switches are; ``pairs``: how many of the best single modes' pairs are
+    searched (0: none)."""
     data = recorded([bit], decimate)[0]
     corr = correction_for(disc, params, [bit])[0] if disc is not None else 0.0
     w = _weights(params, disc, decimate)
@@ -126,7 +138,8 @@ def read(params: ActuatorParams, datasheet: ActuatorParams, disc: Discrepancy | 
         severity = _parabola(s_all, c_all)
         cost = min(cost, float(np.min(c2)))
         best_mode[mode] = cost
-    return Reading(mode, switch, float(severity), cost, float(c[0]), best_mode)
+    pair = search(costs, datasheet, best_mode, kinds, pairs) if pairs > 0 else None
+    return Reading(mode, switch, float(severity), cost, float(c[0]), best_mode, pair)
 
 
 def _faults(datasheet: ActuatorParams, hyp: tuple[str, str, float]) -> FaultSet:

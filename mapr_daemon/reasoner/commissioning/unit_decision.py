@@ -25,23 +25,61 @@ known fault mode"). When the two name different parts the event says so
 (``evidence.disagreement``) and follows the baseline reading: on mismatched units it named the
 part right far more often than the dictionary did (docs/commissioning.md, "Reading a fault
 against the unit's baseline").
+
+**Two faults at once.** When the reading searched pairs
+(:mod:`~mapr_daemon.reasoner.commissioning.pairs`), :func:`verdict` weighs the best pair
+against the best single hypothesis before the rule above. A pair has one more free parameter
+than a single fault (its second severity), so it always leaves a little less; it is
+**named** (:func:`named_pair`) only when it gains more than that parameter can by chance, in
+the unit's healthy scatter:
+
+* the pair explains the BIT as a single fault must (takes at least :data:`MIN_EXPLAINED` off
+  the "no fault" cost and leaves at most :data:`MAX_LEFT` of it);
+* it leaves at least :data:`PAIR_GAIN` less than the best single: the likelihood ratio of
+  pair over single (the costs are mean squares in healthy spreads, so their difference is a
+  log-likelihood ratio per decimated sample) is more than a healthy BIT's whole residual, what
+  one extra severity could at most fit of the scatter;
+* it leaves at most :data:`PAIR_SHARE` of what the single left: the single's leftover holds
+  its own model error on this unit, which grows with the departure and which a second fault
+  can partly absorb; the pair must take most of it away, not a slice.
+
+A BIT that departs clearly from the baseline but that neither the best single nor the best
+pair explains — the best of them leaves more than :data:`UNEXPLAINED_LEFT` healthy spreads
+squared, several times what healthy BITs leave — is **unexplained** by the baseline: the
+event says "anomaly, not explained by any known fault mode" (the best single and pair as the
+closest, not a fit), rather than falling back on the dictionary's single fault, which on such
+BITs is mostly one of two faults. Otherwise, as before, the dictionary's decision stands.
+The constants were chosen on design seeds (docs/commissioning.md, "Two faults at once against
+the baseline").
 """
 
 from __future__ import annotations
 
 import dataclasses
+import math
 from typing import Any
 
 from mapr_daemon.ema.faults import PARAMETRIC, at_severity
 from mapr_daemon.reasoner.commissioning.baseline import Baseline
 from mapr_daemon.reasoner.commissioning.severity import HEALTHY, TERMINAL, Reading
 from mapr_daemon.reasoner.diagnosis import parts
-from mapr_daemon.reasoner.diagnosis.classifier import Decision
+from mapr_daemon.reasoner.diagnosis.classifier import Decision, Member
 
 MIN_EXPLAINED = 1.0
 """Least drop of the cost, in healthy spreads squared, that a fault must explain."""
 MAX_LEFT = 0.5
 """Largest share of the "no fault" cost the fault may leave unexplained."""
+PAIR_GAIN = 1.0
+"""Least drop from the best single to the best pair's cost (healthy spreads squared)."""
+PAIR_SHARE = 0.5
+"""Largest share of the best single's cost the pair may leave."""
+UNEXPLAINED_LEFT = 3.0
+"""Cost above which a BIT nothing explains is unexplained (healthy BITs cost about 1)."""
+PAIR_RULE = (f"two faults in different parts are named when their best pair explains the BIT "
+             f"and leaves at least {PAIR_GAIN:g} (healthy spreads squared) less than the best "
+             f"single fault and at most {PAIR_SHARE:g} of what it leaves")
+UNEXPLAINED_RULE = (f"neither a single fault nor a pair explains the BIT and the best leaves "
+                    f"more than {UNEXPLAINED_LEFT:g} healthy spreads squared")
 RULE = (f"the baseline reading decides mode, part and severity when its best hypothesis is a "
         f"fault that explains at least {MIN_EXPLAINED:g} (healthy spreads squared) and leaves at "
         f"most {MAX_LEFT:g} of the no-fault cost; otherwise the dictionary's decision stands")
@@ -53,6 +91,29 @@ def explains(reading: Reading | str) -> bool:
         return False
     drop = reading.healthy_cost - reading.cost
     return drop >= MIN_EXPLAINED and reading.cost <= MAX_LEFT * reading.healthy_cost
+
+
+def named_pair(reading: Reading | str) -> bool:
+    """Whether the reading's best pair is named (module docstring)."""
+    if isinstance(reading, str) or reading.pair is None:
+        return False
+    c = reading.pair.cost
+    return (reading.healthy_cost - c >= MIN_EXPLAINED and c <= MAX_LEFT * reading.healthy_cost
+            and reading.cost - c >= PAIR_GAIN and c <= PAIR_SHARE * reading.cost)
+
+
+def verdict(reading: Reading | str) -> str:
+    """What the baseline reading says of a flagged BIT: ``pair``, ``single`` (it
+    :func:`explains` it), ``unexplained``, or ``dictionary`` (too little to say: the
+    dictionary's decision stands)."""
+    if isinstance(reading, str):
+        return "dictionary"
+    if named_pair(reading):
+        return "pair"
+    if explains(reading):
+        return "single"
+    best = min(reading.cost, reading.pair.cost if reading.pair is not None else math.inf)
+    return "unexplained" if best > UNEXPLAINED_LEFT else "dictionary"
 
 
 def _dictionary_view(dec: Decision) -> dict[str, Any]:
@@ -75,12 +136,19 @@ def combine(dec: Decision, reading: Reading | str, baseline: Baseline) -> Decisi
     both readings in the evidence, and their disagreement on the part stated."""
     evidence = dict(dec.evidence)
     evidence["dictionary"] = _dictionary_view(dec)
+    said = verdict(reading)
     taken = explains(reading)
-    evidence["baseline"] = {**baseline.to_json(reading), "explains": taken, "rule": RULE}
-    if not taken:
+    evidence["baseline"] = {**baseline.to_json(reading), "explains": taken, "rule": RULE,
+                            "verdict": said, "pair_rule": PAIR_RULE,
+                            "unexplained_rule": UNEXPLAINED_RULE}
+    if said == "dictionary":
         evidence["reading"] = "dictionary"
         return dataclasses.replace(dec, evidence=evidence)
     assert isinstance(reading, Reading)
+    if said == "pair":
+        return _pair(dec, reading, baseline, evidence)
+    if said == "unexplained":
+        return _unexplained(dec, reading, evidence)
     mode = reading.mode
     if dec.fault is not None and parts.PART_OF.get(dec.fault) != parts.PART_OF[mode]:
         evidence["disagreement"] = {
@@ -100,3 +168,60 @@ def combine(dec: Decision, reading: Reading | str, baseline: Baseline) -> Decisi
     return dataclasses.replace(dec, fault=mode, switch=None, severity=s, value=value,
                                unit=PARAMETRIC[mode].unit, pair=None, kind_residuals={},
                                evidence=evidence)
+
+
+def _member(baseline: Baseline, mode: str, severity: float) -> Member:
+    s = min(max(severity, 0.0), 1.0)
+    return Member(mode, s, at_severity(baseline.datasheet, mode, s).value, PARAMETRIC[mode].unit)
+
+
+def _strip(evidence: dict[str, Any]) -> None:
+    """The dictionary's single-fault keys, which no longer describe the event's fault."""
+    for key in ("switch", "nominal", "replace_at", "severity_fraction_of_range", "unexplained",
+                "departures", "closest"):
+        evidence.pop(key, None)
+
+
+def _pair(dec: Decision, reading: Reading, baseline: Baseline,
+          evidence: dict[str, Any]) -> Decision:
+    """The decision naming the reading's pair, in the dictionary path's shape
+    (:attr:`Decision.pair`, the more severe member first and as ``fault``)."""
+    assert reading.pair is not None
+    p = reading.pair
+    a, b = _member(baseline, p.first, p.severity_first), _member(baseline, p.second,
+                                                                   p.severity_second)
+    first, second = (a, b) if a.severity >= b.severity else (b, a)
+    named = {parts.PART_OF[p.first], parts.PART_OF[p.second]}
+    if dec.fault is not None and parts.PART_OF.get(dec.fault) not in named:
+        evidence["disagreement"] = {
+            "dictionary_part": parts.PART_OF.get(dec.fault),
+            "baseline_part": sorted(named),
+            "rule": "the baseline reading is followed: it is measured against the unit's own "
+                    "healthy behaviour"}
+    evidence["reading"] = "baseline"
+    _strip(evidence)
+    return dataclasses.replace(dec, fault=first.fault, switch=None, severity=first.severity,
+                               value=first.value, unit=first.unit, pair=(first, second),
+                               kind_residuals={}, evidence=evidence)
+
+
+def _unexplained(dec: Decision, reading: Reading, evidence: dict[str, Any]) -> Decision:
+    """The decision "anomaly, not explained by any known fault mode": what the best single
+    and the best pair leave, and the closest of them (not a fit)."""
+    departures = evidence.get("departures")
+    _strip(evidence)
+    evidence["reading"] = "baseline"
+    left = min(reading.cost, reading.pair.cost if reading.pair is not None else math.inf)
+    evidence["unexplained"] = (
+        "anomaly, not explained by any known fault mode: against the unit's baseline the best "
+        f"single fault or pair leaves {left:.1f} healthy spreads squared of "
+        f"{reading.healthy_cost:.1f}, a healthy BIT about 1")
+    closest: dict[str, Any] = {"fault": reading.mode, "part": parts.PART_OF.get(reading.mode),
+                               "note": "the nearest hypothesis, not a fit"}
+    if reading.pair is not None:
+        closest["pair"] = [reading.pair.first, reading.pair.second]
+    evidence["closest"] = closest
+    if departures is not None:
+        evidence["departures"] = departures
+    return dataclasses.replace(dec, fault=None, switch=None, severity=None, value=None,
+                               unit=None, pair=None, kind_residuals={}, evidence=evidence)
