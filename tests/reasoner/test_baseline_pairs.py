@@ -75,7 +75,7 @@ def test_a_single_fault_is_not_called_a_pair(unit: Baseline, faulted: Runs) -> N
 
 def test_what_nothing_explains_is_unexplained_not_one_fault(unit: Baseline) -> None:
     dictionary_said = Decision(True, "esr", None, 0.5, 0.01, "ohm", 0.9, 5.0, 1.0, {})
-    pair = PairReading("esr", "friction", 0.5, 0.5, cost=20.0)
+    pair = PairReading("esr", "friction", 0.5, 0.5, cost=23.0)
     neither = Reading("esr", "", 0.5, cost=25.0, healthy_cost=40.0, costs={}, pair=pair)
     dec = combine(dictionary_said, neither, unit)
     assert dec.anomaly and dec.fault is None and dec.pair is None
