@@ -16,7 +16,9 @@ reading, ``baseline``: the run's fault mode and severity read against the unit's
 commissioned healthy behaviour, identified model plus discrepancy (docs/commissioning.md,
 "Reading a fault against the unit's baseline"): ``mode`` (null: no fault explains the run
 better than none), ``switch``, ``severity`` (fraction of the Table 1 range), ``value`` (the
-faulted parameter's), ``explained`` and ``cost``. The dictionary's decision is unchanged.
+faulted parameter's), ``explained``, ``cost`` and ``pair`` (the best pair of two faults in
+different parts: ``modes``, ``severities``, ``cost``; named or not). The dictionary's decision
+is unchanged.
 
 The runs of a file are independent: each is diagnosed by a fresh reasoner, so its event is
 the one ``--index`` gives it alone. ``--same-unit`` says they are successive BITs of one
