@@ -213,6 +213,14 @@ def main() -> int:
         print(f"\n######## {name}")
         report_pairs(pairs, who, block)
         report_singles(kinds, who, block)
+    if args.baseline:
+        split = Counter((who[i][1], "disagreement" in d.evidence) for i, d in with_base.items()
+                        if d.anomaly and d.fault is not None and d.pair is None
+                        and d.evidence.get("reading") == "baseline")
+        print(f"\nnamed one fault from the baseline while the dictionary named another part: "
+              f"{split[('pair', True)]} of {split[('pair', True)] + split[('pair', False)]} "
+              f"compound BITs so named, {split[('single', True)]} of "
+              f"{split[('single', True)] + split[('single', False)]} single faults")
     print(f"\ntotal wall {time.monotonic() - start:.1f} s, CPU {time.process_time() - cpu0:.1f}"
           f" s; load average {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
     return 0
