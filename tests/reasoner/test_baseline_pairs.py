@@ -4,8 +4,6 @@ nothing explains is said to be unexplained rather than one fault."""
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import pytest
 
 from mapr_daemon.ema.faults import FaultSet, at_severity
