@@ -7,6 +7,8 @@
                                [--no-memory] [--keep-recordings] [--mean-life 200]
                                [--expected-life N] [--readback [--reassess]]
                                [--mismatch [--commission-bits 20]]
+                               [--whole-flights [--flight-scale 0.5] [--templates 2]
+                                [--healthy-flights 60]]
 
 Each unit is an actuator aging along :func:`mapr_daemon.ema.degradation.trajectory` (mean life
 200 flights, +/-30 %, as :mod:`mapr_daemon.reasoner.training.rul_scoring` and the fleet prior of the
@@ -70,6 +72,23 @@ of a run without ``--mismatch`` on the same seed. Per kind, what the BITs were d
 printed too: an "unexplained" BIT (an anomaly no known fault mode fits) states no severity for
 the true kind, but its wear estimate is stored and trended like any other BIT's, so the RUL
 read back does not depend on the decision.
+
+``--whole-flights``: EVERY flight of every unit is flown whole, not a 2 s excerpt: the testbed
+aircraft on the bus along the whole-flight profile (:mod:`mapr_daemon.testbed.whole_recording`:
+taxi out with the control check, JSBSim climb, cruise turns, cruise hold, approach, taxi in;
+``--flight-scale`` times the 255 s profile's phase lengths), the flight control computer
+asking for a BIT at power-up (a PBIT) on every ``--bit-every``-th flight (``--bit-every 1``:
+every flight). ``--templates`` profiles are flown over the bus once each (seeds from the run's
+own stream) and drawn per flight; each flight is the unit's EMA answering in one of them
+(its fault, seed and, with ``--mismatch``, its own parameters and form). Each recording is
+replayed twice, in flight order per unit: with the in-flight tracker on (the default
+``reasoner.inflight``: the tracker runs over the traffic between BITs, friction's per-flight
+change from the unit's first three flights is stored in the ``inflight`` table and fused
+into the trend) into ``fleet.db``, and BITs only (``reasoner.inflight: false``) into
+``fleet-bits-only.db``; both are scored as above and printed beside each other, with the
+per-flight in-flight friction change read back against the unit's true path. Units that do
+not age fly ``--healthy-flights`` flights (default 60). Cost: ~4.5 % of the bus time per
+flight to fly, each replay ~1-2 % (docs/testbed.md), the templates ~1x their length once.
 
 Seeds are fresh each run (bench/seeds.py) and printed; every unit and flight seed derives from
 the run's seed, clear of the dictionary's, the prognostic model's and the fleet prior's.
