@@ -7,6 +7,8 @@
                                [--no-memory] [--keep-recordings] [--mean-life 200]
                                [--expected-life N] [--readback [--reassess]]
                                [--mismatch [--commission-bits 20]]
+                               [--whole-flights [--flight-scale 0.5] [--templates 2]
+                                [--healthy-flights 60]]
 
 Each unit is an actuator aging along :func:`mapr_daemon.ema.degradation.trajectory` (mean life
 200 flights, +/-30 %, as :mod:`mapr_daemon.reasoner.training.rul_scoring` and the fleet prior of the
@@ -71,6 +73,23 @@ printed too: an "unexplained" BIT (an anomaly no known fault mode fits) states n
 the true kind, but its wear estimate is stored and trended like any other BIT's, so the RUL
 read back does not depend on the decision.
 
+``--whole-flights``: EVERY flight of every unit is flown whole, not a 2 s excerpt: the testbed
+aircraft on the bus along the whole-flight profile (:mod:`mapr_daemon.testbed.whole_recording`:
+taxi out with the control check, JSBSim climb, cruise turns, cruise hold, approach, taxi in;
+``--flight-scale`` times the 255 s profile's phase lengths), the flight control computer
+asking for a BIT at power-up (a PBIT) on every ``--bit-every``-th flight (``--bit-every 1``:
+every flight). ``--templates`` profiles are flown over the bus once each (seeds from the run's
+own stream) and drawn per flight; each flight is the unit's EMA answering in one of them
+(its fault, seed and, with ``--mismatch``, its own parameters and form). Each recording is
+replayed twice, in flight order per unit: with the in-flight tracker on (the default
+``reasoner.inflight``: the tracker runs over the traffic between BITs, friction's per-flight
+change from the unit's first three flights is stored in the ``inflight`` table and fused
+into the trend) into ``fleet.db``, and BITs only (``reasoner.inflight: false``) into
+``fleet-bits-only.db``; both are scored as above and printed beside each other, with the
+per-flight in-flight friction change read back against the unit's true path. Units that do
+not age fly ``--healthy-flights`` flights (default 60). Cost: ~4.5 % of the bus time per
+flight to fly, each replay ~1-2 % (docs/testbed.md), the templates ~1x their length once.
+
 Seeds are fresh each run (bench/seeds.py) and printed; every unit and flight seed derives from
 the run's seed, clear of the dictionary's, the prognostic model's and the fleet prior's.
 Without ``--dictionary``/``--prognosis`` both are built first (``mapr dictionary build
@@ -105,8 +124,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from mapr_daemon.arrays import FloatArray
 from mapr_daemon.catalog.history import load_bits
+from mapr_daemon.catalog.inflight import load_inflight
 from mapr_daemon.cli.main import main as mapr
-from mapr_daemon.ema.degradation import Trajectory, trajectory
+from mapr_daemon.ema.degradation import FAILURE, Trajectory, trajectory
 from mapr_daemon.ema.faults import Fault, FaultSet, nominal_value
 from mapr_daemon.ema.params import default_actuator_path, load_actuator
 from mapr_daemon.ema.profile import CONDITIONS
@@ -116,8 +136,10 @@ from mapr_daemon.reasoner.prognosis.prognostic_model import PrognosticModel
 from mapr_daemon.reasoner.prognosis.soh import degradation
 from mapr_daemon.reasoner.training.rul_scoring import bit_flights, observe_units, score
 from mapr_daemon.testbed.fleet import FIRST_DAY, fly_flight
+from mapr_daemon.testbed.flight_template import FlightTemplate
 from mapr_daemon.testbed.mismatch import Unit as BuiltUnit
 from mapr_daemon.testbed.mismatch import fleet
+from mapr_daemon.testbed.whole_recording import flight_seconds, record_flight, whole_template
 
 KINDS = ("capacitance", "esr", "friction", "smps_ron_high")
 MEAN_LIFE = 200.0
@@ -150,12 +172,12 @@ class Unit:
     ``bit_every`` flights up to :data:`HEALTHY_FLIGHTS`)."""
 
     def __init__(self, tail: str, kind: str, seed: int, bit_every: int,
-                 mean_life: float = MEAN_LIFE) -> None:
+                 mean_life: float = MEAN_LIFE, healthy_flights: int = HEALTHY_FLIGHTS) -> None:
         self.tail, self.kind, self.seed = tail, kind, seed
         self.path: Trajectory = trajectory(load_actuator(default_actuator_path()),
                                            "esr" if kind == HEALTHY else kind,
                                            int(mean_life * 2), seed, mean_life)
-        self.flights = list(range(0, HEALTHY_FLIGHTS, bit_every)) if kind == HEALTHY else \
+        self.flights = list(range(0, healthy_flights, bit_every)) if kind == HEALTHY else \
             [int(f) for f in bit_flights(self.path, bit_every)]
         self.built: BuiltUnit | None = None
         """The built unit flown (``--mismatch``), None: the data sheet's twin."""
@@ -535,6 +557,18 @@ def main() -> int:
                          "print its figures beside the twin's")
     ap.add_argument("--commission-bits", type=int, default=20,
                     help="with --mismatch: healthy BITs each built unit is commissioned on")
+    ap.add_argument("--whole-flights", action="store_true",
+                    help="fly EVERY flight whole (testbed whole flights, a PBIT at power-up "
+                         "on every --bit-every-th), replay each with the in-flight tracker "
+                         "on and again BITs only, and score both")
+    ap.add_argument("--flight-scale", type=float, default=WHOLE_SCALE,
+                    help="with --whole-flights: each phase's length over the 255 s flight's")
+    ap.add_argument("--templates", type=int, default=2,
+                    help="with --whole-flights: whole-flight profiles flown (rotated over the "
+                         "flights)")
+    ap.add_argument("--healthy-flights", type=int,
+                    help=f"flights of a unit that does not age (default {HEALTHY_FLIGHTS}; "
+                         f"{WHOLE_HEALTHY} with --whole-flights)")
     args = ap.parse_args()
     kinds = [k.strip() for k in args.kinds.split(",") if k.strip()]
     seed = fresh(args.seed)
@@ -559,6 +593,8 @@ def main() -> int:
                       f"{n.sd0:.3f} + {n.sd1:.3f} h over the envelope (sd at h = 1: "
                       f"{float(n.sd(np.array(1.0))) / n.gain:.3f} of the threshold; "
                       f"{at_nominal:.3f} at nominal supply and 25 C, 1 kPa)")
+        if args.whole_flights:
+            return whole_main(args, seed, out, model, kinds, rng, started)
         units = [Unit(f"U{i + 1:02d}", k, int(rng.integers(SEED_BASE, 2 * SEED_BASE)),
                      args.bit_every, args.mean_life)
                  for i, k in enumerate([*(k for k in kinds for _ in range(args.units_per_kind)),
@@ -740,6 +776,258 @@ def in_memory(dictionary: Path, units: Sequence[Unit], bit_every: int,
     beta = [v for s in scored for v in s.alpha_lambda.values()]
     print(f"in memory, alpha-lambda with its beta = 0.5 draw criterion: "
           f"{100 * sum(beta) / len(beta):.1f} % ({sum(beta)}/{len(beta)})")
+
+
+# ---- whole flights with in-flight tracking (--whole-flights) -------------------------------
+
+WHOLE_SCALE = 0.5
+"""``--whole-flights``: each phase at half the 255 s profile's length (127.5 s of bus)."""
+WHOLE_HEALTHY = 60
+"""``--whole-flights``: flights of a unit that does not age (a PBIT on each at the default)."""
+TEMPLATES: dict[bool, list[FlightTemplate]] = {}
+"""The run's whole-flight templates (True: with a PBIT), set before the flying pool starts
+so that its forked processes inherit them rather than receive one with every task."""
+WholePlan = dict[str, list[tuple[int, int]]]
+"""Per tail, each flight's (seed, template index), in the order of ``Unit.flights``."""
+
+
+def whole_plan(units: Sequence[Unit], rng: np.random.Generator, n_templates: int) -> WholePlan:
+    """Every flight's seed and whole-flight profile, drawn once so that the twin and the
+    built unit fly the same flights."""
+    return {u.tail: [(int(rng.integers(SEED_BASE, 2 * SEED_BASE)),
+                      int(rng.integers(n_templates))) for _ in u.flights] for u in units}
+
+
+def build_templates(n: int, scale: float, bit_every: int, rng: np.random.Generator,
+                    jobs: int) -> dict[bool, list[FlightTemplate]]:
+    """``n`` whole-flight profiles (seeds drawn from ``rng``) flown over the bus once each,
+    with a PBIT and, when ``bit_every`` leaves flights without one, without."""
+    seeds = [int(rng.integers(2**31)) for _ in range(n)]
+    kinds = [True, False] if bit_every > 1 else [True]
+    started = time.monotonic()
+    with ProcessPoolExecutor(jobs) as pool:
+        futures = {bit: [pool.submit(whole_template, s, scale, bit=bit) for s in seeds]
+                   for bit in kinds}
+        made = {bit: [f.result() for f in fs] for bit, fs in futures.items()}
+    print(f"{n} whole-flight profiles (seeds {', '.join(map(str, seeds))}; scale {scale:g}: "
+          f"{flight_seconds(made[True][0]):.1f} s of bus a flight) flown over the bus once "
+          f"each{' with and without a PBIT' if len(kinds) > 1 else ' with a PBIT'} in "
+          f"{time.monotonic() - started:.0f} s", flush=True)
+    return made
+
+
+def _fly_whole(path: str, unit: Unit, f: int, seed: int, template: int, bit: bool,
+               index: int) -> str:
+    b = unit.built
+    record_flight(path, TEMPLATES[bit][template], unit.faults(f), seed=seed,
+                  start=FIRST_DAY + timedelta(days=f, minutes=index), tail=unit.tail,
+                  params=None if b is None else b.params, form=None if b is None else b.form)
+    return path
+
+
+def bits_only(config_text: str) -> str:
+    """A replay configuration with the in-flight tracker off (``reasoner.inflight: false``)."""
+    return config_text.replace("reasoner:\n", "reasoner:\n  inflight: false\n", 1)
+
+
+def fly_and_replay_whole(units: Sequence[Unit], out: Path,
+                         configs: Mapping[str, tuple[Path, Path]],
+                         catalogs: tuple[Path, Path], jobs: int, plan: WholePlan,
+                         bit_every: int, keep: bool) -> int:
+    """Fly every flight of every unit whole (:data:`TEMPLATES`, a PBIT on every
+    ``bit_every``-th) in ``jobs`` processes; replay each, in flight order per unit, into
+    ``catalogs[0]`` with the tail's in-flight config and into ``catalogs[1]`` with its
+    BITs-only config. Prints the replays' CPU per second of bus; returns the failures."""
+    failed = done = 0
+    total = sum(len(u.flights) for u in units)
+    cpu = [0.0, 0.0]
+    bus_s = 0.0
+    started = time.monotonic()
+    with ProcessPoolExecutor(jobs) as pool:
+        futures: list[list[Future[str]]] = []
+        for i, u in enumerate(units):
+            (out / u.tail).mkdir(parents=True, exist_ok=True)
+            futures.append([pool.submit(
+                _fly_whole, str(out / u.tail / f"flight-{f + 1:04d}.ch10"), u, f, seed,
+                template, f % bit_every == 0, i)
+                for f, (seed, template) in zip(u.flights, plan[u.tail], strict=True)])
+        for u, fs in zip(units, futures, strict=True):
+            for f, fut in zip(u.flights, fs, strict=True):
+                try:
+                    path = fut.result()
+                except Exception as error:  # one bad flight never stops the fleet
+                    print(f"  {u.tail} flight {f + 1}: flying failed: {error}")
+                    failed += 1
+                    continue
+                bus_s += flight_seconds(TEMPLATES[True][0])
+                for k, (config, catalog) in enumerate(zip(configs[u.tail], catalogs,
+                                                          strict=True)):
+                    c0 = time.process_time()
+                    rc, text = replay(path, config, catalog, u.tail, f + 1)
+                    cpu[k] += time.process_time() - c0
+                    if rc != 0:
+                        print(f"  {u.tail} flight {f + 1} ({'BITs only' if k else 'in-flight'})"
+                              f": mapr replay exit {rc}: {text.strip().splitlines()[-1:]}")
+                        failed += 1
+                if not keep:
+                    Path(path).unlink(missing_ok=True)
+                done += 1
+            print(f"  {u.tail} ({u.kind}, EoL {u.path.eol_flight:.1f}): {len(u.flights)} whole "
+                  f"flights replayed twice ({done}/{total}, {time.monotonic() - started:.0f} s)",
+                  flush=True)
+    if bus_s > 0:
+        print(f"replay CPU per recording ({bus_s / max(done, 1):.1f} s of bus): in-flight on "
+              f"{cpu[0] / max(done, 1):.2f} s ({bus_s / max(cpu[0], 1e-9):.0f}x real time), "
+              f"BITs only {cpu[1] / max(done, 1):.2f} s ({bus_s / max(cpu[1], 1e-9):.0f}x); "
+              "each replay includes its catalog writes and trend refit")
+    return failed
+
+
+def print_inflight(conn: sqlite3.Connection, units: Sequence[Unit]) -> None:
+    """Per-flight in-flight friction change read back (the ``inflight`` table), in units of
+    friction's failure threshold (``FAILURE - 1``), against the unit's true aging path (0 on
+    a unit that does not age): error mean, sd and worst, the mean stated sd and how often
+    the stated 90 % band (1.645 sd) holds the truth. The truth is the smooth path: the
+    flight's own grease scatter (lognormal, the actuator file's ``friction_flight_sd``) is
+    part of the error, as it is for the trend."""
+    params = load_actuator(default_actuator_path())
+    scale = FAILURE["friction"] - 1.0
+    print(f"\nin-flight friction change per flight (from the catalog, in units of the failure "
+          f"threshold; the flight's grease scatter, sd {params.motor.friction_flight_sd:g} "
+          f"of friction = {params.motor.friction_flight_sd / scale:.3f} here, is in the "
+          "error):")
+    for name, group in (("friction", [u for u in units if u.kind == "friction"]),
+                        ("do not age", [u for u in units if u.kind == HEALTHY])):
+        err, sd = [], []
+        pending = rows = 0
+        for u in group:
+            for r in load_inflight(conn, tail=u.tail):
+                rows += 1
+                p = r.parameters.get("friction", {})
+                change, s = p.get("change"), p.get("sd_change")
+                if r.flight is None or change is None or s is None:
+                    pending += 1
+                    continue
+                f = r.flight - 1
+                true = 0.0 if u.kind == HEALTHY else \
+                    degradation(params, "friction", float(u.path.values[f]))
+                err.append(float(change) / scale - true)
+                sd.append(float(s) / scale)
+        if not err:
+            print(f"  {name:>10}: {rows} rows, none with a change")
+            continue
+        e, d = np.array(err), np.array(sd)
+        print(f"  {name:>10}: {e.size} flights ({pending} without a change: baseline "
+              f"pending or not estimated); error mean {e.mean():+.3f} sd {e.std():.3f} worst "
+              f"{np.abs(e).max():.3f}; stated sd mean {d.mean():.3f}; stated 90 % band holds "
+              f"the truth in {100 * np.mean(np.abs(e) <= 1.645 * d):.0f} %")
+
+
+def print_pair(fused: Scores, only: Scores, kinds: Sequence[str], cadence: str) -> None:
+    """BITs only and BITs + in-flight (same recordings, same catalog reading), kind by kind."""
+    print(f"\n== beside: {cadence}, BITs only against BITs + in-flight estimates (the same "
+          "recordings replayed twice) ==")
+    for title, i in (("the TRUE kind's mode", 0), ("the headline", 1)):
+        print(f"{title}:")
+        for k in [*kinds, "all"]:
+            for name, scores in (("BITs", only[i]), ("+infl", fused[i])):
+                line = kind_summary(k, [s for s in scores if k == "all" or s.kind == k])
+                print(f"  {name:>5} {line.strip()}")
+
+
+def whole_main(args: argparse.Namespace, seed: int, out: Path, model: PrognosticModel,
+               kinds: Sequence[str], rng: np.random.Generator, started: float) -> int:
+    """``--whole-flights``: every flight of every unit flown whole (a PBIT at power-up on
+    every ``--bit-every``-th), replayed with the in-flight tracker on and again BITs only
+    (``reasoner.inflight: false``) into two catalogs, both scored; with ``--mismatch`` the
+    same on built units, commissioned first."""
+    global TEMPLATES
+    healthy = WHOLE_HEALTHY if args.healthy_flights is None else args.healthy_flights
+    units = [Unit(f"U{i + 1:02d}", k, int(rng.integers(SEED_BASE, 2 * SEED_BASE)), 1,
+                  args.mean_life, healthy)
+             for i, k in enumerate([*(k for k in kinds for _ in range(args.units_per_kind)),
+                                    *[HEALTHY] * args.healthy_units])]
+    cadence = f"PBIT every {'flight' if args.bit_every == 1 else f'{args.bit_every} flights'}"
+    print(f"{len(units)} units ({args.units_per_kind} per kind of {', '.join(kinds)}, "
+          f"{args.healthy_units} that do not age over {healthy} flights; mean life "
+          f"{args.mean_life:g} flights, the fleet prior's {MEAN_LIFE:g}), every flight whole, "
+          f"{cadence}: {sum(len(u.flights) for u in units)} recordings; unit seeds "
+          + ", ".join(f"{u.tail}={u.seed}" for u in units))
+    print("expected life stated in the configuration: none" if args.expected_life is None
+          else f"expected life stated in the configuration: {args.expected_life:g} flights")
+    lives = "" if args.expected_life is None else \
+        "    expected_life_flights: {" + ", ".join(
+            f"{k}: {args.expected_life:g}" for k in kinds) + "}\n"
+    base_config = (f"reasoner:\n  dictionary: {args.dictionary.resolve()}\nassets:\n"
+                   f"  - name: EMA1\n    rt: 5\n    prognosis: "
+                   f"{args.prognosis.resolve()}\n{lives}")
+    config, config_off = out / "mapr.yaml", out / "mapr-bits-only.yaml"
+    config.write_text(base_config, encoding="utf-8")
+    config_off.write_text(bits_only(base_config), encoding="utf-8")
+    plan = whole_plan(units, rng, max(args.templates, 1))
+    built = built_units(units, seed) if args.mismatch else []
+    jobs = max(args.jobs, 1)
+    catalogs = (out / "fleet.db", out / "fleet-bits-only.db")
+    if not args.readback:
+        TEMPLATES = build_templates(max(args.templates, 1), args.flight_scale, args.bit_every,
+                                    np.random.default_rng([seed, WHOLE_STREAM]), jobs)
+        for c in catalogs:
+            c.unlink(missing_ok=True)
+        failed = fly_and_replay_whole(units, out, {u.tail: (config, config_off) for u in units},
+                                      catalogs, jobs, plan, args.bit_every,
+                                      args.keep_recordings)
+        print(f"flown and replayed in {time.monotonic() - started:.0f} s; failed: {failed}")
+    print("\n######## BITs + in-flight estimates ########")
+    fused = read_catalog(catalogs[0], units, model, kinds, args)
+    with sqlite3.connect(catalogs[0]) as conn:
+        print_inflight(conn, units)
+    print("\n######## BITs only (the same recordings, reasoner.inflight: false) ########")
+    only = read_catalog(catalogs[1], units, model, kinds, args)
+    print_pair(fused, only, kinds, cadence)
+    if built:
+        where = out / "mismatch"
+        where.mkdir(exist_ok=True)
+        (where / "mapr.yaml").write_text(base_config, encoding="utf-8")
+        mm = (where / "fleet.db", where / "fleet-bits-only.db")
+        if not args.readback:
+            t0 = time.monotonic()
+            print(f"\ncommissioning {len(built)} built units on {args.commission_bits} healthy "
+                  "BITs each (2 s BIT flights over the envelope, as without --whole-flights):")
+            configs = commission(built, where, args.dictionary, base_config,
+                                 args.commission_bits, jobs,
+                                 np.random.default_rng([seed, MISMATCH_STREAM, 1]),
+                                 args.keep_recordings)
+            pairs: dict[str, tuple[Path, Path]] = {}
+            for tail, c in configs.items():
+                off = c.with_name(f"{c.stem}-bits-only.yaml")
+                off.write_text(bits_only(c.read_text(encoding="utf-8")), encoding="utf-8")
+                pairs[tail] = (c, off)
+            print(f"commissioned in {time.monotonic() - t0:.0f} s; flying the same flights "
+                  "whole on the built units:")
+            for c in mm:
+                c.unlink(missing_ok=True)
+            t0 = time.monotonic()
+            failed = fly_and_replay_whole(built, where, pairs, mm, jobs, plan,
+                                          args.bit_every, args.keep_recordings)
+            print(f"flown and replayed in {time.monotonic() - t0:.0f} s; failed: {failed}")
+        print("\n######## built units (--mismatch): BITs + in-flight estimates ########")
+        mm_fused = read_catalog(mm[0], built, model, kinds, args)
+        with sqlite3.connect(mm[0]) as conn:
+            print_inflight(conn, built)
+        print("\n######## built units (--mismatch): BITs only ########")
+        mm_only = read_catalog(mm[1], built, model, kinds, args)
+        print_pair(mm_fused, mm_only, kinds, f"built units, {cadence}")
+        print_beside(fused, mm_fused, kinds)
+    children = resource.getrusage(resource.RUSAGE_CHILDREN)
+    print(f"\ntotal runtime {time.monotonic() - started:.0f} s wall; CPU "
+          f"{time.process_time():.0f} s in this process (replays, scoring) + "
+          f"{children.ru_utime + children.ru_stime:.0f} s in the flying processes; load "
+          f"average {' '.join(f'{x:.2f}' for x in os.getloadavg())} (1, 5, 15 min)")
+    return 0
+
+
+WHOLE_STREAM = 29
+"""The whole-flight profiles draw from ``default_rng([seed, 29])``: a stream of their own."""
 
 
 if __name__ == "__main__":

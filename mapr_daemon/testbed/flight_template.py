@@ -23,6 +23,7 @@ from drivers.backends.loopback import RemoteTerminal
 from drivers.mil1553.record import MonitorRecord
 from drivers.monitor import open_monitor
 from mapr_daemon.ema.faults import FaultSet
+from mapr_daemon.ema.form import ModelForm
 from mapr_daemon.ema.params import ActuatorParams
 from mapr_daemon.ema.profile import Profile
 from mapr_daemon.icd import Icd, Message
@@ -53,14 +54,19 @@ class FlightTemplate:
             if asked != len(indices):   # a retried or lost message: the bus was not clean
                 raise RuntimeError(f"{role}: {asked} polls but {len(indices)} records")
 
-    def _aircraft(self, faults: FaultSet, seed: int) -> Aircraft:
-        return Aircraft(self.icd, self.profile, self.params, faults, seed=seed,
-                        bit_requests_s=(0.0,) if self.bit else ())
+    def _aircraft(self, faults: FaultSet, seed: int, params: ActuatorParams | None = None,
+                  form: ModelForm | None = None) -> Aircraft:
+        return Aircraft(self.icd, self.profile, self.params if params is None else params,
+                        faults, seed=seed, bit_requests_s=(0.0,) if self.bit else (), form=form)
 
-    def flight(self, faults: FaultSet, seed: int) -> list[MonitorRecord]:
+    def flight(self, faults: FaultSet, seed: int, *, params: ActuatorParams | None = None,
+               form: ModelForm | None = None) -> list[MonitorRecord]:
         """The flight's records with the EMA's ``faults`` seeded and its plant's noise seeded
-        by ``seed`` (as ``Aircraft(..., faults, seed=seed)`` flown over the bus)."""
-        words = self._aircraft(faults, seed).ema.answer_all(self.polls)
+        by ``seed`` (as ``Aircraft(..., faults, seed=seed)`` flown over the bus). A built unit
+        that is not the template's (:mod:`.mismatch`: its own ``params``, at the template's
+        sample rate, and model ``form``) answers in place of the template's EMA: the bus
+        controller's traffic does not depend on what the EMA is."""
+        words = self._aircraft(faults, seed, params, form).ema.answer_all(self.polls)
         records = list(self.records)
         for role, indices in self.answers.items():
             rows = words[role].tolist()

@@ -57,3 +57,30 @@ def test_fleet_archive_command(tmp_path: Path, capsys: pytest.CaptureFixture[str
     assert main(["fleet-archive", str(tmp_path / "other"), "--kinds", "esr,rust"]) == \
         exitcodes.CONFIG
     assert "'rust'" in capsys.readouterr().err
+
+
+def test_a_templated_flight_of_a_built_unit_is_that_unit_flown_over_the_bus(
+        tmp_path: Path) -> None:
+    """A unit that is not the data sheet's twin (its own parameters and model form) answers
+    in the template's traffic exactly as it does flown over the bus; the twin's recording
+    differs from it."""
+    from mapr_daemon.testbed.mismatch import fleet
+
+    sheet = load_actuator(default_actuator_path())
+    (unit,) = fleet(sheet, 1, seed=8)
+    template = FlightTemplate(load_icd(DEFAULT_ICD), steady_profile(RATE_HZ, "cruise"),
+                              with_sample_rate(sheet, RATE_HZ), 0.6, bit=True)
+    faults = FaultSet.of([Fault("friction", 2.0)])
+    flown = tmp_path / "flown.ch10"
+    fly_flight(flown, faults, seed=5, start=START, flight_s=0.6, params=unit.params,
+               form=unit.form)
+    templated = tmp_path / "templated.ch10"
+    with Chapter10Writer(templated, start_time=START) as writer:
+        writer.write(template.flight(faults, seed=5,
+                                     params=with_sample_rate(unit.params, RATE_HZ),
+                                     form=unit.form))
+    twin = tmp_path / "twin.ch10"
+    with Chapter10Writer(twin, start_time=START) as writer:
+        writer.write(template.flight(faults, seed=5))
+    assert templated.read_bytes() == flown.read_bytes()
+    assert twin.read_bytes() != flown.read_bytes()
