@@ -26,8 +26,10 @@ unit's own anomaly detector calibrated on them read held out
 read against the baseline (:meth:`mapr_daemon.reasoner.reasoner.Reasoner.baseline_reading`) and
 decided by :func:`mapr_daemon.reasoner.commissioning.detection.decide` under each of its rules:
 ``dictionary`` (the dictionary detects, the reading weighs in on what it flags: the product
-before the detector, and for a record without one), ``union`` and ``baseline`` (the product's
-rule, what the daemon does for an asset with ``commissioned:``); one table each. The CPU time
+before the detector, and for a record without one), ``union``, ``explained`` (the product's
+rule, what the daemon does for an asset with ``commissioned:``) and ``baseline``; one table
+each. ``--dump FILE`` writes each diagnosed BIT's detection statistics, its unit's thresholds
+and the dictionary's alarm as JSON lines, to read other rules off the same BITs. The CPU time
 of each reading and of each unit's detector calibration is printed (mean and worst), and how
 the healthy BITs' two detection statistics sit against their unit's thresholds.
 
@@ -41,6 +43,7 @@ Run:  python3 bench/units.py --actuator FILE --dictionary DICT [--units 30]
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import sys
 import time
@@ -91,6 +94,9 @@ def main() -> int:
     ap.add_argument("--baseline", action="store_true",
                     help="also identify each unit, learn its discrepancy and decide with the "
                          "reading against its baseline (the daemon's assets[].commissioned)")
+    ap.add_argument("--dump", type=Path,
+                    help="with --baseline: each diagnosed BIT's detection statistics as JSON "
+                         "lines")
     args = ap.parse_args()
     seed = master(args.seed, f"python3 bench/units.py --actuator {args.actuator} "
                   f"--dictionary {args.dictionary} --units {args.units}"
@@ -141,6 +147,7 @@ def main() -> int:
     calib_cpu: list[float] = []
     healthy_reads: list[tuple[bool, float]] = []  # explains, cost drop
     over: dict[str, list[float]] = {k: [] for k in detector.STATISTICS}  # healthy value/thr
+    dumped: list[dict[str, object]] = []
     t_commission = 0.0
     widened: list[int] = []
     raised: dict[str, list[float]] = {}
@@ -183,6 +190,8 @@ def main() -> int:
             read_cpu.append(time.process_time() - c0)
             for rule in detection.RULES:
                 by_rule[rule].append(detection.decide(dec, r, reasoner.baseline, rule))
+            if args.dump is not None:
+                dumped.append(_dump(who[i], dec, r, reasoner.baseline))
             if who[i][1] == "healthy" and isinstance(r, Reading):
                 healthy_reads.append((explains(r), r.healthy_cost - r.cost))
                 if reasoner.baseline.detector is not None:
@@ -201,8 +210,11 @@ def main() -> int:
                        by_rule["dictionary"]))
         blocks.append(("calibrated to each unit + the unit's detector, either firing "
                        "(rule union)", by_rule["union"]))
-        blocks.append(("the unit's detector on the baseline reading deciding (rule baseline: "
-                       "the product's, assets[].commissioned)", by_rule["baseline"]))
+        blocks.append(("calibrated to each unit + the unit's detector's GLRT statistic "
+                       "(rule explained: the product's, assets[].commissioned)",
+                       by_rule["explained"]))
+        blocks.append(("the unit's detector on the baseline reading deciding alone "
+                       "(rule baseline)", by_rule["baseline"]))
         drops = [x for _, x in healthy_reads]
         print(f"baseline: identified + discrepancy learned + detector calibrated in "
               f"{t_commission:.1f} s wall for {len(units)} units (detector calibration CPU per "
@@ -219,9 +231,24 @@ def main() -> int:
                       f" largest {max(v):.2f}; above it {sum(x > 1.0 for x in v)} of {len(v)}")
     for name, decs in blocks:
         report_block(name, scored, decs)
+    if args.dump is not None:
+        args.dump.write_text("".join(json.dumps(x) + "\n" for x in dumped))
     print(f"\ntotal wall {time.monotonic() - start:.1f} s, CPU {time.process_time() - cpu0:.1f}"
           f" s; load average {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
     return 0
+
+
+def _dump(w: tuple[int, str, str, float], dec: classifier.Decision, r: Reading | str,
+          bl: Baseline) -> dict[str, object]:
+    """One diagnosed BIT for ``--dump``."""
+    out: dict[str, object] = {"unit": w[0], "role": w[1], "mode": w[2], "magnitude": w[3],
+                              "dictionary": dec.anomaly, "dictionary_fault": dec.fault}
+    if isinstance(r, Reading):
+        out.update(reading=r.mode, severity=r.severity, explains=explains(r),
+                   **detector.statistics(r))
+    if bl.detector is not None:
+        out["thresholds"] = {k: t.threshold for k, t in bl.detector.tails.items()}
+    return out
 
 
 def _baseline(sheet: ActuatorParams, runs: Runs, comm: list[int]) -> tuple[Baseline, float]:
