@@ -15,7 +15,9 @@ from mapr_daemon.ema.faults import FaultSet, at_severity
 from mapr_daemon.errors import ConfigError
 from mapr_daemon.findings import Diagnosis
 from mapr_daemon.reasoner.commissioning.baseline import Baseline
+from mapr_daemon.reasoner.commissioning.detection import decide
 from mapr_daemon.reasoner.commissioning.detector import Detector, Tail
+from mapr_daemon.reasoner.commissioning.severity import Reading
 from mapr_daemon.reasoner.reasoner import Reasoner
 from mapr_daemon.reasoner.training.corpus import Runs, simulate_bit
 from tests.reasoner.conftest import HELD_OUT, Bench, commissioned_folder
@@ -56,7 +58,7 @@ def test_the_units_healthy_bits_are_not_flagged(bench: Bench, with_detector: Pat
         out = _diagnose(bench.runs, bench.runs.n - len(HELD_OUT) + j, reasoner)
         assert not out.anomaly, out.evidence
         detection = out.evidence["detection"]
-        assert detection["fired"] == []
+        assert detection["fired"] == [] and detection["decided_by"] == []
         for stat in detection["baseline"].values():
             assert not stat["fired"] and stat["value"] < stat["threshold"]
 
@@ -71,6 +73,7 @@ def test_a_small_fault_the_dictionary_misses_is_flagged_by_the_units_detector(
     detection = out.evidence["detection"]
     assert not detection["dictionary"]
     assert "baseline.explained" in detection["fired"]
+    assert detection["decided_by"] == ["baseline.explained"]
     assert out.fault == "friction" and out.part == "motor and gear"
     assert 0.0 < out.confidence <= 1.0
 
@@ -110,3 +113,23 @@ def test_the_tail_fit_puts_the_threshold_at_the_tails_quantile() -> None:
         truth = scale * stats.chi2.isf(5e-4, dof)
         assert tail.threshold == pytest.approx(truth, rel=0.15)
         assert 1e-4 < tail.exceedance(truth) < 2.5e-3  # a tail probability: within x5
+
+
+def test_each_rule_on_a_dictionary_alarm_the_reading_calls_healthy(
+        bench: Bench, with_detector: Path) -> None:
+    baseline = Baseline.load(with_detector)
+    reasoner = Reasoner(bench.dictionary, bench.params)
+    i = bench.runs.n - len(HELD_OUT) + 4  # friction 0.8: the dictionary flags it
+    dec = reasoner.decide(reasoner.matrix({k: v[i] for k, v in bench.runs.channels.items()},
+                                          bench.runs.command_deg),
+                          float(bench.runs.dynamic_pressure_pa[i]))
+    assert dec.anomaly
+    within = Reading("healthy", "", 0.0, 0.9, 0.9, {"healthy": 0.9})
+    for rule in ("dictionary", "union", "explained"):
+        out = decide(dec, within, baseline, rule)
+        assert out.anomaly and out.evidence["detection"]["decided_by"] == ["dictionary"]
+    vetoed = decide(dec, within, baseline, "baseline")
+    assert not vetoed.anomaly and vetoed.fault is None
+    assert vetoed.evidence["vetoed"]["fault"] == dec.fault
+    with pytest.raises(ValueError, match="rule"):
+        decide(dec, within, baseline, "either")

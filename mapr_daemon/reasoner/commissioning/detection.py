@@ -27,7 +27,8 @@ An anomaly then goes through
 :func:`~mapr_daemon.reasoner.commissioning.unit_decision.combine` (mode, part and severity from
 the reading when it explains the BIT; "anomaly, not explained by any known fault mode"
 otherwise). The event's ``evidence.detection`` says which detector fired: the dictionary's
-alarm, each baseline statistic with its threshold, and the rule.
+alarm, each baseline statistic with its threshold, everything above its threshold
+(``fired``), what the rule counted (``decided_by``: empty for a nominal BIT) and the rule.
 """
 
 from __future__ import annotations
@@ -66,13 +67,14 @@ def decide(dec: Decision, reading: Reading | str, baseline: Baseline,
     if detector is None or isinstance(reading, str):
         return combine(dec, reading, baseline) if dec.anomaly else dec
     fired = detector.fired(reading)
-    anomaly = {"dictionary": dec.anomaly, "union": dec.anomaly or bool(fired),
-               "explained": dec.anomaly or "explained" in fired,
-               "baseline": bool(fired)}[rule]
+    everything = (["dictionary"] if dec.anomaly else []) + [f"baseline.{k}" for k in fired]
+    counted = {"dictionary": ["dictionary"] if dec.anomaly else [], "union": everything,
+               "explained": [k for k in everything if k != "baseline.no_fault"],
+               "baseline": [k for k in everything if k != "dictionary"]}[rule]
+    anomaly = bool(counted)
     detection: dict[str, Any] = {
         "dictionary": dec.anomaly, "baseline": detector.evidence(reading),
-        "fired": (["dictionary"] if dec.anomaly else []) + [f"baseline.{k}" for k in fired],
-        "rule": _SAYS[rule]}
+        "fired": everything, "decided_by": counted, "rule": _SAYS[rule]}
     if not anomaly:
         evidence = dict(dec.evidence)
         evidence.update(detection=detection, baseline=baseline.to_json(reading))
@@ -87,8 +89,7 @@ def decide(dec: Decision, reading: Reading | str, baseline: Baseline,
         # the unit's detector alone: as sure as its fitted tail makes the departure rare
         dec = dataclasses.replace(dec, anomaly=True, fault=None, switch=None, severity=None,
                                   value=None, unit=None, pair=None, kind_residuals={},
-                                  confidence=1.0 - min(v for k, v in fired.items()
-                                                       if rule != "explained" or
-                                                       k == "explained"))
+                                  confidence=1.0 - min(fired[k.split(".")[1]]
+                                                       for k in counted))
     out = combine(dec, reading, baseline)
     return dataclasses.replace(out, evidence={**out.evidence, "detection": detection})
