@@ -20,24 +20,30 @@ the unit; slower (a dictionary per unit).
 
 With ``--baseline`` each unit is also commissioned as ``mapr commission`` does it for the
 baseline reading: its parameters identified from the same BITs and the model's discrepancy
-learned on them (:func:`mapr_daemon.reasoner.commissioning.discrepancy.learn_unit`); every BIT
-the calibrated dictionary flags then goes through the product's path
-(:meth:`mapr_daemon.reasoner.reasoner.Reasoner.against_baseline`, what the daemon does for an
-asset with ``commissioned:``), and a third table gives the decisions with the baseline reading
-on. The CPU time of each reading is printed (mean and worst), and ``--healthy-reads`` of each
-unit's healthy BITs are read against the baseline whatever the dictionary says, to show how
-often a healthy BIT's reading would pass the "explains" rule.
+learned on them (:func:`mapr_daemon.reasoner.commissioning.discrepancy.learn_unit`), and the
+unit's own anomaly detector calibrated on them read held out
+(:func:`mapr_daemon.reasoner.commissioning.detector.calibrate`). Every diagnosed BIT is then
+read against the baseline (:meth:`mapr_daemon.reasoner.reasoner.Reasoner.baseline_reading`) and
+decided by :func:`mapr_daemon.reasoner.commissioning.detection.decide` under each of its rules:
+``dictionary`` (the dictionary detects, the reading weighs in on what it flags: the product
+before the detector, and for a record without one), ``union``, ``explained`` (the product's
+rule, what the daemon does for an asset with ``commissioned:``) and ``baseline``; one table
+each. ``--dump FILE`` writes each diagnosed BIT's detection statistics, its unit's thresholds
+and the dictionary's alarm as JSON lines, to read other rules off the same BITs. The CPU time
+of each reading and of each unit's detector calibration is printed (mean and worst), and how
+the healthy BITs' two detection statistics sit against their unit's thresholds.
 
 Seeds: a master seed, drawn afresh unless ``--seed`` is given, is printed first; the fleet,
 conditions, magnitudes and per-run noise seeds (10^9..2^62) come from it.
 
 Run:  python3 bench/units.py --actuator FILE --dictionary DICT [--units 30]
-      [--commission-bits 20] [--healthy 20] [--seed N] [--baseline [--healthy-reads 3]]
+      [--commission-bits 20] [--healthy 20] [--seed N] [--baseline]
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import sys
 import time
@@ -53,11 +59,12 @@ from seeds import master
 from mapr_daemon.ema.batch import RunSpec
 from mapr_daemon.ema.faults import SWITCHES, Fault, FaultSet, at_severity
 from mapr_daemon.ema.params import ActuatorParams, default_actuator_path, load_actuator
-from mapr_daemon.reasoner.commissioning import calibrate
+from mapr_daemon.reasoner.commissioning import calibrate, detection, detector
 from mapr_daemon.reasoner.commissioning.baseline import Baseline
 from mapr_daemon.reasoner.commissioning.bits import from_runs
 from mapr_daemon.reasoner.commissioning.discrepancy import learn_unit
 from mapr_daemon.reasoner.commissioning.identify import FitOptions, identify
+from mapr_daemon.reasoner.commissioning.severity import Reading
 from mapr_daemon.reasoner.commissioning.unit_decision import explains
 from mapr_daemon.reasoner.diagnosis import classifier, parts
 from mapr_daemon.reasoner.diagnosis.dictionary import Dictionary, DictionarySpec
@@ -87,9 +94,9 @@ def main() -> int:
     ap.add_argument("--baseline", action="store_true",
                     help="also identify each unit, learn its discrepancy and decide with the "
                          "reading against its baseline (the daemon's assets[].commissioned)")
-    ap.add_argument("--healthy-reads", type=int, default=3,
-                    help="with --baseline: healthy BITs per unit read against the baseline "
-                         "whatever the dictionary says")
+    ap.add_argument("--dump", type=Path,
+                    help="with --baseline: each diagnosed BIT's detection statistics as JSON "
+                         "lines")
     args = ap.parse_args()
     seed = master(args.seed, f"python3 bench/units.py --actuator {args.actuator} "
                   f"--dictionary {args.dictionary} --units {args.units}"
@@ -135,9 +142,12 @@ def main() -> int:
           f"({args.commission_bits} commissioning BITs per unit)")
     before: list[classifier.Decision | None] = []
     after: list[classifier.Decision | None] = []
-    with_base: list[classifier.Decision | None] = []
+    by_rule: dict[str, list[classifier.Decision | None]] = {r: [] for r in detection.RULES}
     read_cpu: list[float] = []
+    calib_cpu: list[float] = []
     healthy_reads: list[tuple[bool, float]] = []  # explains, cost drop
+    over: dict[str, list[float]] = {k: [] for k in detector.STATISTICS}  # healthy value/thr
+    dumped: list[dict[str, object]] = []
     t_commission = 0.0
     widened: list[int] = []
     raised: dict[str, list[float]] = {}
@@ -155,12 +165,16 @@ def main() -> int:
         reasoner = None
         if args.baseline:
             tc = time.monotonic()
-            reasoner = Reasoner(unit_d, sheet, baseline=_baseline(sheet, runs, comm))
+            bl, cpu = _baseline(sheet, runs, comm)
+            calib_cpu.append(cpu)
+            reasoner = Reasoner(unit_d, sheet, baseline=bl)
             t_commission += time.monotonic() - tc
-            print(f"  unit {u + 1}/{len(units)}: identified and discrepancy learned in "
-                  f"{time.monotonic() - tc:.1f} s (wall {time.monotonic() - start:.0f} s so "
-                  f"far)", flush=True)
-        healthy_read = 0
+            thr = "none" if bl.detector is None else ", ".join(
+                f"{k} {t.threshold:.3g}" for k, t in bl.detector.tails.items())
+            print(f"  unit {u + 1}/{len(units)}: identified, discrepancy learned and detector "
+                  f"calibrated in {time.monotonic() - tc:.1f} s (detector {cpu:.1f} s CPU; "
+                  f"thresholds {thr}; wall {time.monotonic() - start:.0f} s so far)",
+                  flush=True)
         for i in own:
             if who[i][1] == "commission":
                 continue
@@ -169,18 +183,21 @@ def main() -> int:
             after.append(dec)
             if reasoner is None:
                 continue
+            assert reasoner.baseline is not None
             channels = {k: v[i] for k, v in runs.channels.items()}
-            if dec.anomaly and not dec.inconclusive:
-                c0 = time.process_time()
-                dec = reasoner.against_baseline(dec, channels, runs.command_deg, q[i])
-                read_cpu.append(time.process_time() - c0)
-            with_base.append(dec)
-            if who[i][1] == "healthy" and healthy_read < args.healthy_reads:
-                assert reasoner.baseline is not None
-                healthy_read += 1
-                r = reasoner.baseline.read(channels, runs.command_deg, q[i])
-                healthy_reads.append((explains(r), 0.0 if isinstance(r, str)
-                                      else r.healthy_cost - r.cost))
+            c0 = time.process_time()
+            r = reasoner.baseline_reading(channels, runs.command_deg, q[i])
+            read_cpu.append(time.process_time() - c0)
+            for rule in detection.RULES:
+                by_rule[rule].append(detection.decide(dec, r, reasoner.baseline, rule))
+            if args.dump is not None:
+                dumped.append(_dump(who[i], dec, r, reasoner.baseline))
+            if who[i][1] == "healthy" and isinstance(r, Reading):
+                healthy_reads.append((explains(r), r.healthy_cost - r.cost))
+                if reasoner.baseline.detector is not None:
+                    st = detector.statistics(r)
+                    for k, t in reasoner.baseline.detector.tails.items():
+                        over[k].append(st[k] / t.threshold)
     print(f"calibrated and decided in {time.monotonic() - t0:.1f} s; cells widened > 2x per "
           f"unit: median {int(np.median(widened))}, max {max(widened)}; thresholds raised by "
           + ", ".join(f"{k} x{np.median(v):.2f} median, x{max(v):.2f} max"
@@ -188,32 +205,64 @@ def main() -> int:
     scored = [w for w in who if w[1] != "commission"]
     blocks = [("the data sheet's dictionary", before), ("calibrated to each unit", after)]
     if args.baseline:
-        blocks.append(("calibrated to each unit + the reading against its baseline "
-                       "(assets[].commissioned)", with_base))
+        blocks.append(("calibrated to each unit + the reading against its baseline, the "
+                       "dictionary detecting (rule dictionary: before the unit's detector)",
+                       by_rule["dictionary"]))
+        blocks.append(("calibrated to each unit + the unit's detector, either firing "
+                       "(rule union)", by_rule["union"]))
+        blocks.append(("calibrated to each unit + the unit's detector's GLRT statistic "
+                       "(rule explained: the product's, assets[].commissioned)",
+                       by_rule["explained"]))
+        blocks.append(("the unit's detector on the baseline reading deciding alone "
+                       "(rule baseline)", by_rule["baseline"]))
         drops = [x for _, x in healthy_reads]
-        print(f"baseline: identified + discrepancy learned in {t_commission:.1f} s wall for "
-              f"{len(units)} units; {len(read_cpu)} flagged BITs read against it, CPU per "
-              f"reading mean {np.mean(read_cpu) if read_cpu else 0:.2f} s, worst "
-              f"{max(read_cpu, default=0.0):.2f} s; {len(healthy_reads)} healthy BITs read "
-              f"whatever the dictionary said: {sum(e for e, _ in healthy_reads)} would be "
-              f"explained as a fault, cost drop median {np.median(drops) if drops else 0:.2f},"
-              f" largest {max(drops, default=0.0):.2f}")
+        print(f"baseline: identified + discrepancy learned + detector calibrated in "
+              f"{t_commission:.1f} s wall for {len(units)} units (detector calibration CPU per "
+              f"unit mean {np.mean(calib_cpu):.1f} s, worst {max(calib_cpu):.1f} s); "
+              f"{len(read_cpu)} BITs read against it, CPU per reading mean "
+              f"{np.mean(read_cpu) if read_cpu else 0:.2f} s, worst "
+              f"{max(read_cpu, default=0.0):.2f} s; {len(healthy_reads)} healthy BITs read: "
+              f"{sum(e for e, _ in healthy_reads)} would be explained as a fault, cost drop "
+              f"median {np.median(drops) if drops else 0:.2f}, largest "
+              f"{max(drops, default=0.0):.2f}")
+        for k, v in over.items():
+            if v:
+                print(f"  healthy BITs' {k} / the unit's threshold: median {np.median(v):.2f},"
+                      f" largest {max(v):.2f}; above it {sum(x > 1.0 for x in v)} of {len(v)}")
     for name, decs in blocks:
         report_block(name, scored, decs)
+    if args.dump is not None:
+        args.dump.write_text("".join(json.dumps(x) + "\n" for x in dumped))
     print(f"\ntotal wall {time.monotonic() - start:.1f} s, CPU {time.process_time() - cpu0:.1f}"
           f" s; load average {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
     return 0
 
 
-def _baseline(sheet: ActuatorParams, runs: Runs, comm: list[int]) -> Baseline:
+def _dump(w: tuple[int, str, str, float], dec: classifier.Decision, r: Reading | str,
+          bl: Baseline) -> dict[str, object]:
+    """One diagnosed BIT for ``--dump``."""
+    out: dict[str, object] = {"unit": w[0], "role": w[1], "mode": w[2], "magnitude": w[3],
+                              "dictionary": dec.anomaly, "dictionary_fault": dec.fault}
+    if isinstance(r, Reading):
+        out.update(reading=r.mode, severity=r.severity, explains=explains(r),
+                   **detector.statistics(r))
+    if bl.detector is not None:
+        out["thresholds"] = {k: t.threshold for k, t in bl.detector.tails.items()}
+    return out
+
+
+def _baseline(sheet: ActuatorParams, runs: Runs, comm: list[int]) -> tuple[Baseline, float]:
     """The unit's commissioned baseline as ``mapr commission`` writes it: the actuator
-    identified from ``comm`` and the discrepancy learned on the BITs the identification used
-    (fault ranges on the data sheet)."""
+    identified from ``comm``, the discrepancy learned on the BITs the identification used and
+    the unit's detector calibrated on them (fault ranges on the data sheet); and the
+    detector's calibration CPU seconds."""
     bits = from_runs(runs, "bench", comm)
     ident = identify(sheet, bits)
-    used = {b.index for b in ident.bits}
-    disc = learn_unit(ident.params, [b for b in bits if b.index in used], FitOptions().decimate)
-    return Baseline(ident.params, sheet, disc)
+    used = [b for b in bits if b.index in {u.index for u in ident.bits}]
+    disc = learn_unit(ident.params, used, FitOptions().decimate)
+    c0 = time.process_time()
+    det = detector.calibrate(ident.params, sheet, disc, used)
+    return Baseline(ident.params, sheet, disc, det), time.process_time() - c0
 
 
 def _identified(sheet: ActuatorParams, runs: Runs, comm: list[int],

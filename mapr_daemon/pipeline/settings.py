@@ -42,10 +42,13 @@ class AssetConfig:
     user's reliability figure; the trend holds it loosely). Absent: the prognostic model's
     own, which is the aging model's assumption (200 flights)."""
     commissioned: str | None = None
-    """The unit's ``mapr commission`` folder (None: the dictionary alone). With it, every BIT
-    the dictionary flags is also read against the unit's commissioned baseline, which gives
-    the event's mode, part and severity when it explains the BIT
-    (:mod:`mapr_daemon.reasoner.commissioning.unit_decision`)."""
+    """The unit's ``mapr commission`` folder (None: the dictionary alone). With it, BITs are
+    also read against the unit's commissioned baseline, which gives the event's mode, part
+    and severity when it explains the BIT
+    (:mod:`mapr_daemon.reasoner.commissioning.unit_decision`): every BIT, and detection is
+    the dictionary's combined with the unit's own detector, when the record has one
+    (:mod:`mapr_daemon.reasoner.commissioning.detection`); only the BITs the dictionary flags
+    otherwise."""
 
 
 @dataclasses.dataclass(frozen=True)

@@ -120,6 +120,9 @@ def test_the_bits_flown_are_found_in_the_recording_and_commissioned_from(
     assert rec.discrepancy is not None and rec.discrepancy["file"] == "discrepancy.npz"
     assert Discrepancy.load(out / "discrepancy.npz").bits == BITS
     assert "discrepancy learned" in cap.err and "fit converged in" in cap.out
+    # three BITs leave two per held-out reading: too few for the detector's tail, said so
+    assert rec.detector is None
+    assert "no anomaly detector on the baseline: 3 BITs" in cap.err
 
 
 def test_the_same_bits_as_npz_and_as_recording_identify_the_same_unit(

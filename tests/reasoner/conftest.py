@@ -79,19 +79,24 @@ def bench() -> Bench:
     return Bench(params, d, runs, m, m[role == "held"], runs.dynamic_pressure_pa[role == "held"])
 
 
-def commissioned_folder(bench: Bench, folder: Path, count: int = 6) -> Path:
+def commissioned_folder(bench: Bench, folder: Path, count: int = 6,
+                        detector: bool = False) -> Path:
     """A ``mapr commission`` folder made from the first ``count`` of the bench's own healthy
     runs (the unit is the data sheet's twin: what the callers test is the reading's wiring,
-    not what the discrepancy learns): the actuator, the learned discrepancy and the record."""
+    not what the discrepancy learns): the actuator, the learned discrepancy and the record;
+    with ``detector``, the unit's anomaly detector calibrated on the same runs (a record
+    written before there was one has none)."""
     from mapr_daemon.ema.dump import write_actuator
+    from mapr_daemon.reasoner.commissioning import detector as det
     from mapr_daemon.reasoner.commissioning.bits import from_runs
     from mapr_daemon.reasoner.commissioning.discrepancy import learn_unit
 
     own = bench.runs.n - len(HELD_OUT)
     healthy = [i for i in range(own) if bench.runs.labels[i] == "healthy"][:count]
     write_actuator(folder / "actuator.yaml", bench.params)
-    learn_unit(bench.params, from_runs(bench.runs, "bench", healthy), 10).save(
-        folder / "discrepancy.npz")
+    bits = from_runs(bench.runs, "bench", healthy)
+    disc = learn_unit(bench.params, bits, 10)
+    disc.save(folder / "discrepancy.npz")
     record = {"format": "mapr-commissioning/1", "created": "2025-01-01T00:00:00+00:00",
               "actuator": bench.params.name, "datasheet": "sheet.yaml",
               "identified_actuator": "actuator.yaml", "dictionary": None, "parameters": [],
@@ -99,5 +104,7 @@ def commissioned_folder(bench: Bench, folder: Path, count: int = 6) -> Path:
               "skipped": [], "correlation": [],
               "fit": {"iterations": 3, "converged": True, "model_runs": 10, "wall_s": 1.0},
               "discrepancy": {"file": "discrepancy.npz"}}
+    if detector:
+        record["detector"] = det.calibrate(bench.params, bench.params, disc, bits).to_json()
     (folder / "commissioning.json").write_text(json.dumps(record))
     return folder

@@ -17,8 +17,10 @@ commissioned healthy behaviour, identified model plus discrepancy (docs/commissi
 "Reading a fault against the unit's baseline"): ``mode`` (null: no fault explains the run
 better than none), ``switch``, ``severity`` (fraction of the Table 1 range), ``value`` (the
 faulted parameter's), ``explained``, ``cost`` and ``pair`` (the best pair of two faults in
-different parts: ``modes``, ``severities``, ``cost``; named or not). The dictionary's decision
-is unchanged.
+different parts: ``modes``, ``severities``, ``cost``; named or not); with a folder
+commissioned since the unit's detector exists, ``detection``: its two statistics against the
+unit's thresholds (docs/commissioning.md, "The unit's own detector"). The dictionary's
+decision is unchanged (the daemon's ``assets[].commissioned`` combines the two).
 
 The runs of a file are independent: each is diagnosed by a fresh reasoner, so its event is
 the one ``--index`` gives it alone. ``--same-unit`` says they are successive BITs of one
@@ -93,7 +95,10 @@ def run(args: argparse.Namespace) -> int:
         flagged += diagnosis.error is not None
         line = {"run": i, **diagnosis.to_json()}
         if baseline is not None:
-            line["baseline"] = baseline.to_json(baseline.read(
-                channels, runs.command_deg, float(runs.dynamic_pressure_pa[i])))
+            reading = baseline.read(channels, runs.command_deg,
+                                    float(runs.dynamic_pressure_pa[i]))
+            line["baseline"] = baseline.to_json(reading)
+            if baseline.detector is not None and not isinstance(reading, str):
+                line["baseline"]["detection"] = baseline.detector.evidence(reading)
         print(json.dumps(line), flush=True)
     return exitcodes.DATAERR if flagged else exitcodes.OK

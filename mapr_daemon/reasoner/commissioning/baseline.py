@@ -9,6 +9,9 @@ ranges are measured on is the identified actuator with each identified parameter
 its data sheet value (both are in the record), so the folder alone is enough.
 :meth:`Baseline.read` is :func:`~mapr_daemon.reasoner.commissioning.severity.read` on one BIT,
 pairs of two faults included (:mod:`~mapr_daemon.reasoner.commissioning.pairs`).
+A record with a ``detector`` (commissioned since it existed) gives the baseline the unit's own
+anomaly thresholds (:mod:`~mapr_daemon.reasoner.commissioning.detector`); an older one loads
+without, and the dictionary keeps detecting alone.
 """
 
 from __future__ import annotations
@@ -23,6 +26,7 @@ from mapr_daemon.ema.params import ActuatorParams, load_actuator
 from mapr_daemon.errors import ConfigError
 from mapr_daemon.reasoner.commissioning import prior as ip
 from mapr_daemon.reasoner.commissioning.bits import BitRecord, unusable
+from mapr_daemon.reasoner.commissioning.detector import Detector
 from mapr_daemon.reasoner.commissioning.discrepancy import Discrepancy
 from mapr_daemon.reasoner.commissioning.pairs import TOP
 from mapr_daemon.reasoner.commissioning.record import read_record
@@ -40,6 +44,8 @@ class Baseline:
     datasheet: ActuatorParams
     """The data sheet (fault ranges are fractions of its Table 1 range)."""
     discrepancy: Discrepancy
+    detector: Detector | None = None
+    """The unit's anomaly thresholds on the reading; None: the dictionary detects alone."""
 
     @classmethod
     def load(cls, folder: str | Path) -> Baseline:
@@ -55,7 +61,9 @@ class Baseline:
         back = {e.path: e.datasheet / ip.get(params, e.path) for e in record.parameters}
         datasheet = ip.scaled(params, back)
         disc = Discrepancy.load(d / str(record.discrepancy["file"]))
-        return cls(params, datasheet, disc)
+        detector = None if record.detector is None else Detector.from_json(
+            record.detector, str(d / RECORD_FILE))
+        return cls(params, datasheet, disc, detector)
 
     def read(self, channels: dict[str, FloatArray], command_deg: FloatArray,
              dynamic_pressure_pa: float, pairs: int = TOP) -> Reading | str:

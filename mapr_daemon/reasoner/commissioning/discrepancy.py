@@ -372,3 +372,38 @@ def correction_for(disc: Discrepancy, params: ActuatorParams, bits: Sequence[Bit
     own channels."""
     return disc.correction(feature_matrix(params, bits),
                            drift_matrix(params, bits, disc.decimate))
+
+
+def held_out_discrepancies(disc: Discrepancy, params: ActuatorParams,
+                           bits: Sequence[BitRecord]) -> list[Discrepancy]:
+    """Per BIT of ``bits`` (those ``disc`` was learned on, in that order), the discrepancy
+    learned on the others: each signal's choice (drift term, rank, ridge, kernel) kept as
+    ``disc`` made it, its coefficients and its held-out spread recomputed without the BIT.
+    What reading a commissioning BIT against a baseline that has not seen it needs (the
+    detector's calibration, :mod:`~mapr_daemon.reasoner.commissioning.detector`); the choice
+    itself was made with the BIT, a small optimism the threshold's tail fit does not undo."""
+    n = len(bits)
+    if n != disc.bits or n - 1 < MIN_BITS:
+        raise ConfigError(f"{n} BITs for a discrepancy learned on {disc.bits}: holding one "
+                          f"out needs the same BITs and at least {MIN_BITS + 1}", field="bits")
+    z_all = residuals(params, bits, disc.decimate) / disc.scale[None, :, None]
+    feats = feature_matrix(params, bits)
+    reg = drift_regressors(feats, drift_matrix(params, bits, disc.decimate))
+    out = []
+    for i in range(n):
+        keep = np.arange(n) != i
+        center, spread = _standardise(feats[keep])
+        x = (feats[keep] - center) / spread
+        fits = []
+        for k, f in enumerate(disc.fits):
+            z = z_all[keep, k, :]
+            use_drift = bool(np.any(f.drift != 0.0))
+            ms = _held_out(z, feats[keep], reg[keep] if use_drift else None, f.rank, f.ridge,
+                           f.length)
+            beta = _drift_fit(z, reg[keep]) if use_drift else np.zeros(reg.shape[1])
+            z = z - np.einsum("j,njt->nt", beta, reg[keep])
+            mean, basis, dual = _train(z, x, f.rank, f.ridge, f.length)
+            fits.append(SignalFit(beta, mean, basis, dual, f.ridge, f.length, f.held_out_none,
+                                  float(np.sqrt(np.mean(ms))), _smooth_spread(ms)))
+        out.append(Discrepancy(disc.decimate, disc.scale, center, spread, x, tuple(fits)))
+    return out

@@ -20,12 +20,17 @@ on it. Format ``mapr-commissioning/1``::
      "unit_calibration": {...},
      "discrepancy": {"file": "discrepancy.npz", "criterion": ..., "bits": 12,
                      "features": [...], "signals": {"position_deg": {"rank": 2, ...,
-                     "held_out_rms_model": 240.1, "held_out_rms_corrected": 30.2}, ...}}}
+                     "held_out_rms_model": 240.1, "held_out_rms_corrected": 30.2}, ...}},
+     "detector": {"rule": ..., "alpha": 0.001, "statistics": {"no_fault": {"scale": ...,
+                  "dof": ..., "threshold": 2.9, "largest_held_out": 1.8,
+                  "held_out": [...]}, "explained": {...}}}}
 
 ``discrepancy`` (None in records written before it existed, or with too few BITs) says
 what the learned discrepancy
 (:mod:`~mapr_daemon.reasoner.commissioning.discrepancy`) explains: per signal the held-out
-residual without and with it, in noise units.
+residual without and with it, in noise units. ``detector`` (None in records written before
+it existed: the dictionary then detects alone) holds the unit's own anomaly thresholds
+(:mod:`~mapr_daemon.reasoner.commissioning.detector`).
 
 ``value`` is what the identified actuator file holds (the fit where identifiable, else the
 data sheet's); ``sd_rel`` the posterior sd of its logarithm (a relative sd).
@@ -74,12 +79,17 @@ class CommissioningRecord:
     """The learned discrepancy's file and summary
     (:meth:`~mapr_daemon.reasoner.commissioning.discrepancy.Discrepancy.summary`); None when
     none was learned."""
+    detector: dict[str, Any] | None = None
+    """The unit's anomaly detector on the baseline reading
+    (:meth:`~mapr_daemon.reasoner.commissioning.detector.Detector.to_json`); None when none
+    was calibrated (no discrepancy, or a record written before there was one)."""
 
     @classmethod
     def of(cls, ident: Identification, tolerances: tuple[Tolerance, ...], datasheet: str,
            identified_actuator: str, dictionary: str | None,
            unit_calibration: dict[str, Any] | None = None,
-           discrepancy: dict[str, Any] | None = None) -> CommissioningRecord:
+           discrepancy: dict[str, Any] | None = None,
+           detector: dict[str, Any] | None = None) -> CommissioningRecord:
         """The record of ``ident``, stamped now (UTC)."""
         return cls(
             created=datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
@@ -90,7 +100,7 @@ class CommissioningRecord:
             residual_after=dict(ident.residual_after), bits=ident.bits, skipped=ident.skipped,
             correlation=ident.correlation, iterations=ident.iterations,
             converged=ident.converged, model_runs=ident.model_runs, wall_s=ident.wall_s,
-            unit_calibration=unit_calibration, discrepancy=discrepancy)
+            unit_calibration=unit_calibration, discrepancy=discrepancy, detector=detector)
 
     def to_json(self) -> dict[str, Any]:
         return {
@@ -107,6 +117,7 @@ class CommissioningRecord:
                     "model_runs": self.model_runs, "wall_s": self.wall_s},
             "unit_calibration": self.unit_calibration,
             "discrepancy": self.discrepancy,
+            "detector": self.detector,
         }
 
     @classmethod
@@ -135,7 +146,7 @@ class CommissioningRecord:
                 iterations=int(fit["iterations"]), converged=bool(fit["converged"]),
                 model_runs=int(fit["model_runs"]), wall_s=float(fit["wall_s"]),
                 unit_calibration=doc.get("unit_calibration"),
-                discrepancy=doc.get("discrepancy"))
+                discrepancy=doc.get("discrepancy"), detector=doc.get("detector"))
         except (KeyError, TypeError, ValueError, AttributeError) as error:
             raise ConfigError(f"malformed commissioning record ({error})", path=path) from None
 

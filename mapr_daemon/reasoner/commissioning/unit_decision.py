@@ -1,9 +1,9 @@
 """The event's fault taken from the reading against the unit's commissioned baseline when that
 reading explains the BIT; the dictionary's reading kept beside it.
 
-Detection stays with the dictionary: its calibrated thresholds decide whether a BIT is an
-anomaly (the baseline reading is not calibrated as a detector), and a BIT it calls nominal is
-never read again. For a BIT it flags, :func:`combine` weighs the baseline reading
+Detection is decided before (the dictionary's alone, or combined with the unit's own
+detector when the record has one: :mod:`~mapr_daemon.reasoner.commissioning.detection`). For
+a BIT called an anomaly, :func:`combine` weighs the baseline reading
 (:class:`~mapr_daemon.reasoner.commissioning.severity.Reading`) and, when it **explains** the
 BIT, the decision's mode, part and severity become the baseline's.
 

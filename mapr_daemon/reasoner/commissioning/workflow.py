@@ -9,7 +9,10 @@ the ICD and the daemon's BIT cutter), :func:`commission` does the rest and write
 folder, ``actuator.yaml`` (the identified actuator, loadable like any actuator file),
 ``commissioning.json`` (what was identified, with sd, from which BITs), ``discrepancy.npz``
 (what the identified model still misses on the unit's healthy BITs,
-:mod:`~mapr_daemon.reasoner.commissioning.discrepancy`) and ``dictionary.npz``.
+:mod:`~mapr_daemon.reasoner.commissioning.discrepancy`) and ``dictionary.npz``. With a
+discrepancy, the unit's own anomaly detector is calibrated on the same BITs read held out
+(:mod:`~mapr_daemon.reasoner.commissioning.detector`, one baseline reading per BIT, about
+0.7-0.8 s CPU each) and kept in the record.
 """
 
 from __future__ import annotations
@@ -25,6 +28,7 @@ import numpy as np
 from mapr_daemon.ema.dump import write_actuator
 from mapr_daemon.ema.params import ActuatorParams
 from mapr_daemon.errors import ConfigError
+from mapr_daemon.reasoner.commissioning import detector as det
 from mapr_daemon.reasoner.commissioning import discrepancy as dsc
 from mapr_daemon.reasoner.commissioning.bits import FIT_SIGNALS, BitRecord, from_runs
 from mapr_daemon.reasoner.commissioning.calibrate import MIN_BITS, calibrate_unit
@@ -137,12 +141,14 @@ def commission(params: ActuatorParams, datasheet: str, records: Sequence[BitReco
             "values are its last iterate (the record says converged: false); commission again "
             "from more BITs or check them")
     discrepancy, disc_summary = learn_discrepancy(ident, records, out, say)
+    detector = None if discrepancy is None else unit_detector(
+        ident, params, records, out / discrepancy, say)
     dictionary = calibration = None
     if spec is not None:
         dictionary, calibration = unit_dictionary(
             ident.params, spec, out, [r for r in records if (r.source, r.index) in used], say)
     record = CommissioningRecord.of(ident, tolerances, datasheet, ACTUATOR_FILE, dictionary,
-                                    calibration, disc_summary)
+                                    calibration, disc_summary, detector)
     write_record(out / RECORD_FILE, record)
     return Commissioned(ident, record, out, dictionary, discrepancy)
 
@@ -166,3 +172,23 @@ def learn_discrepancy(ident: Identification, records: Sequence[BitRecord], out: 
             f"{k} {f.held_out_none:.3g} -> {f.held_out:.3g}"
             for k, f in zip(FIT_SIGNALS, disc.fits, strict=True)))
     return DISCREPANCY_FILE, {"file": DISCREPANCY_FILE, **summary}
+
+
+def unit_detector(ident: Identification, datasheet: ActuatorParams,
+                  records: Sequence[BitRecord], discrepancy: Path, say: Say
+                  ) -> dict[str, Any] | None:
+    """The unit's anomaly detector (:func:`~.detector.calibrate`) on the BITs the
+    identification used, each read against the discrepancy ``discrepancy`` relearned without
+    it; what the record keeps, or None (said in one line) when there are too few BITs."""
+    used = {(b.source, b.index) for b in ident.bits}
+    bits = [r for r in records if (r.source, r.index) in used]
+    try:
+        d = det.calibrate(ident.params, datasheet, dsc.Discrepancy.load(discrepancy), bits)
+    except ConfigError as error:
+        say(f"no anomaly detector on the baseline: {error.detail}")
+        return None
+    say(f"anomaly detector calibrated on {len(bits)} held-out BITs (false-alarm target "
+        f"{d.alpha:g}); thresholds, healthy spreads squared: " + ", ".join(
+            f"{k} {t.threshold:.3g} (largest held out {t.largest:.3g})"
+            for k, t in d.tails.items()))
+    return d.to_json()
