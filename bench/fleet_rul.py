@@ -462,8 +462,10 @@ def print_errors(conn: sqlite3.Connection, units: Sequence[Unit], model: Prognos
                   + f"; rms {math.sqrt(float(np.mean(means ** 2))):.3f}, of which sampling "
                   f"{math.sqrt(float(np.mean(sampling))):.3f} (chance of as much from "
                   f"sampling alone {offset_p(means, sampling):.2f}): a unit's persistent "
-                  f"offset sd {offset_sd(means, sampling):.3f} "
-                  f"({trend.UNIT_OFFSET_SD.get(k, 0.0):.3f} in the trend)")
+                  f"offset sd {offset_sd(means, sampling):.3f} about 0, mean "
+                  f"{float(np.mean(means)):+.3f} (in the trend sd "
+                  f"{trend.UNIT_OFFSET_SD.get(k, 0.0):.3f} about "
+                  f"{trend.UNIT_OFFSET_MEAN.get(k, 0.0):+.3f})")
     zs = [e / np.maximum(s, 1e-9) for u in units if u.kind in kinds
           for e, s in [estimate_errors(conn, u, model)]]
     print(f"  {'all':>14}: lag-one correlation of the standardised errors "

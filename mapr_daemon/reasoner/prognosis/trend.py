@@ -302,6 +302,14 @@ sampling alone: chance 0.001). The other kinds' units' mean errors are what samp
 (chance 0.37 friction, 0.69 capacitance, 0.97 SMPS high-side Ron; 5 % is the bar): no offset
 (friction's 0.011, had it been kept, moved its coverage on the design catalogs down, not up).
 docs/reasoner-measured.md, "A unit's persistent estimator offset"."""
+UNIT_OFFSET_MEAN: dict[str, float] = {"esr": -0.019}
+"""Per kind, the mean of the units' offsets, measured with :data:`UNIT_OFFSET_SD` (the same
+38 units): the prior on ``c`` is ``N(mean, sd**2)``. ESR's units all read low (-0.003 to
+-0.031, mean -0.019): the prognostic model's calibration BITs place ESR's readings at flight
+conditions a little high, and a reciprocal with a fixed amplitude turns that into a late
+crossing (from half life on 1.31x the true RUL on the 70-flight design catalog; 1.16x with
+the mean). It is the shipped model's (the demo pair's) calibration that was measured: a
+model built from other calibration BITs carries its own."""
 
 
 def _whiten(x: FloatArray, rho: float, chain: int | None = None) -> FloatArray:
@@ -411,7 +419,7 @@ def fit_rul(flights: FloatArray, h_est: FloatArray, now: float, kind: str, noise
             horizon: float = 2000.0, conditions: FloatArray | None = None,
             rho: float | None = None,
             extra: tuple[FloatArray, FloatArray, FloatArray] | None = None,
-            offset_sd: float | None = None) -> RulEstimate:
+            offset_sd: float | None = None, offset_mean: float | None = None) -> RulEstimate:
     """RUL at flight ``now`` of a component of ``kind`` from per-BIT degradation estimates;
     ``conditions (n, 3)``: each BIT's scaled flight condition (NaN rows unknown), at which
     the noise model reads its estimate and weighs it (:meth:`Noise.calibrate`,
@@ -419,7 +427,9 @@ def fit_rul(flights: FloatArray, h_est: FloatArray, now: float, kind: str, noise
     (None: :data:`SERIAL_RHO`). ``extra``: other observations of the same degradation
     ``(flights, h, sd)``, already in ``h`` with their own sd and independent errors (the
     in-flight tracker's, :mod:`.fusion`); with them fewer than three BITs may trend, as long
-    as three flights are observed."""
+    as three flights are observed. ``offset_mean``/``offset_sd``: the prior on the BITs'
+    persistent unit offset ``c`` (None: the kind's :data:`UNIT_OFFSET_MEAN` and
+    :data:`UNIT_OFFSET_SD`; sd 0: ``c`` fixed at the mean)."""
     if kind not in SHAPES:
         raise ConfigError(f"no aging shape for {kind!r}", field="kind")
     shape = SHAPES[kind]
@@ -436,7 +446,8 @@ def fit_rul(flights: FloatArray, h_est: FloatArray, now: float, kind: str, noise
         return RulEstimate(math.inf, math.inf, math.inf, np.full(n_draws, math.inf),
                            horizon=horizon)
     c = None if conditions is None else np.asarray(conditions, dtype=np.float64)[~cens]
-    y_bit = noise.calibrate(est[~cens], c) if (~cens).any() else np.zeros(0)
+    mu_c = UNIT_OFFSET_MEAN.get(kind, 0.0) if offset_mean is None else offset_mean
+    y_bit = noise.calibrate(est[~cens], c) - mu_c if (~cens).any() else np.zeros(0)
     chain = y_bit.size   # the BITs' AR(1) chain comes first, the extra observations after
     n = np.concatenate((n_all[~cens], xn))
     y = np.concatenate((y_bit, xh))
