@@ -478,10 +478,49 @@ def print_errors(conn: sqlite3.Connection, units: Sequence[Unit], model: Prognos
               f"{100 * np.mean(np.abs(z) > 1.645):.0f} % (10 % if calibrated); "
               f"lag-one correlation of the standardised errors {lag_one(parts):+.2f} "
               f"(successive BITs of a unit, about zero: {trend.SERIAL_RHO:+.2f} in the trend)")
+        means, sampling = unit_offsets(parts)
+        if means.size:
+            print(f"  {k:>14}: per-unit mean error " + ", ".join(f"{m:+.3f}" for m in means)
+                  + f"; rms {math.sqrt(float(np.mean(means ** 2))):.3f}, of which sampling "
+                  f"{math.sqrt(float(np.mean(sampling))):.3f} (chance of as much from "
+                  f"sampling alone {offset_p(means, sampling):.2f}): a unit's persistent "
+                  f"offset sd {offset_sd(means, sampling):.3f} about 0, mean "
+                  f"{float(np.mean(means)):+.3f} (in the trend sd "
+                  f"{trend.UNIT_OFFSET_SD.get(k, 0.0):.3f} about "
+                  f"{trend.UNIT_OFFSET_MEAN.get(k, 0.0):+.3f})")
     zs = [e / np.maximum(s, 1e-9) for u in units if u.kind in kinds
           for e, s in [estimate_errors(conn, u, model)]]
     print(f"  {'all':>14}: lag-one correlation of the standardised errors "
           f"{lag_one([(z, np.ones_like(z)) for z in zs]):+.2f}")
+
+
+def unit_offsets(parts: Sequence[tuple[FloatArray, FloatArray]]
+                 ) -> tuple[FloatArray, FloatArray]:
+    """Each unit's mean estimate error (its persistent offset plus sampling noise) and that
+    mean's sampling variance: the errors' variance over the unit's BITs, inflated for their
+    AR(1) correlation at :data:`~mapr_daemon.reasoner.prognosis.trend.SERIAL_RHO`
+    (``(1 + rho)/(1 - rho)``); units with fewer than three BITs are left out."""
+    rho = trend.SERIAL_RHO
+    kept = [e for e, _ in parts if e.size >= 3]
+    means = np.array([float(e.mean()) for e in kept])
+    sampling = np.array([float(e.var(ddof=1)) / e.size * (1.0 + rho) / (1.0 - rho)
+                         for e in kept])
+    return means, sampling
+
+
+def offset_sd(means: FloatArray, sampling: FloatArray) -> float:
+    """The sd of a unit's persistent offset about 0 (the trend's prior is centred there):
+    the mean square of the units' mean errors less their sampling part, 0 if none is left."""
+    return math.sqrt(max(float(np.mean(means ** 2) - np.mean(sampling)), 0.0)) \
+        if means.size else math.nan
+
+
+def offset_p(means: FloatArray, sampling: FloatArray) -> float:
+    """The chance that sampling alone gives units' mean errors as far from 0 as these
+    (chi-square of ``mean**2/sampling`` over the units): small, a persistent offset."""
+    from scipy.stats import chi2
+    return float(chi2.sf(float(np.sum(means ** 2 / np.maximum(sampling, 1e-12))), means.size)) \
+        if means.size else math.nan
 
 
 def lag_one(parts: Sequence[tuple[FloatArray, FloatArray]]) -> float:
