@@ -250,10 +250,8 @@ def fly_and_replay(units: Sequence[Unit], out: Path, configs: Mapping[str, Path]
                 i) for f, (seed, condition) in zip(u.flights, plan[u.tail], strict=True)])
         for u, fs in zip(units, futures, strict=True):
             for f, fut in zip(u.flights, fs, strict=True):
-                try:
-                    path = fut.result()
-                except Exception as error:  # one bad flight never stops the fleet
-                    print(f"  {u.tail} flight {f + 1}: flying failed: {error}")
+                path = _flown(fut, u.tail, f)
+                if path is None:
                     failed += 1
                     continue
                 rc, text = replay(path, configs[u.tail], catalog, u.tail, f + 1)
@@ -268,6 +266,17 @@ def fly_and_replay(units: Sequence[Unit], out: Path, configs: Mapping[str, Path]
                   f"flights replayed ({done}/{total}, {time.monotonic() - started:.0f} s)",
                   flush=True)
     return failed
+
+
+def _flown(fut: Future[str], tail: str, flight: int) -> str | None:
+    """The recording a flying task wrote, or None (said in one line) when it failed: one bad
+    flight never stops the fleet."""
+    try:
+        path = fut.result()
+    except Exception as error:
+        print(f"  {tail} flight {flight + 1}: flying failed: {error}")
+        return None
+    return path
 
 
 def _fly_commissioning(path: str, built: BuiltUnit, seed: int, condition: str,
@@ -892,10 +901,8 @@ def fly_and_replay_whole(units: Sequence[Unit], out: Path,
                 for f, (seed, template) in zip(u.flights, plan[u.tail], strict=True)])
         for u, fs in zip(units, futures, strict=True):
             for f, fut in zip(u.flights, fs, strict=True):
-                try:
-                    path = fut.result()
-                except Exception as error:  # one bad flight never stops the fleet
-                    print(f"  {u.tail} flight {f + 1}: flying failed: {error}")
+                path = _flown(fut, u.tail, f)
+                if path is None:
                     failed += 1
                     continue
                 bus_s += flight_seconds(TEMPLATES[True][0])
