@@ -161,9 +161,17 @@ class Reasoner:
         it."""
         from mapr_daemon.reasoner.commissioning.detection import decide
 
+        from mapr_daemon.reasoner.commissioning.unit_decision import combine
+
         assert self.baseline is not None
         reading = self.baseline_reading(channels, command_deg, dynamic_pressure_pa)
-        return decide(dec, reading, self.baseline)
+        try:
+            return decide(dec, reading, self.baseline)
+        except BASELINE_ERRORS as error:
+            # the detector or the decision on the reading (a record's thresholds, a mode it
+            # has no range for) raised: the dictionary's decision stands, never lost
+            why = f"{type(error).__name__}: {error}"
+            return combine(dec, why, self.baseline) if dec.anomaly else dec
 
     def baseline_reading(self, channels: Mapping[str, FloatArray], command_deg: FloatArray,
                          dynamic_pressure_pa: float) -> Reading | str:

@@ -1,0 +1,36 @@
+"""The unit's detector on bad input: a malformed record's detector is one clear config error
+naming the file, a tail fit never lands on NaN or on a threshold below the all-zero floor,
+and whatever the detector raises in service leaves the dictionary's decision."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from mapr_daemon.errors import ConfigError
+from mapr_daemon.reasoner.commissioning import detector as det
+from mapr_daemon.reasoner.commissioning.baseline import Baseline
+from mapr_daemon.reasoner.commissioning.detector import Detector, Tail
+from mapr_daemon.reasoner.commissioning.severity import Reading
+from mapr_daemon.reasoner.diagnosis.classifier import Decision
+from mapr_daemon.reasoner.reasoner import Reasoner
+
+
+
+def test_a_detector_that_raises_in_service_keeps_the_dictionarys_decision(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    tail = Tail(0.0, 5.0, 1.0, 1.0)  # what a hand-edited record could hold
+    detector = Detector(0.001, {"no_fault": tail, "explained": tail},
+                        {"no_fault": (), "explained": ()})
+    reasoner = Reasoner.__new__(Reasoner)
+    reasoner.baseline = Baseline(None, None, None, detector)  # type: ignore[arg-type]
+    reading = Reading("friction", "", 0.5, 2.0, 5.0, {"friction": 2.0})
+    monkeypatch.setattr(reasoner, "baseline_reading", lambda *a: reading)
+    for anomaly in (False, True):
+        dec = Decision(anomaly, "friction" if anomaly else None, None, None, None, None,
+                       0.9, 1.0, 0.5, {"template": "t"})
+        out = reasoner.against_baseline(dec, {}, None, 700.0)  # type: ignore[arg-type]
+        assert out.anomaly == anomaly and out.fault == dec.fault
+        if anomaly:
+            assert "ZeroDivisionError" in out.evidence["baseline"]["unreadable"]
