@@ -18,6 +18,22 @@ from mapr_daemon.reasoner.reasoner import Reasoner
 
 
 
+def _doc(**over: float) -> dict:
+    tail = {"scale": 0.1, "dof": 5.0, "threshold": 2.0, "largest_held_out": 1.0,
+            "held_out": [0.1, 0.2, 0.3, 0.4]}
+    tail.update(over)
+    return {"rule": det.RULE, "alpha": 0.001,
+            "statistics": {"no_fault": dict(tail), "explained": dict(tail)}}
+
+
+@pytest.mark.parametrize("bad", [{"scale": 0.0}, {"scale": -1.0}, {"dof": 0.0},
+                                 {"scale": math.nan}, {"threshold": math.nan},
+                                 {"threshold": math.inf}])
+def test_a_detector_with_an_unusable_tail_is_refused_naming_the_file(bad: dict) -> None:
+    with pytest.raises(ConfigError, match="unit/commissioning.json: detector"):
+        Detector.from_json(_doc(**bad), "unit/commissioning.json")
+
+
 def test_a_detector_that_raises_in_service_keeps_the_dictionarys_decision(
         monkeypatch: pytest.MonkeyPatch) -> None:
     tail = Tail(0.0, 5.0, 1.0, 1.0)  # what a hand-edited record could hold

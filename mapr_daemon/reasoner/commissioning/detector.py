@@ -37,6 +37,7 @@ default grid), and one per BIT in service.
 from __future__ import annotations
 
 import dataclasses
+import math
 from collections.abc import Sequence
 from typing import Any
 
@@ -130,7 +131,15 @@ class Detector:
                              float(st[k]["threshold"]), float(st[k]["largest_held_out"]))
                      for k in STATISTICS}
             held = {k: tuple(float(v) for v in st[k]["held_out"]) for k in STATISTICS}
-            return cls(float(doc["alpha"]), tails, held)
+            alpha = float(doc["alpha"])
+            for k, t in tails.items():
+                if not (t.scale > 0.0 and t.dof > 0.0 and math.isfinite(t.scale)
+                        and math.isfinite(t.dof) and math.isfinite(t.threshold)):
+                    raise ValueError(f"{k}: scale {t.scale}, dof {t.dof}, threshold "
+                                     f"{t.threshold} (positive and finite)")
+            if not 0.0 < alpha < 1.0:
+                raise ValueError(f"alpha {alpha} (between 0 and 1)")
+            return cls(alpha, tails, held)
         except (KeyError, TypeError, ValueError) as error:
             raise ConfigError(f"malformed detector ({type(error).__name__}: {error})",
                               path=path, field="detector") from None
