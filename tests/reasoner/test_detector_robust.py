@@ -17,7 +17,6 @@ from mapr_daemon.reasoner.diagnosis.classifier import Decision
 from mapr_daemon.reasoner.reasoner import Reasoner
 
 
-
 def _doc(**over: float) -> dict:
     tail = {"scale": 0.1, "dof": 5.0, "threshold": 2.0, "largest_held_out": 1.0,
             "held_out": [0.1, 0.2, 0.3, 0.4]}
@@ -32,6 +31,20 @@ def _doc(**over: float) -> dict:
 def test_a_detector_with_an_unusable_tail_is_refused_naming_the_file(bad: dict) -> None:
     with pytest.raises(ConfigError, match="unit/commissioning.json: detector"):
         Detector.from_json(_doc(**bad), "unit/commissioning.json")
+
+
+def test_a_tail_of_all_but_one_zero_is_not_below_the_all_zero_floor() -> None:
+    floor = Tail.fit([0.0, 0.0, 0.0, 0.0], 5e-4).threshold
+    almost = Tail.fit([0.0, 0.0, 0.0, 1e-9], 5e-4).threshold
+    assert almost >= floor
+
+
+def test_non_finite_held_out_values_calibrate_no_detector(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    nan = Reading("healthy", "", 0.0, math.nan, math.nan, {})
+    monkeypatch.setattr(det, "held_out_readings", lambda *a: [nan] * 5)
+    with pytest.raises(ConfigError, match="detector"):
+        det.calibrate(None, None, None, [None] * 5)  # type: ignore[arg-type]
 
 
 def test_a_detector_that_raises_in_service_keeps_the_dictionarys_decision(
