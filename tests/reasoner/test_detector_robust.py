@@ -11,6 +11,7 @@ import pytest
 from mapr_daemon.errors import ConfigError
 from mapr_daemon.reasoner.commissioning import detector as det
 from mapr_daemon.reasoner.commissioning.baseline import Baseline
+from mapr_daemon.reasoner.commissioning.detection import decide
 from mapr_daemon.reasoner.commissioning.detector import Detector, Tail
 from mapr_daemon.reasoner.commissioning.severity import Reading
 from mapr_daemon.reasoner.diagnosis.classifier import Decision
@@ -63,3 +64,17 @@ def test_a_detector_that_raises_in_service_keeps_the_dictionarys_decision(
         assert out.anomaly == anomaly and out.fault == dec.fault
         if anomaly:
             assert "ZeroDivisionError" in out.evidence["baseline"]["unreadable"]
+
+
+def _unexplained_dictionary_decision() -> Decision:
+    return Decision(True, None, None, None, None, None, 0.9, 1.0, 0.5,
+                    {"unexplained": "anomaly, not explained by any known fault mode: ...",
+                     "departures": [], "closest": {"fault": "esr"}})
+
+
+def test_a_single_fault_the_baseline_names_drops_the_dictionarys_unexplained() -> None:
+    reading = Reading("short", "a_high", 0.0, 1.0, 10.0, {"short": 1.0})
+    out = decide(_unexplained_dictionary_decision(), reading, Baseline(None, None, None))
+    assert out.fault == "short"
+    for key in ("unexplained", "departures", "closest"):
+        assert key not in out.evidence, key
