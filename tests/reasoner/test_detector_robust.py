@@ -78,3 +78,16 @@ def test_a_single_fault_the_baseline_names_drops_the_dictionarys_unexplained() -
     assert out.fault == "short"
     for key in ("unexplained", "departures", "closest"):
         assert key not in out.evidence, key
+
+
+def test_a_bit_only_the_detector_flags_and_nothing_explains_says_so() -> None:
+    tail = Tail(0.01, 5.0, 0.1, 0.05)
+    detector = Detector(0.001, {"no_fault": Tail(0.2, 5.0, 5.0, 1.0), "explained": tail},
+                        {"no_fault": (), "explained": ()})
+    nominal = Decision(False, None, None, None, None, None, 0.9, 0.1, 0.5, {"template": "t"})
+    reading = Reading("short", "a_high", 0.0, 0.8, 1.2, {"short": 0.8})  # drop 0.4: fired
+    out = decide(nominal, reading, Baseline(None, None, None, detector))
+    assert out.anomaly and out.fault is None
+    assert out.evidence["detection"]["decided_by"] == ["baseline.explained"]
+    assert out.evidence["unexplained"].startswith(
+        "anomaly, not explained by any known fault mode")
