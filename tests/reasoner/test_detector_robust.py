@@ -30,7 +30,7 @@ def _doc(**over: float) -> dict:
                                  {"scale": math.nan}, {"threshold": math.nan},
                                  {"threshold": math.inf}])
 def test_a_detector_with_an_unusable_tail_is_refused_naming_the_file(bad: dict) -> None:
-    with pytest.raises(ConfigError, match="unit/commissioning.json: detector"):
+    with pytest.raises(ConfigError, match=r"unit/commissioning\.json: detector"):
         Detector.from_json(_doc(**bad), "unit/commissioning.json")
 
 
