@@ -116,3 +116,27 @@ def test_diagnose_adds_the_reading_against_a_commissioned_baseline(
     (folder / "commissioning.json").write_text(json.dumps(record))
     assert main(["diagnose", str(tmp_path / "runs.npz"), "--dictionary", str(dpath),
                  "--commissioned", str(folder)]) == 78
+
+
+def test_diagnose_reports_a_baseline_that_cannot_read_a_run_instead_of_crashing(
+        bench: Bench, tmp_path: Path, capsys: pytest.CaptureFixture[str],
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    # the daemon keeps the dictionary's event when the second reading raises (a baseline
+    # whose arrays do not fit the record); `mapr diagnose --commissioned` says the same
+    from mapr_daemon.reasoner.commissioning.baseline import Baseline
+
+    folder = tmp_path / "unit"
+    folder.mkdir()
+    commissioned_folder(bench, folder)
+    dpath = tmp_path / "d.npz"
+    bench.dictionary.save(dpath)
+    _write_runs(bench, [0], tmp_path / "runs.npz")
+
+    def refuse(*_: object, **__: object) -> None:
+        raise IndexError("arrays do not fit")
+
+    monkeypatch.setattr(Baseline, "read", refuse)
+    assert main(["diagnose", str(tmp_path / "runs.npz"), "--dictionary", str(dpath),
+                 "--commissioned", str(folder)]) == 0
+    (line,) = [json.loads(x) for x in capsys.readouterr().out.splitlines()]
+    assert line["baseline"] == {"unreadable": "IndexError: arrays do not fit"}

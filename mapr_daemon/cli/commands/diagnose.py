@@ -81,10 +81,12 @@ def run(args: argparse.Namespace) -> int:
         return exitcodes.USAGE
     params = load_actuator(args.actuator or default_actuator_path())
     unit = Reasoner(d, params) if args.same_unit else None
-    baseline = None
+    baseline = reader = None
     if args.commissioned is not None:
         from mapr_daemon.reasoner.commissioning.baseline import Baseline
         baseline = Baseline.load(args.commissioned)
+        # the daemon's second reading: a run it cannot read is said, not a traceback
+        reader = Reasoner(d, params, baseline=baseline)
     flagged = 0
     for i in range(runs.n) if args.index is None else [args.index]:
         reasoner = unit if unit is not None else Reasoner(d, params)
@@ -94,9 +96,9 @@ def run(args: argparse.Namespace) -> int:
                                               paper=args.paper)
         flagged += diagnosis.error is not None
         line = {"run": i, **diagnosis.to_json()}
-        if baseline is not None:
-            reading = baseline.read(channels, runs.command_deg,
-                                    float(runs.dynamic_pressure_pa[i]))
+        if baseline is not None and reader is not None:
+            reading = reader.baseline_reading(channels, runs.command_deg,
+                                              float(runs.dynamic_pressure_pa[i]))
             line["baseline"] = baseline.to_json(reading)
             if baseline.detector is not None and not isinstance(reading, str):
                 line["baseline"]["detection"] = baseline.detector.evidence(reading)

@@ -86,10 +86,14 @@ def decide(dec: Decision, reading: Reading | str, baseline: Baseline,
                                    value=None, unit=None, pair=None, kind_residuals={},
                                    confidence=confidence, evidence=evidence)
     if not dec.anomaly:
-        # the unit's detector alone: as sure as its fitted tail makes the departure rare
+        # the unit's detector alone: as sure as its fitted tail makes the departure rare; an
+        # anomaly not explained until the reading explains it (combine then drops the words)
+        said = {**dec.evidence, "unexplained": (
+            "anomaly, not explained by any known fault mode: the unit's own detector flagged "
+            "the BIT (" + ", ".join(counted) + ") and the dictionary did not")}
         dec = dataclasses.replace(dec, anomaly=True, fault=None, switch=None, severity=None,
                                   value=None, unit=None, pair=None, kind_residuals={},
                                   confidence=1.0 - min(fired[k.split(".")[1]]
-                                                       for k in counted))
+                                                       for k in counted), evidence=said)
     out = combine(dec, reading, baseline)
     return dataclasses.replace(out, evidence={**out.evidence, "detection": detection})

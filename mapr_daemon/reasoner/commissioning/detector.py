@@ -22,9 +22,10 @@ such a variable, with ``nu`` the effective count of independent terms), and the 
 its upper ``ALPHA / 2`` quantile, never below the largest held-out value (a healthy BIT of the
 unit's own already went there). The two thresholds together hold a healthy BIT's false-alarm
 probability to at most :data:`ALPHA` (one in a thousand BITs) as far as the tail fit holds.
-A statistic whose held-out values are all zero (no fault ever explained anything on a
-healthy BIT) is fitted as if one of them were the least positive drop
-:data:`FLOOR_EXPLAINED`.
+A statistic whose held-out values are all below the least positive drop
+:data:`FLOOR_EXPLAINED` (no fault ever explained anything on a healthy BIT, or next to nothing)
+is fitted as if the largest of them were that floor; a non-finite held-out value fits no tail
+(:func:`calibrate` refuses: no detector).
 
 The thresholds, the fitted tails and the held-out values are kept in the commissioning record
 (``detector``, :meth:`Detector.to_json`); a record without them (written before) loads without
@@ -37,6 +38,7 @@ default grid), and one per BIT in service.
 from __future__ import annotations
 
 import dataclasses
+import math
 from collections.abc import Sequence
 from typing import Any
 
@@ -78,8 +80,12 @@ class Tail:
     def fit(cls, values: Sequence[float], alpha: float) -> Tail:
         """The tail of ``values`` (>= 0) by moments and its upper-``alpha`` threshold."""
         x = np.asarray(values, dtype=np.float64)
-        if not np.any(x > 0.0):
-            x = np.r_[x[1:], FLOOR_EXPLAINED]
+        if x.size < 2 or not np.all(np.isfinite(x)):
+            raise ValueError(f"held-out values {list(values)}: at least two, all finite")
+        if not np.any(x >= FLOOR_EXPLAINED):
+            # all zero, or nearly: fitted as if the largest were the floor (a tail fitted to
+            # one tiny drop among zeros would put the threshold below the all-zero case's)
+            x = np.r_[np.delete(x, int(np.argmax(x))), FLOOR_EXPLAINED]
         m, v = float(np.mean(x)), float(np.var(x, ddof=1))
         v = max(v, 1e-12 * m * m)
         scale, dof = v / (2.0 * m), 2.0 * m * m / v
@@ -130,7 +136,15 @@ class Detector:
                              float(st[k]["threshold"]), float(st[k]["largest_held_out"]))
                      for k in STATISTICS}
             held = {k: tuple(float(v) for v in st[k]["held_out"]) for k in STATISTICS}
-            return cls(float(doc["alpha"]), tails, held)
+            alpha = float(doc["alpha"])
+            for k, t in tails.items():
+                if not (t.scale > 0.0 and t.dof > 0.0 and math.isfinite(t.scale)
+                        and math.isfinite(t.dof) and math.isfinite(t.threshold)):
+                    raise ValueError(f"{k}: scale {t.scale}, dof {t.dof}, threshold "
+                                     f"{t.threshold} (positive and finite)")
+            if not 0.0 < alpha < 1.0:
+                raise ValueError(f"alpha {alpha} (between 0 and 1)")
+            return cls(alpha, tails, held)
         except (KeyError, TypeError, ValueError) as error:
             raise ConfigError(f"malformed detector ({type(error).__name__}: {error})",
                               path=path, field="detector") from None
@@ -159,5 +173,9 @@ def calibrate(params: ActuatorParams, datasheet: ActuatorParams, disc: Discrepan
                           f"{MIN_HELD_OUT}", field="bits")
     readings = held_out_readings(params, datasheet, disc, bits)
     values = {k: tuple(statistics(r)[k] for r in readings) for k in STATISTICS}
-    tails = {k: Tail.fit(values[k], alpha / len(STATISTICS)) for k in STATISTICS}
+    try:
+        tails = {k: Tail.fit(values[k], alpha / len(STATISTICS)) for k in STATISTICS}
+    except ValueError as error:
+        raise ConfigError(f"the detector's tail cannot be fitted ({error})",
+                          field="detector") from None
     return Detector(alpha, tails, values)

@@ -166,8 +166,7 @@ def combine(dec: Decision, reading: Reading | str, baseline: Baseline) -> Decisi
             "rule": "the baseline reading is followed: it is measured against the unit's own "
                     "healthy behaviour"}
     evidence["reading"] = "baseline"
-    for key in ("switch", "nominal", "replace_at", "severity_fraction_of_range"):
-        evidence.pop(key, None)
+    _strip(evidence)   # the dictionary's "unexplained" no longer describes the event either
     if mode in TERMINAL:
         return dataclasses.replace(dec, fault=mode, switch=reading.switch, severity=None,
                                    value=None, unit=None, pair=None, kind_residuals={},
