@@ -104,6 +104,13 @@ def main() -> int:
     start, cpu0 = time.monotonic(), time.process_time()
     sheet = load_actuator(args.actuator)
     d = Dictionary.load(args.dictionary)
+    if abs(d.sample_rate_hz - sheet.sensors.sample_rate_hz) > 1e-9:
+        # the BITs are flown at the actuator's rate: a dictionary built at another reads
+        # every one of them wrong (and the baseline reading refuses them all)
+        print(f"{args.dictionary}: built at {d.sample_rate_hz:g} Hz, {args.actuator} flies at "
+              f"{sheet.sensors.sample_rate_hz:g} Hz; build one at the actuator's rate "
+              f"(mapr dictionary build --actuator {args.actuator})", file=sys.stderr)
+        return 2
     rng = np.random.default_rng(seed)
     units = fleet(sheet, args.units, int(rng.integers(2**31)))
     env = sheet.envelope
