@@ -33,9 +33,11 @@ from mapr_daemon.reasoner.commissioning.bits import (
     fit_signals,
     signal_noise,
 )
-from mapr_daemon.reasoner.commissioning.problem import FRICTION
 
 CHUNK = 500
+"""Samples advanced per plant call (bounds the batch's memory)."""
+FRICTION = ("motor.viscous_friction_nm_s", "motor.coulomb_friction_nm")
+"""The friction terms a flight's grease scatter multiplies together."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -77,13 +79,24 @@ def fly(params: ActuatorParams, flights: Sequence[Flight], decimate: int) -> Flo
                                                                            f.friction))
         specs.append(RunSpec(p, f.faults, seed=0, ambient_c=amb, bus_v=bus))
     cmd = np.stack([f.bit.command_deg for f in flights])
-    q = np.array([f.bit.dynamic_pressure_pa for f in flights])[:, None]
-    plant = EmaBatch(specs)
-    n = flights[0].bit.n_samples
+    q = np.array([f.bit.dynamic_pressure_pa for f in flights])
+    return flown(specs, cmd, q, decimate, phase_noise)
+
+
+def flown(specs: Sequence[RunSpec], command_deg: FloatArray, dynamic_pressure_pa: FloatArray,
+          decimate: int, phase_noise: float, chunk: int = CHUNK) -> FloatArray:
+    """One batched plant call: run ``i`` of ``specs`` flown through row ``i`` of
+    ``command_deg`` at ``dynamic_pressure_pa[i]``, advanced ``chunk`` samples at a time; its
+    fit signals, ``(n, K, T)`` in channel units (FIT_SIGNALS order), ``decimate``-sample
+    means. What :func:`fly` and the identification's Jacobian runs both fly."""
+    plant = EmaBatch(list(specs))
+    q = np.asarray(dynamic_pressure_pa, dtype=np.float64).reshape(-1, 1)
+    n = command_deg.shape[1]
     parts: dict[str, list[FloatArray]] = {k: [] for k in FIT_CHANNELS}
-    for start in range(0, n, CHUNK):
-        stop = min(n, start + CHUNK)
-        block = plant.advance(stop - start, np.ascontiguousarray(cmd[:, start:stop]), q)
+    for start in range(0, n, chunk):
+        stop = min(n, start + chunk)
+        block = plant.advance(stop - start, np.ascontiguousarray(command_deg[:, start:stop]),
+                              q)
         for k in FIT_CHANNELS:
             parts[k].append(block.channels[k])
     sig = fit_signals({k: np.concatenate(v, axis=1) for k, v in parts.items()}, phase_noise)

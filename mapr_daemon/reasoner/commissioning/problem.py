@@ -14,20 +14,22 @@ import numpy as np
 from mapr_daemon.arrays import FloatArray
 from mapr_daemon.ema.batch import RunSpec
 from mapr_daemon.ema.params import ActuatorParams
-from mapr_daemon.ema.plant import EmaBatch
 from mapr_daemon.reasoner.commissioning import prior as ip
 from mapr_daemon.reasoner.commissioning.bits import (
-    FIT_CHANNELS,
     FIT_SIGNALS,
     PHASE_SUM,
     BitRecord,
     condition,
-    fit_signals,
     signal_noise,
+)
+from mapr_daemon.reasoner.commissioning.flight import (
+    FRICTION,
+    flown,
+    noise_scale,
+    recorded,
 )
 from mapr_daemon.reasoner.diagnosis.healthy_model import supply_floor_v
 
-FRICTION = ("motor.viscous_friction_nm_s", "motor.coulomb_friction_nm")
 SUPPLY_CHANNELS = ("dc_bus_voltage_v", "ripple_rms_v", "smps_input_current_a")
 """Channels a BIT on a bus below the supply floor (:func:`build.supply_floor_v`) cannot be
 fitted on: the converter sits at its duty limit and its output follows the bus's drift and
@@ -81,11 +83,9 @@ class Problem:
         self.s_nu = float(params.motor.friction_flight_sd)
         n = self.bits[0].n_samples
         self.t = n // opt.decimate
-        self.data = np.stack([[self._dec(v) for v in fit_signals(b.channels).values()]
-                              for b in self.bits])
-        noise = signal_noise(params)
-        self.phase_noise = noise[PHASE_SUM] / math.sqrt(3.0)
-        self.scale = np.array([noise[k] for k in FIT_SIGNALS]) / math.sqrt(opt.decimate)
+        self.data = recorded(self.bits, opt.decimate)
+        self.phase_noise = signal_noise(params)[PHASE_SUM] / math.sqrt(3.0)
+        self.scale = noise_scale(params, opt.decimate)
         self.floor = self.scale.copy()
         """A channel is never trusted beyond its sensor noise."""
         floor = supply_floor_v(params)
@@ -99,12 +99,6 @@ class Problem:
     @property
     def p(self) -> int:
         return len(self.paths)
-
-    def _dec(self, y: FloatArray) -> FloatArray:
-        d = self.opt.decimate
-        out: FloatArray = np.asarray(y[: self.t * d], dtype=np.float64).reshape(
-            self.t, d).mean(axis=1)
-        return out
 
     def _actuator(self, theta: FloatArray, nu: float) -> ActuatorParams:
         f = {p: math.exp(v) for p, v in zip(self.paths, theta, strict=True)}
@@ -134,21 +128,9 @@ class Problem:
                 specs.append(RunSpec(self._actuator(th, nu + (h if j == p + 1 else 0.0)),
                                      seed=i, ambient_c=amb, bus_v=bus))
         cmd = np.repeat(np.stack([b.command_deg for b in self.bits]), per, axis=0)
-        q = np.repeat([b.dynamic_pressure_pa for b in self.bits], per)[:, None]
-        plant = EmaBatch(specs)
-        n = self.bits[0].n_samples
-        parts: dict[str, list[FloatArray]] = {k: [] for k in FIT_CHANNELS}
-        for start in range(0, n, self.opt.chunk):
-            stop = min(n, start + self.opt.chunk)
-            block = plant.advance(stop - start, np.ascontiguousarray(cmd[:, start:stop]), q)
-            for k in FIT_CHANNELS:
-                parts[k].append(block.channels[k])
+        q = np.repeat([b.dynamic_pressure_pa for b in self.bits], per)
+        y = flown(specs, cmd, q, self.opt.decimate, self.phase_noise, self.opt.chunk)
         self.runs += len(specs)
-        d = self.opt.decimate
-        sig = fit_signals({k: np.concatenate(v, axis=1) for k, v in parts.items()},
-                          self.phase_noise)
-        y = np.stack([sig[k][:, : self.t * d].reshape(nb * per, self.t, d).mean(axis=2)
-                      for k in FIT_SIGNALS], axis=1)
         y = y.reshape(nb, per, len(FIT_SIGNALS), self.t)
         raw = y[:, 0] - self.data
         w = self.mask[:, :, None] / self.scale[None, :, None]
