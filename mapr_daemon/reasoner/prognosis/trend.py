@@ -24,7 +24,9 @@ The fit is Bayesian on a grid of the nonlinear parameter, flat in its logarithm 
 enough to know nothing of the unit's life, or weighted by a fleet prior
 (:class:`ShapePrior`). Given it, ``A`` is linear-Gaussian (weighted least squares with the
 per-BIT estimate's *measured* noise, :class:`Noise`, its errors AR(1) from BIT to BIT,
-:data:`SERIAL_RHO`), and the grid's marginal likelihoods weight it. Draws of
+:data:`SERIAL_RHO`), and the grid's marginal likelihoods weight it. Where the noise grows
+with the degradation its sd is read at the trend's own path, not at the reading (two
+passes: a reading low by chance must not claim a smaller sd and pull the fit low). Draws of
 ``(parameter, A)`` give the flight where ``h`` crosses 1 in closed form;
 their 5/50/95 % points are the RUL and its bounds. An estimate in the estimator's dead
 zone (:attr:`Noise.floor`) is censored: it weights the draws by the chance of reading the
@@ -414,6 +416,33 @@ def _grid_fit(shape: str, n: FloatArray, y: FloatArray, w: FloatArray,
     return (amp, sgg), np.where(ok, -0.5 * rss - 0.5 * np.log(sgg), -np.inf)
 
 
+def _posterior_draws(shape: str, n: FloatArray, y: FloatArray, w: FloatArray,
+                     prior: ShapePrior | None, fixed: float | None, n_draws: int,
+                     rng: np.random.Generator, rho: float, chain: int, offset_sd: float
+                     ) -> tuple[FloatArray, FloatArray]:
+    """Draws of ``(theta, A)`` given the observations' weights ``w``: on the joint
+    ``(theta, life)`` grid where the prior holds a life (:func:`_joint_draws`), else on the
+    shape's grid with the amplitude linear-Gaussian (or ``fixed``)."""
+    if prior is not None and fixed is None and prior.life_sd > 0.0:
+        return _joint_draws(shape, n, y, w, prior, n_draws, rng, rho, chain, offset_sd)
+    theta = _GRIDS[shape]
+    (amp, precision), loglik = _grid_fit(shape, n, y, w, fixed, rho, chain, offset_sd)
+    if prior is not None:
+        loglik = loglik + prior.logpdf(theta)
+    post = np.exp(loglik - loglik.max())
+    post /= post.sum()
+    idx = rng.choice(theta.size, size=n_draws, p=post)
+    th = theta[idx]
+    if fixed is not None:
+        # the shape parameter alone sets the crossing: spread each draw over its grid
+        # cell (in the logarithm), or a well-read unit's interval collapses to one cell,
+        # 3 % of the life wide (a flight or two of a short life's RUL), and misses
+        th = np.exp(np.log(th) + np.gradient(np.log(theta))[idx]
+                    * (rng.random(n_draws) - 0.5))
+    a: FloatArray = amp[idx] + rng.standard_normal(n_draws) / np.sqrt(precision[idx])
+    return th, a
+
+
 def fit_rul(flights: FloatArray, h_est: FloatArray, now: float, kind: str, noise: Noise,
             prior: ShapePrior | None = None, n_draws: int = 2000, seed: int = 0,
             horizon: float = 2000.0, conditions: FloatArray | None = None,
@@ -451,34 +480,42 @@ def fit_rul(flights: FloatArray, h_est: FloatArray, now: float, kind: str, noise
     chain = y_bit.size   # the BITs' AR(1) chain comes first, the extra observations after
     n = np.concatenate((n_all[~cens], xn))
     y = np.concatenate((y_bit, xh))
-    var = np.concatenate((noise.h_sd(y_bit, c) ** 2 if chain else np.zeros(0), xsd ** 2))
-    if prior is not None:
-        var = var + prior.scatter(y) ** 2
-    w = 1.0 / np.maximum(var, 1e-12)
-    rng = np.random.default_rng(seed)
     r1 = SERIAL_RHO if rho is None else rho
     fixed = FIXED_AMPLITUDE.get(kind)
     sd_c = UNIT_OFFSET_SD.get(kind, 0.0) if offset_sd is None else offset_sd
     if chain == 0:
         sd_c = 0.0   # no BIT to carry the offset
-    if prior is not None and fixed is None and prior.life_sd > 0.0:
-        th, a = _joint_draws(shape, n, y, w, prior, n_draws, rng, r1, chain, sd_c)
-    else:
-        theta = _GRIDS[shape]
-        (amp, precision), loglik = _grid_fit(shape, n, y, w, fixed, r1, chain, sd_c)
+
+    def weights(level: FloatArray) -> FloatArray:
+        """Inverse variances of the observations, each read at degradation ``level``."""
+        var = np.concatenate((noise.h_sd(level[:chain], c) ** 2 if chain else np.zeros(0),
+                              xsd ** 2))
         if prior is not None:
-            loglik = loglik + prior.logpdf(theta)
-        post = np.exp(loglik - loglik.max())
-        post /= post.sum()
-        idx = rng.choice(theta.size, size=n_draws, p=post)
-        th = theta[idx]
-        if fixed is not None:
-            # the shape parameter alone sets the crossing: spread each draw over its grid
-            # cell (in the logarithm), or a well-read unit's interval collapses to one cell,
-            # 3 % of the life wide (a flight or two of a short life's RUL), and misses
-            th = np.exp(np.log(th) + np.gradient(np.log(theta))[idx]
-                        * (rng.random(n_draws) - 0.5))
-        a = amp[idx] + rng.standard_normal(n_draws) / np.sqrt(precision[idx])
+            var = var + prior.scatter(level) ** 2
+        out: FloatArray = 1.0 / np.maximum(var, 1e-12)
+        return out
+
+    def draws(w: FloatArray) -> tuple[FloatArray, FloatArray, np.random.Generator]:
+        """The posterior's draws under weights ``w`` (each pass from the same seed), and
+        the generator they were drawn from."""
+        gen = np.random.default_rng(seed)
+        return (*_posterior_draws(shape, n, y, w, prior, fixed, n_draws, gen, r1, chain,
+                                  sd_c), gen)
+
+    # The noise grows with the degradation (friction's sd nearly doubles from new to the
+    # threshold), so the sd of a reading is the sd at the unit's TRUE degradation, not at the
+    # reading: read at the reading, a reading low by chance claims a smaller sd and weighs
+    # more than one high by chance, and the fit leans low (late crossings: friction from half
+    # life on 1.15x the true RUL on design catalogs, 1.03x with one sd for all). The first
+    # pass reads the sd at the readings; the trend's own path at each observation (the
+    # draws' median) is then the level the second, final pass reads it at. A noise that
+    # does not grow with the degradation needs no second pass.
+    w = weights(y)
+    th, a, rng = draws(w)
+    if not np.array_equal(w, weights(np.zeros_like(y))):
+        path = a[:, None] * basis(shape, th, n)
+        level = np.median(np.where(np.isfinite(path), path, 1e6), axis=0)
+        th, a, rng = draws(weights(np.clip(level, 0.0, None)))
     if cens.any() and noise.floor is not None:
         # censored BITs: weight each draw by P(its estimate would sit at the floor)
         h_c = a[:, None] * basis(shape, th, n_all[cens])
