@@ -488,7 +488,9 @@ def fit_rul(flights: FloatArray, h_est: FloatArray, now: float, kind: str, noise
     in-flight tracker's, :mod:`.fusion`); with them fewer than three BITs may trend, as long
     as three flights are observed. ``offset_mean``/``offset_sd``: the prior on the BITs'
     persistent unit offset ``c`` (None: the kind's :data:`UNIT_OFFSET_MEAN` and
-    :data:`UNIT_OFFSET_SD`; sd 0: ``c`` fixed at the mean)."""
+    :data:`UNIT_OFFSET_SD`; sd 0: ``c`` fixed at the mean). A BIT's sd is read at the
+    degradation the trend's own path puts it at, not at its reading, and times
+    :func:`flight_noise_factor` (the kind's flights' excess scatter)."""
     if kind not in SHAPES:
         raise ConfigError(f"no aging shape for {kind!r}", field="kind")
     shape = SHAPES[kind]
