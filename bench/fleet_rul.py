@@ -130,6 +130,7 @@ from mapr_daemon.ema.degradation import FAILURE, Trajectory, trajectory
 from mapr_daemon.ema.faults import Fault, FaultSet, nominal_value
 from mapr_daemon.ema.params import default_actuator_path, load_actuator
 from mapr_daemon.ema.profile import CONDITIONS
+from mapr_daemon.findings import Health
 from mapr_daemon.reasoner.prognosis import trend
 from mapr_daemon.reasoner.prognosis.assessment import assess
 from mapr_daemon.reasoner.prognosis.prognostic_model import PrognosticModel
@@ -543,21 +544,43 @@ def lag_one(parts: Sequence[tuple[FloatArray, FloatArray]]) -> float:
     return num / den if den > 0.0 else math.nan
 
 
-def print_healthy(conn: sqlite3.Connection, units: Sequence[Unit]) -> None:
-    """False wear: BITs of units that do not age whose health names a wearing mode."""
+def reassessed_health(conn: sqlite3.Connection, u: Unit, model: PrognosticModel
+                      ) -> list[Health]:
+    """Each stored BIT's health of one unit computed afresh from the stored estimates and
+    conditions (``health.assess`` with the history up to that BIT), as
+    :func:`reassessed_points` does for the aging units."""
+    flights: list[float] = []
+    wear: list[dict[str, float]] = []
+    conditions: list[dict[str, float]] = []
+    out: list[Health] = []
+    for b in load_bits(conn, tail=u.tail):
+        if b.flight is None or not b.wear:
+            continue
+        flights.append(float(b.flight))
+        wear.append(dict(b.wear))
+        conditions.append(dict(b.conditions))
+        out.append(assess(model, flights, wear, diagnosed=b.fault, seed=len(flights),
+                          conditions=conditions))
+    return out
+
+
+def print_healthy(conn: sqlite3.Connection, units: Sequence[Unit],
+                  model: PrognosticModel | None = None) -> None:
+    """False wear: BITs of units that do not age whose health names a wearing mode (the
+    stored health, or with ``model`` each BIT's health re-assessed under it)."""
     healthy = [u for u in units if u.kind == HEALTHY]
     if not healthy:
         return
-    bits = {u.tail: load_bits(conn, tail=u.tail) for u in healthy}
+    bits = {u.tail: [b.health for b in load_bits(conn, tail=u.tail)] if model is None
+            else reassessed_health(conn, u, model) for u in healthy}
     total = sum(len(b) for b in bits.values())
-    worn = Counter(b.health.mode for bs in bits.values() for b in bs if b.health.mode)
-    ever = sum(any(b.health.mode for b in bs) for bs in bits.values())
-    ruls = sum(b.health.rul is not None for bs in bits.values() for b in bs)
-    worst = max((sum(b.health.mode is not None for b in bs) for bs in bits.values()),
-                default=0)
-    print(f"\nunits that do not age ({len(healthy)}): a wearing mode at {sum(worn.values())} "
-          f"of {total} BITs (worst unit {worst}), {ruls} with a RUL, {ever} units ever; "
-          f"modes {dict(worn) or 'none'}")
+    worn = Counter(h.mode for hs in bits.values() for h in hs if h.mode)
+    ever = sum(any(h.mode for h in hs) for hs in bits.values())
+    ruls = sum(h.rul is not None for hs in bits.values() for h in hs)
+    worst = max((sum(h.mode is not None for h in hs) for hs in bits.values()), default=0)
+    print(f"\nunits that do not age ({len(healthy)}{', re-assessed' if model else ''}): a "
+          f"wearing mode at {sum(worn.values())} of {total} BITs (worst unit {worst}), {ruls} "
+          f"with a RUL, {ever} units ever; modes {dict(worn) or 'none'}")
 
 
 def print_table(title: str, scores: Sequence[UnitScore], kinds: Sequence[str]) -> None:
@@ -748,7 +771,7 @@ def read_catalog(catalog: Path, units: Sequence[Unit], model: PrognosticModel,
         head_scores.append(score_points(u.tail, u.kind, u.path.eol_flight, head_pts,
                                         LAMBDAS, ALPHA))
     print_errors(conn, units, model, kinds)
-    print_healthy(conn, units)
+    print_healthy(conn, units, configured if args.reassess else None)
     print_diagnoses(conn, units, kinds)
     conn.close()
     print_table("from the catalog: the TRUE kind's mode (health.modes[kind])", mode_scores,
