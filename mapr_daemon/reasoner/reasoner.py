@@ -150,7 +150,7 @@ class Reasoner:
                 wear, why = self.baseline_wear(wear, channels, command_deg,
                                                dynamic_pressure_pa)
                 diagnosis = diagnosis.with_evidence(wear_against_baseline=why or sorted(
-                    k for k in wear if k in self.baseline.wear.kinds))
+                    k for k in wear if k in self.baseline.wear.read_kinds))
             diagnosis = dataclasses.replace(
                 diagnosis, wear=wear,
                 conditions=self.prognostic.bit_conditions(self.dictionary, m,
@@ -160,14 +160,15 @@ class Reasoner:
     def baseline_wear(self, wear: Mapping[str, float], channels: Mapping[str, FloatArray],
                       command_deg: FloatArray, dynamic_pressure_pa: float
                       ) -> tuple[dict[str, float], str | None]:
-        """The estimators' ``wear`` with every kind the baseline's wear noise measured read
+        """The estimators' ``wear`` with every kind the baseline's wear reading resolves
+        (:attr:`~mapr_daemon.reasoner.commissioning.wear.BaselineWear.read_kinds`) read
         against :attr:`baseline` instead (on every BIT: the trend needs the healthy-looking
         early ones); the trend weighs those by the baseline's noise
         (:meth:`~mapr_daemon.reasoner.prognosis.prognostic_model.PrognosticModel.against_baseline`).
         A BIT the baseline cannot read drops those kinds (never an estimator's reading under
         the baseline's noise), and why is returned."""
         assert self.baseline is not None and self.baseline.wear is not None
-        mine = [k for k in wear if k in self.baseline.wear.kinds]
+        mine = [k for k in wear if k in self.baseline.wear.read_kinds]
         if not mine:
             return dict(wear), None
         out = {k: v for k, v in wear.items() if k not in mine}

@@ -20,9 +20,12 @@ trend's input:
 * **Its sd, measured** (:func:`measure`, at commissioning): each commissioning BIT is read
   the same way against the discrepancy relearned without it
   (:func:`~mapr_daemon.reasoner.commissioning.discrepancy.held_out_discrepancies`), so the
-  readings are what a healthy BIT the baseline has not seen gives: their mean is the kind's
-  **offset** at ``h = 0`` (subtracted before trending) and their sd the kind's **scatter**
-  ``sd0``. How the sd grows with ``h`` is taken from the same readings' cost curves: the sd of
+  readings are what a healthy BIT the baseline has not seen gives: their median is the kind's
+  **offset** at ``h = 0`` (subtracted before trending) and their scatter about it the kind's
+  ``sd0`` (1.4826 times the median absolute deviation: a weakly seen kind's held-out reading
+  can leave the grid, -0.5 or 2, and one such BIT made the plain sd of eight 0.87 where the
+  in-service readings of the same unit scattered by 0.29, on a design seed). How the sd grows
+  with ``h`` is taken from the same readings' cost curves: the sd of
   a least-squares estimate scales as one over the square root of the expected cost's
   curvature (the Fisher information of a Gaussian residual), so the mean held-out cost curve's
   second difference ``k(h)`` gives ``sd(h) = sd0 * sqrt(k(0) / k(h))`` on the grid over
@@ -31,6 +34,14 @@ trend's input:
   departure is our model's around the unit's identified operating point), which healthy BITs
   cannot check: a unit whose fault response differs from the model's reads at a gain the sd
   does not state (measured on built units in docs/reasoner-measured.md).
+
+A kind is read against the baseline only where that reading **resolves** its wear: its sd at
+the failure threshold (``sd0 + sd1``) at most
+:data:`~mapr_daemon.reasoner.training.prognosis_build.RESOLVE_SD` (0.5 of the threshold),
+the bar the prognostic model sets its own estimators (a single BIT must tell new from failed
+at two sd). A kind whose fault barely moves the fit signals the reading compares (the
+DC-link ESR's ripple is mostly averaged out of the decimated signals) fails it on a unit
+with a large discrepancy, and keeps the prognostic model's estimator.
 
 The measured noise is kept in the commissioning record (``wear``, :meth:`BaselineWear.to_json`)
 and given to the trend as each kind's :class:`~mapr_daemon.reasoner.prognosis.wear_noise.Noise`
@@ -59,6 +70,7 @@ from mapr_daemon.reasoner.commissioning.discrepancy import (
 )
 from mapr_daemon.reasoner.commissioning.flight import Flight, fly, noise_scale, recorded
 from mapr_daemon.reasoner.prognosis.wear_noise import Noise
+from mapr_daemon.reasoner.training.prognosis_build import RESOLVE_SD
 
 GRID: tuple[float, ...] = (-0.5, -0.25, 0.0, 0.25, 0.5, 0.75, 1.0, 1.25, 1.5, 2.0)
 """Degradations tried for every kind (fractions of the failure threshold; 0 = as
@@ -67,11 +79,17 @@ KINDS: tuple[str, ...] = tuple(sorted(FAILURE))
 """The aging kinds read."""
 CURVATURE_SPAN = (0.0, 1.5)
 """The degradations the sd's growth is fitted over (the grid's interior points in it)."""
+MAD_SD = 1.4826
+"""A normal variable's sd over its median absolute deviation."""
+SD_FLOOR = 1e-3
+"""The least scatter stated (a kind whose held-out readings all agree)."""
 MIN_HELD_OUT = 4
 """Fewer held-out readings than this measure no scatter."""
-RULE = ("per kind: the mean of the commissioning BITs read held out is the offset at h = 0, "
-        "their sd the scatter sd0; sd(h) = sd0 * sqrt(k(0) / k(h)) with k the mean held-out "
-        "cost curve's second difference, fitted as sd0 + sd1*h over h 0-1.5; gain taken as 1")
+RULE = ("per kind: the median of the commissioning BITs read held out is the offset at "
+        "h = 0, 1.4826 x their median absolute deviation the scatter sd0; sd(h) = sd0 * "
+        "sqrt(k(0) / k(h)) with k the mean held-out cost curve's second difference, fitted "
+        "as sd0 + sd1*h over h 0-1.5; gain taken as 1; a kind is read against the baseline "
+        "when sd0 + sd1 <= 0.5")
 
 
 def fault_at(params: ActuatorParams, kind: str, h: float) -> FaultSet:
@@ -137,9 +155,9 @@ class KindNoise:
     """One kind's baseline reading measured on the unit's held-out healthy BITs."""
 
     offset: float
-    """Mean held-out reading (the reading's bias at ``h = 0``)."""
+    """Median held-out reading (the reading's bias at ``h = 0``)."""
     sd0: float
-    """Sd of the held-out readings."""
+    """Scatter of the held-out readings (1.4826 x their median absolute deviation)."""
     sd1: float
     """Growth of the sd with ``h`` (from the cost's curvature)."""
     held_out: tuple[float, ...]
@@ -148,21 +166,34 @@ class KindNoise:
         """As the trend takes it: ``estimate = offset + h + e``, ``sd(e) = sd0 + sd1*h``."""
         return Noise(self.sd0, self.sd1, self.offset, 1.0)
 
+    @property
+    def resolves(self) -> bool:
+        """Whether one BIT's reading at the failure threshold scatters by at most
+        :data:`RESOLVE_SD` (else the kind keeps the prognostic model's estimator)."""
+        return self.sd0 + self.sd1 <= RESOLVE_SD
+
 
 @dataclasses.dataclass(frozen=True)
 class BaselineWear:
     """Per kind, what the unit's baseline reading of wear is worth (:func:`measure`)."""
 
     kinds: dict[str, KindNoise]
+    """Every kind measured (those that do not resolve their wear included)."""
+
+    @property
+    def read_kinds(self) -> tuple[str, ...]:
+        """The kinds read against the baseline: those whose reading resolves their wear."""
+        return tuple(k for k, v in self.kinds.items() if v.resolves)
 
     def noise(self) -> dict[str, Noise]:
-        """Each kind's noise as the trend takes it."""
-        return {k: v.noise() for k, v in self.kinds.items()}
+        """The noise of each kind read against the baseline, as the trend takes it."""
+        return {k: self.kinds[k].noise() for k in self.read_kinds}
 
     def to_json(self) -> dict[str, Any]:
         return {"rule": RULE, "grid": list(GRID), "kinds": {
             k: {"offset": round(v.offset, 6), "sd0": round(v.sd0, 6), "sd1": round(v.sd1, 6),
-                "held_out": [round(x, 6) for x in v.held_out]} for k, v in self.kinds.items()}}
+                "resolves": v.resolves, "held_out": [round(x, 6) for x in v.held_out]}
+            for k, v in self.kinds.items()}}
 
     @classmethod
     def from_json(cls, doc: Any, path: str = "<record>") -> BaselineWear:
@@ -221,16 +252,18 @@ def measure(params: ActuatorParams, disc: Discrepancy, bits: Sequence[BitRecord]
     out = {}
     for i, k in enumerate(kinds):
         values = np.array([minimum(c) for c in curves[:, i]])
-        sd0 = max(float(np.std(values, ddof=1)), 1e-3)
-        out[k] = KindNoise(float(np.mean(values)), sd0, growth(curves[:, i], sd0),
+        offset = float(np.median(values))
+        sd0 = max(MAD_SD * float(np.median(np.abs(values - offset))), SD_FLOOR)
+        out[k] = KindNoise(offset, sd0, growth(curves[:, i], sd0),
                            tuple(float(v) for v in values))
     return BaselineWear(out)
 
 
 def baseline_estimates(params: ActuatorParams, disc: Discrepancy, bit: BitRecord,
                        wear: BaselineWear, kinds: Sequence[str]) -> dict[str, float]:
-    """The raw readings of ``kinds`` that ``wear`` measured (what the catalog stores as the
-    BIT's wear; the trend subtracts the offset through :meth:`BaselineWear.noise`)."""
-    mine = [k for k in kinds if k in wear.kinds]
+    """The raw readings of ``kinds`` that ``wear`` reads (:attr:`BaselineWear.read_kinds`;
+    what the catalog stores as the BIT's wear; the trend subtracts the offset through
+    :meth:`BaselineWear.noise`)."""
+    mine = [k for k in kinds if k in wear.read_kinds]
     return {k: round(v, 5) for k, v in read(params, disc, bit, mine).items()} if mine else {}
 

@@ -214,5 +214,8 @@ def unit_wear(ident: Identification, records: Sequence[BitRecord], discrepancy: 
         return None
     say(f"wear read against the baseline on {len(bits)} held-out BITs, offset / sd at h = 0 "
         "(+ sd growth per unit h), fractions of the failure threshold: " + ", ".join(
-            f"{k} {v.offset:+.3f} / {v.sd0:.3f} (+{v.sd1:.3f})" for k, v in w.kinds.items()))
+            f"{k} {v.offset:+.3f} / {v.sd0:.3f} (+{v.sd1:.3f})" for k, v in w.kinds.items())
+        + "; read against the baseline: " + (", ".join(w.read_kinds) or "none")
+        + f" (sd at the threshold <= {baseline_wear.RESOLVE_SD:g}; the others keep the "
+        "prognostic model's estimators)")
     return w.to_json()
