@@ -4,6 +4,7 @@ weighed by the sd measured on its held-out commissioning BITs; an asset without 
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from pathlib import Path
 
@@ -121,3 +122,28 @@ def test_the_wear_noise_round_trips_and_a_malformed_one_is_refused(with_wear: Pa
     bad = {**doc, "kinds": {**doc["kinds"], "esr": {**doc["kinds"]["esr"], "sd0": 0.0}}}
     with pytest.raises(ConfigError, match="sd0"):
         BaselineWear.from_json(bad)
+
+
+def test_the_daemon_trends_a_commissioned_asset_with_its_measured_noise(
+        bench: Bench, model: PrognosticModel, with_wear: Path, old_record: Path,
+        tmp_path: Path) -> None:
+    """``assets[].commissioned`` with a wear record: the asset's trend weighs the kinds its
+    baseline reads by the unit's measured noise; with an older record, by the model's."""
+    from mapr_daemon.pipeline.pipeline import build_pipeline
+    from mapr_daemon.service.config import Config
+
+    dpath, ppath = tmp_path / "d.npz", tmp_path / "p.npz"
+    bench.dictionary.save(dpath)
+    model.save(ppath)
+    measured = Baseline.load(with_wear).wear
+    assert measured is not None
+    for folder, expected in ((with_wear, {**model.noise, **measured.noise()}),
+                             (old_record, model.noise)):
+        config = dataclasses.replace(
+            Config(), source="x.yaml",
+            assets=(dataclasses.replace(Config().assets[0], commissioned=str(folder),
+                                        prognosis=str(ppath)),),
+            reasoner=dataclasses.replace(Config().reasoner, dictionary=str(dpath)))
+        pipeline = build_pipeline(config)   # type: ignore[arg-type]
+        assert pipeline.trending is not None
+        assert pipeline.trending.models["EMA1"].noise == expected

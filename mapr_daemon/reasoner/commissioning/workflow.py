@@ -42,6 +42,7 @@ from mapr_daemon.reasoner.commissioning.record import CommissioningRecord, write
 from mapr_daemon.reasoner.diagnosis.dictionary import DictionarySpec
 from mapr_daemon.reasoner.training.corpus import from_npz
 from mapr_daemon.reasoner.training.dictionary_build import build
+from mapr_daemon.reasoner.training.prognosis_build import RESOLVE_SD
 
 ACTUATOR_FILE = "actuator.yaml"
 RECORD_FILE = "commissioning.json"
@@ -216,6 +217,6 @@ def unit_wear(ident: Identification, records: Sequence[BitRecord], discrepancy: 
         "(+ sd growth per unit h), fractions of the failure threshold: " + ", ".join(
             f"{k} {v.offset:+.3f} / {v.sd0:.3f} (+{v.sd1:.3f})" for k, v in w.kinds.items())
         + "; read against the baseline: " + (", ".join(w.read_kinds) or "none")
-        + f" (sd at the threshold <= {baseline_wear.RESOLVE_SD:g}; the others keep the "
+        + f" (sd at the threshold <= {RESOLVE_SD:g}; the others keep the "
         "prognostic model's estimators)")
     return w.to_json()
