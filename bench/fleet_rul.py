@@ -955,18 +955,22 @@ def print_baseline_errors(catalog: Path, units: Sequence[Unit], out: Path,
             continue
         if wear is None:
             continue
+        print(f"  {u.tail} ({u.kind}): read against the baseline: "
+              f"{', '.join(wear.read_kinds) or 'none'}; sd at the threshold " + ", ".join(
+                  f"{k} {v.sd0 + v.sd1:.2f}" for k, v in wear.kinds.items() if k in kinds))
         if u.kind == HEALTHY:
-            zs: dict[str, list[float]] = {k: [] for k in wear.kinds}
+            zs: dict[str, list[float]] = {k: [] for k in wear.read_kinds}
             for b in load_bits(conn, tail=u.tail):
-                for k, kn in wear.kinds.items():
+                for k in wear.read_kinds:
                     if k in b.wear:
+                        kn = wear.kinds[k]
                         zs[k].append((b.wear[k] - kn.offset) / kn.sd0)
-            print(f"  {u.tail} (does not age): largest |z| per kind " + ", ".join(
-                f"{k} {max(np.abs(v)):.1f}" for k, v in zs.items() if v))
+            print(f"  {u.tail} (does not age): largest |reading - offset| / sd0 per kind " +
+                  ", ".join(f"{k} {max(np.abs(v)):.1f}" for k, v in zs.items() if v))
             continue
-        n = wear.kinds.get(u.kind)
-        if n is None:
+        if u.kind not in wear.read_kinds:   # its wear is the estimator's: printed above
             continue
+        n = wear.kinds[u.kind]
         est, truth = [], []
         for b in load_bits(conn, tail=u.tail):
             if b.flight is None or u.kind not in b.wear:
