@@ -6,7 +6,7 @@
                                [--dictionary D.npz --prognosis P.npz] [--out DIR]
                                [--no-memory] [--keep-recordings] [--mean-life 200]
                                [--expected-life N] [--readback [--reassess]]
-                               [--mismatch [--commission-bits 20]]
+                               [--mismatch [--commission-bits 20] [--baseline]]
                                [--whole-flights [--flight-scale 0.5] [--templates 2]
                                 [--healthy-flights 60]]
 
@@ -73,6 +73,21 @@ printed too: an "unexplained" BIT (an anomaly no known fault mode fits) states n
 the true kind, but its wear estimate is stored and trended like any other BIT's, so the RUL
 read back does not depend on the decision.
 
+``--mismatch --baseline``: each built unit is ALSO commissioned as ``mapr commission
+--no-dictionary`` does, on the same cut BITs (identification, learned discrepancy, the unit's
+anomaly detector and the measured noise of each aging kind's wear read against the baseline:
+:func:`mapr_daemon.reasoner.commissioning.workflow.commission`, ``--jobs`` units at a time,
+into ``OUT/mismatch/TAIL/baseline/``), and every built-unit recording is replayed a second
+time with the tail's config plus ``assets[].commissioned`` (same calibrated dictionary) into
+``OUT/mismatch/fleet-baseline.db``: the BITs are read against the baseline (the event's
+decision, and each trended kind's wear with the unit's measured sd,
+:mod:`mapr_daemon.reasoner.commissioning.wear`). Scored as above and printed beside the
+twin and the old path, with the baseline-read wear of the true kind against the truth
+(bias, gain, error sd against the stated sd). Cost: identification ~50-200 s CPU per unit,
+the detector's and the wear's held-out readings ~1.2 s CPU per commissioning BIT, and each
+replayed BIT ~1.5-2 s CPU more than the old path (the reading with pairs on every BIT, the
+detector's, plus ~0.4 s for the wear).
+
 ``--whole-flights``: EVERY flight of every unit is flown whole, not a 2 s excerpt: the testbed
 aircraft on the bus along the whole-flight profile (:mod:`mapr_daemon.testbed.whole_recording`:
 taxi out with the control check, JSBSim climb, cruise turns, cruise hold, approach, taxi in;
@@ -131,6 +146,7 @@ from mapr_daemon.ema.faults import Fault, FaultSet, nominal_value
 from mapr_daemon.ema.params import default_actuator_path, load_actuator
 from mapr_daemon.ema.profile import CONDITIONS
 from mapr_daemon.findings import Health
+from mapr_daemon.reasoner.commissioning.bits import BitRecord
 from mapr_daemon.reasoner.prognosis import trend
 from mapr_daemon.reasoner.prognosis.assessment import assess
 from mapr_daemon.reasoner.prognosis.prognostic_model import PrognosticModel
@@ -234,10 +250,13 @@ def replay(path: str, config: Path, catalog: Path, tail: str, flight: int) -> tu
 
 
 def fly_and_replay(units: Sequence[Unit], out: Path, configs: Mapping[str, Path],
-                   catalog: Path, jobs: int, plan: Plan, keep: bool) -> int:
+                   catalog: Path, jobs: int, plan: Plan, keep: bool,
+                   also: Sequence[tuple[Mapping[str, Path], Path]] = ()) -> int:
     """Fly every BIT flight (seeds and conditions from ``plan``) in ``jobs`` processes; replay
-    each unit's in flight order as its recordings land, with its tail's config. Returns the
-    replays that failed (each named on stdout)."""
+    each unit's in flight order as its recordings land, with its tail's config, and again
+    with each of ``also``'s (configs, catalog) (``--baseline``: the same recordings read
+    against the unit's commissioned baseline). Returns the replays that failed (each named
+    on stdout)."""
     failed = 0
     done = 0
     total = sum(len(u.flights) for u in units)
@@ -255,11 +274,12 @@ def fly_and_replay(units: Sequence[Unit], out: Path, configs: Mapping[str, Path]
                 if path is None:
                     failed += 1
                     continue
-                rc, text = replay(path, configs[u.tail], catalog, u.tail, f + 1)
-                if rc != 0:
-                    print(f"  {u.tail} flight {f + 1}: mapr replay exit {rc}: "
-                          f"{text.strip().splitlines()[-1:]}")
-                    failed += 1
+                for cfgs, cat in [(configs, catalog), *also]:
+                    rc, text = replay(path, cfgs[u.tail], cat, u.tail, f + 1)
+                    if rc != 0:
+                        print(f"  {u.tail} flight {f + 1}: mapr replay exit {rc} "
+                              f"({cat.name}): {text.strip().splitlines()[-1:]}")
+                        failed += 1
                 if not keep:
                     Path(path).unlink(missing_ok=True)
                 done += 1
@@ -290,8 +310,8 @@ def _fly_commissioning(path: str, built: BuiltUnit, seed: int, condition: str,
 
 
 def commission(units: Sequence[Unit], out: Path, dictionary: Path, base_config: str,
-               n_bits: int, jobs: int, rng: np.random.Generator, keep: bool
-               ) -> dict[str, Path]:
+               n_bits: int, jobs: int, rng: np.random.Generator, keep: bool,
+               records_out: dict[str, list[BitRecord]] | None = None) -> dict[str, Path]:
     """Commission each built unit before its first flight, as an operator would: ``n_bits``
     healthy BITs flown on the unit at conditions drawn over the envelope (a named flight
     condition, ambient uniform over ``envelope.ambient_*_c``, bus mean uniform over
@@ -299,7 +319,9 @@ def commission(units: Sequence[Unit], out: Path, dictionary: Path, base_config: 
     (:func:`~mapr_daemon.pipeline.recorded_bits.bits_from_recording`), the shipped dictionary
     calibrated to the unit on them
     (:func:`~mapr_daemon.reasoner.commissioning.calibrate.calibrate_unit`) and saved; the
-    tail's replay config names it (``assets[].dictionary``). Returns each tail's config."""
+    tail's replay config names it (``assets[].dictionary``). Returns each tail's config;
+    ``records_out`` (when given) receives each tail's cut BITs (``--baseline`` commissions
+    the unit on the same ones)."""
     from mapr_daemon.icd import load_icd
     from mapr_daemon.pipeline.recorded_bits import bits_from_recording
     from mapr_daemon.reasoner.commissioning.calibrate import MIN_BITS, calibrate_unit
@@ -337,6 +359,8 @@ def commission(units: Sequence[Unit], out: Path, dictionary: Path, base_config: 
                 records += found.bits
                 if not keep:
                     path.unlink(missing_ok=True)
+            if records_out is not None:
+                records_out[u.tail] = records
             if len(records) < MIN_BITS:   # said, and the tail replays uncommissioned
                 print(f"  {u.tail}: {len(records)} BITs cut from {n_bits} flights: not "
                       "commissioned, replayed with the shipped dictionary")
@@ -628,6 +652,12 @@ def main() -> int:
                          "print its figures beside the twin's")
     ap.add_argument("--commission-bits", type=int, default=20,
                     help="with --mismatch: healthy BITs each built unit is commissioned on")
+    ap.add_argument("--baseline", action="store_true",
+                    help="with --mismatch: also commission each built unit as `mapr "
+                         "commission --no-dictionary` does (identification, discrepancy, "
+                         "detector, wear noise) on the same BITs, replay the same recordings "
+                         "again with assets[].commissioned (wear read against the unit's "
+                         "baseline) and print those figures beside the old path's")
     ap.add_argument("--whole-flights", action="store_true",
                     help="fly EVERY flight whole (testbed whole flights, a PBIT at power-up "
                          "on every --bit-every-th), replay each with the in-flight tracker "
@@ -699,26 +729,45 @@ def main() -> int:
             where.mkdir(exist_ok=True)
             (where / "mapr.yaml").write_text(base_config, encoding="utf-8")
             mm_catalog = where / "fleet.db"
+            bl_catalog = where / "fleet-baseline.db"
             if not args.readback:
                 mm_catalog.unlink(missing_ok=True)
                 t0 = time.monotonic()
                 print(f"\ncommissioning {len(built)} built units on {args.commission_bits} "
                       "healthy BITs each (flown on the unit over the envelope, cut from the "
                       "recordings, the shipped dictionary calibrated to the unit):")
+                cut: dict[str, list[BitRecord]] = {}
                 configs = commission(built, where, args.dictionary, base_config,
                                      args.commission_bits, max(args.jobs, 1),
                                      np.random.default_rng([seed, MISMATCH_STREAM, 1]),
-                                     args.keep_recordings)
+                                     args.keep_recordings, cut if args.baseline else None)
+                also: list[tuple[Mapping[str, Path], Path]] = []
+                if args.baseline:
+                    t1 = time.monotonic()
+                    print(f"\ncommissioning the same {len(built)} built units as `mapr "
+                          "commission --no-dictionary` does (identification, discrepancy, "
+                          "detector, wear noise) on the same BITs, "
+                          f"{max(args.jobs, 1)} processes:")
+                    also = [(commission_baselines(built, where, cut, configs,
+                                                  max(args.jobs, 1)), bl_catalog)]
+                    print(f"baselines commissioned in {time.monotonic() - t1:.0f} s wall")
+                    bl_catalog.unlink(missing_ok=True)
                 print(f"commissioned in {time.monotonic() - t0:.0f} s; flying the same "
                       "trajectories, flight seeds and conditions on the built units:")
                 t0 = time.monotonic()
                 failed = fly_and_replay(built, where, configs, mm_catalog, max(args.jobs, 1),
-                                        plan, args.keep_recordings)
+                                        plan, args.keep_recordings, also)
                 print(f"flown and replayed in {time.monotonic() - t0:.0f} s; failed: {failed}")
             print("\n######## the same trajectories on units that are NOT the data sheet's "
                   "twin (--mismatch) ########")
             mismatched = read_catalog(mm_catalog, built, model, kinds, args)
             print_beside(twin, mismatched, kinds)
+            if args.baseline:
+                print("\n######## the same recordings of the built units, wear read against "
+                      "each unit's commissioned baseline (--baseline) ########")
+                against = read_catalog(bl_catalog, built, model, kinds, args, errors=False)
+                print_baseline_errors(bl_catalog, built, where, kinds)
+                print_three(twin, mismatched, against, kinds)
         if not args.no_memory:
             in_memory(args.dictionary, [u for u in units if u.kind != HEALTHY],
                       args.bit_every, kinds, args.mean_life)
@@ -753,9 +802,10 @@ Scores = tuple[list[UnitScore], list[UnitScore]]
 
 
 def read_catalog(catalog: Path, units: Sequence[Unit], model: PrognosticModel,
-                 kinds: Sequence[str], args: argparse.Namespace) -> Scores:
-    """Score one run's catalog and print its figures: estimate errors, false wear, what
-    the BITs were diagnosed as, and the two tables; returns (true kind's, headline) scores."""
+                 kinds: Sequence[str], args: argparse.Namespace, errors: bool = True) -> Scores:
+    """Score one run's catalog and print its figures: estimate errors (unless ``errors`` is
+    False: a catalog whose wear the estimators did not read), false wear, what the BITs were
+    diagnosed as, and the two tables; returns (true kind's, headline) scores."""
     conn = sqlite3.connect(catalog)
     mode_scores, head_scores = [], []
     configured = model.with_lives(
@@ -770,7 +820,8 @@ def read_catalog(catalog: Path, units: Sequence[Unit], model: PrognosticModel,
                                         LAMBDAS, ALPHA))
         head_scores.append(score_points(u.tail, u.kind, u.path.eol_flight, head_pts,
                                         LAMBDAS, ALPHA))
-    print_errors(conn, units, model, kinds)
+    if errors:
+        print_errors(conn, units, model, kinds)
     print_healthy(conn, units, configured if args.reassess else None)
     print_diagnoses(conn, units, kinds)
     conn.close()
@@ -847,6 +898,134 @@ def in_memory(dictionary: Path, units: Sequence[Unit], bit_every: int,
     beta = [v for s in scored for v in s.alpha_lambda.values()]
     print(f"in memory, alpha-lambda with its beta = 0.5 draw criterion: "
           f"{100 * sum(beta) / len(beta):.1f} % ({sum(beta)}/{len(beta)})")
+
+
+# ---- built units commissioned with a baseline (--mismatch --baseline) ---------------------
+
+def _commission_one(datasheet: str, records: list[BitRecord], folder: str
+                    ) -> tuple[list[str], float]:
+    """One built unit commissioned as ``mapr commission --no-dictionary`` does, in a flying
+    process: its report lines and the CPU seconds it took."""
+    from mapr_daemon.reasoner.commissioning.prior import default_tolerances_path, load_tolerances
+    from mapr_daemon.reasoner.commissioning.workflow import commission as run_commission
+
+    cpu = time.process_time()
+    params = load_actuator(datasheet)
+    lines: list[str] = []
+    run_commission(params, datasheet, records,
+                   load_tolerances(default_tolerances_path(), params), Path(folder), None,
+                   lines.append)
+    return lines, time.process_time() - cpu
+
+
+def commission_baselines(units: Sequence[Unit], out: Path,
+                         records: Mapping[str, list[BitRecord]], configs: Mapping[str, Path],
+                         jobs: int) -> dict[str, Path]:
+    """Each built unit commissioned on the BITs :func:`commission` cut for it
+    (identification, learned discrepancy, anomaly detector, wear noise:
+    :func:`mapr_daemon.reasoner.commissioning.workflow.commission` without a dictionary) in
+    ``jobs`` processes, into ``OUT/TAIL/baseline/``; each tail's config is its
+    :func:`commission` config plus ``assets[].commissioned`` naming that folder (same
+    dictionary: the two paths differ by the baseline alone). A unit whose commissioning
+    fails keeps its old config (said)."""
+    datasheet = str(default_actuator_path())
+    started = time.monotonic()
+    out_configs: dict[str, Path] = {}
+    with ProcessPoolExecutor(jobs) as pool:
+        futures = {u.tail: pool.submit(_commission_one, datasheet, records.get(u.tail, []),
+                                       str(out / u.tail / "baseline")) for u in units}
+        for u in units:
+            try:
+                lines, cpu = futures[u.tail].result()
+            except Exception as error:
+                print(f"  {u.tail}: commissioning failed ({type(error).__name__}: {error}); "
+                      "replayed without a baseline")
+                out_configs[u.tail] = configs[u.tail]
+                continue
+            folder = (out / u.tail / "baseline").resolve()
+            text = configs[u.tail].read_text(encoding="utf-8").replace(
+                "    rt: 5\n", f"    rt: 5\n    commissioned: {folder}\n")
+            path = out / u.tail / "mapr-baseline.yaml"
+            path.write_text(text, encoding="utf-8")
+            out_configs[u.tail] = path
+            wear = [ln for ln in lines if ln.startswith("wear read")]
+            print(f"  {u.tail} ({u.kind}): {len(records.get(u.tail, []))} BITs, {cpu:.0f} s "
+                  f"CPU; {wear[0] if wear else 'no wear noise: ' + '; '.join(lines[-2:])} "
+                  f"({time.monotonic() - started:.0f} s)", flush=True)
+    return out_configs
+
+
+def print_baseline_errors(catalog: Path, units: Sequence[Unit], out: Path,
+                          kinds: Sequence[str]) -> None:
+    """The stored baseline-read estimate of each unit's TRUE kind, less the unit's measured
+    offset, against the true degradation: bias, gain (slope on the truth), error sd, the
+    stated sd's rms and the share outside the stated 90 % band, per kind (worst unit beside);
+    and on units that do not age, each kind's largest |z| (false wear)."""
+    from mapr_daemon.reasoner.commissioning.baseline import Baseline
+
+    params = load_actuator(default_actuator_path())
+    conn = sqlite3.connect(catalog)
+    print("\nper-BIT wear read against the unit's baseline, the TRUE kind (less the unit's "
+          "measured offset; units of the failure threshold; stated sd = sd0 + sd1*h "
+          "measured on its held-out commissioning BITs):")
+    rows: dict[str, list[tuple[str, FloatArray, FloatArray, FloatArray]]] = {}
+    for u in units:
+        folder = out / u.tail / "baseline"
+        try:
+            wear = Baseline.load(folder).wear
+        except Exception as error:   # a unit left uncommissioned: said
+            print(f"  {u.tail}: no baseline ({type(error).__name__})")
+            continue
+        if wear is None:
+            continue
+        print(f"  {u.tail} ({u.kind}): read against the baseline: "
+              f"{', '.join(wear.read_kinds) or 'none'}; sd at the threshold " + ", ".join(
+                  f"{k} {v.sd0 + v.sd1:.2f}" for k, v in wear.kinds.items() if k in kinds))
+        if u.kind == HEALTHY:
+            zs: dict[str, list[float]] = {k: [] for k in wear.read_kinds}
+            for b in load_bits(conn, tail=u.tail):
+                for k in wear.read_kinds:
+                    if k in b.wear:
+                        kn = wear.kinds[k]
+                        zs[k].append((b.wear[k] - kn.offset) / kn.sd0)
+            print(f"  {u.tail} (does not age): largest |reading - offset| / sd0 per kind " +
+                  ", ".join(f"{k} {max(np.abs(v)):.1f}" for k, v in zs.items() if v))
+            continue
+        if u.kind not in wear.read_kinds:   # its wear is the estimator's: printed above
+            continue
+        n = wear.kinds[u.kind]
+        est, truth = [], []
+        for b in load_bits(conn, tail=u.tail):
+            if b.flight is None or u.kind not in b.wear:
+                continue
+            est.append(b.wear[u.kind] - n.offset)
+            truth.append(degradation(params, u.kind, float(u.path.values[b.flight - 1])))
+        h, e = np.array(truth), np.array(est)
+        sd = n.sd0 + n.sd1 * np.clip(h, 0.0, 1.5)
+        rows.setdefault(u.kind, []).append((u.tail, h, e, sd))
+    conn.close()
+    for k in kinds:
+        for tail, h, e, sd in rows.get(k, []):
+            err = e - h
+            gain = float(np.polyfit(h, e, 1)[0]) if np.ptp(h) > 0 else math.nan
+            out_share = float(np.mean(np.abs(err) > 1.645 * sd))
+            stated = float(np.sqrt(np.mean(sd ** 2)))
+            print(f"  {k:>14} {tail}: {h.size} BITs, bias {np.mean(err):+.3f}, gain "
+                  f"{gain:.2f}, error sd {np.std(err):.3f} against stated {stated:.3f} "
+                  f"(rms), outside the 90 % band {100 * out_share:.0f} %")
+
+
+def print_three(twin: Scores, old: Scores, against: Scores, kinds: Sequence[str]) -> None:
+    """The twin, the built units on the old path (dictionary calibrated, estimators) and on
+    the baseline path, kind by kind, one above the other."""
+    print("\n== beside: twin / built, old path (calibrated dictionary, estimators) / built, wear "
+          "read against the commissioned baseline ==")
+    for title, i in (("the TRUE kind's mode", 0), ("the headline", 1)):
+        print(f"{title}:")
+        for k in [*kinds, "all"]:
+            for name, scores in (("twin", twin[i]), ("old", old[i]), ("base", against[i])):
+                line = kind_summary(k, [s for s in scores if k == "all" or s.kind == k])
+                print(f"  {name:>5} {line.strip()}")
 
 
 # ---- whole flights with in-flight tracking (--whole-flights) -------------------------------

@@ -300,6 +300,8 @@ def _reasoner(config: PipelineConfig, asset: AssetConfig, i: int, path: str, loa
                               field=f"assets[{i}].expected_life_flights") from None
     params = load_actuator(asset.actuator)
     baseline = None if asset.commissioned is None else _baseline(config, asset, i, loaded[path])
+    if model is not None and baseline is not None and baseline.wear is not None:
+        model = model.against_baseline(baseline.wear.noise())   # its wear is read against it
     reasoner = Reasoner(loaded[path], params, prognostic=model, baseline=baseline)
     watch = BitWatch(reasoner, signals=asset.signals, bit=params.bit,
                      threshold=config.reasoner.threshold, paper=config.reasoner.paper)

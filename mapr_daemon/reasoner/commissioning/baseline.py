@@ -11,12 +11,16 @@ its data sheet value (both are in the record), so the folder alone is enough.
 pairs of two faults included (:mod:`~mapr_daemon.reasoner.commissioning.pairs`).
 A record with a ``detector`` (commissioned since it existed) gives the baseline the unit's own
 anomaly thresholds (:mod:`~mapr_daemon.reasoner.commissioning.detector`); an older one loads
-without, and the dictionary keeps detecting alone.
+without, and the dictionary keeps detecting alone. A record with ``wear`` (commissioned since
+it existed) gives the measured noise of each aging kind's wear read against the baseline
+(:mod:`~mapr_daemon.reasoner.commissioning.wear`): :meth:`Baseline.wear_estimates` is then
+what the trend is fitted on instead of the prognostic model's estimators.
 """
 
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -31,6 +35,7 @@ from mapr_daemon.reasoner.commissioning.discrepancy import Discrepancy
 from mapr_daemon.reasoner.commissioning.pairs import TOP
 from mapr_daemon.reasoner.commissioning.record import read_record
 from mapr_daemon.reasoner.commissioning.severity import HEALTHY, Reading, read
+from mapr_daemon.reasoner.commissioning.wear import BaselineWear, baseline_estimates
 
 RECORD_FILE = "commissioning.json"
 
@@ -46,6 +51,9 @@ class Baseline:
     discrepancy: Discrepancy
     detector: Detector | None = None
     """The unit's anomaly thresholds on the reading; None: the dictionary detects alone."""
+    wear: BaselineWear | None = None
+    """The measured noise of each kind's wear read against the baseline; None: the
+    prognostic model's estimators read the unit's wear."""
 
     @classmethod
     def load(cls, folder: str | Path) -> Baseline:
@@ -63,7 +71,9 @@ class Baseline:
         disc = Discrepancy.load(d / str(record.discrepancy["file"]))
         detector = None if record.detector is None else Detector.from_json(
             record.detector, str(d / RECORD_FILE))
-        return cls(params, datasheet, disc, detector)
+        wear = None if record.wear is None else BaselineWear.from_json(
+            record.wear, str(d / RECORD_FILE))
+        return cls(params, datasheet, disc, detector, wear)
 
     def read(self, channels: dict[str, FloatArray], command_deg: FloatArray,
              dynamic_pressure_pa: float, pairs: int = TOP) -> Reading | str:
@@ -77,6 +87,20 @@ class Baseline:
             return why
         return read(self.params, self.datasheet, self.discrepancy, bit,
                     self.discrepancy.decimate, pairs=pairs)
+
+    def wear_estimates(self, channels: dict[str, FloatArray], command_deg: FloatArray,
+                       dynamic_pressure_pa: float, kinds: Sequence[str]) -> dict[str, float]:
+        """The BIT's wear of each of ``kinds`` that :attr:`wear` measured, read against the
+        baseline (:func:`~mapr_daemon.reasoner.commissioning.wear.read`, raw: the trend
+        subtracts the measured offset); empty without :attr:`wear` or when the BIT cannot be
+        read (a channel missing, a length the baseline does not fly)."""
+        if self.wear is None:
+            return {}
+        bit = BitRecord(channels, command_deg, dynamic_pressure_pa,
+                        self.params.sensors.sample_rate_hz, "run", 0)
+        if unusable(self.params, bit) is not None:
+            return {}
+        return baseline_estimates(self.params, self.discrepancy, bit, self.wear, kinds)
 
     def to_json(self, reading: Reading | str) -> dict[str, Any]:
         """A reading as the JSON ``mapr diagnose`` prints under ``baseline``: the mode (null

@@ -23,14 +23,19 @@ on it. Format ``mapr-commissioning/1``::
                      "held_out_rms_model": 240.1, "held_out_rms_corrected": 30.2}, ...}},
      "detector": {"rule": ..., "alpha": 0.001, "statistics": {"no_fault": {"scale": ...,
                   "dof": ..., "threshold": 2.9, "largest_held_out": 1.8,
-                  "held_out": [...]}, "explained": {...}}}}
+                  "held_out": [...]}, "explained": {...}}},
+     "wear": {"rule": ..., "grid": [...], "kinds": {"esr": {"offset": 0.01, "sd0": 0.05,
+              "sd1": 0.02, "held_out": [...]}, ...}}}
 
 ``discrepancy`` (None in records written before it existed, or with too few BITs) says
 what the learned discrepancy
 (:mod:`~mapr_daemon.reasoner.commissioning.discrepancy`) explains: per signal the held-out
 residual without and with it, in noise units. ``detector`` (None in records written before
 it existed: the dictionary then detects alone) holds the unit's own anomaly thresholds
-(:mod:`~mapr_daemon.reasoner.commissioning.detector`).
+(:mod:`~mapr_daemon.reasoner.commissioning.detector`). ``wear`` (None before it existed:
+the prognostic model's estimators then read the unit's wear) holds each aging kind's wear
+reading against the baseline measured on the held-out BITs
+(:mod:`~mapr_daemon.reasoner.commissioning.wear`).
 
 ``value`` is what the identified actuator file holds (the fit where identifiable, else the
 data sheet's); ``sd_rel`` the posterior sd of its logarithm (a relative sd).
@@ -83,13 +88,18 @@ class CommissioningRecord:
     """The unit's anomaly detector on the baseline reading
     (:meth:`~mapr_daemon.reasoner.commissioning.detector.Detector.to_json`); None when none
     was calibrated (no discrepancy, or a record written before there was one)."""
+    wear: dict[str, Any] | None = None
+    """Each aging kind's wear reading against the baseline, measured held out
+    (:meth:`~mapr_daemon.reasoner.commissioning.wear.BaselineWear.to_json`); None when none
+    was measured."""
 
     @classmethod
     def of(cls, ident: Identification, tolerances: tuple[Tolerance, ...], datasheet: str,
            identified_actuator: str, dictionary: str | None,
            unit_calibration: dict[str, Any] | None = None,
            discrepancy: dict[str, Any] | None = None,
-           detector: dict[str, Any] | None = None) -> CommissioningRecord:
+           detector: dict[str, Any] | None = None,
+           wear: dict[str, Any] | None = None) -> CommissioningRecord:
         """The record of ``ident``, stamped now (UTC)."""
         return cls(
             created=datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
@@ -100,7 +110,8 @@ class CommissioningRecord:
             residual_after=dict(ident.residual_after), bits=ident.bits, skipped=ident.skipped,
             correlation=ident.correlation, iterations=ident.iterations,
             converged=ident.converged, model_runs=ident.model_runs, wall_s=ident.wall_s,
-            unit_calibration=unit_calibration, discrepancy=discrepancy, detector=detector)
+            unit_calibration=unit_calibration, discrepancy=discrepancy, detector=detector,
+            wear=wear)
 
     def to_json(self) -> dict[str, Any]:
         return {
@@ -118,6 +129,7 @@ class CommissioningRecord:
             "unit_calibration": self.unit_calibration,
             "discrepancy": self.discrepancy,
             "detector": self.detector,
+            "wear": self.wear,
         }
 
     @classmethod
@@ -146,7 +158,8 @@ class CommissioningRecord:
                 iterations=int(fit["iterations"]), converged=bool(fit["converged"]),
                 model_runs=int(fit["model_runs"]), wall_s=float(fit["wall_s"]),
                 unit_calibration=doc.get("unit_calibration"),
-                discrepancy=doc.get("discrepancy"), detector=doc.get("detector"))
+                discrepancy=doc.get("discrepancy"), detector=doc.get("detector"),
+                wear=doc.get("wear"))
         except (KeyError, TypeError, ValueError, AttributeError) as error:
             raise ConfigError(f"malformed commissioning record ({error})", path=path) from None
 

@@ -12,7 +12,10 @@ folder, ``actuator.yaml`` (the identified actuator, loadable like any actuator f
 :mod:`~mapr_daemon.reasoner.commissioning.discrepancy`) and ``dictionary.npz``. With a
 discrepancy, the unit's own anomaly detector is calibrated on the same BITs read held out
 (:mod:`~mapr_daemon.reasoner.commissioning.detector`, one baseline reading per BIT, about
-0.7-0.8 s CPU each) and kept in the record.
+0.7-0.8 s CPU each) and kept in the record, and so is the measured noise of each aging
+kind's wear read against the baseline on the same BITs held out
+(:mod:`~mapr_daemon.reasoner.commissioning.wear`, about 0.5 s CPU per BIT): what the trend
+of a commissioned asset is fitted on.
 """
 
 from __future__ import annotations
@@ -30,6 +33,7 @@ from mapr_daemon.ema.params import ActuatorParams
 from mapr_daemon.errors import ConfigError
 from mapr_daemon.reasoner.commissioning import detector as det
 from mapr_daemon.reasoner.commissioning import discrepancy as dsc
+from mapr_daemon.reasoner.commissioning import wear as baseline_wear
 from mapr_daemon.reasoner.commissioning.bits import FIT_SIGNALS, BitRecord, from_runs
 from mapr_daemon.reasoner.commissioning.calibrate import MIN_BITS, calibrate_unit
 from mapr_daemon.reasoner.commissioning.identify import FitOptions, Identification, identify
@@ -38,6 +42,7 @@ from mapr_daemon.reasoner.commissioning.record import CommissioningRecord, write
 from mapr_daemon.reasoner.diagnosis.dictionary import DictionarySpec
 from mapr_daemon.reasoner.training.corpus import from_npz
 from mapr_daemon.reasoner.training.dictionary_build import build
+from mapr_daemon.reasoner.training.prognosis_build import RESOLVE_SD
 
 ACTUATOR_FILE = "actuator.yaml"
 RECORD_FILE = "commissioning.json"
@@ -143,12 +148,13 @@ def commission(params: ActuatorParams, datasheet: str, records: Sequence[BitReco
     discrepancy, disc_summary = learn_discrepancy(ident, records, out, say)
     detector = None if discrepancy is None else unit_detector(
         ident, params, records, out / discrepancy, say)
+    wear = None if discrepancy is None else unit_wear(ident, records, out / discrepancy, say)
     dictionary = calibration = None
     if spec is not None:
         dictionary, calibration = unit_dictionary(
             ident.params, spec, out, [r for r in records if (r.source, r.index) in used], say)
     record = CommissioningRecord.of(ident, tolerances, datasheet, ACTUATOR_FILE, dictionary,
-                                    calibration, disc_summary, detector)
+                                    calibration, disc_summary, detector, wear)
     write_record(out / RECORD_FILE, record)
     return Commissioned(ident, record, out, dictionary, discrepancy)
 
@@ -192,3 +198,25 @@ def unit_detector(ident: Identification, datasheet: ActuatorParams,
             f"{k} {t.threshold:.3g} (largest held out {t.largest:.3g})"
             for k, t in d.tails.items()))
     return d.to_json()
+
+
+def unit_wear(ident: Identification, records: Sequence[BitRecord], discrepancy: Path, say: Say
+              ) -> dict[str, Any] | None:
+    """Each aging kind's wear reading against the baseline, its offset and sd measured on the
+    BITs the identification used, each read against the discrepancy ``discrepancy`` relearned
+    without it (:func:`~.wear.measure`); what the record keeps, or None (said in one line)
+    when there are too few BITs."""
+    used = {(b.source, b.index) for b in ident.bits}
+    bits = [r for r in records if (r.source, r.index) in used]
+    try:
+        w = baseline_wear.measure(ident.params, dsc.Discrepancy.load(discrepancy), bits)
+    except ConfigError as error:
+        say(f"no wear reading on the baseline: {error.detail}")
+        return None
+    say(f"wear read against the baseline on {len(bits)} held-out BITs, offset / sd at h = 0 "
+        "(+ sd growth per unit h), fractions of the failure threshold: " + ", ".join(
+            f"{k} {v.offset:+.3f} / {v.sd0:.3f} (+{v.sd1:.3f})" for k, v in w.kinds.items())
+        + "; read against the baseline: " + (", ".join(w.read_kinds) or "none")
+        + f" (sd at the threshold <= {RESOLVE_SD:g}; the others keep the "
+        "prognostic model's estimators)")
+    return w.to_json()

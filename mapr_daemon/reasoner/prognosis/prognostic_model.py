@@ -40,7 +40,7 @@ from mapr_daemon.arrays import FloatArray
 from mapr_daemon.errors import ConfigError
 from mapr_daemon.reasoner.diagnosis import healthy_model
 from mapr_daemon.reasoner.diagnosis.dictionary import Dictionary
-from mapr_daemon.reasoner.prognosis import trend, wear_estimators
+from mapr_daemon.reasoner.prognosis import trend, wear_estimators, wear_noise
 
 FORMAT = "mapr-prognosis/2"
 AGING_KINDS: tuple[str, ...] = tuple(sorted(trend.SHAPES))
@@ -115,6 +115,15 @@ class PrognosticModel:
         priors = {k: p.with_life(k, 0.0, lives[k]) if k in lives else
                   p.with_life(k, trend.LIFE_SD) for k, p in self.priors.items()}
         return dataclasses.replace(self, priors=priors)
+
+    def against_baseline(self, noise: Mapping[str, wear_noise.Noise]) -> PrognosticModel:
+        """This model for a commissioned unit whose wear of the kinds in ``noise`` is read
+        against its own baseline
+        (:meth:`~mapr_daemon.reasoner.commissioning.baseline.Baseline.wear_estimates`): those
+        kinds' readings are weighed by ``noise`` (measured on the unit's held-out healthy
+        BITs), the others by the estimators' own. The fleet priors are unchanged."""
+        mine = {k: n for k, n in noise.items() if k in self.noise}
+        return dataclasses.replace(self, noise={**self.noise, **mine})
 
     # --- persistence -----------------------------------------------------------------------
     def save(self, path: str | Path) -> None:
