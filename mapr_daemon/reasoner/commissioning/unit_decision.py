@@ -181,12 +181,13 @@ def combine(dec: Decision, reading: Reading | str, baseline: Baseline) -> Decisi
         evidence["baseline"].update(rule=RULE, pair_rule=PAIR_RULE,
                                     unexplained_rule=UNEXPLAINED_RULE)
     else:
+        modes = () if isinstance(reading, str) else (reading.mode,)
         evidence["baseline"].update(rule=ALLOWED_RULE, allowance={
-            "healthy": round(allowance.healthy, 4), "share": round(allowance.share, 4),
-            "false_rate": allowance.alpha})
+            "healthy": round(allowance.healthy, 4),
+            "share": round(allowance.share_of(modes), 4), "false_rate": allowance.alpha})
         if not isinstance(reading, str):
             evidence["baseline"]["allowed"] = round(
-                allowance.left(reading.healthy_cost - reading.cost, (reading.mode,)), 4)
+                allowance.left(reading.healthy_cost - reading.cost, modes), 4)
     if said == "dictionary":
         evidence["reading"] = "dictionary"
         return dataclasses.replace(dec, evidence=evidence)
