@@ -15,14 +15,15 @@ low-side Ron are on their own rows: the bus barely sees that fault (docs/reasone
 With ``--baseline`` (needs ``--units``) each unit is also commissioned as ``mapr commission``
 does it (``bench/units.py``'s ``--baseline``: its parameters identified from the same healthy
 BITs and the model's discrepancy learned on them), and every BIT the calibrated dictionary
-flags goes through the product's path (``Reasoner.against_baseline``: the reading against the
-unit's baseline, single faults and pairs, weighed by ``unit_decision.combine``); a second pair
-of tables gives those decisions, and the CPU time of each reading (mean and worst) is printed.
-``--healthy-reads N`` healthy BITs per unit are read against the baseline whatever the
-dictionary says, and what the rule would make of them is printed (what a healthy BIT leaves,
-and what a second fault gains on it by chance). ``--dump FILE`` writes one JSON line per
-scored BIT (unit, truth, the decisions, the
-reading's costs): what a decision rule is chosen on, on design seeds.
+flags goes through the product's path (the reading against the unit's baseline, single faults
+and pairs, decided by ``detection.decide`` as ``Reasoner.against_baseline`` does); a third pair
+of tables gives those decisions, a second the same readings under the older rule (a fault's
+leftover judged as a share of the departure, no single-fault allowance), and the CPU time of
+each reading (mean and worst) is printed. ``--healthy-reads N`` healthy BITs per unit are read
+against the baseline whatever the dictionary says, and what the rule would make of them is
+printed (what a healthy BIT leaves, and what a second fault gains on it by chance). ``--dump
+FILE`` writes one JSON line per scored BIT (unit, truth, the decisions, the reading's costs):
+what a decision rule is chosen on, on design seeds.
 
 Seeds: a master seed, drawn afresh unless ``--seed`` is given, is printed first; the fleet,
 conditions, magnitudes and per-run noise seeds come from it.
@@ -34,6 +35,7 @@ Run:  python3 bench/compound.py --dictionary DICT [--actuator FILE] [--per-pair 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import itertools
 import json
 import os
@@ -52,7 +54,8 @@ from units import _baseline as commissioned_baseline
 from mapr_daemon.ema.batch import RunSpec
 from mapr_daemon.ema.faults import FaultSet, at_severity
 from mapr_daemon.ema.params import default_actuator_path, load_actuator
-from mapr_daemon.reasoner.commissioning import calibrate
+from mapr_daemon.reasoner.commissioning import calibrate, detection
+from mapr_daemon.reasoner.commissioning.baseline import Baseline
 from mapr_daemon.reasoner.commissioning.unit_decision import verdict
 from mapr_daemon.reasoner.diagnosis import classifier
 from mapr_daemon.reasoner.diagnosis.dictionary import Dictionary
@@ -151,6 +154,7 @@ def main() -> int:
     t0 = time.monotonic()
     decs: dict[int, classifier.Decision] = {}
     with_base: dict[int, classifier.Decision] = {}
+    with_older: dict[int, classifier.Decision] = {}  # the same readings, the older rule
     read_cpu: list[float] = []
     healthy: list[tuple[str, float]] = []  # verdict and cost of healthy BITs, read regardless
     dump = args.dump.open("w") if args.dump else None
@@ -163,8 +167,17 @@ def main() -> int:
             base, _ = calibrate.calibrate_unit(d, m[comm], np.asarray(q)[comm])
             if args.baseline:
                 tc = time.monotonic()
-                reasoner = Reasoner(base, sheet,
-                                    baseline=commissioned_baseline(sheet, runs, comm))
+                bl, _ = commissioned_baseline(sheet, runs, comm)
+                reasoner = Reasoner(base, sheet, baseline=bl)
+                al = None if bl.detector is None else bl.detector.allowance
+                print("  " + ("no single-fault allowance" if al is None else
+                              f"a single fault may leave {al.healthy:.2f} + {al.share:.3f} x "
+                              f"what it explains, per mode "
+                              + ", ".join(f"{k} {v:.3f}" for k, v in al.shares.items())
+                              + f" ({sum(map(len, al.excess.values()))} added faults)"))
+                if dump is not None and al is not None:
+                    dump.write(json.dumps({"unit": u, "role": "allowance",
+                                           **al.to_json()}) + "\n")
                 print(f"  unit {u + 1}/{len(units)}: identified and discrepancy learned in "
                       f"{time.monotonic() - tc:.1f} s (wall {time.monotonic() - start:.0f} s "
                       f"so far)", flush=True)
@@ -175,7 +188,9 @@ def main() -> int:
                 assert reasoner is not None and reasoner.baseline is not None
                 channels = {k: v[i] for k, v in runs.channels.items()}
                 r = reasoner.baseline.read(channels, runs.command_deg, q[i])
-                healthy.append((verdict(r), 0.0 if isinstance(r, str) else r.cost))
+                allowance = (None if reasoner.baseline.detector is None
+                             else reasoner.baseline.detector.allowance)
+                healthy.append((verdict(r, allowance), 0.0 if isinstance(r, str) else r.cost))
                 if dump is not None:
                     dump.write(json.dumps({"unit": u, "role": "healthy", "verdict": healthy[-1][0],
                                            "baseline": reasoner.baseline.to_json(r)}) + "\n")
@@ -186,8 +201,13 @@ def main() -> int:
             if dec.anomaly and not dec.inconclusive:
                 channels = {k: v[i] for k, v in runs.channels.items()}
                 c0 = time.process_time()
-                dec = reasoner.against_baseline(dec, channels, runs.command_deg, q[i])
+                reading = reasoner.baseline_reading(channels, runs.command_deg, q[i])
                 read_cpu.append(time.process_time() - c0)
+                assert reasoner.baseline is not None
+                with_older[i] = detection.decide(dec, reading, _older(reasoner.baseline))
+                dec = detection.decide(dec, reading, reasoner.baseline)
+            else:
+                with_older[i] = dec
             with_base[i] = dec
             if dump is not None:
                 dump.write(json.dumps(_record(who[i], q[i], decs[i], dec)) + "\n")
@@ -197,8 +217,10 @@ def main() -> int:
     blocks = [("the dictionary, calibrated to each unit" if units else "the dictionary",
                decs)]
     if args.baseline:
-        blocks.append(("+ the reading against each unit's baseline (single faults and pairs)",
-                       with_base))
+        blocks.append(("+ the reading against each unit's baseline, the older rule (shares of "
+                       "the departure, no single-fault allowance)", with_older))
+        blocks.append(("+ the reading against each unit's baseline (single faults and pairs, "
+                       "within the unit's single-fault allowance: the product)", with_base))
         print(f"{len(read_cpu)} flagged BITs read against the baseline: CPU per reading mean "
               f"{np.mean(read_cpu) if read_cpu else 0:.2f} s, worst "
               f"{max(read_cpu, default=0.0):.2f} s")
@@ -224,6 +246,13 @@ def main() -> int:
     print(f"\ntotal wall {time.monotonic() - start:.1f} s, CPU {time.process_time() - cpu0:.1f}"
           f" s; load average {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
     return 0
+
+
+def _older(bl: Baseline) -> Baseline:
+    """``bl`` without its single-fault allowance: the decision's older rule."""
+    if bl.detector is None:
+        return bl
+    return dataclasses.replace(bl, detector=dataclasses.replace(bl.detector, allowance=None))
 
 
 def _record(w: tuple[int, str, dict[str, float]], q: float, dictionary: classifier.Decision,

@@ -28,10 +28,13 @@ decided by :func:`mapr_daemon.reasoner.commissioning.detection.decide` under eac
 ``dictionary`` (the dictionary detects, the reading weighs in on what it flags: the product
 before the detector, and for a record without one), ``union``, ``explained`` (the product's
 rule, what the daemon does for an asset with ``commissioned:``) and ``baseline``; one table
-each. ``--dump FILE`` writes each diagnosed BIT's detection statistics, its unit's thresholds
-and the dictionary's alarm as JSON lines, to read other rules off the same BITs. The CPU time
-of each reading and of each unit's detector calibration is printed (mean and worst), and how
-the healthy BITs' two detection statistics sit against their unit's thresholds.
+each, and one more for rule ``explained`` with the decision's older rule on the reading (a
+fault's leftover judged as a share of the departure, without the unit's single-fault
+allowance), on the same readings. ``--dump FILE`` writes each diagnosed BIT's detection
+statistics, its unit's thresholds and the dictionary's alarm as JSON lines, to read other rules
+off the same BITs. The CPU time of each reading and of each unit's detector calibration is
+printed (mean and worst), and how the healthy BITs' two detection statistics sit against their
+unit's thresholds.
 
 Seeds: a master seed, drawn afresh unless ``--seed`` is given, is printed first; the fleet,
 conditions, magnitudes and per-run noise seeds (10^9..2^62) come from it.
@@ -43,6 +46,7 @@ Run:  python3 bench/units.py --actuator FILE --dictionary DICT [--units 30]
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import os
 import sys
@@ -65,7 +69,7 @@ from mapr_daemon.reasoner.commissioning.bits import from_runs
 from mapr_daemon.reasoner.commissioning.discrepancy import learn_unit
 from mapr_daemon.reasoner.commissioning.identify import FitOptions, identify
 from mapr_daemon.reasoner.commissioning.severity import Reading
-from mapr_daemon.reasoner.commissioning.unit_decision import explains
+from mapr_daemon.reasoner.commissioning.unit_decision import explains, verdict
 from mapr_daemon.reasoner.diagnosis import classifier, parts
 from mapr_daemon.reasoner.diagnosis.dictionary import Dictionary, DictionarySpec
 from mapr_daemon.reasoner.reasoner import Reasoner
@@ -150,6 +154,7 @@ def main() -> int:
     before: list[classifier.Decision | None] = []
     after: list[classifier.Decision | None] = []
     by_rule: dict[str, list[classifier.Decision | None]] = {r: [] for r in detection.RULES}
+    older: list[classifier.Decision | None] = []  # rule explained, the older decision
     read_cpu: list[float] = []
     calib_cpu: list[float] = []
     healthy_reads: list[tuple[bool, float]] = []  # explains, cost drop
@@ -178,6 +183,11 @@ def main() -> int:
             t_commission += time.monotonic() - tc
             thr = "none" if bl.detector is None else ", ".join(
                 f"{k} {t.threshold:.3g}" for k, t in bl.detector.tails.items())
+            al = _allowance(bl)
+            thr += ("; no single-fault allowance" if al is None else
+                    f"; a single fault may leave {al.healthy:.2f} + {al.share:.3f} x what it "
+                    f"explains, per mode " + ", ".join(f"{k} {v:.3f}" for k, v in al.shares.items())
+                    + f" ({sum(map(len, al.excess.values()))} added faults)")
             print(f"  unit {u + 1}/{len(units)}: identified, discrepancy learned and detector "
                   f"calibrated in {time.monotonic() - tc:.1f} s (detector {cpu:.1f} s CPU; "
                   f"thresholds {thr}; wall {time.monotonic() - start:.0f} s so far)",
@@ -197,10 +207,12 @@ def main() -> int:
             read_cpu.append(time.process_time() - c0)
             for rule in detection.RULES:
                 by_rule[rule].append(detection.decide(dec, r, reasoner.baseline, rule))
+            older.append(detection.decide(dec, r, _older(reasoner.baseline)))
             if args.dump is not None:
                 dumped.append(_dump(who[i], dec, r, reasoner.baseline))
             if who[i][1] == "healthy" and isinstance(r, Reading):
-                healthy_reads.append((explains(r), r.healthy_cost - r.cost))
+                healthy_reads.append((explains(r, _allowance(reasoner.baseline)),
+                                      r.healthy_cost - r.cost))
                 if reasoner.baseline.detector is not None:
                     st = detector.statistics(r)
                     for k, t in reasoner.baseline.detector.tails.items():
@@ -217,9 +229,12 @@ def main() -> int:
                        by_rule["dictionary"]))
         blocks.append(("calibrated to each unit + the unit's detector, either firing "
                        "(rule union)", by_rule["union"]))
+        blocks.append(("rule explained with the older decision on the reading (a fault's "
+                       "leftover as a share of the departure, no single-fault allowance)",
+                       older))
         blocks.append(("calibrated to each unit + the unit's detector's GLRT statistic "
-                       "(rule explained: the product's, assets[].commissioned)",
-                       by_rule["explained"]))
+                       "(rule explained: the product's, assets[].commissioned; the reading "
+                       "within the unit's single-fault allowance)", by_rule["explained"]))
         blocks.append(("the unit's detector on the baseline reading deciding alone "
                        "(rule baseline)", by_rule["baseline"]))
         drops = [x for _, x in healthy_reads]
@@ -251,11 +266,24 @@ def _dump(w: tuple[int, str, str, float], dec: classifier.Decision, r: Reading |
     out: dict[str, object] = {"unit": w[0], "role": w[1], "mode": w[2], "magnitude": w[3],
                               "dictionary": dec.anomaly, "dictionary_fault": dec.fault}
     if isinstance(r, Reading):
-        out.update(reading=r.mode, severity=r.severity, explains=explains(r),
-                   **detector.statistics(r))
+        out.update(reading=r.mode, severity=r.severity,
+                   explains=explains(r, _allowance(bl)), cost=r.cost,
+                   pair_cost=None if r.pair is None else r.pair.cost,
+                   verdict=verdict(r, _allowance(bl)), **detector.statistics(r))
     if bl.detector is not None:
         out["thresholds"] = {k: t.threshold for k, t in bl.detector.tails.items()}
     return out
+
+
+def _older(bl: Baseline) -> Baseline:
+    """``bl`` without its single-fault allowance: the decision's older rule."""
+    if bl.detector is None:
+        return bl
+    return dataclasses.replace(bl, detector=dataclasses.replace(bl.detector, allowance=None))
+
+
+def _allowance(bl: Baseline) -> detector.Allowance | None:
+    return None if bl.detector is None else bl.detector.allowance
 
 
 def _baseline(sheet: ActuatorParams, runs: Runs, comm: list[int]) -> tuple[Baseline, float]:

@@ -80,12 +80,13 @@ def bench() -> Bench:
 
 
 def commissioned_folder(bench: Bench, folder: Path, count: int = 6,
-                        detector: bool = False) -> Path:
+                        detector: bool = False, allowance: bool = False) -> Path:
     """A ``mapr commission`` folder made from the first ``count`` of the bench's own healthy
     runs (the unit is the data sheet's twin: what the callers test is the reading's wiring,
     not what the discrepancy learns): the actuator, the learned discrepancy and the record;
     with ``detector``, the unit's anomaly detector calibrated on the same runs (a record
-    written before there was one has none)."""
+    written before there was one has none), with its single-fault allowance if ``allowance``
+    (about 40 readings more)."""
     from mapr_daemon.ema.dump import write_actuator
     from mapr_daemon.reasoner.commissioning import detector as det
     from mapr_daemon.reasoner.commissioning.bits import from_runs
@@ -105,6 +106,7 @@ def commissioned_folder(bench: Bench, folder: Path, count: int = 6,
               "fit": {"iterations": 3, "converged": True, "model_runs": 10, "wall_s": 1.0},
               "discrepancy": {"file": "discrepancy.npz"}}
     if detector:
-        record["detector"] = det.calibrate(bench.params, bench.params, disc, bits).to_json()
+        record["detector"] = det.calibrate(bench.params, bench.params, disc, bits,
+                                           allowance=allowance).to_json()
     (folder / "commissioning.json").write_text(json.dumps(record))
     return folder

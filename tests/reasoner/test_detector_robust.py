@@ -43,6 +43,7 @@ def test_a_tail_of_all_but_one_zero_is_not_below_the_all_zero_floor() -> None:
 def test_non_finite_held_out_values_calibrate_no_detector(
         monkeypatch: pytest.MonkeyPatch) -> None:
     nan = Reading("healthy", "", 0.0, math.nan, math.nan, {})
+    monkeypatch.setattr(det, "held_out_discrepancies", lambda *a: [None] * 5)
     monkeypatch.setattr(det, "held_out_readings", lambda *a: [nan] * 5)
     with pytest.raises(ConfigError, match="detector"):
         det.calibrate(None, None, None, [None] * 5)  # type: ignore[arg-type]

@@ -33,13 +33,15 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
 from mapr_daemon.arrays import FloatArray
 from mapr_daemon.ema.faults import PARAMETRIC, SWITCHES, Fault, FaultSet, at_severity
 from mapr_daemon.ema.params import ActuatorParams
-from mapr_daemon.reasoner.commissioning.bits import BitRecord
+from mapr_daemon.reasoner.commissioning.bits import FIT_SIGNALS, BitRecord
+from mapr_daemon.reasoner.commissioning.departures import departures
 from mapr_daemon.reasoner.commissioning.discrepancy import Discrepancy, correction_for
 from mapr_daemon.reasoner.commissioning.flight import Flight, fly, noise_scale, recorded
 from mapr_daemon.reasoner.commissioning.pairs import PairReading, search
@@ -70,6 +72,10 @@ class Reading:
     """The best pair of two faults in different parts, when pairs were searched (whatever
     its cost: :func:`~mapr_daemon.reasoner.commissioning.unit_decision.named_pair` decides
     whether it is named)."""
+    departures: dict[str, Any] | None = None
+    """Where the "no fault" residual lies: the signals and BIT stretches with the largest
+    shares (:func:`~mapr_daemon.reasoner.commissioning.departures.departures`); what an
+    unexplained event names."""
 
 
 def _weights(params: ActuatorParams, disc: Discrepancy | None, decimate: int) -> FloatArray:
@@ -96,19 +102,28 @@ def _parabola(s: FloatArray, c: FloatArray) -> float:
 
 def read(params: ActuatorParams, datasheet: ActuatorParams, disc: Discrepancy | None,
          bit: BitRecord, decimate: int, kinds: Sequence[str] = tuple(PARAMETRIC),
-         terminal: bool = True, pairs: int = 0) -> Reading:
+         terminal: bool = True, pairs: int = 0, data: FloatArray | None = None) -> Reading:
     """The mode and severity of ``bit`` against the unit's baseline: ``params`` (the
     identified actuator) plus ``disc`` (None: the model alone). ``datasheet`` gives the
     faults' ranges. ``kinds``: the parametric modes considered; ``terminal``: whether
     shorted and open switches are; ``pairs``: how many of the best single modes' pairs are
-    searched (0: none)."""
-    data = recorded([bit], decimate)[0]
+    searched (0: none). ``data``: the record's fit signals ``(K, T)`` to read instead of
+    ``bit``'s own (``bit`` still gives the command and the condition): a recorded BIT with a
+    fault's departure added, as the detector's calibration makes
+    (:func:`~mapr_daemon.reasoner.commissioning.detector.single_allowance`)."""
+    if data is None:
+        data = recorded([bit], decimate)[0]
     corr = correction_for(disc, params, [bit])[0] if disc is not None else 0.0
     w = _weights(params, disc, decimate)
 
+    no_fault: list[FloatArray] = []
+
     def costs(faults: list[FaultSet]) -> FloatArray:
         y = fly(params, [Flight(bit, f) for f in faults], decimate)
-        out: FloatArray = np.mean(((data - y - corr) / w) ** 2, axis=(1, 2))
+        z = (data - y - corr) / w
+        if not no_fault:  # the first call's first hypothesis is "no fault"
+            no_fault.append(z[0])
+        out: FloatArray = np.mean(z**2, axis=(1, 2))
         return out
 
     hyps: list[tuple[str, str, float]] = [(HEALTHY, "", 0.0)]
@@ -139,7 +154,8 @@ def read(params: ActuatorParams, datasheet: ActuatorParams, disc: Discrepancy | 
         cost = min(cost, float(np.min(c2)))
         best_mode[mode] = cost
     pair = search(costs, datasheet, best_mode, kinds, pairs) if pairs > 0 else None
-    return Reading(mode, switch, float(severity), cost, float(c[0]), best_mode, pair)
+    where = departures(no_fault[0], FIT_SIGNALS, decimate, params.sensors.sample_rate_hz)
+    return Reading(mode, switch, float(severity), cost, float(c[0]), best_mode, pair, where)
 
 
 def _faults(datasheet: ActuatorParams, hyp: tuple[str, str, float]) -> FaultSet:

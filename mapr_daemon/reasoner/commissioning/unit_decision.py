@@ -10,48 +10,47 @@ BIT, the decision's mode, part and severity become the baseline's.
 "Explains" is measured in the unit's own healthy scatter. The reading's costs are mean squares
 of the residual in units of the spread the identified model plus discrepancy left on the
 commissioning's healthy BITs it was not learned on, so a healthy BIT costs about 1 under "no
-fault" and a fault can take at most about that away from it (on the mismatch bench the
-largest drop on held-out healthy BITs was 0.25). The reading explains the BIT when
+fault".
 
-* its best hypothesis is a fault, not "no fault";
-* the fault takes at least :data:`MIN_EXPLAINED` (one healthy BIT's whole residual) off the
-  "no fault" cost: more than any healthy BIT's scatter can give, so a healthy BIT read
-  against its baseline is not called a fault;
-* what remains is at most :data:`MAX_LEFT` of the "no fault" cost: the fault accounts for
-  most of the departure, not a sliver of something else.
+**Within what the unit allows** (a record whose detector has a single-fault allowance,
+:class:`~mapr_daemon.reasoner.commissioning.detector.Allowance`; every record commissioned
+since). A hypothesis (a single fault, or a pair) explains the BIT when it takes at least
+:data:`MIN_EXPLAINED` off the "no fault" cost (more than a healthy BIT's scatter can give) and
+leaves at most ``healthy + share * D`` of it, ``D`` what it takes off: ``healthy`` the
+leftover the unit's healthy scatter allows, ``share`` the model error per unit of departure a
+true single fault of that mode left on this unit's own commissioning BITs with faults added
+and read back (a pair: the larger of its two modes').
+On that calibration a true single fault is outside the allowance at most one BIT in twenty
+(:data:`~mapr_daemon.reasoner.commissioning.detector.ALPHA_SINGLE`). Then (:func:`verdict`):
 
-Otherwise the dictionary's decision stands (its fault, or its "anomaly, not explained by any
-known fault mode"). When the two name different parts the event says so
+* the best single fault explains the BIT: **single** (its mode, part and severity);
+* else the best pair of two faults in different parts explains it and leaves at least
+  :data:`PAIR_GAIN` less than the best single (what a second severity can fit of a healthy
+  BIT's scatter by chance is far less): **pair**, both severities;
+* else, when the BIT departs beyond the healthy allowance (its "no fault" cost above
+  ``healthy``): **unexplained** — "anomaly, not explained by any known fault mode", naming the
+  signals and BIT stretches that carry most of the departure
+  (:func:`~mapr_daemon.reasoner.commissioning.departures.departures`) and the part the best
+  single fault points at, if it takes anything off (said to be no fit);
+* else the dictionary's decision stands (the reading sees too little to say).
+
+A single fault that leaves more than the unit allows is not called the explanation just
+because it takes most of a large departure away: what it leaves, beyond the healthy scatter
+and its own model error, is where a second fault hides. A short or an open is a gross change
+the parametric calibration does not measure: it keeps the older share rule below.
+
+**Without an allowance** (a record written before it): the fault explains the BIT when it
+takes at least :data:`MIN_EXPLAINED` off the "no fault" cost and leaves at most
+:data:`MAX_LEFT` of it; a pair is named when it explains the BIT so, leaves at least
+:data:`PAIR_GAIN` less than the best single and at most :data:`PAIR_SHARE` of what the single
+left; a BIT that neither explains is unexplained when the best leaves more than
+:data:`UNEXPLAINED_LEFT` (pairs searched), else the dictionary's decision stands.
+
+When the reading and the dictionary name different parts the event says so
 (``evidence.disagreement``) and follows the baseline reading: on mismatched units it named the
 part right far more often than the dictionary did (docs/commissioning.md, "Reading a fault
-against the unit's baseline").
-
-**Two faults at once.** When the reading searched pairs
-(:mod:`~mapr_daemon.reasoner.commissioning.pairs`), :func:`verdict` weighs the best pair
-against the best single hypothesis before the rule above. A pair has one more free parameter
-than a single fault (its second severity), so it always leaves a little less; it is
-**named** (:func:`named_pair`) only when it gains more than that parameter can by chance, in
-the unit's healthy scatter:
-
-* the pair explains the BIT as a single fault must (takes at least :data:`MIN_EXPLAINED` off
-  the "no fault" cost and leaves at most :data:`MAX_LEFT` of it);
-* it leaves at least :data:`PAIR_GAIN` less than the best single: the likelihood ratio of
-  pair over single (the costs are mean squares in healthy spreads, so their difference is a
-  log-likelihood ratio per decimated sample) is more than a healthy BIT's whole residual, what
-  one extra severity could at most fit of the scatter;
-* it leaves at most :data:`PAIR_SHARE` of what the single left: the single's leftover holds
-  its own model error on this unit, which grows with the departure and which a second fault
-  can partly absorb; the pair must take most of it away, not a slice.
-
-A BIT that departs clearly from the baseline but that neither the best single nor the best
-pair explains, when pairs were searched — the best of them leaves more than
-:data:`UNEXPLAINED_LEFT` healthy spreads squared, several times what healthy BITs leave —
-is **unexplained** by the baseline: the
-event says "anomaly, not explained by any known fault mode" (the best single and pair as the
-closest, not a fit), rather than falling back on the dictionary's single fault, which on such
-BITs is mostly one of two faults. Otherwise, as before, the dictionary's decision stands.
-The constants were chosen on design seeds (docs/commissioning.md, "Two faults at once against
-the baseline").
+against the unit's baseline"). The figures: docs/commissioning.md, "Two faults at once against
+the baseline".
 """
 
 from __future__ import annotations
@@ -61,6 +60,7 @@ from typing import Any
 
 from mapr_daemon.ema.faults import PARAMETRIC, at_severity
 from mapr_daemon.reasoner.commissioning.baseline import Baseline
+from mapr_daemon.reasoner.commissioning.detector import Allowance
 from mapr_daemon.reasoner.commissioning.severity import HEALTHY, TERMINAL, Reading
 from mapr_daemon.reasoner.diagnosis import parts
 from mapr_daemon.reasoner.diagnosis.classifier import Decision, Member
@@ -90,31 +90,59 @@ UNEXPLAINED_RULE = (f"neither a single fault nor a pair explains the BIT and the
 RULE = (f"the baseline reading decides mode, part and severity when its best hypothesis is a "
         f"fault that explains at least {MIN_EXPLAINED:g} (healthy spreads squared) and leaves at "
         f"most {MAX_LEFT:g} of the no-fault cost; otherwise the dictionary's decision stands")
+ALLOWED_RULE = (f"a single fault, else a pair of faults in different parts gaining at least "
+                f"{PAIR_GAIN:g} on it, explains the BIT when it takes at least "
+                f"{MIN_EXPLAINED:g} off the no-fault cost and leaves at most what the unit's "
+                f"calibration allows a true single fault (healthy + share x what it takes "
+                f"off); neither, on a BIT beyond the healthy allowance: anomaly, not explained "
+                f"by any known fault mode; otherwise the dictionary's decision stands")
 
 
-def explains(reading: Reading | str) -> bool:
-    """Whether the reading accounts for the BIT (module docstring)."""
+def _within(cost: float, healthy_cost: float, allowance: Allowance,
+            modes: tuple[str, ...]) -> bool:
+    """Whether a hypothesis of ``modes`` leaving ``cost`` explains a reading whose "no fault"
+    costs ``healthy_cost`` on this unit (module docstring)."""
+    return (healthy_cost - cost >= MIN_EXPLAINED
+            and allowance.holds(cost, healthy_cost, modes))
+
+
+def explains(reading: Reading | str, allowance: Allowance | None = None) -> bool:
+    """Whether the reading's best single hypothesis accounts for the BIT: within the unit's
+    ``allowance`` when there is one (module docstring)."""
     if isinstance(reading, str) or reading.mode == HEALTHY:
         return False
+    if allowance is not None and reading.mode not in TERMINAL:
+        return _within(reading.cost, reading.healthy_cost, allowance, (reading.mode,))
     drop = reading.healthy_cost - reading.cost
     return drop >= MIN_EXPLAINED and reading.cost <= MAX_LEFT * reading.healthy_cost
 
 
-def named_pair(reading: Reading | str) -> bool:
-    """Whether the reading's best pair is named (module docstring)."""
+def named_pair(reading: Reading | str, allowance: Allowance | None = None) -> bool:
+    """Whether the reading's best pair explains the BIT and gains enough on the best single
+    (module docstring; with an ``allowance`` :func:`verdict` asks it only when the single
+    does not explain the BIT)."""
     if isinstance(reading, str) or reading.pair is None:
         return False
     c = reading.pair.cost
+    if allowance is not None:
+        return reading.cost - c >= PAIR_GAIN and _within(
+            c, reading.healthy_cost, allowance, (reading.pair.first, reading.pair.second))
     return (reading.healthy_cost - c >= MIN_EXPLAINED and c <= MAX_LEFT * reading.healthy_cost
             and reading.cost - c >= PAIR_GAIN and c <= PAIR_SHARE * reading.cost)
 
 
-def verdict(reading: Reading | str) -> str:
-    """What the baseline reading says of a flagged BIT: ``pair``, ``single`` (it
-    :func:`explains` it), ``unexplained``, or ``dictionary`` (too little to say: the
-    dictionary's decision stands)."""
+def verdict(reading: Reading | str, allowance: Allowance | None = None) -> str:
+    """What the baseline reading says of a flagged BIT: ``single`` (it :func:`explains` it),
+    ``pair``, ``unexplained``, or ``dictionary`` (too little to say: the dictionary's
+    decision stands); against the unit's ``allowance`` when there is one."""
     if isinstance(reading, str):
         return "dictionary"
+    if allowance is not None:
+        if explains(reading, allowance):
+            return "single"
+        if named_pair(reading, allowance):
+            return "pair"
+        return "unexplained" if reading.healthy_cost > allowance.healthy else "dictionary"
     if named_pair(reading):
         return "pair"
     if explains(reading):
@@ -145,11 +173,21 @@ def combine(dec: Decision, reading: Reading | str, baseline: Baseline) -> Decisi
     both readings in the evidence, and their disagreement on the part stated."""
     evidence = dict(dec.evidence)
     evidence["dictionary"] = _dictionary_view(dec)
-    said = verdict(reading)
-    taken = explains(reading)
-    evidence["baseline"] = {**baseline.to_json(reading), "explains": taken, "rule": RULE,
-                            "verdict": said, "pair_rule": PAIR_RULE,
-                            "unexplained_rule": UNEXPLAINED_RULE}
+    allowance = None if baseline.detector is None else baseline.detector.allowance
+    said = verdict(reading, allowance)
+    taken = explains(reading, allowance)
+    evidence["baseline"] = {**baseline.to_json(reading), "explains": taken, "verdict": said}
+    if allowance is None:
+        evidence["baseline"].update(rule=RULE, pair_rule=PAIR_RULE,
+                                    unexplained_rule=UNEXPLAINED_RULE)
+    else:
+        modes = () if isinstance(reading, str) else (reading.mode,)
+        evidence["baseline"].update(rule=ALLOWED_RULE, allowance={
+            "healthy": round(allowance.healthy, 4),
+            "share": round(allowance.share_of(modes), 4), "false_rate": allowance.alpha})
+        if not isinstance(reading, str):
+            evidence["baseline"]["allowed"] = round(
+                allowance.left(reading.healthy_cost - reading.cost, modes), 4)
     if said == "dictionary":
         evidence["reading"] = "dictionary"
         return dataclasses.replace(dec, evidence=evidence)
@@ -157,7 +195,7 @@ def combine(dec: Decision, reading: Reading | str, baseline: Baseline) -> Decisi
     if said == "pair":
         return _pair(dec, reading, baseline, evidence)
     if said == "unexplained":
-        return _unexplained(dec, reading, evidence)
+        return _unexplained(dec, reading, evidence, allowance)
     mode = reading.mode
     if dec.fault is not None and parts.PART_OF.get(dec.fault) != parts.PART_OF[mode]:
         evidence["disagreement"] = {
@@ -213,23 +251,31 @@ def _pair(dec: Decision, reading: Reading, baseline: Baseline,
                                kind_residuals={}, evidence=evidence)
 
 
-def _unexplained(dec: Decision, reading: Reading, evidence: dict[str, Any]) -> Decision:
+def _unexplained(dec: Decision, reading: Reading, evidence: dict[str, Any],
+                 allowance: Allowance | None) -> Decision:
     """The decision "anomaly, not explained by any known fault mode": what the best single
-    and the best pair leave, and the closest of them (not a fit)."""
-    departures = evidence.get("departures")
+    and the best pair leave (against what the unit allows), where the BIT departs (the
+    reading's own departures; the dictionary's when the reading has none) and the part the
+    best single fault points at, if any (the closest hypothesis, not a fit)."""
+    departures = reading.departures or evidence.get("departures")
     _strip(evidence)
     evidence["reading"] = "baseline"
-    assert reading.pair is not None
-    left = min(reading.cost, reading.pair.cost)
+    left = reading.cost if reading.pair is None else min(reading.cost, reading.pair.cost)
+    allowed = ("" if allowance is None else
+               f", the unit's calibration allows a true single fault "
+               f"{allowance.left(reading.healthy_cost - reading.cost, (reading.mode,)):.1f}")
     evidence["unexplained"] = (
         "anomaly, not explained by any known fault mode: against the unit's baseline the best "
         f"single fault or pair leaves {left:.1f} healthy spreads squared of "
-        f"{reading.healthy_cost:.1f}, a healthy BIT about 1")
-    closest: dict[str, Any] = {"fault": reading.mode, "part": parts.PART_OF.get(reading.mode),
-                               "note": "the nearest hypothesis, not a fit"}
-    closest["pair"] = [reading.pair.first, reading.pair.second]
+        f"{reading.healthy_cost:.1f}{allowed}, a healthy BIT about 1")
+    points = (parts.PART_OF.get(reading.mode) if reading.mode != HEALTHY
+              and reading.healthy_cost - reading.cost >= MIN_EXPLAINED else None)
+    closest: dict[str, Any] = {"fault": None if reading.mode == HEALTHY else reading.mode,
+                               "part": points, "note": "the nearest hypothesis, not a fit"}
+    if reading.pair is not None:
+        closest["pair"] = [reading.pair.first, reading.pair.second]
     evidence["closest"] = closest
     if departures is not None:
-        evidence["departures"] = departures
+        evidence["departures"] = {**departures, "points_at": points}
     return dataclasses.replace(dec, fault=None, switch=None, severity=None, value=None,
                                unit=None, pair=None, kind_residuals={}, evidence=evidence)
