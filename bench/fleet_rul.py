@@ -134,6 +134,7 @@ from mapr_daemon.ema.degradation import FAILURE, Trajectory, trajectory
 from mapr_daemon.ema.faults import Fault, FaultSet, nominal_value
 from mapr_daemon.ema.params import default_actuator_path, load_actuator
 from mapr_daemon.ema.profile import CONDITIONS
+from mapr_daemon.reasoner.inflight.baseline import Baseline
 from mapr_daemon.reasoner.prognosis import trend
 from mapr_daemon.reasoner.prognosis.assessment import assess
 from mapr_daemon.reasoner.prognosis.prognostic_model import PrognosticModel
@@ -936,13 +937,16 @@ def fly_and_replay_whole(units: Sequence[Unit], out: Path,
     return failed
 
 
-def print_inflight(conn: sqlite3.Connection, units: Sequence[Unit]) -> None:
+def print_inflight(conn: sqlite3.Connection, units: Sequence[Unit], rebase: bool = False
+                   ) -> None:
     """Per-flight in-flight friction change read back (the ``inflight`` table), in units of
     friction's failure threshold (``FAILURE - 1``), against the unit's true aging path (0 on
     a unit that does not age): error mean, sd and worst, the mean stated sd and how often
     the stated 90 % band (1.645 sd) holds the truth. The truth is the smooth path: the
     flight's own grease scatter (lognormal, the actuator file's ``friction_flight_sd``) is
-    part of the error, as it is for the trend."""
+    part of the error, as it is for the trend. ``rebase`` (``--readback --reassess``): each
+    row's change and sds recomputed from its stored value and tracker sd by this checkout's
+    :class:`~mapr_daemon.reasoner.inflight.baseline.Baseline`, in flight order."""
     params = load_actuator(default_actuator_path())
     scale = FAILURE["friction"] - 1.0
     print(f"\nin-flight friction change per flight (from the catalog, in units of the failure "
@@ -956,9 +960,13 @@ def print_inflight(conn: sqlite3.Connection, units: Sequence[Unit]) -> None:
         life: list[float] = []
         pending = rows = 0
         for u in group:
+            base = Baseline()
             for r in load_inflight(conn, tail=u.tail):
                 rows += 1
                 p = r.parameters.get("friction", {})
+                if rebase and "value" in p:
+                    p = base.rebase({"friction": {"value": p["value"], "sd": p["sd"]}},
+                                    r.flight)["friction"]
                 change, s = p.get("change"), p.get("sd_change")
                 if r.flight is None or change is None or s is None:
                     pending += 1
@@ -1059,7 +1067,7 @@ def whole_main(args: argparse.Namespace, seed: int, out: Path, model: Prognostic
         print("\n######## BITs + in-flight estimates ########")
         fused = read_catalog(catalogs[0], units, model, kinds, args)
         with sqlite3.connect(catalogs[0]) as conn:
-            print_inflight(conn, units)
+            print_inflight(conn, units, args.reassess)
         print("\n######## BITs only (the same recordings, reasoner.inflight: false) ########")
         only = read_catalog(catalogs[1], units, model, kinds, args)
         print_pair(fused, only, kinds, cadence)
@@ -1092,7 +1100,7 @@ def whole_main(args: argparse.Namespace, seed: int, out: Path, model: Prognostic
         print("\n######## built units (--mismatch): BITs + in-flight estimates ########")
         mm_fused = read_catalog(mm[0], built, model, kinds, args)
         with sqlite3.connect(mm[0]) as conn:
-            print_inflight(conn, built)
+            print_inflight(conn, built, args.reassess)
         print("\n######## built units (--mismatch): BITs only ########")
         mm_only = read_catalog(mm[1], built, model, kinds, args)
         print_pair(mm_fused, mm_only, kinds, f"built units, {cadence}")
