@@ -8,7 +8,7 @@
                                [--expected-life N] [--readback [--reassess]]
                                [--mismatch [--commission-bits 20] [--baseline]]
                                [--whole-flights [--flight-scale 0.5] [--templates 2]
-                                [--healthy-flights 60]]
+                                [--healthy-flights 60] [--built-only]]
 
 Each unit is an actuator aging along :func:`mapr_daemon.ema.degradation.trajectory` (mean life
 200 flights, +/-30 %, as :mod:`mapr_daemon.reasoner.training.rul_scoring` and the fleet prior of the
@@ -101,8 +101,12 @@ replayed twice, in flight order per unit: with the in-flight tracker on (the def
 change from the unit's first three flights is stored in the ``inflight`` table and fused
 into the trend) into ``fleet.db``, and BITs only (``reasoner.inflight: false``) into
 ``fleet-bits-only.db``; both are scored as above and printed beside each other, with the
-per-flight in-flight friction change read back against the unit's true path. Units that do
-not age fly ``--healthy-flights`` flights (default 60). Cost: ~4.5 % of the bus time per
+per-flight in-flight friction change read back against the unit's true path (its error sd
+over its stated sd and the stated 90 % band's coverage, by third of life; the stated sd
+is the learned one, ``reasoner/inflight/scatter.py``). Units that do not age fly
+``--healthy-flights`` flights (default 60). ``--built-only`` (with ``--mismatch``) flies
+and scores only the built units, so that the twin's run of the same ``--seed`` can go in
+another process beside it. Cost: ~4.5 % of the bus time per
 flight to fly, each replay ~1-2 % (docs/testbed.md), the templates ~1x their length once.
 
 Seeds are fresh each run (bench/seeds.py) and printed; every unit and flight seed derives from
@@ -147,6 +151,7 @@ from mapr_daemon.ema.params import default_actuator_path, load_actuator
 from mapr_daemon.ema.profile import CONDITIONS
 from mapr_daemon.findings import Health
 from mapr_daemon.reasoner.commissioning.bits import BitRecord
+from mapr_daemon.reasoner.inflight.baseline import Baseline
 from mapr_daemon.reasoner.prognosis import trend
 from mapr_daemon.reasoner.prognosis.assessment import assess
 from mapr_daemon.reasoner.prognosis.prognostic_model import PrognosticModel
@@ -658,6 +663,9 @@ def main() -> int:
                          "detector, wear noise) on the same BITs, replay the same recordings "
                          "again with assets[].commissioned (wear read against the unit's "
                          "baseline) and print those figures beside the old path's")
+    ap.add_argument("--built-only", action="store_true",
+                    help="with --whole-flights --mismatch: fly and score the built units only "
+                         "(the twin's run of the same seed apart, e.g. in another process)")
     ap.add_argument("--whole-flights", action="store_true",
                     help="fly EVERY flight whole (testbed whole flights, a PBIT at power-up "
                          "on every --bit-every-th), replay each with the in-flight tracker "
@@ -1131,13 +1139,16 @@ def fly_and_replay_whole(units: Sequence[Unit], out: Path,
     return failed
 
 
-def print_inflight(conn: sqlite3.Connection, units: Sequence[Unit]) -> None:
+def print_inflight(conn: sqlite3.Connection, units: Sequence[Unit], rebase: bool = False
+                   ) -> None:
     """Per-flight in-flight friction change read back (the ``inflight`` table), in units of
     friction's failure threshold (``FAILURE - 1``), against the unit's true aging path (0 on
     a unit that does not age): error mean, sd and worst, the mean stated sd and how often
     the stated 90 % band (1.645 sd) holds the truth. The truth is the smooth path: the
     flight's own grease scatter (lognormal, the actuator file's ``friction_flight_sd``) is
-    part of the error, as it is for the trend."""
+    part of the error, as it is for the trend. ``rebase`` (``--readback --reassess``): each
+    row's change and sds recomputed from its stored value and tracker sd by this checkout's
+    :class:`~mapr_daemon.reasoner.inflight.baseline.Baseline`, in flight order."""
     params = load_actuator(default_actuator_path())
     scale = FAILURE["friction"] - 1.0
     print(f"\nin-flight friction change per flight (from the catalog, in units of the failure "
@@ -1147,11 +1158,17 @@ def print_inflight(conn: sqlite3.Connection, units: Sequence[Unit]) -> None:
     for name, group in (("friction", [u for u in units if u.kind == "friction"]),
                         ("do not age", [u for u in units if u.kind == HEALTHY])):
         err, sd = [], []
+        parts: list[tuple[float, float]] = []
+        life: list[float] = []
         pending = rows = 0
         for u in group:
+            base = Baseline()
             for r in load_inflight(conn, tail=u.tail):
                 rows += 1
                 p = r.parameters.get("friction", {})
+                if rebase and "value" in p:
+                    p = base.rebase({"friction": {"value": p["value"], "sd": p["sd"]}},
+                                    r.flight)["friction"]
                 change, s = p.get("change"), p.get("sd_change")
                 if r.flight is None or change is None or s is None:
                     pending += 1
@@ -1161,6 +1178,9 @@ def print_inflight(conn: sqlite3.Connection, units: Sequence[Unit]) -> None:
                     degradation(params, "friction", float(u.path.values[f]))
                 err.append(float(change) / scale - true)
                 sd.append(float(s) / scale)
+                parts.append((float(p.get("sd_flight") or math.nan) / scale,
+                              float(p.get("sd_baseline") or math.nan) / scale))
+                life.append(f / (len(u.flights) if u.kind == HEALTHY else u.path.eol_flight))
         if not err:
             print(f"  {name:>10}: {rows} rows, none with a change")
             continue
@@ -1169,6 +1189,23 @@ def print_inflight(conn: sqlite3.Connection, units: Sequence[Unit]) -> None:
               f"pending or not estimated); error mean {e.mean():+.3f} sd {e.std():.3f} worst "
               f"{np.abs(e).max():.3f}; stated sd mean {d.mean():.3f}; stated 90 % band holds "
               f"the truth in {100 * np.mean(np.abs(e) <= 1.645 * d):.0f} %")
+        print_band(e, d, np.array(parts), np.array(life))
+
+
+def print_band(err: FloatArray, sd: FloatArray, parts: FloatArray, life: FloatArray) -> None:
+    """The stated sd's honesty (reasoner/inflight/scatter.py): error sd over the mean
+    stated sd, the rms of error/stated (1 when honest), the 90 % band's coverage by third
+    of the unit's life (``life``: each flight's fraction of it), and the stated sd's parts
+    (the flight's own, the baseline's)."""
+    z = err / sd
+    thirds = [(life < 1 / 3), (life >= 1 / 3) & (life < 2 / 3), (life >= 2 / 3)]
+    by = "/".join(f"{100 * np.mean(np.abs(z[i]) <= 1.645):.0f}" if i.any() else "-"
+                  for i in thirds)
+    print(f"{'':>14}error sd / stated sd mean {err.std() / max(sd.mean(), 1e-12):.2f}; rms of "
+          f"error/stated {math.sqrt(float(np.mean(z * z))):.2f} (worst |error|/stated "
+          f"{np.abs(z).max():.1f}); stated sd parts, mean: flight {np.nanmean(parts[:, 0]):.3f}, "
+          f"baseline {np.nanmean(parts[:, 1]):.3f}; 90 % band coverage by third of life "
+          f"{by} %")
 
 
 def print_pair(fused: Scores, only: Scores, kinds: Sequence[str], cadence: str) -> None:
@@ -1219,19 +1256,23 @@ def whole_main(args: argparse.Namespace, seed: int, out: Path, model: Prognostic
     if not args.readback:
         TEMPLATES = build_templates(max(args.templates, 1), args.flight_scale, args.bit_every,
                                     np.random.default_rng([seed, WHOLE_STREAM]), jobs)
-        for c in catalogs:
-            c.unlink(missing_ok=True)
-        failed = fly_and_replay_whole(units, out, {u.tail: (config, config_off) for u in units},
-                                      catalogs, jobs, plan, args.bit_every,
-                                      args.keep_recordings)
-        print(f"flown and replayed in {time.monotonic() - started:.0f} s; failed: {failed}")
-    print("\n######## BITs + in-flight estimates ########")
-    fused = read_catalog(catalogs[0], units, model, kinds, args)
-    with sqlite3.connect(catalogs[0]) as conn:
-        print_inflight(conn, units)
-    print("\n######## BITs only (the same recordings, reasoner.inflight: false) ########")
-    only = read_catalog(catalogs[1], units, model, kinds, args)
-    print_pair(fused, only, kinds, cadence)
+    fused: Scores | None = None
+    if not args.built_only:
+        if not args.readback:
+            for c in catalogs:
+                c.unlink(missing_ok=True)
+            failed = fly_and_replay_whole(units, out,
+                                          {u.tail: (config, config_off) for u in units},
+                                          catalogs, jobs, plan, args.bit_every,
+                                          args.keep_recordings)
+            print(f"flown and replayed in {time.monotonic() - started:.0f} s; failed: {failed}")
+        print("\n######## BITs + in-flight estimates ########")
+        fused = read_catalog(catalogs[0], units, model, kinds, args)
+        with sqlite3.connect(catalogs[0]) as conn:
+            print_inflight(conn, units, args.reassess)
+        print("\n######## BITs only (the same recordings, reasoner.inflight: false) ########")
+        only = read_catalog(catalogs[1], units, model, kinds, args)
+        print_pair(fused, only, kinds, cadence)
     if built:
         where = out / "mismatch"
         where.mkdir(exist_ok=True)
@@ -1261,11 +1302,12 @@ def whole_main(args: argparse.Namespace, seed: int, out: Path, model: Prognostic
         print("\n######## built units (--mismatch): BITs + in-flight estimates ########")
         mm_fused = read_catalog(mm[0], built, model, kinds, args)
         with sqlite3.connect(mm[0]) as conn:
-            print_inflight(conn, built)
+            print_inflight(conn, built, args.reassess)
         print("\n######## built units (--mismatch): BITs only ########")
         mm_only = read_catalog(mm[1], built, model, kinds, args)
         print_pair(mm_fused, mm_only, kinds, f"built units, {cadence}")
-        print_beside(fused, mm_fused, kinds)
+        if fused is not None:
+            print_beside(fused, mm_fused, kinds)
     children = resource.getrusage(resource.RUSAGE_CHILDREN)
     print(f"\ntotal runtime {time.monotonic() - started:.0f} s wall; CPU "
           f"{time.process_time():.0f} s in this process (replays, scoring) + "

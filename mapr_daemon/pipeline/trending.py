@@ -139,9 +139,10 @@ class AssetHistory:
     wear: list[Mapping[str, float]] = dataclasses.field(default_factory=list)
     conditions: list[Mapping[str, float] | None] = dataclasses.field(default_factory=list)
     """Each BIT's flight condition (None where not stored)."""
-    inflight: dict[str, dict[int, tuple[float, float, float]]] = dataclasses.field(
+    inflight: dict[str, dict[int, tuple[float, float, float, float]]] = dataclasses.field(
         default_factory=dict)
-    """Per aging kind, per flight its in-flight observation ``(flight, h, sd)``
+    """Per aging kind, per flight its in-flight observation ``(flight, h, sd_flight,
+    sd_baseline)``
     (:func:`~mapr_daemon.reasoner.prognosis.fusion.observation`; a flight stored again
     replaces its own)."""
 
@@ -152,10 +153,11 @@ class AssetHistory:
         for name, p in row.parameters.items():
             obs = observation(name, p)
             if obs is not None:
-                kind, h, sd = obs
-                self.inflight.setdefault(kind, {})[row.flight] = (float(row.flight), h, sd)
+                kind, h, sd, common = obs
+                self.inflight.setdefault(kind, {})[row.flight] = (float(row.flight), h, sd,
+                                                                  common)
 
-    def observations(self) -> dict[str, list[tuple[float, float, float]]]:
+    def observations(self) -> dict[str, list[tuple[float, float, float, float]]]:
         return {k: [v[f] for f in sorted(v)] for k, v in self.inflight.items()}
 
     def add(self, flight: float, wear: Mapping[str, float],

@@ -99,7 +99,7 @@ def assess(model: PrognosticModel, flights: Sequence[float],
            estimates: Sequence[Mapping[str, float]], diagnosed: str | None = None,
            seed: int = 0, conditions: Sequence[Mapping[str, float] | None] = (),
            also: Sequence[str] = (),
-           inflight: Mapping[str, Sequence[tuple[float, float, float]]] | None = None
+           inflight: Mapping[str, Sequence[tuple[float, ...]]] | None = None
            ) -> Health:
     """Health after the last BIT of ``flights``/``estimates`` (oldest first); ``diagnosed``
     is the classifier's fault at that BIT (None when nominal), ``also`` the other fault of a
@@ -108,7 +108,8 @@ def assess(model: PrognosticModel, flights: Sequence[float],
     (:meth:`~mapr_daemon.reasoner.prognosis.prognostic_model.PrognosticModel.bit_conditions`;
     missing or None
     where not stored); ``inflight``: per kind the flights' in-flight observations
-    ``(flight, h, sd)`` the RUL fuses with the BITs (:mod:`.fusion`)."""
+    ``(flight, h, sd)`` or ``(flight, h, sd_flight, sd_baseline)`` the RUL fuses with the
+    BITs (:mod:`.fusion`)."""
     if diagnosed in TERMINAL:
         return Health(0.0, diagnosed, 0.0, 0.0, 0.0, note="terminal fault: the part has failed")
     if not flights:
@@ -137,7 +138,7 @@ def assess(model: PrognosticModel, flights: Sequence[float],
             rul = RulEstimate(0.0, 0.0, 0.0, np.zeros(1), horizon(model, kind))
             row.update(rul=0.0, low=0.0, high=0.0)
         elif np.unique(np.concatenate((fl[keep], [o[0] for o in obs]))).size >= 3:
-            aged = [(max(o[0] - FIRST_FLIGHT, 0.0), o[1], o[2]) for o in obs]
+            aged = [(max(o[0] - FIRST_FLIGHT, 0.0), *o[1:]) for o in obs]
             rul = fusion.fit_rul_fused(age[keep], est[keep], now - FIRST_FLIGHT, kind, noise,
                                        model.priors.get(kind), aged, seed=seed,
                                        horizon=horizon(model, kind), conditions=cond[keep])
