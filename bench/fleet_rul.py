@@ -1220,6 +1220,22 @@ def print_pair(fused: Scores, only: Scores, kinds: Sequence[str], cadence: str) 
                 print(f"  {name:>5} {line.strip()}")
 
 
+def score_both(catalogs: tuple[Path, Path], units: Sequence[Unit], model: PrognosticModel,
+               kinds: Sequence[str], args: argparse.Namespace, label: str,
+               cadence: str) -> Scores:
+    """Score one set of units' two catalogs (tracker on, then ``reasoner.inflight: false``)
+    side by side; the in-flight catalog's scores are returned."""
+    print(f"\n######## {label}BITs + in-flight estimates ########")
+    fused = read_catalog(catalogs[0], units, model, kinds, args)
+    with sqlite3.connect(catalogs[0]) as conn:
+        print_inflight(conn, units, args.reassess)
+    print(f"\n######## {label}BITs only (the same recordings, reasoner.inflight: false) "
+          "########")
+    only = read_catalog(catalogs[1], units, model, kinds, args)
+    print_pair(fused, only, kinds, cadence)
+    return fused
+
+
 def whole_main(args: argparse.Namespace, seed: int, out: Path, model: PrognosticModel,
                kinds: Sequence[str], rng: np.random.Generator, started: float) -> int:
     """``--whole-flights``: every flight of every unit flown whole (a PBIT at power-up on
@@ -1266,13 +1282,7 @@ def whole_main(args: argparse.Namespace, seed: int, out: Path, model: Prognostic
                                           catalogs, jobs, plan, args.bit_every,
                                           args.keep_recordings)
             print(f"flown and replayed in {time.monotonic() - started:.0f} s; failed: {failed}")
-        print("\n######## BITs + in-flight estimates ########")
-        fused = read_catalog(catalogs[0], units, model, kinds, args)
-        with sqlite3.connect(catalogs[0]) as conn:
-            print_inflight(conn, units, args.reassess)
-        print("\n######## BITs only (the same recordings, reasoner.inflight: false) ########")
-        only = read_catalog(catalogs[1], units, model, kinds, args)
-        print_pair(fused, only, kinds, cadence)
+        fused = score_both(catalogs, units, model, kinds, args, "", cadence)
     if built:
         where = out / "mismatch"
         where.mkdir(exist_ok=True)
@@ -1299,13 +1309,8 @@ def whole_main(args: argparse.Namespace, seed: int, out: Path, model: Prognostic
             failed = fly_and_replay_whole(built, where, pairs, mm, jobs, plan,
                                           args.bit_every, args.keep_recordings)
             print(f"flown and replayed in {time.monotonic() - t0:.0f} s; failed: {failed}")
-        print("\n######## built units (--mismatch): BITs + in-flight estimates ########")
-        mm_fused = read_catalog(mm[0], built, model, kinds, args)
-        with sqlite3.connect(mm[0]) as conn:
-            print_inflight(conn, built, args.reassess)
-        print("\n######## built units (--mismatch): BITs only ########")
-        mm_only = read_catalog(mm[1], built, model, kinds, args)
-        print_pair(mm_fused, mm_only, kinds, f"built units, {cadence}")
+        mm_fused = score_both(mm, built, model, kinds, args, "built units (--mismatch): ",
+                              f"built units, {cadence}")
         if fused is not None:
             print_beside(fused, mm_fused, kinds)
     children = resource.getrusage(resource.RUSAGE_CHILDREN)
