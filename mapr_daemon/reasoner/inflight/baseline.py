@@ -36,11 +36,10 @@ from typing import Any
 
 from mapr_daemon.reasoner.inflight.scatter import ChangeSd, change_sd, learn
 from mapr_daemon.reasoner.inflight.tracker import UNITS
+from mapr_daemon.reasoner.prognosis.fusion import RATIO
 
 COMMISSIONING_FLIGHTS = 3
 """Flights whose mean value is the unit's baseline (each parameter its own first three)."""
-RATIO: tuple[str, ...] = ("friction",)
-"""Parameters whose change is a ratio to the baseline (the rest: a difference)."""
 
 
 @dataclasses.dataclass

@@ -59,10 +59,14 @@ from scipy import stats
 
 from mapr_daemon.arrays import FloatArray
 from mapr_daemon.ema.degradation import FAILURE
-from mapr_daemon.reasoner.inflight.baseline import RATIO
 from mapr_daemon.reasoner.prognosis import trend
 from mapr_daemon.reasoner.prognosis.rul import RulEstimate, quantiles
 
+RATIO: tuple[str, ...] = ("friction",)
+"""In-flight parameters whose change is a ratio to the unit's baseline (the rest: a
+difference): the in-flight baseline (:mod:`mapr_daemon.reasoner.inflight.baseline`) computes
+them so and the fused trend here undoes the baseline's error as a scale on them. Declared here,
+on the prognosis's floor, so both read the one list."""
 INFLIGHT_KINDS: dict[str, str] = {"friction": "friction"}
 """In-flight parameter -> the aging kind whose degradation its change measures."""
 RATIO_KINDS: frozenset[str] = frozenset(k for n, k in INFLIGHT_KINDS.items() if n in RATIO)
