@@ -147,3 +147,29 @@ def test_the_daemon_trends_a_commissioned_asset_with_its_measured_noise(
         pipeline = build_pipeline(config)   # type: ignore[arg-type]
         assert pipeline.trending is not None
         assert pipeline.trending.models["EMA1"].noise == expected
+
+
+def test_a_fleet_worker_reads_a_commissioned_assets_wear_against_its_baseline(
+        bench: Bench, model: PrognosticModel, with_wear: Path, worn: Runs,
+        tmp_path: Path) -> None:
+    """A fleet run's workers diagnose with a fresh reasoner per recording while the client
+    trends with the commissioned model (the baseline's noise): the worker's reasoner must
+    read the wear against the same baseline, or the estimators' readings are weighed as the
+    baseline's (offset subtracted, gain 1)."""
+    from mapr_daemon.fleet import task
+    from mapr_daemon.service.config import Config
+
+    dpath, ppath = tmp_path / "d.npz", tmp_path / "p.npz"
+    bench.dictionary.save(dpath)
+    model.save(ppath)
+    config = dataclasses.replace(
+        Config(), source="fleet.yaml",
+        assets=(dataclasses.replace(Config().assets[0], commissioned=str(with_wear),
+                                    prognosis=str(ppath)),),
+        reasoner=dataclasses.replace(Config().reasoner, dictionary=str(dpath)))
+    fresh = task._fresh(config)   # type: ignore[arg-type]
+    watch = fresh.watched[0].watch
+    assert watch is not None
+    assert watch.reasoner.baseline is not None and watch.reasoner.baseline.wear is not None
+    out = _diagnose(worn, 1, watch.reasoner)
+    assert out.evidence["wear_against_baseline"] == sorted(KINDS)
