@@ -173,3 +173,30 @@ def test_a_fleet_worker_reads_a_commissioned_assets_wear_against_its_baseline(
     assert watch.reasoner.baseline is not None and watch.reasoner.baseline.wear is not None
     out = _diagnose(worn, 1, watch.reasoner)
     assert out.evidence["wear_against_baseline"] == sorted(KINDS)
+
+
+def test_a_baseline_read_kind_is_trended_without_the_estimators_fleet_offset(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """The fleet's unit offset of a kind (trend.UNIT_OFFSET_MEAN/SD: ESR's estimators read
+    0.019 low on every unit) belongs to the estimators; a kind read against the unit's own
+    baseline has its own offset measured and subtracted, so its RUL must be the trend's with
+    no fleet offset, while an asset without a baseline keeps the fleet's exactly."""
+    from mapr_daemon.reasoner.prognosis.assessment import assess
+
+    assert trend.UNIT_OFFSET_MEAN.get("esr", 0.0) != 0.0
+    plain = PrognosticModel("EMA", {}, {"esr": trend.Noise(0.03)}, {}, {})
+    own = plain.against_baseline({"esr": trend.Noise(0.03, 0.0, 0.0, 1.0)})
+    flights = [float(f) for f in range(1, 31)]
+    rng = np.random.default_rng(5)
+    wear = [{"esr": round(0.02 * (f - 1) + 0.03 * float(rng.standard_normal()), 5)}
+            for f in flights]
+
+    def rul(model: PrognosticModel) -> float:
+        return assess(model, flights, wear, diagnosed="esr", seed=1).modes["esr"]["rul"]
+
+    with_fleet = rul(plain), rul(own)
+    monkeypatch.setattr(trend, "UNIT_OFFSET_MEAN", {})
+    monkeypatch.setattr(trend, "UNIT_OFFSET_SD", {})
+    without = rul(plain), rul(own)
+    assert with_fleet[1] == without[1]        # the unit's own offset only
+    assert with_fleet[0] != without[0]        # the estimators keep the fleet's
