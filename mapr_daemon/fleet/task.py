@@ -128,7 +128,9 @@ def _fresh(config: Config) -> Pipeline:
         watch = w.watch
         if watch is not None:  # the threshold override is already in the dictionary
             old = watch.reasoner
-            unit = Reasoner(old.dictionary, old.params, prognostic=old.prognostic)
+            # the commissioned baseline too: the client trends with its wear noise
+            unit = Reasoner(old.dictionary, old.params, prognostic=old.prognostic,
+                            baseline=old.baseline)
             watch = BitWatch(unit, signals=w.asset.signals, bit=old.params.bit,
                              paper=watch.paper)
         watched.append(Watched(w.asset, watch))

@@ -147,3 +147,56 @@ def test_the_daemon_trends_a_commissioned_asset_with_its_measured_noise(
         pipeline = build_pipeline(config)   # type: ignore[arg-type]
         assert pipeline.trending is not None
         assert pipeline.trending.models["EMA1"].noise == expected
+
+
+def test_a_fleet_worker_reads_a_commissioned_assets_wear_against_its_baseline(
+        bench: Bench, model: PrognosticModel, with_wear: Path, worn: Runs,
+        tmp_path: Path) -> None:
+    """A fleet run's workers diagnose with a fresh reasoner per recording while the client
+    trends with the commissioned model (the baseline's noise): the worker's reasoner must
+    read the wear against the same baseline, or the estimators' readings are weighed as the
+    baseline's (offset subtracted, gain 1)."""
+    from mapr_daemon.fleet import task
+    from mapr_daemon.service.config import Config
+
+    dpath, ppath = tmp_path / "d.npz", tmp_path / "p.npz"
+    bench.dictionary.save(dpath)
+    model.save(ppath)
+    config = dataclasses.replace(
+        Config(), source="fleet.yaml",
+        assets=(dataclasses.replace(Config().assets[0], commissioned=str(with_wear),
+                                    prognosis=str(ppath)),),
+        reasoner=dataclasses.replace(Config().reasoner, dictionary=str(dpath)))
+    fresh = task._fresh(config)   # type: ignore[arg-type]
+    watch = fresh.watched[0].watch
+    assert watch is not None
+    assert watch.reasoner.baseline is not None and watch.reasoner.baseline.wear is not None
+    out = _diagnose(worn, 1, watch.reasoner)
+    assert out.evidence["wear_against_baseline"] == sorted(KINDS)
+
+
+def test_a_baseline_read_kind_is_trended_without_the_estimators_fleet_offset(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """The fleet's unit offset of a kind (trend.UNIT_OFFSET_MEAN/SD: ESR's estimators read
+    0.019 low on every unit) belongs to the estimators; a kind read against the unit's own
+    baseline has its own offset measured and subtracted, so its RUL must be the trend's with
+    no fleet offset, while an asset without a baseline keeps the fleet's exactly."""
+    from mapr_daemon.reasoner.prognosis.assessment import assess
+
+    assert trend.UNIT_OFFSET_MEAN.get("esr", 0.0) != 0.0
+    plain = PrognosticModel("EMA", {}, {"esr": trend.Noise(0.03)}, {}, {})
+    own = plain.against_baseline({"esr": trend.Noise(0.03, 0.0, 0.0, 1.0)})
+    flights = [float(f) for f in range(1, 31)]
+    rng = np.random.default_rng(5)
+    wear = [{"esr": round(0.02 * (f - 1) + 0.03 * float(rng.standard_normal()), 5)}
+            for f in flights]
+
+    def rul(model: PrognosticModel) -> float:
+        return assess(model, flights, wear, diagnosed="esr", seed=1).modes["esr"]["rul"]
+
+    with_fleet = rul(plain), rul(own)
+    monkeypatch.setattr(trend, "UNIT_OFFSET_MEAN", {})
+    monkeypatch.setattr(trend, "UNIT_OFFSET_SD", {})
+    without = rul(plain), rul(own)
+    assert with_fleet[1] == without[1]        # the unit's own offset only
+    assert with_fleet[0] != without[0]        # the estimators keep the fleet's

@@ -163,3 +163,17 @@ def test_on_a_calibrated_unit_a_pair_is_not_a_single_and_a_single_is(
     assert not explains(both, allowance)
     assert verdict(both, allowance) in ("pair", "unexplained")
     assert verdict(one, allowance) == "single" and one.mode == "friction"
+
+
+@pytest.mark.parametrize("field", ["shares", "excess"])
+def test_a_malformed_allowance_is_a_config_error_naming_the_detector(field: str) -> None:
+    """A hand-edited or damaged record whose allowance's per-mode table is not a mapping is
+    refused as a malformed detector (the daemon's config error), not an AttributeError that
+    escapes the loaders' guards and stops the daemon with a traceback."""
+    det = Detector(0.001, {"no_fault": Tail(0.1, 10.0, 5.0, 1.0),
+                           "explained": Tail(0.1, 10.0, 5.0, 1.0)},
+                   {"no_fault": (1.0,), "explained": (0.1,)}, ALLOW)
+    bad = json.loads(json.dumps(det.to_json()))
+    bad["single_allowance"][field] = [0.02]
+    with pytest.raises(ConfigError, match="malformed detector"):
+        Detector.from_json(bad)

@@ -193,7 +193,8 @@ class Allowance:
 
     @classmethod
     def from_json(cls, doc: Any) -> Allowance:
-        """Parse :meth:`to_json`'s output (KeyError, TypeError or ValueError when malformed)."""
+        """Parse :meth:`to_json`'s output (KeyError, TypeError, ValueError or AttributeError
+        when malformed)."""
         out = cls(float(doc["healthy"]), float(doc["share"]),
                   {str(k): float(v) for k, v in doc["shares"].items()}, float(doc["alpha"]),
                   {str(k): tuple(float(v) for v in x) for k, x in doc["excess"].items()})
@@ -260,7 +261,7 @@ class Detector:
             allowance = (Allowance.from_json(doc["single_allowance"])
                          if doc.get("single_allowance") is not None else None)
             return cls(alpha, tails, held, allowance)
-        except (KeyError, TypeError, ValueError) as error:
+        except (KeyError, TypeError, ValueError, AttributeError) as error:
             raise ConfigError(f"malformed detector ({type(error).__name__}: {error})",
                               path=path, field="detector") from None
 

@@ -139,9 +139,12 @@ def assess(model: PrognosticModel, flights: Sequence[float],
             row.update(rul=0.0, low=0.0, high=0.0)
         elif np.unique(np.concatenate((fl[keep], [o[0] for o in obs]))).size >= 3:
             aged = [(max(o[0] - FIRST_FLIGHT, 0.0), *o[1:]) for o in obs]
+            # a kind read against the unit's baseline: its offset is the unit's, measured
+            own = 0.0 if kind in model.own_offset else None
             rul = fusion.fit_rul_fused(age[keep], est[keep], now - FIRST_FLIGHT, kind, noise,
                                        model.priors.get(kind), aged, seed=seed,
-                                       horizon=horizon(model, kind), conditions=cond[keep])
+                                       horizon=horizon(model, kind), conditions=cond[keep],
+                                       offset_sd=own, offset_mean=own)
             row.update(rul=_finite(rul.rul), low=_finite(rul.lower), high=_finite(rul.upper))
             if obs:
                 row["inflight_flights"] = len(obs)

@@ -132,22 +132,27 @@ def fit_rul_fused(flights: FloatArray, h_est: FloatArray, now: float, kind: str,
                   noise: trend.Noise, prior: trend.ShapePrior | None,
                   inflight: Sequence[Observation], n_draws: int = 2000,
                   seed: int = 0, horizon: float = 2000.0,
-                  conditions: FloatArray | None = None) -> RulEstimate:
+                  conditions: FloatArray | None = None, offset_sd: float | None = None,
+                  offset_mean: float | None = None) -> RulEstimate:
     """RUL at flight ``now`` from BIT estimates (as :func:`~.trend.fit_rul`) and in-flight
     observations of the same kind (:data:`Observation`), the baseline's common error
     marginalised (:data:`STRATA`); with no in-flight observation, or a baseline too
-    uncertain to place them (:data:`MAX_SD_BETA`), it is :func:`~.trend.fit_rul` itself."""
+    uncertain to place them (:data:`MAX_SD_BETA`), it is :func:`~.trend.fit_rul` itself.
+    ``offset_sd``/``offset_mean``: the BITs' unit offset prior, as :func:`~.trend.fit_rul`
+    takes it."""
     sd_beta = scale_sd(kind, inflight) if inflight else 0.0
     if not inflight or sd_beta > MAX_SD_BETA:
         return trend.fit_rul(flights, h_est, now, kind, noise, prior, n_draws, seed, horizon,
-                             conditions)
+                             conditions, offset_sd=offset_sd, offset_mean=offset_mean)
     if sd_beta == 0.0:
         return trend.fit_rul(flights, h_est, now, kind, noise, prior, n_draws, seed, horizon,
-                             conditions, extra=placed(kind, inflight, 0.0, 0.0))
+                             conditions, extra=placed(kind, inflight, 0.0, 0.0),
+                             offset_sd=offset_sd, offset_mean=offset_mean)
     each = max(n_draws // STRATA, 1)
     draws = np.concatenate([
         trend.fit_rul(flights, h_est, now, kind, noise, prior, each, seed + i, horizon,
-                      conditions, extra=placed(kind, inflight, float(z), sd_beta)).draws
+                      conditions, extra=placed(kind, inflight, float(z), sd_beta),
+                      offset_sd=offset_sd, offset_mean=offset_mean).draws
         for i, z in enumerate(stats.norm.ppf((np.arange(STRATA) + 0.5) / STRATA))])
     q5, q50, q95 = quantiles(draws)
     return RulEstimate(q50, q5, q95, draws, horizon=horizon)

@@ -59,6 +59,11 @@ class PrognosticModel:
     priors: dict[str, trend.ShapePrior]
     supply_nominal_v: float = math.nan
     """The healthy model's nominal aircraft-bus voltage (what conditions are scaled by)."""
+    own_offset: frozenset[str] = frozenset()
+    """The kinds read against the unit's own baseline (:meth:`against_baseline`): their
+    offset is the unit's, measured and subtracted, so the trend puts no fleet unit offset
+    on them (:data:`~.trend.UNIT_OFFSET_MEAN` and :data:`~.trend.UNIT_OFFSET_SD` are the
+    estimators')."""
 
     @property
     def kinds(self) -> tuple[str, ...]:
@@ -121,9 +126,11 @@ class PrognosticModel:
         against its own baseline
         (:meth:`~mapr_daemon.reasoner.commissioning.baseline.Baseline.wear_estimates`): those
         kinds' readings are weighed by ``noise`` (measured on the unit's held-out healthy
-        BITs), the others by the estimators' own. The fleet priors are unchanged."""
+        BITs), the others by the estimators' own, and those kinds take no fleet unit offset
+        (:attr:`own_offset`). The fleet priors are unchanged."""
         mine = {k: n for k, n in noise.items() if k in self.noise}
-        return dataclasses.replace(self, noise={**self.noise, **mine})
+        return dataclasses.replace(self, noise={**self.noise, **mine},
+                                   own_offset=self.own_offset | frozenset(mine))
 
     # --- persistence -----------------------------------------------------------------------
     def save(self, path: str | Path) -> None:
