@@ -177,3 +177,29 @@ def test_a_malformed_allowance_is_a_config_error_naming_the_detector(field: str)
     bad["single_allowance"][field] = [0.02]
     with pytest.raises(ConfigError, match="malformed detector"):
         Detector.from_json(bad)
+
+
+def test_mapr_commission_keeps_the_allowance_only_when_asked(bench: Bench,
+                                                            tmp_path: Path) -> None:
+    """`mapr commission` calibrates the unit's detector without the single-fault allowance
+    (its older decision: fewer true single faults said "unexplained"); with
+    `--single-allowance` the record keeps it, and says so in the detector's line."""
+    import types
+
+    from mapr_daemon.reasoner.commissioning.discrepancy import learn_unit
+    from mapr_daemon.reasoner.commissioning.workflow import unit_detector
+
+    own = bench.runs.n - len(HELD_OUT)
+    healthy = [i for i in range(own) if bench.runs.labels[i] == "healthy"][:6]
+    bits = from_runs(bench.runs, "bench", healthy)
+    learn_unit(bench.params, bits, 10).save(tmp_path / "discrepancy.npz")
+    ident = types.SimpleNamespace(params=bench.params, bits=bits)
+    said: list[str] = []
+    off = unit_detector(ident, bench.params, bits, tmp_path / "discrepancy.npz",  # type: ignore[arg-type]
+                        said.append)
+    on = unit_detector(ident, bench.params, bits, tmp_path / "discrepancy.npz",  # type: ignore[arg-type]
+                       said.append, allowance=True)
+    assert off is not None and "single_allowance" not in off
+    assert on is not None and on["single_allowance"]["healthy"] > 0
+    assert Detector.from_json(off).allowance is None
+    assert Detector.from_json(on).allowance is not None

@@ -20,6 +20,12 @@ docs/commissioning.md) and ``dictionary.npz`` (the fault dictionary built on the
 actuator; ``--spec`` for a smaller one, ``--no-dictionary`` to skip it). A BIT, or a file
 of no BITs, that cannot be used is skipped with a one-line reason; the others go on.
 
+``--single-allowance`` also calibrates what a true single fault may leave on this unit and
+keeps it in the record: the unit's events then call a BIT no single fault explains within it
+a pair, else "anomaly, not explained" (docs/commissioning.md, "Two faults at once within the
+unit's single-fault allowance": more pairs answered honestly, more true single faults said
+"unexplained"; off by default).
+
 Exit codes: 0 done; 2 a file cannot be read or is neither a run file nor Chapter 10, or a bad
 ``--asset``; 65 no BIT to commission from (each file named on one line, with why); 78 a
 config, ICD or data sheet error.
@@ -62,6 +68,9 @@ def add_subparser(subparsers: Any) -> None:
     p.add_argument("--spec", type=Path, help="dictionary spec YAML (default: shipped)")
     p.add_argument("--no-dictionary", action="store_true",
                    help="identify only; do not build the dictionary")
+    p.add_argument("--single-allowance", action="store_true",
+                   help="also calibrate the unit's single-fault allowance (pairs and "
+                        "'unexplained' within it; fewer single faults named: off by default)")
     rec = p.add_argument_group("recordings", "how the BITs are found in a Chapter 10 recording")
     rec.add_argument("--config", metavar="FILE",
                      help="daemon config naming the ICD and the actuators on the bus (assets, "
@@ -178,7 +187,8 @@ def run(args: argparse.Namespace) -> int:
     spec = None if args.no_dictionary else DictionarySpec.load(args.spec or default_spec_path())
     try:
         done = commission(params, str(datasheet), records, tolerances, args.output, spec,
-                          _say, progress=_say if sys.stderr.isatty() else None)
+                          _say, progress=_say if sys.stderr.isatty() else None,
+                          single_allowance=args.single_allowance)
     except ConfigError as error:
         if error.field == "bits":
             _say(error.detail)

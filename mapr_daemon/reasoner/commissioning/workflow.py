@@ -129,10 +129,14 @@ def unit_dictionary(params: ActuatorParams, spec: DictionarySpec, out: Path,
 
 def commission(params: ActuatorParams, datasheet: str, records: Sequence[BitRecord],
                tolerances: tuple[Tolerance, ...], out: Path, spec: DictionarySpec | None,
-               say: Say, progress: Say | None = None) -> Commissioned:
+               say: Say, progress: Say | None = None, single_allowance: bool = False
+               ) -> Commissioned:
     """Identify ``params`` (the data sheet read from ``datasheet``) from ``records``, write
     the identified actuator and the record into ``out`` and, with a ``spec``, the unit's
-    calibrated dictionary. ConfigError (``field="bits"``) when no BIT can be used."""
+    calibrated dictionary; with ``single_allowance`` the detector also keeps the unit's
+    single-fault allowance (:func:`~.detector.single_allowance`; off by default: on the
+    mismatch bench it turned 11-17 % of true single faults into "unexplained").
+    ConfigError (``field="bits"``) when no BIT can be used."""
     ident = identify(params, list(records), tolerances, progress=progress)
     for name, reason in ident.skipped:
         say(f"skipped {name}: {reason}")
@@ -147,7 +151,7 @@ def commission(params: ActuatorParams, datasheet: str, records: Sequence[BitReco
             "from more BITs or check them")
     discrepancy, disc_summary = learn_discrepancy(ident, records, out, say)
     detector = None if discrepancy is None else unit_detector(
-        ident, params, records, out / discrepancy, say)
+        ident, params, records, out / discrepancy, say, single_allowance)
     wear = None if discrepancy is None else unit_wear(ident, records, out / discrepancy, say)
     dictionary = calibration = None
     if spec is not None:
@@ -181,15 +185,16 @@ def learn_discrepancy(ident: Identification, records: Sequence[BitRecord], out: 
 
 
 def unit_detector(ident: Identification, datasheet: ActuatorParams,
-                  records: Sequence[BitRecord], discrepancy: Path, say: Say
-                  ) -> dict[str, Any] | None:
+                  records: Sequence[BitRecord], discrepancy: Path, say: Say,
+                  allowance: bool = False) -> dict[str, Any] | None:
     """The unit's anomaly detector (:func:`~.detector.calibrate`) on the BITs the
     identification used, each read against the discrepancy ``discrepancy`` relearned without
     it; what the record keeps, or None (said in one line) when there are too few BITs."""
     used = {(b.source, b.index) for b in ident.bits}
     bits = [r for r in records if (r.source, r.index) in used]
     try:
-        d = det.calibrate(ident.params, datasheet, dsc.Discrepancy.load(discrepancy), bits)
+        d = det.calibrate(ident.params, datasheet, dsc.Discrepancy.load(discrepancy), bits,
+                          allowance=allowance)
     except ConfigError as error:
         say(f"no anomaly detector on the baseline: {error.detail}")
         return None
