@@ -218,9 +218,11 @@ def main() -> int:
                decs)]
     if args.baseline:
         blocks.append(("+ the reading against each unit's baseline, the older rule (shares of "
-                       "the departure, no single-fault allowance)", with_older))
+                       "the departure, no single-fault allowance: the product's default)",
+                       with_older))
         blocks.append(("+ the reading against each unit's baseline (single faults and pairs, "
-                       "within the unit's single-fault allowance: the product)", with_base))
+                       "within the unit's single-fault allowance: mapr commission "
+                       "--single-allowance)", with_base))
         print(f"{len(read_cpu)} flagged BITs read against the baseline: CPU per reading mean "
               f"{np.mean(read_cpu) if read_cpu else 0:.2f} s, worst "
               f"{max(read_cpu, default=0.0):.2f} s")

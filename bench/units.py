@@ -230,11 +230,11 @@ def main() -> int:
         blocks.append(("calibrated to each unit + the unit's detector, either firing "
                        "(rule union)", by_rule["union"]))
         blocks.append(("rule explained with the older decision on the reading (a fault's "
-                       "leftover as a share of the departure, no single-fault allowance)",
-                       older))
+                       "leftover as a share of the departure, no single-fault allowance: the "
+                       "product's default, assets[].commissioned)", older))
         blocks.append(("calibrated to each unit + the unit's detector's GLRT statistic "
-                       "(rule explained: the product's, assets[].commissioned; the reading "
-                       "within the unit's single-fault allowance)", by_rule["explained"]))
+                       "(rule explained; the reading within the unit's single-fault allowance, "
+                       "mapr commission --single-allowance)", by_rule["explained"]))
         blocks.append(("the unit's detector on the baseline reading deciding alone "
                        "(rule baseline)", by_rule["baseline"]))
         drops = [x for _, x in healthy_reads]
