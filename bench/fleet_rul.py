@@ -447,18 +447,8 @@ def reassessed_points(conn: sqlite3.Connection, u: Unit, model: PrognosticModel
     eol = u.path.eol_flight
     mode_pts: list[Point] = []
     head_pts: list[Point] = []
-    flights: list[float] = []
-    wear: list[dict[str, float]] = []
-    conditions: list[dict[str, float]] = []
-    for b in load_bits(conn, tail=u.tail):
-        if b.flight is None or not b.wear:
-            continue
-        flights.append(float(b.flight))
-        wear.append(dict(b.wear))
-        conditions.append(dict(b.conditions))
-        h = assess(model, flights, wear, diagnosed=b.fault, seed=len(flights),
-                   conditions=conditions)
-        f = b.flight - 1
+    for flight, h in reassessed(conn, u, model):
+        f = flight - 1
         true = eol - f
         if f < 0.25 * eol or true <= 0:
             continue
@@ -573,23 +563,23 @@ def lag_one(parts: Sequence[tuple[FloatArray, FloatArray]]) -> float:
     return num / den if den > 0.0 else math.nan
 
 
-def reassessed_health(conn: sqlite3.Connection, u: Unit, model: PrognosticModel
-                      ) -> list[Health]:
-    """Each stored BIT's health of one unit computed afresh from the stored estimates and
-    conditions (``health.assess`` with the history up to that BIT), as
-    :func:`reassessed_points` does for the aging units."""
+def reassessed(conn: sqlite3.Connection, u: Unit, model: PrognosticModel
+               ) -> list[tuple[int, Health]]:
+    """Each stored BIT's flight and health of one unit, the health computed afresh from the
+    stored estimates and conditions (``health.assess``, the function the daemon calls, with
+    the history up to that BIT) under ``model`` as configured now."""
     flights: list[float] = []
     wear: list[dict[str, float]] = []
     conditions: list[dict[str, float]] = []
-    out: list[Health] = []
+    out: list[tuple[int, Health]] = []
     for b in load_bits(conn, tail=u.tail):
         if b.flight is None or not b.wear:
             continue
         flights.append(float(b.flight))
         wear.append(dict(b.wear))
         conditions.append(dict(b.conditions))
-        out.append(assess(model, flights, wear, diagnosed=b.fault, seed=len(flights),
-                          conditions=conditions))
+        out.append((b.flight, assess(model, flights, wear, diagnosed=b.fault,
+                                     seed=len(flights), conditions=conditions)))
     return out
 
 
@@ -601,7 +591,7 @@ def print_healthy(conn: sqlite3.Connection, units: Sequence[Unit],
     if not healthy:
         return
     bits = {u.tail: [b.health for b in load_bits(conn, tail=u.tail)] if model is None
-            else reassessed_health(conn, u, model) for u in healthy}
+            else [h for _, h in reassessed(conn, u, model)] for u in healthy}
     total = sum(len(b) for b in bits.values())
     worn = Counter(h.mode for hs in bits.values() for h in hs if h.mode)
     ever = sum(any(h.mode for h in hs) for hs in bits.values())
