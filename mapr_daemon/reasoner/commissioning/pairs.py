@@ -75,8 +75,10 @@ def _fault_set(datasheet: ActuatorParams, a: str, sa: float, b: str, sb: float) 
     return FaultSet.of([at_severity(datasheet, a, sa), at_severity(datasheet, b, sb)])
 
 
-def _vertex(x: FloatArray, c: FloatArray) -> float:
-    """The minimum of the parabola through three points along one axis, kept inside them."""
+def vertex(x: FloatArray, c: FloatArray) -> float:
+    """The minimum of the parabola through three points ``(x, c)``, kept inside them (the
+    lowest point itself when they do not bracket a minimum): how a severity search refines its
+    grid (here along each pair axis, :mod:`.severity`, :mod:`.wear`)."""
     a = np.polyfit(x, c, 2)
     if a[0] <= 0.0:
         return float(x[int(np.argmin(c))])
@@ -126,5 +128,5 @@ def search(costs: Costs, datasheet: ActuatorParams, mode_costs: Mapping[str, flo
             if k in tried:
                 pts.append((s[axis], tried[k]))
         if len({x for x, _ in pts}) == 3:
-            sev[axis] = _vertex(np.array([x for x, _ in pts]), np.array([v for _, v in pts]))
+            sev[axis] = vertex(np.array([x for x, _ in pts]), np.array([v for _, v in pts]))
     return PairReading(p[0], p[1], float(sev[0]), float(sev[1]), tried[best_of[p]])

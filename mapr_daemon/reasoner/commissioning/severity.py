@@ -44,7 +44,7 @@ from mapr_daemon.reasoner.commissioning.bits import FIT_SIGNALS, BitRecord
 from mapr_daemon.reasoner.commissioning.departures import departures
 from mapr_daemon.reasoner.commissioning.discrepancy import Discrepancy, correction_for
 from mapr_daemon.reasoner.commissioning.flight import Flight, fly, noise_scale, recorded
-from mapr_daemon.reasoner.commissioning.pairs import PairReading, search
+from mapr_daemon.reasoner.commissioning.pairs import PairReading, search, vertex
 
 GRID: tuple[float, ...] = (0.03, 0.08, 0.15, 0.25, 0.35, 0.45, 0.55, 0.65, 0.75, 0.875, 1.0)
 """Severities tried first for every parametric mode (fractions of the Table 1 range)."""
@@ -78,8 +78,9 @@ class Reading:
     unexplained event names."""
 
 
-def _weights(params: ActuatorParams, disc: Discrepancy | None, decimate: int) -> FloatArray:
-    """(K, T) or (K, 1): what a residual is measured in."""
+def weights(params: ActuatorParams, disc: Discrepancy | None, decimate: int) -> FloatArray:
+    """(K, T) or (K, 1): what a residual is measured in: the unit's healthy held-out spread,
+    never below the sensor noise (the noise alone without a discrepancy)."""
     floor = noise_scale(params, decimate)[:, None]
     if disc is None:
         return floor
@@ -94,10 +95,7 @@ def _parabola(s: FloatArray, c: FloatArray) -> float:
     x, y = s[order], c[order]
     if len(x) < 3 or len(set(np.round(x, 12))) < 3:
         return float(x[0])
-    a = np.polyfit(x, y, 2)
-    if a[0] <= 0.0:
-        return float(x[0])
-    return float(np.clip(-a[1] / (2.0 * a[0]), x.min(), x.max()))
+    return vertex(x, y)
 
 
 def read(params: ActuatorParams, datasheet: ActuatorParams, disc: Discrepancy | None,
@@ -114,7 +112,7 @@ def read(params: ActuatorParams, datasheet: ActuatorParams, disc: Discrepancy | 
     if data is None:
         data = recorded([bit], decimate)[0]
     corr = correction_for(disc, params, [bit])[0] if disc is not None else 0.0
-    w = _weights(params, disc, decimate)
+    w = weights(params, disc, decimate)
 
     no_fault: list[FloatArray] = []
 

@@ -68,7 +68,9 @@ from mapr_daemon.reasoner.commissioning.discrepancy import (
     correction_for,
     held_out_discrepancies,
 )
-from mapr_daemon.reasoner.commissioning.flight import Flight, fly, noise_scale, recorded
+from mapr_daemon.reasoner.commissioning.flight import Flight, fly, recorded
+from mapr_daemon.reasoner.commissioning.pairs import vertex
+from mapr_daemon.reasoner.commissioning.severity import weights
 from mapr_daemon.reasoner.prognosis.wear_noise import Noise
 from mapr_daemon.reasoner.training.prognosis_build import RESOLVE_SD
 
@@ -101,13 +103,6 @@ def fault_at(params: ActuatorParams, kind: str, h: float) -> FaultSet:
     return FaultSet.of([Fault(kind, max(value, 0.0))])
 
 
-def _weights(params: ActuatorParams, disc: Discrepancy, decimate: int) -> FloatArray:
-    """(K, T): the unit's healthy held-out spread, never below the sensor noise (as
-    :mod:`~mapr_daemon.reasoner.commissioning.severity` weighs a residual)."""
-    out: FloatArray = np.maximum(disc.healthy_spread(), noise_scale(params, decimate)[:, None])
-    return out
-
-
 def cost_grid(params: ActuatorParams, disc: Discrepancy, bit: BitRecord,
               kinds: Sequence[str] = KINDS) -> FloatArray:
     """``(len(kinds), len(GRID))``: the mean square residual, in healthy spreads, of ``bit``
@@ -115,7 +110,7 @@ def cost_grid(params: ActuatorParams, disc: Discrepancy, bit: BitRecord,
     decimate = disc.decimate
     data = recorded([bit], decimate)[0]
     corr = correction_for(disc, params, [bit])[0]
-    w = _weights(params, disc, decimate)
+    w = weights(params, disc, decimate)
     nonzero = [h for h in GRID if h != 0.0]
     flights = [Flight(bit)] + [Flight(bit, fault_at(params, k, h)) for k in kinds
                                for h in nonzero]
@@ -136,11 +131,7 @@ def minimum(costs: FloatArray) -> float:
     i = int(np.argmin(costs))
     if i == 0 or i == g.size - 1:
         return float(g[i])
-    x, y = g[i - 1: i + 2], costs[i - 1: i + 2]
-    a = np.polyfit(x, y, 2)
-    if a[0] <= 0.0:
-        return float(g[i])
-    return float(np.clip(-a[1] / (2.0 * a[0]), x[0], x[2]))
+    return vertex(g[i - 1: i + 2], costs[i - 1: i + 2])
 
 
 def read(params: ActuatorParams, disc: Discrepancy, bit: BitRecord,
