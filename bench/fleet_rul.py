@@ -150,6 +150,7 @@ from mapr_daemon.ema.faults import Fault, FaultSet, nominal_value
 from mapr_daemon.ema.params import default_actuator_path, load_actuator
 from mapr_daemon.ema.profile import CONDITIONS
 from mapr_daemon.findings import Health
+from mapr_daemon.pipeline.trending import AssetHistory
 from mapr_daemon.reasoner.commissioning.bits import BitRecord
 from mapr_daemon.reasoner.inflight.baseline import Baseline
 from mapr_daemon.reasoner.prognosis import trend
@@ -567,19 +568,23 @@ def reassessed(conn: sqlite3.Connection, u: Unit, model: PrognosticModel
                ) -> list[tuple[int, Health]]:
     """Each stored BIT's flight and health of one unit, the health computed afresh from the
     stored estimates and conditions (``health.assess``, the function the daemon calls, with
-    the history up to that BIT) under ``model`` as configured now."""
-    flights: list[float] = []
-    wear: list[dict[str, float]] = []
-    conditions: list[dict[str, float]] = []
+    the history up to that BIT) under ``model`` as configured now; the unit's stored
+    in-flight rows of the flights before each BIT are fused as the daemon fuses them
+    (:class:`~mapr_daemon.pipeline.trending.AssetHistory`: a PBIT is flown at power-up, so
+    its own flight's row comes after it)."""
+    hist = AssetHistory()
+    rows = sorted((r for r in load_inflight(conn, tail=u.tail) if r.flight is not None),
+                  key=lambda r: int(r.flight or 0))
     out: list[tuple[int, Health]] = []
     for b in load_bits(conn, tail=u.tail):
         if b.flight is None or not b.wear:
             continue
-        flights.append(float(b.flight))
-        wear.append(dict(b.wear))
-        conditions.append(dict(b.conditions))
-        out.append((b.flight, assess(model, flights, wear, diagnosed=b.fault,
-                                     seed=len(flights), conditions=conditions)))
+        while rows and int(rows[0].flight or 0) < b.flight:
+            hist.add_inflight(rows.pop(0))
+        hist.add(float(b.flight), dict(b.wear), dict(b.conditions))
+        out.append((b.flight, assess(model, hist.flights, hist.wear, diagnosed=b.fault,
+                                     seed=len(hist.flights), conditions=hist.conditions,
+                                     inflight=hist.observations())))
     return out
 
 
