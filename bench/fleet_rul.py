@@ -121,6 +121,7 @@ import argparse
 import contextlib
 import copy
 import io
+import itertools
 import json
 import math
 import os
@@ -432,7 +433,10 @@ def catalog_points(conn: sqlite3.Connection, u: Unit) -> tuple[list[Point], list
         else:
             mode_pts.append(Point(f, true, None, None, None, b.health.mode))
         h = b.health
-        has = h.mode is not None and not (h.note or "").startswith("BITs on fewer")
+        # no headline RUL: none yet, or withheld (the trend leans on the assumed life); a
+        # RUL beyond the horizon is a prediction of "not within it" (inf)
+        has = h.mode is not None and (h.rul is not None or "does not reach the failure "
+                                      "threshold" in (h.note or ""))
         head_pts.append(Point(f, true, *((math.inf if h.rul is None else h.rul,
                                           0.0 if h.rul_low is None else h.rul_low,
                                           math.inf if h.rul_high is None else h.rul_high)
@@ -573,8 +577,11 @@ def reassessed(conn: sqlite3.Connection, u: Unit, model: PrognosticModel
     (:class:`~mapr_daemon.pipeline.trending.AssetHistory`: a PBIT is flown at power-up, so
     its own flight's row comes after it)."""
     hist = AssetHistory()
-    rows = sorted((r for r in load_inflight(conn, tail=u.tail) if r.flight is not None),
-                  key=lambda r: int(r.flight or 0))
+    try:
+        stored = load_inflight(conn, tail=u.tail)
+    except sqlite3.OperationalError:   # a catalog kept from before the in-flight table
+        stored = []
+    rows = sorted((r for r in stored if r.flight is not None), key=lambda r: int(r.flight or 0))
     out: list[tuple[int, Health]] = []
     for b in load_bits(conn, tail=u.tail):
         if b.flight is None or not b.wear:
@@ -825,6 +832,7 @@ def read_catalog(catalog: Path, units: Sequence[Unit], model: PrognosticModel,
                                         LAMBDAS, ALPHA))
     if errors:
         print_errors(conn, units, model, kinds)
+    print_prior_share(conn, units, configured if args.reassess else None)
     print_healthy(conn, units, configured if args.reassess else None)
     print_diagnoses(conn, units, kinds)
     conn.close()
@@ -832,6 +840,47 @@ def read_catalog(catalog: Path, units: Sequence[Unit], model: PrognosticModel,
                 kinds)
     print_table("from the catalog: the headline (leading mode's RUL)", head_scores, kinds)
     return mode_scores, head_scores
+
+
+SHARE_BINS = (0.0, 0.10, 0.25, 0.40, math.inf)
+"""Edges of the ``prior_share`` bins :func:`print_prior_share` prints."""
+
+
+def print_prior_share(conn: sqlite3.Connection, units: Sequence[Unit],
+                      model: PrognosticModel | None) -> None:
+    """The true kind's RUL against how much of the assumed life's spread its interval still
+    spans (``prior_share``, :func:`~mapr_daemon.reasoner.prognosis.trend.prior_share`): per
+    bin the points from a quarter of life on, the median stated/true RUL, the share within
+    +-20 % of the truth and the 90 % interval's coverage; the headline withholds the RUL
+    above :data:`~mapr_daemon.reasoner.prognosis.trend.LEANS` where no life is stated.
+    ``model``: re-assessed under it (else the stored health; rows stored before the share
+    existed are left out)."""
+    pts: list[tuple[float, float, bool, bool]] = []
+    for u in (u for u in units if u.kind != HEALTHY):
+        eol = u.path.eol_flight
+        healths = reassessed(conn, u, model) if model is not None else \
+            [(b.flight, b.health) for b in load_bits(conn, tail=u.tail) if b.flight is not None]
+        for flight, h in healths:
+            f, row = flight - 1, (h.modes or {}).get(u.kind) or {}
+            true = eol - f
+            if f < 0.25 * eol or true <= 0 or "prior_share" not in row or "rul" not in row:
+                continue
+            share = math.inf if row["prior_share"] is None else float(row["prior_share"])
+            rul, low, high = (_value(row, k) for k in ("rul", "low", "high"))
+            low = 0.0 if math.isinf(low) else low
+            pts.append((share, rul / true, abs(rul - true) <= 0.2 * true, low <= true <= high))
+    if not pts:
+        return
+    a = np.array(pts, dtype=np.float64)
+    print(f"\nthe true kind's RUL by how much of the assumed life's spread its interval still "
+          f"spans (prior_share; the headline withholds it above {trend.LEANS:g} where no "
+          "life is stated), points from a quarter of life on:")
+    for lo, hi in itertools.pairwise(SHARE_BINS):
+        m = (a[:, 0] >= lo) & (a[:, 0] < hi)
+        if m.any():
+            print(f"  share {lo:.2f}-{hi:.2f}: {int(m.sum()):4d} points, median stated/true "
+                  f"RUL {np.median(a[m, 1]):.2f}x, within +-20 % {100 * a[m, 2].mean():.0f} %, "
+                  f"90 % interval coverage {100 * a[m, 3].mean():.0f} %")
 
 
 def print_diagnoses(conn: sqlite3.Connection, units: Sequence[Unit],

@@ -94,3 +94,44 @@ def test_missing_estimates_are_skipped_not_read_as_zero(model: PrognosticModel) 
     last_three_read = sum(esr_path(n) for n in (40.0, 50.0, 60.0)) / 3
     assert h.mode == "esr" and h.soh == pytest.approx(1.0 - last_three_read, abs=1e-3)
     assert "friction" not in h.modes
+
+
+def _fast_friction(last: int, life: float = 60.0) -> tuple[list[float], list[dict[str, float]]]:
+    """A friction unit living ``life`` flights (the fleet prior assumes about 200), read every
+    three flights up to flight ``last``."""
+    flights = [float(n) for n in range(1, last + 1, 3)]
+    wear = [{"friction": ((n - 1.0) / life) ** 1.5 + 0.01 * (-1) ** i, "esr": 0.0}
+            for i, n in enumerate(flights)]
+    return flights, wear
+
+
+def test_an_early_rul_that_is_only_the_assumed_life_is_withheld_with_the_reason(
+        model: PrognosticModel) -> None:
+    """Nobody stated the life: while the unit's readings have not narrowed the assumed life,
+    the headline says so instead of a figure (which would be the prior's: 1.4x the truth
+    here); the friction row keeps its figures and how much of the spread is left."""
+    flights, wear = _fast_friction(16)
+    h = assess(model.with_lives(), flights, wear)
+    row = h.modes["friction"]
+    assert h.mode == "friction" and h.rul is None and h.rul_low is None
+    assert h.note is not None and "has not yet narrowed the part's life" in h.note and \
+        "expected_life_flights" in h.note
+    assert row["rul"] is not None and row["prior_share"] > trend.LEANS
+
+
+def test_the_rul_is_stated_once_the_readings_place_the_life(model: PrognosticModel) -> None:
+    flights, wear = _fast_friction(24)
+    h = assess(model.with_lives(), flights, wear)
+    assert h.rul is not None and h.note is None
+    assert h.modes["friction"]["prior_share"] <= trend.LEANS
+    assert h.rul_low is not None and h.rul_high is not None
+    assert h.rul_low <= 60.0 - 23.0 <= h.rul_high
+
+
+def test_a_stated_life_is_never_withheld(model: PrognosticModel) -> None:
+    """The same early readings with the life stated: the RUL rests on the user's figure, as
+    asked, and is given (it holds the truth)."""
+    flights, wear = _fast_friction(16)
+    h = assess(model.with_lives({"friction": 60.0}), flights, wear)
+    assert h.rul is not None and h.rul_low is not None and h.rul_high is not None
+    assert h.rul_low <= 60.0 - 15.0 <= h.rul_high

@@ -146,6 +146,9 @@ def assess(model: PrognosticModel, flights: Sequence[float],
                                        horizon=horizon(model, kind), conditions=cond[keep],
                                        offset_sd=own, offset_mean=own)
             row.update(rul=_finite(rul.rul), low=_finite(rul.lower), high=_finite(rul.upper))
+            share = trend.prior_share(model.priors.get(kind), kind, now - FIRST_FLIGHT, rul)
+            if not math.isnan(share):
+                row["prior_share"] = round(share, 2) if math.isfinite(share) else None
             if obs:
                 row["inflight_flights"] = len(obs)
         modes[kind] = row
@@ -165,10 +168,32 @@ def assess(model: PrognosticModel, flights: Sequence[float],
     if rul is None:
         return Health(soh, kind, note="BITs on fewer than three flights: no trend yet",
                       modes=modes)
+    leaning = _leans_on_prior(model, kind, modes[kind])
+    if leaning is not None:
+        return Health(soh, kind, note=leaning, modes=modes)
     return Health(soh, kind, rul.rul, rul.lower, rul.upper, modes=modes,
                   note=None if math.isfinite(rul.rul) else
                   f"the trend does not reach the failure threshold within {rul.horizon:g} "
                   "flights")
+
+
+def _leans_on_prior(model: PrognosticModel, kind: str, row: Mapping[str, Any]) -> str | None:
+    """Why the headline RUL of ``kind`` is withheld, or None: where nobody stated the part's
+    life (:attr:`PrognosticModel.assumed_lives`) and the unit's readings have narrowed the
+    prior's spread of it by less than :data:`~.trend.LEANS` allows (``prior_share``; None:
+    the draws run past the horizon), the figure would be the aging model's assumed life, not
+    this unit's trend. The mode's row keeps its figures."""
+    prior = model.priors.get(kind)
+    if prior is None or kind not in model.assumed_lives or "prior_share" not in row:
+        return None
+    share = row["prior_share"]
+    if share is not None and share <= trend.LEANS:
+        return None
+    spread = "beyond the horizon" if share is None else f"{100 * share:.0f} % of it"
+    return (f"the {kind} trend has not yet narrowed the part's life (its interval spans "
+            f"{spread}): the figure would be the data sheet's assumed life of about "
+            f"{prior.life_flights(kind):.0f} flights, not this unit's (state "
+            "assets[].expected_life_flights for the fleet, or wait for more BITs)")
 
 
 def _reading(noise: trend.Noise, est: FloatArray, cond: FloatArray) -> tuple[float, float]:

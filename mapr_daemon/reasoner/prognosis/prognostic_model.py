@@ -59,6 +59,11 @@ class PrognosticModel:
     priors: dict[str, trend.ShapePrior]
     supply_nominal_v: float = math.nan
     """The healthy model's nominal aircraft-bus voltage (what conditions are scaled by)."""
+    assumed_lives: frozenset[str] = frozenset()
+    """The kinds whose life nobody stated (:meth:`with_lives`): their prior holds the aging
+    model's assumed life loosely, and the headline RUL is withheld while a unit's readings
+    have not narrowed it (:data:`~.trend.LEANS`). A stated life is the user's reliability
+    figure, and a RUL that leans on it is what was asked for."""
     own_offset: frozenset[str] = frozenset()
     """The kinds read against the unit's own baseline (:meth:`against_baseline`): their
     offset is the unit's, measured and subtracted, so the trend puts no fleet unit offset
@@ -119,7 +124,8 @@ class PrognosticModel:
                               f"{float(trend.LIVES[-1]):g}", field="expected_life_flights")
         priors = {k: p.with_life(k, 0.0, lives[k]) if k in lives else
                   p.with_life(k, trend.LIFE_SD) for k, p in self.priors.items()}
-        return dataclasses.replace(self, priors=priors)
+        return dataclasses.replace(self, priors=priors,
+                                   assumed_lives=frozenset(set(self.priors) - set(lives)))
 
     def against_baseline(self, noise: Mapping[str, wear_noise.Noise]) -> PrognosticModel:
         """This model for a commissioned unit whose wear of the kinds in ``noise`` is read
