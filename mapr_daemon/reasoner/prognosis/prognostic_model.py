@@ -64,6 +64,10 @@ class PrognosticModel:
     offset is the unit's, measured and subtracted, so the trend puts no fleet unit offset
     on them (:data:`~.trend.UNIT_OFFSET_MEAN` and :data:`~.trend.UNIT_OFFSET_SD` are the
     estimators')."""
+    estimators_noise: dict[str, trend.Noise] = dataclasses.field(default_factory=dict)
+    """The estimators' own noise of each kind :attr:`noise` holds the baseline's for
+    (:meth:`against_baseline`): what a reading of that kind by the estimators is weighed by
+    (a BIT flown before the unit was commissioned, :mod:`.wear_paths`)."""
 
     @property
     def kinds(self) -> tuple[str, ...]:
@@ -130,7 +134,14 @@ class PrognosticModel:
         (:attr:`own_offset`). The fleet priors are unchanged."""
         mine = {k: n for k, n in noise.items() if k in self.noise}
         return dataclasses.replace(self, noise={**self.noise, **mine},
-                                   own_offset=self.own_offset | frozenset(mine))
+                                   own_offset=self.own_offset | frozenset(mine),
+                                   estimators_noise={**{k: self.noise[k] for k in mine},
+                                                     **self.estimators_noise})
+
+    def estimator_noise(self, kind: str) -> trend.Noise:
+        """The noise a reading of ``kind`` by the estimators is weighed by (the estimators'
+        own, also where this unit's readings are the baseline's)."""
+        return self.estimators_noise.get(kind, self.noise[kind])
 
     # --- persistence -----------------------------------------------------------------------
     def save(self, path: str | Path) -> None:
