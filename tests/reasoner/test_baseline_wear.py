@@ -13,7 +13,7 @@ import pytest
 
 from mapr_daemon.errors import ConfigError
 from mapr_daemon.findings import Diagnosis
-from mapr_daemon.reasoner.commissioning.baseline import Baseline
+from mapr_daemon.reasoner.commissioning.baseline import Baseline, record_digest
 from mapr_daemon.reasoner.commissioning.bits import from_runs
 from mapr_daemon.reasoner.commissioning.discrepancy import Discrepancy
 from mapr_daemon.reasoner.commissioning.wear import BaselineWear, fault_at, measure
@@ -83,6 +83,7 @@ def test_an_asset_without_a_baseline_keeps_the_estimators_exactly(
             assert out.wear == model.estimates(bench.dictionary, m,
                                                float(worn.dynamic_pressure_pa[i]))
             assert "wear_against_baseline" not in out.evidence
+            assert out.wear_source == {k: {"path": "estimator"} for k in out.wear}
 
 
 def test_a_commissioned_assets_bits_carry_baseline_read_wear_with_the_measured_sd(
@@ -98,6 +99,11 @@ def test_a_commissioned_assets_bits_carry_baseline_read_wear_with_the_measured_s
                                            float(worn.dynamic_pressure_pa[i]))
         noise = baseline.wear.kinds[kind]
         assert out.wear[kind] - noise.offset == pytest.approx(h, abs=0.15)
+        # the catalog keeps which record read it, and the offset and sd it is weighed by
+        assert out.wear_source is not None and set(out.wear_source) == set(out.wear)
+        assert out.wear_source[kind] == {
+            "path": "baseline", "record": record_digest(with_wear / "commissioning.json"),
+            "offset": noise.offset, "sd0": noise.sd0, "sd1": noise.sd1}
     # a healthy BIT the baseline did not see reads near the offset, within its measured sd
     healthy = bench.runs.n - len(HELD_OUT)   # HELD_OUT's first run is healthy
     out = _diagnose(bench.runs, healthy, r)
