@@ -206,3 +206,36 @@ def test_a_baseline_read_kind_is_trended_without_the_estimators_fleet_offset(
     without = rul(plain), rul(own)
     assert with_fleet[1] == without[1]        # the unit's own offset only
     assert with_fleet[0] != without[0]        # the estimators keep the fleet's
+
+
+def test_commissioning_holds_each_bit_out_once_for_the_detector_and_the_wear_reading(
+        bench: Bench, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """`mapr commission` reads every commissioning BIT against the discrepancy relearned
+    without it for the detector and again for the wear reading's scatter: the relearned
+    discrepancies are made once (its slow part), and both steps still land in the record."""
+    from mapr_daemon.reasoner.commissioning import detector, discrepancy, wear, workflow
+    from mapr_daemon.reasoner.commissioning.prior import load_tolerances
+
+    calls: list[int] = []
+    made = discrepancy.held_out_discrepancies
+
+    def counted(*args: object) -> list[Discrepancy]:
+        calls.append(1)
+        return made(*args)  # type: ignore[arg-type]
+
+    for module in (discrepancy, detector, wear):
+        monkeypatch.setattr(module, "held_out_discrepancies", counted)
+    (tmp_path / "tol.yaml").write_text("format: mapr-tolerances/1\nparameters:\n"
+                                       "  motor.back_emf_v_s_per_rad: 5\n")
+    own = bench.runs.n - len(HELD_OUT)
+    healthy = [i for i in range(own) if bench.runs.labels[i] == "healthy"][:5]
+    said: list[str] = []
+    done = workflow.commission(bench.params, "sheet.yaml", from_runs(bench.runs, "bench",
+                                                                     healthy),
+                               load_tolerances(tmp_path / "tol.yaml", bench.params),
+                               tmp_path / "unit", None, said.append)
+    assert len(done.identification.bits) == 5
+    assert len(calls) == 1
+    assert done.record.detector is not None and done.record.wear is not None
+    assert any(line.startswith("anomaly detector calibrated on 5") for line in said)
+    assert any(line.startswith("wear read against the baseline on 5") for line in said)
