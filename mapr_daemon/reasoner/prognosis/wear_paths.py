@@ -61,17 +61,6 @@ def baseline(record: str, noise: Noise) -> dict[str, Any]:
             "sd0": float(noise.sd0), "sd1": float(noise.sd1)}
 
 
-def label(source: Source | None) -> str:
-    """``estimator``, ``baseline:<record>`` or ``unknown`` (not stored, or malformed): the
-    source as one word, for a flat export and a log line."""
-    if _baseline_noise(source) is not None:
-        assert source is not None
-        return f"{BASELINE}:{source.get('record') or '?'}"
-    if isinstance(source, Mapping) and source.get("path") == ESTIMATOR:
-        return ESTIMATOR
-    return "unknown"
-
-
 def _baseline_noise(source: Source | None) -> Noise | None:
     """The noise a baseline source states, or None (not a baseline source, or malformed)."""
     if not isinstance(source, Mapping) or source.get("path") != BASELINE:
