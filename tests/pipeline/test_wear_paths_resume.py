@@ -129,7 +129,7 @@ def test_the_stored_sources_come_back_and_an_unknown_one_is_the_assets_path_now(
         {}]
     history = history_from_bits(bits)["EMA1"]
     model = commissioned(estimators, "B")
-    paths = wear_paths.for_kind(model, KIND, history.sources)
+    paths = model.path_noise(KIND, history.sources)
     est = np.array([w[KIND] for w in history.wear])
     assert paths.calibrate(est).tolist() == [0.25, 0.25, 0.25 - OFFSETS["B"]]
     assert paths.own == (False, True, True)

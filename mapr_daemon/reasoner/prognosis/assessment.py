@@ -62,7 +62,7 @@ from mapr_daemon.reasoner.diagnosis.parts import PART_OF
 from mapr_daemon.reasoner.prognosis import fusion
 from mapr_daemon.reasoner.prognosis.rul import RulEstimate
 from mapr_daemon.reasoner.prognosis.wear_noise import scaled_rows
-from mapr_daemon.reasoner.prognosis.wear_paths import PathNoise, Source, for_kind
+from mapr_daemon.reasoner.prognosis.wear_paths import PathNoise, Source
 
 if TYPE_CHECKING:
     from mapr_daemon.reasoner.prognosis.prognostic_model import PrognosticModel
@@ -131,7 +131,7 @@ def assess(model: PrognosticModel, flights: Sequence[float],
         est = np.array([e.get(kind, math.nan) for e in estimates], dtype=np.float64)
         keep = np.isfinite(est)
         if keep.any():
-            paths[kind] = for_kind(model, kind, per_bit).take(keep)
+            paths[kind] = model.path_noise(kind, per_bit).take(keep)
             h, z = _reading(paths[kind], est[keep], cond[keep])
             readings[kind] = (h, z, est, keep)
     for kind, (h, z, est, keep) in readings.items():

@@ -31,16 +31,13 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Callable, Mapping, Sequence
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
 from mapr_daemon.arrays import FloatArray
 from mapr_daemon.reasoner.prognosis.wear_noise import Noise
-
-if TYPE_CHECKING:
-    from mapr_daemon.reasoner.prognosis.prognostic_model import PrognosticModel
 
 ESTIMATOR = "estimator"
 BASELINE = "baseline"
@@ -151,13 +148,14 @@ class PathNoise:
         return det, sd
 
 
-def for_kind(model: PrognosticModel, kind: str, sources: Sequence[Source | None]
-             ) -> PathNoise:
+def for_kind(kind: str, sources: Sequence[Mapping[str, Source] | None], estimators: Noise,
+             now: Noise, now_own: bool) -> PathNoise:
     """The readings of ``kind`` on BITs whose stored sources are ``sources`` (one per BIT, its
     ``{kind: source}``; None where none was stored), each weighed by its path: the
-    estimators' noise (:meth:`~.prognostic_model.PrognosticModel.estimator_noise`), the
-    baseline's it states, or, unknown, the path ``model`` has now."""
-    current = (model.noise[kind], kind in model.own_offset)
+    estimators' noise ``estimators``, the baseline's it states, or, unknown, the path the
+    asset has now (``now``; ``now_own``: its offset is the unit's own). What
+    :meth:`~.prognostic_model.PrognosticModel.path_noise` asks with the model's."""
+    current = (now, now_own)
     paths: dict[tuple[Noise, bool], int] = {}
     index = np.empty(len(sources), dtype=np.intp)
     for i, per_kind in enumerate(sources):
@@ -166,7 +164,7 @@ def for_kind(model: PrognosticModel, kind: str, sources: Sequence[Source | None]
         if own_noise is not None:
             path = (own_noise, True)
         elif isinstance(source, Mapping) and source.get("path") == ESTIMATOR:
-            path = (model.estimator_noise(kind), False)
+            path = (estimators, False)
         else:
             path = current
         index[i] = paths.setdefault(path, len(paths))
