@@ -74,8 +74,9 @@ def one_path(estimators: PrognosticModel, readings: Mapping[int, float]) -> dict
     return out
 
 
-def figures(h: Health) -> tuple[Any, ...]:
-    row = h.modes[KIND]
+def figures(h: Health, kind: str = KIND) -> tuple[Any, ...]:
+    """What ``mapr health`` shows of one kind: SoH, leading mode, the kind's h, z and RUL."""
+    row = h.modes[kind]
     return (h.soh, h.mode, row["h"], row["z"], row.get("rul"), row.get("low"),
             row.get("high"))
 
@@ -133,3 +134,34 @@ def test_the_stored_sources_come_back_and_an_unknown_one_is_the_assets_path_now(
     est = np.array([w[KIND] for w in history.wear])
     assert paths.calibrate(est).tolist() == [0.25, 0.25, 0.25 - OFFSETS["B"]]
     assert paths.own == (False, True, True)
+
+
+def test_the_fleets_unit_offset_is_put_on_the_estimators_readings_only(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """ESR's estimators read every unit low by the fleet's offset (trend.UNIT_OFFSET_MEAN); a
+    reading against the unit's baseline has its own offset subtracted instead. An ESR unit
+    read by the estimators, then by its baseline, trends as one read by the baseline
+    throughout: the fleet's offset is taken off the estimators' readings and nothing else."""
+    from mapr_daemon.reasoner.prognosis.assessment import assess
+
+    monkeypatch.setattr(trend, "UNIT_OFFSET_MEAN", {"esr": -0.03125})   # held fixed (sd 0)
+    monkeypatch.setattr(trend, "UNIT_OFFSET_SD", {})
+    estimators = PrognosticModel("EMA", {}, {"esr": trend.Noise(SD)}, {}, {})
+    own = trend.Noise(SD, 0.0, OFFSETS["A"], 1.0)
+    model = estimators.against_baseline({"esr": own})
+    rng = np.random.default_rng(7)
+    flights = [float(f) for f in range(1, 21)]
+    true = [round((0.03 * (f - 1) + SD * float(rng.standard_normal())) * 1024) / 1024
+            for f in flights]
+    mixed = [{"esr": h - 0.03125} for h in true[:10]] + \
+        [{"esr": h + OFFSETS["A"]} for h in true[10:]]
+    sources = [{"esr": wear_paths.estimator()}] * 10 + \
+        [{"esr": wear_paths.baseline("A", own)}] * 10
+    one = [{"esr": h + OFFSETS["A"]} for h in true]
+    got = assess(model, flights, mixed, diagnosed="esr", seed=1, sources=sources)
+    expected = assess(model, flights, one, diagnosed="esr", seed=1)
+    assert figures(got, "esr") == figures(expected, "esr")
+    assert got.modes["esr"].get("rul") is not None
+    # read as the baseline's, the estimators' readings would sit 0.4 low: another trend
+    assert figures(assess(model, flights, mixed, diagnosed="esr", seed=1), "esr") != \
+        figures(expected, "esr")
