@@ -143,8 +143,10 @@ from seeds import fresh
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from mapr_daemon.arrays import FloatArray
-from mapr_daemon.catalog.history import load_bits
+from mapr_daemon.catalog import history
 from mapr_daemon.catalog.inflight import load_inflight
+from mapr_daemon.catalog.model import BitRecord as StoredBit
+from mapr_daemon.catalog.schema import version_of
 from mapr_daemon.cli.main import main as mapr
 from mapr_daemon.ema.degradation import FAILURE, Trajectory, trajectory
 from mapr_daemon.ema.faults import Fault, FaultSet, nominal_value
@@ -409,6 +411,12 @@ def _form(u: Unit) -> str:
     return ", ".join(words)
 
 
+def load_bits(conn: sqlite3.Connection, tail: str) -> list[StoredBit]:
+    """The tail's stored BITs from a catalog of any schema version (a kept catalog is read
+    as it is, never migrated)."""
+    return history.load_bits(conn, tail=tail, version=version_of(conn))
+
+
 def _value(row: dict[str, object], key: str) -> float:
     v = row.get(key)
     return math.inf if v is None else float(v)  # type: ignore[arg-type]
@@ -588,10 +596,10 @@ def reassessed(conn: sqlite3.Connection, u: Unit, model: PrognosticModel
             continue
         while rows and int(rows[0].flight or 0) < b.flight:
             hist.add_inflight(rows.pop(0))
-        hist.add(float(b.flight), dict(b.wear), dict(b.conditions))
+        hist.add(float(b.flight), dict(b.wear), dict(b.conditions), b.wear_source)
         out.append((b.flight, assess(model, hist.flights, hist.wear, diagnosed=b.fault,
                                      seed=len(hist.flights), conditions=hist.conditions,
-                                     inflight=hist.observations())))
+                                     inflight=hist.observations(), sources=hist.sources)))
     return out
 
 

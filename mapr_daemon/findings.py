@@ -26,7 +26,11 @@ class Diagnosis:
     data cannot separate (all three None without a decided fault). ``parameters`` are the
     EKF's estimates (value, sd, unit, reference). ``wear`` and ``conditions`` (with a
     prognostic model) are the BIT's degradation estimate per aging kind and the flight
-    condition it was flown at: what the trend is fitted on.
+    condition it was flown at: what the trend is fitted on; ``wear_source`` says per kind
+    which path read it (the estimators, or the unit's commissioned baseline with the
+    record's identity and measured noise:
+    :mod:`~mapr_daemon.reasoner.prognosis.wear_paths`), so the trend weighs each reading by
+    its own path's noise and offset.
     """
 
     anomaly: bool | None
@@ -46,6 +50,7 @@ class Diagnosis:
     EKF's severity check and parameter changes, model adaptation, or ``error``."""
     wear: Mapping[str, float] | None = None
     conditions: Mapping[str, float] | None = None
+    wear_source: Mapping[str, Mapping[str, Any]] | None = None
 
     @classmethod
     def failed(cls, error: BaseException) -> Diagnosis:
@@ -93,7 +98,7 @@ class Diagnosis:
     def to_json(self) -> dict[str, Any]:
         """The JSON-ready form (``mapr diagnose``'s line): anomaly, fault, severity, unit,
         confidence, parameters, soh, component, part, ambiguity, rul, evidence in that order,
-        then ``wear`` and ``conditions`` when present."""
+        then ``wear``, ``conditions`` and ``wear_source`` when present."""
         out: dict[str, Any] = {
             "anomaly": self.anomaly, "fault": self.fault, "severity": self.severity,
             "unit": self.unit, "confidence": self.confidence,
@@ -107,6 +112,8 @@ class Diagnosis:
             out["wear"] = dict(self.wear)
         if self.conditions is not None:
             out["conditions"] = dict(self.conditions)
+        if self.wear_source is not None:
+            out["wear_source"] = {k: dict(v) for k, v in self.wear_source.items()}
         return out
 
     @classmethod
@@ -121,7 +128,8 @@ class Diagnosis:
                    component=doc.get("component"), part=doc.get("part"),
                    ambiguity=doc.get("ambiguity"), rul=doc.get("rul"),
                    evidence=dict(doc.get("evidence") or {}),
-                   wear=doc.get("wear"), conditions=doc.get("conditions"))
+                   wear=doc.get("wear"), conditions=doc.get("conditions"),
+                   wear_source=doc.get("wear_source"))
 
 
 @dataclasses.dataclass(frozen=True)

@@ -1,12 +1,13 @@
-"""Each actuator's BIT history and each aircraft's flights, in the catalog (schema v5, v8).
+"""Each actuator's BIT history and each aircraft's flights, in the catalog (schema v5, v8, v10).
 
 Every diagnosed BIT is a ``bits`` row, nominal ones too: its flight, the degradation estimate
-of every aging kind, the flight condition it was flown at and the health the trend gave
-after it. That history is what the trend
-is refitted on after each BIT (the daemon reloads it at start, so a restart continues the
-trend), what ``mapr health`` and the trend plot read, and what ``catalog export --what bits``
-writes. ``flights`` holds each aircraft's flights: measured from the bus (the span of the
-actuator traffic) or declared by a replay or a fleet run.
+of every aging kind and which path read it (the estimators or the unit's baseline), the
+flight condition it was flown at and the health the trend gave after it. That history is
+what the trend is refitted on after each BIT (the daemon reloads it at start, so a restart
+continues the trend, each estimate weighed by the path that read it), what ``mapr health``
+and the trend plot read, and what ``catalog export --what bits`` writes. ``flights`` holds
+each aircraft's flights: measured from the bus (the span of the actuator traffic) or
+declared by a replay or a fleet run.
 
 Functions take an open connection; the writer calls the ``insert``/``upsert`` ones inside its
 transaction, the reader and the daemon's trend the ``load`` ones.
@@ -29,6 +30,8 @@ BIT_SELECT = ("id, session_id, tail, asset, t_ns, bus_ns, abs_ns, flight, flight
 """The ``bits`` columns :func:`bit_record` reads, in its order (for other readers' queries)."""
 CONDITIONS_SINCE = 8
 """Schema version that added ``bits.conditions`` (older files read it as ``{}``)."""
+WEAR_SOURCE_SINCE = 10
+"""Schema version that added ``bits.wear_source`` (older files read it as ``{}``)."""
 
 
 def _num(value: float | None) -> float | None:
@@ -63,12 +66,13 @@ def insert_bits(conn: sqlite3.Connection, session_id: int | None,
                 _num(h.rul), _num(h.rul_low), _num(h.rul_high), _num(h.rul_hours),
                 _num(h.rul_hours_low), _num(h.rul_hours_high))),
             None if h is None else h.note, _json({} if h is None else dict(h.modes)),
-            _json({k: float(v) for k, v in b.conditions.items()})))
+            _json({k: float(v) for k, v in b.conditions.items()}),
+            _json({k: dict(v) for k, v in b.wear_source.items()})))
     conn.executemany(
         "INSERT INTO bits (session_id, tail, asset, t_ns, bus_ns, abs_ns, flight, flight_hours,"
         " fault, event_id, wear, mode, soh, rul, rul_low, rul_high, rul_hours, rul_hours_low,"
-        " rul_hours_high, note, modes, conditions) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?,"
-        " ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)", rows)
+        " rul_hours_high, note, modes, conditions, wear_source) VALUES (?, ?, ?, ?, ?, ?, ?,"
+        " ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)", rows)
     if flights:
         conn.executemany("UPDATE events SET flight = ? WHERE id = ?", flights)
 
@@ -83,15 +87,16 @@ def upsert_flights(conn: sqlite3.Connection, flights: Sequence[Flight]) -> None:
         [(f.tail, f.flight, f.start_ns, f.end_ns, float(f.hours), f.source) for f in flights])
 
 
-def bit_record(row: Sequence[Any], conditions: str = "{}") -> BitRecord:
-    """A BIT from its :data:`BIT_SELECT` and its stored conditions (``{}``: none, or not
-    selected: the health view does not need them)."""
+def bit_record(row: Sequence[Any], conditions: str = "{}", wear_source: str = "{}"
+               ) -> BitRecord:
+    """A BIT from its :data:`BIT_SELECT`, its stored conditions and wear sources (``{}``:
+    none, or not selected: the health view does not need them)."""
     (rid, sid, tail, asset, t_ns, bus_ns, abs_ns, flight, hours, fault, event_id, wear, mode,
      soh, rul, low, high, rh, rhl, rhh, note, modes) = row
     return BitRecord(rid, sid, tail, asset, t_ns, bus_ns, abs_ns, flight, hours, fault,
                      event_id, json.loads(wear),
                      Health(soh, mode, rul, low, high, rh, rhl, rhh, note, json.loads(modes)),
-                     json.loads(conditions))
+                     json.loads(conditions), json.loads(wear_source))
 
 
 def equal_to(**columns: str | None) -> tuple[str, list[str]]:
@@ -107,13 +112,14 @@ def equal_to(**columns: str | None) -> tuple[str, list[str]]:
 def load_bits(conn: sqlite3.Connection, asset: str | None = None, tail: str | None = None,
               last: int | None = None, version: int | None = None) -> list[BitRecord]:
     """BIT history (all assets, or one), oldest first; ``last``: only the newest N per call;
-    ``version``: the file's schema version when it may predate :data:`CONDITIONS_SINCE` (a
-    reader does not migrate), None for a file at the latest."""
+    ``version``: the file's schema version when it may predate :data:`CONDITIONS_SINCE` or
+    :data:`WEAR_SOURCE_SINCE` (a reader does not migrate), None for a file at the latest."""
     where, args = equal_to(asset=asset, tail=tail)
     conditions = "conditions" if version is None or version >= CONDITIONS_SINCE else "'{}'"
-    sql = f"SELECT {BIT_SELECT}, {conditions} FROM bits{where}"
+    source = "wear_source" if version is None or version >= WEAR_SOURCE_SINCE else "'{}'"
+    sql = f"SELECT {BIT_SELECT}, {conditions}, {source} FROM bits{where}"
     sql += " ORDER BY coalesce(flight, 0), t_ns, id"
-    rows = [bit_record(r[:-1], r[-1]) for r in conn.execute(sql, args)]
+    rows = [bit_record(r[:-2], r[-2], r[-1]) for r in conn.execute(sql, args)]
     return rows if last is None else rows[-last:]
 
 

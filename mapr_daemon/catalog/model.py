@@ -154,6 +154,10 @@ class BitOutcome:
     conditions: Mapping[str, float] = dataclasses.field(default_factory=dict)
     """The flight condition the BIT was flown at (``dynamic_pressure_pa``, ``supply_v``,
     ``ambient_c``); empty when not known."""
+    wear_source: Mapping[str, Mapping[str, Any]] = dataclasses.field(default_factory=dict)
+    """Per kind of ``wear``, which path read it: ``{"path": "estimator"}`` or ``{"path":
+    "baseline", "record": ..., "offset": ..., "sd0": ..., "sd1": ...}``
+    (:mod:`mapr_daemon.reasoner.prognosis.wear_paths`); empty when not known."""
     health: Health | None = None
     bus_ns: int | None = None
     abs_ns: int | None = None
@@ -180,11 +184,15 @@ class BitRecord:
     health: Health
     conditions: Mapping[str, float] = dataclasses.field(default_factory=dict)
     """The flight condition the BIT was flown at; empty when not stored."""
+    wear_source: Mapping[str, Mapping[str, Any]] = dataclasses.field(default_factory=dict)
+    """Per kind, which path read its wear (:attr:`BitOutcome.wear_source`); empty when not
+    stored (a BIT stored before schema v10)."""
 
     def as_dict(self) -> dict[str, Any]:
         out = dataclasses.asdict(self)
         out["wear"] = dict(self.wear)
         out["conditions"] = dict(self.conditions)
+        out["wear_source"] = {k: dict(v) for k, v in self.wear_source.items()}
         return out
 
 

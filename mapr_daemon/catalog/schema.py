@@ -40,6 +40,11 @@ History:
    estimate (the EKF on the traffic between BITs): per trended parameter its value, sd,
    change from the unit's baseline and unit, and how much of the flight qualified. One row
    per tail, actuator and flight (a rerun replaces it). Catalogs from before have none.
+10. ``bits.wear_source``: per aging kind, which path read the BIT's wear: the prognostic
+    model's estimators, or the unit's commissioned baseline (the record's digest and the
+    offset and sd its reading is weighed by;
+    :mod:`~mapr_daemon.reasoner.prognosis.wear_paths`). BITs stored before keep ``{}``:
+    not known, taken as read by the path the asset has when the trend is rebuilt.
 """
 
 from __future__ import annotations
@@ -229,6 +234,9 @@ MIGRATIONS: tuple[tuple[str, ...], ...] = (
             parameters TEXT NOT NULL DEFAULT '{}',
             qualified TEXT NOT NULL DEFAULT '{}')""",
         "CREATE UNIQUE INDEX inflight_flight ON inflight(tail, asset, flight)",
+    ),
+    (  # 10: which path read each BIT's wear (reasoner/prognosis/wear_paths.py)
+        "ALTER TABLE bits ADD COLUMN wear_source TEXT NOT NULL DEFAULT '{}'",
     ),
 )
 

@@ -226,14 +226,17 @@ class Pipeline:
         absolute = clock.absolute(bus)
         wear = dict(bit.decision.wear or {})
         cond = dict(bit.decision.conditions or {})
+        source = {k: dict(v) for k, v in (bit.decision.wear_source or {}).items()}
         if bit.decision.anomaly:
             event = event_from_reasoner(bit.decision, asset=asset.name, rt=asset.rt,
                                         t_ns=time.time_ns() if absolute is None else absolute,
                                         bus_ns=bus, abs_ns=absolute)
             return BitOutcome(event.asset, event.t_ns, event, wear=wear, conditions=cond,
-                              bus_ns=bus, abs_ns=absolute, fault=event.fault)
+                              wear_source=source, bus_ns=bus, abs_ns=absolute,
+                              fault=event.fault)
         return BitOutcome(asset.name, time.time_ns() if absolute is None else absolute,
-                          wear=wear, conditions=cond, bus_ns=bus, abs_ns=absolute)
+                          wear=wear, conditions=cond, wear_source=source, bus_ns=bus,
+                          abs_ns=absolute)
 
 
 def build_pipeline(config: PipelineConfig, *, trend: bool = True) -> Pipeline:

@@ -27,6 +27,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Mapping, Sequence
+from typing import Any
 
 from mapr_daemon.catalog import BitOutcome, Event
 from mapr_daemon.catalog.model import BitRecord, Flight, InflightEstimate
@@ -139,6 +140,10 @@ class AssetHistory:
     wear: list[Mapping[str, float]] = dataclasses.field(default_factory=list)
     conditions: list[Mapping[str, float] | None] = dataclasses.field(default_factory=list)
     """Each BIT's flight condition (None where not stored)."""
+    sources: list[Mapping[str, Mapping[str, Any]] | None] = dataclasses.field(
+        default_factory=list)
+    """Per BIT, which path read each kind's wear (None where not stored: taken as the path
+    the actuator has now; :mod:`~mapr_daemon.reasoner.prognosis.wear_paths`)."""
     inflight: dict[str, dict[int, tuple[float, float, float, float]]] = dataclasses.field(
         default_factory=dict)
     """Per aging kind, per flight its in-flight observation ``(flight, h, sd_flight,
@@ -161,24 +166,28 @@ class AssetHistory:
         return {k: [v[f] for f in sorted(v)] for k, v in self.inflight.items()}
 
     def add(self, flight: float, wear: Mapping[str, float],
-            conditions: Mapping[str, float] | None) -> None:
-        """One more BIT; the conditions stay aligned with the flights (a history loaded
-        without them is padded with None)."""
+            conditions: Mapping[str, float] | None,
+            source: Mapping[str, Mapping[str, Any]] | None = None) -> None:
+        """One more BIT; its conditions and wear sources stay aligned with the flights (a
+        history loaded without them is padded with None)."""
         self.conditions.extend([None] * (len(self.flights) - len(self.conditions)))
+        self.sources.extend([None] * (len(self.flights) - len(self.sources)))
         self.flights.append(float(flight))
         self.wear.append(dict(wear))
         self.conditions.append(dict(conditions) if conditions else None)
+        self.sources.append({k: dict(v) for k, v in source.items()} if source else None)
 
 
 def history_from_bits(bits: Sequence[BitRecord],
                       inflight: Sequence[InflightEstimate] = ()) -> dict[str, AssetHistory]:
     """Each actuator's trend history from its stored BITs (oldest first): the BITs with a
-    flight and estimates, with their flight conditions where stored; and its flights'
-    in-flight rows."""
+    flight and estimates, with their flight conditions and the path that read each estimate
+    where stored; and its flights' in-flight rows."""
     history: dict[str, AssetHistory] = {}
     for b in bits:
         if b.flight is not None and b.wear:
-            history.setdefault(b.asset, AssetHistory()).add(b.flight, b.wear, b.conditions)
+            history.setdefault(b.asset, AssetHistory()).add(b.flight, b.wear, b.conditions,
+                                                             b.wear_source)
     for r in inflight:
         history.setdefault(r.asset, AssetHistory()).add_inflight(r)
     return history
@@ -250,11 +259,11 @@ class Trending:
         if not o.wear or flight is None:
             return Health(None, note="this BIT gave no degradation estimates")
         hist = self.history.setdefault(o.asset, AssetHistory())
-        hist.add(flight, o.wear, o.conditions)
+        hist.add(flight, o.wear, o.conditions, o.wear_source)
         fault = None if o.event is None else o.event.fault
         h = assess(model, hist.flights, hist.wear, diagnosed=fault, seed=len(hist.flights),
                    conditions=hist.conditions, also=_also(o.event),
-                   inflight=hist.observations())
+                   inflight=hist.observations(), sources=hist.sources)
         return h.with_hours(self.log.mean_hours(), INTERVAL)
 
 

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -43,7 +43,7 @@ from mapr_daemon.reasoner.ekf.estimator import (
     severity_check,
 )
 from mapr_daemon.reasoner.ekf.model import NEEDED
-from mapr_daemon.reasoner.prognosis import soh
+from mapr_daemon.reasoner.prognosis import soh, wear_paths
 
 if TYPE_CHECKING:
     from mapr_daemon.reasoner.commissioning.baseline import Baseline
@@ -149,16 +149,28 @@ class Reasoner:
             diagnosis = diagnosis.with_evidence(**self._adapt(est))
         if self.prognostic is not None:
             wear = self.prognostic.estimates(self.dictionary, m, dynamic_pressure_pa)
+            ours: list[str] = []   # the kinds read against the baseline
             if self.baseline is not None and self.baseline.wear is not None:
                 wear, why = self.baseline_wear(wear, channels, command_deg,
                                                dynamic_pressure_pa)
-                diagnosis = diagnosis.with_evidence(wear_against_baseline=why or sorted(
-                    k for k in wear if k in self.baseline.wear.read_kinds))
+                ours = sorted(k for k in wear if k in self.baseline.wear.read_kinds)
+                diagnosis = diagnosis.with_evidence(wear_against_baseline=why or ours)
             diagnosis = dataclasses.replace(
-                diagnosis, wear=wear,
+                diagnosis, wear=wear, wear_source=self.wear_source(wear, ours),
                 conditions=self.prognostic.bit_conditions(self.dictionary, m,
                                                           dynamic_pressure_pa))
         return diagnosis
+
+    def wear_source(self, wear: Mapping[str, float], ours: Sequence[str]
+                    ) -> dict[str, dict[str, Any]]:
+        """Per kind of ``wear``, which path read it (:mod:`~mapr_daemon.reasoner.prognosis.
+        wear_paths`): the baseline (its record and measured noise) for ``ours``, else the
+        estimators."""
+        noise = {} if self.baseline is None or self.baseline.wear is None else \
+            self.baseline.wear.noise()
+        return {k: wear_paths.baseline(self.baseline.record, noise[k])
+                if k in ours and self.baseline is not None else wear_paths.estimator()
+                for k in wear}
 
     def baseline_wear(self, wear: Mapping[str, float], channels: Mapping[str, FloatArray],
                       command_deg: FloatArray, dynamic_pressure_pa: float

@@ -1,8 +1,10 @@
 """``mapr catalog export --what bits|events|episodes``: catalog tables as JSON lines or CSV.
 
-JSON lines keep every record whole (one object per line, nested ``wear``, ``conditions``
-and ``modes`` as they are). CSV is flat, one value per cell, for a spreadsheet: a BIT's
-``wear`` becomes one ``wear_<kind>`` column per aging kind, its flight condition one
+JSON lines keep every record whole (one object per line, nested ``wear``, ``wear_source``,
+``conditions`` and ``modes`` as they are). CSV is flat, one value per cell, for a spreadsheet:
+a BIT's ``wear`` becomes one ``wear_<kind>`` column per aging kind and which path read it one
+``source_<kind>`` column (``estimator`` or ``baseline:<record digest>``; empty for a BIT
+stored before the catalog kept it), its flight condition one
 ``condition_<name>`` column per figure and its per-mode health one ``mode_<kind>_<figure>``
 column per kind and figure (``mode_esr_rul``, ``mode_esr_h``...); an episode's modes are
 joined with ``+``. The columns are the union over the rows exported, so every row has the
@@ -61,6 +63,8 @@ def flat_bit(r: BitRecord) -> dict[str, Any]:
         "interval": h.interval, "note": h.note}
     for kind, value in r.wear.items():
         row[f"wear_{kind}"] = value
+    for kind, source in r.wear_source.items():
+        row[f"source_{kind}"] = _source_cell(source)
     for name, value in r.conditions.items():
         row[f"condition_{name}"] = value
     for kind, figures in h.modes.items():
@@ -69,6 +73,12 @@ def flat_bit(r: BitRecord) -> dict[str, Any]:
                 if not isinstance(value, (dict, list)):
                     row[f"mode_{kind}_{key}"] = value
     return row
+
+
+def _source_cell(source: Mapping[str, Any]) -> str:
+    """A stored wear source as one word: ``estimator`` or ``baseline:<record digest>``."""
+    path = str(source.get("path", ""))
+    return f"{path}:{source.get('record') or '?'}" if path == "baseline" else path
 
 
 def flat_episode(ep: Episode) -> dict[str, Any]:

@@ -108,6 +108,11 @@ def test_each_tails_bits_are_trended_in_flight_order_and_a_rerun_adds_nothing(
     # each BIT's flight condition, as read from its record, is kept for the trend
     assert all(set(c) == {"dynamic_pressure_pa", "supply_v", "ambient_c"} for c in stored)
     assert all(20.0 < c["supply_v"] < 32.0 and -60.0 < c["ambient_c"] < 90.0 for c in stored)
+    with sqlite3.connect(f"file:{catalog}?mode=ro", uri=True) as conn:
+        read = [(json.loads(w), json.loads(s)) for w, s in conn.execute(
+            "SELECT wear, wear_source FROM bits")]
+    # and which path read each kind's wear (no commissioned asset: the estimators)
+    assert all(w and s == {k: {"path": "estimator"} for k in w} for w, s in read)
 
     again = run(dask_client, [aging_source], catalog, fleet_dictionary, fleet_model)
     assert (again.stored, again.skipped) == (0, 2 * FLIGHTS)

@@ -13,7 +13,7 @@ import pytest
 
 from mapr_daemon.errors import ConfigError
 from mapr_daemon.findings import Diagnosis
-from mapr_daemon.reasoner.commissioning.baseline import Baseline
+from mapr_daemon.reasoner.commissioning.baseline import Baseline, record_digest
 from mapr_daemon.reasoner.commissioning.bits import from_runs
 from mapr_daemon.reasoner.commissioning.discrepancy import Discrepancy
 from mapr_daemon.reasoner.commissioning.wear import BaselineWear, fault_at, measure
@@ -83,6 +83,7 @@ def test_an_asset_without_a_baseline_keeps_the_estimators_exactly(
             assert out.wear == model.estimates(bench.dictionary, m,
                                                float(worn.dynamic_pressure_pa[i]))
             assert "wear_against_baseline" not in out.evidence
+            assert out.wear_source == {k: {"path": "estimator"} for k in out.wear}
 
 
 def test_a_commissioned_assets_bits_carry_baseline_read_wear_with_the_measured_sd(
@@ -98,6 +99,11 @@ def test_a_commissioned_assets_bits_carry_baseline_read_wear_with_the_measured_s
                                            float(worn.dynamic_pressure_pa[i]))
         noise = baseline.wear.kinds[kind]
         assert out.wear[kind] - noise.offset == pytest.approx(h, abs=0.15)
+        # the catalog keeps which record read it, and the offset and sd it is weighed by
+        assert out.wear_source is not None and set(out.wear_source) == set(out.wear)
+        assert out.wear_source[kind] == {
+            "path": "baseline", "record": record_digest(with_wear / "commissioning.json"),
+            "offset": noise.offset, "sd0": noise.sd0, "sd1": noise.sd1}
     # a healthy BIT the baseline did not see reads near the offset, within its measured sd
     healthy = bench.runs.n - len(HELD_OUT)   # HELD_OUT's first run is healthy
     out = _diagnose(bench.runs, healthy, r)
@@ -200,3 +206,36 @@ def test_a_baseline_read_kind_is_trended_without_the_estimators_fleet_offset(
     without = rul(plain), rul(own)
     assert with_fleet[1] == without[1]        # the unit's own offset only
     assert with_fleet[0] != without[0]        # the estimators keep the fleet's
+
+
+def test_commissioning_holds_each_bit_out_once_for_the_detector_and_the_wear_reading(
+        bench: Bench, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """`mapr commission` reads every commissioning BIT against the discrepancy relearned
+    without it for the detector and again for the wear reading's scatter: the relearned
+    discrepancies are made once (its slow part), and both steps still land in the record."""
+    from mapr_daemon.reasoner.commissioning import detector, discrepancy, wear, workflow
+    from mapr_daemon.reasoner.commissioning.prior import load_tolerances
+
+    calls: list[int] = []
+    made = discrepancy.held_out_discrepancies
+
+    def counted(*args: object) -> list[Discrepancy]:
+        calls.append(1)
+        return made(*args)  # type: ignore[arg-type]
+
+    for module in (discrepancy, detector, wear):
+        monkeypatch.setattr(module, "held_out_discrepancies", counted)
+    (tmp_path / "tol.yaml").write_text("format: mapr-tolerances/1\nparameters:\n"
+                                       "  motor.back_emf_v_s_per_rad: 5\n")
+    own = bench.runs.n - len(HELD_OUT)
+    healthy = [i for i in range(own) if bench.runs.labels[i] == "healthy"][:5]
+    said: list[str] = []
+    done = workflow.commission(bench.params, "sheet.yaml", from_runs(bench.runs, "bench",
+                                                                     healthy),
+                               load_tolerances(tmp_path / "tol.yaml", bench.params),
+                               tmp_path / "unit", None, said.append)
+    assert len(done.identification.bits) == 5
+    assert len(calls) == 1
+    assert done.record.detector is not None and done.record.wear is not None
+    assert any(line.startswith("anomaly detector calibrated on 5") for line in said)
+    assert any(line.startswith("wear read against the baseline on 5") for line in said)

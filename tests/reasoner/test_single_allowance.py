@@ -192,13 +192,14 @@ def test_mapr_commission_keeps_the_allowance_only_when_asked(bench: Bench,
     own = bench.runs.n - len(HELD_OUT)
     healthy = [i for i in range(own) if bench.runs.labels[i] == "healthy"][:6]
     bits = from_runs(bench.runs, "bench", healthy)
-    learn_unit(bench.params, bits, 10).save(tmp_path / "discrepancy.npz")
+    disc = learn_unit(bench.params, bits, 10)
     ident = types.SimpleNamespace(params=bench.params, bits=bits)
     said: list[str] = []
-    off = unit_detector(ident, bench.params, bits, tmp_path / "discrepancy.npz",  # type: ignore[arg-type]
+    off = unit_detector(ident, bench.params, bits, disc, None,  # type: ignore[arg-type]
                         said.append)
-    on = unit_detector(ident, bench.params, bits, tmp_path / "discrepancy.npz",  # type: ignore[arg-type]
-                       said.append, allowance=True)
+    on = unit_detector(ident, bench.params, bits, disc,  # type: ignore[arg-type]
+                       held_out_discrepancies(disc, bench.params, bits), said.append,
+                       allowance=True)
     assert off is not None and "single_allowance" not in off
     assert on is not None and on["single_allowance"]["healthy"] > 0
     assert Detector.from_json(off).allowance is None

@@ -20,6 +20,7 @@ what the trend is fitted on instead of the prognostic model's estimators.
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -54,6 +55,11 @@ class Baseline:
     wear: BaselineWear | None = None
     """The measured noise of each kind's wear read against the baseline; None: the
     prognostic model's estimators read the unit's wear."""
+    record: str = ""
+    """The record's identity: the first 16 hex digits of the SHA-256 of its
+    ``commissioning.json`` (:func:`record_digest`). Each BIT's wear read against this baseline
+    names it (:mod:`~mapr_daemon.reasoner.prognosis.wear_paths`), so readings against an
+    older commissioning of the same unit are told apart."""
 
     @classmethod
     def load(cls, folder: str | Path) -> Baseline:
@@ -73,7 +79,7 @@ class Baseline:
             record.detector, str(d / RECORD_FILE))
         wear = None if record.wear is None else BaselineWear.from_json(
             record.wear, str(d / RECORD_FILE))
-        return cls(params, datasheet, disc, detector, wear)
+        return cls(params, datasheet, disc, detector, wear, record_digest(d / RECORD_FILE))
 
     def read(self, channels: dict[str, FloatArray], command_deg: FloatArray,
              dynamic_pressure_pa: float, pairs: int = TOP) -> Reading | str:
@@ -127,3 +133,9 @@ class Baseline:
                                           round(p.severity_second, 4)],
                            "cost": round(p.cost, 4)}
         return out
+
+
+def record_digest(path: str | Path) -> str:
+    """A commissioning record's identity: the first 16 hex digits of its file's SHA-256
+    (64 bits: two records of one unit never meet by chance)."""
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()[:16]

@@ -354,14 +354,17 @@ def single_allowance(params: ActuatorParams, datasheet: ActuatorParams,
 
 def calibrate(params: ActuatorParams, datasheet: ActuatorParams, disc: Discrepancy,
               bits: Sequence[BitRecord], alpha: float = ALPHA,
-              allowance: bool = True) -> Detector:
+              allowance: bool = True, held_out: Sequence[Discrepancy] | None = None
+              ) -> Detector:
     """The unit's detector from its commissioning ``bits`` (module docstring), with its
     single-fault allowance unless ``allowance`` is False; :class:`ConfigError` with fewer
-    than :data:`MIN_HELD_OUT` + 0 usable BITs."""
+    than :data:`MIN_HELD_OUT` + 0 usable BITs. ``held_out``: ``disc`` relearned without each
+    BIT (:func:`~.discrepancy.held_out_discrepancies`), when the caller has made them
+    already (the wear reading's scatter is measured on the same ones)."""
     if len(bits) < MIN_HELD_OUT:
         raise ConfigError(f"{len(bits)} BITs: the detector's tail needs at least "
                           f"{MIN_HELD_OUT}", field="bits")
-    discs = held_out_discrepancies(disc, params, bits)
+    discs = held_out_discrepancies(disc, params, bits) if held_out is None else held_out
     readings = held_out_readings(params, datasheet, disc, bits, discs)
     values = {k: tuple(statistics(r)[k] for r in readings) for k in STATISTICS}
     try:

@@ -230,14 +230,16 @@ def growth(curves: FloatArray, sd0: float) -> float:
 
 
 def measure(params: ActuatorParams, disc: Discrepancy, bits: Sequence[BitRecord],
-            kinds: Sequence[str] = KINDS) -> BaselineWear:
+            kinds: Sequence[str] = KINDS, held_out: Sequence[Discrepancy] | None = None
+            ) -> BaselineWear:
     """Each kind's offset and sd from ``bits`` (those ``disc`` was learned on), each read
-    against the discrepancy learned without it; :class:`ConfigError` with fewer than
-    :data:`MIN_HELD_OUT` BITs."""
+    against the discrepancy learned without it (``held_out``, when the caller has made them
+    already: the detector is calibrated on the same ones); :class:`ConfigError` with fewer
+    than :data:`MIN_HELD_OUT` BITs."""
     if len(bits) < MIN_HELD_OUT:
         raise ConfigError(f"{len(bits)} BITs: measuring the wear reading's scatter needs at "
                           f"least {MIN_HELD_OUT}", field="bits")
-    discs = held_out_discrepancies(disc, params, bits)
+    discs = held_out_discrepancies(disc, params, bits) if held_out is None else held_out
     curves = np.stack([cost_grid(params, d, b, kinds) for d, b in zip(discs, bits,
                                                                      strict=True)])
     out = {}

@@ -15,7 +15,8 @@ discrepancy, the unit's own anomaly detector is calibrated on the same BITs read
 0.7-0.8 s CPU each) and kept in the record, and so is the measured noise of each aging
 kind's wear read against the baseline on the same BITs held out
 (:mod:`~mapr_daemon.reasoner.commissioning.wear`, about 0.5 s CPU per BIT): what the trend
-of a commissioned asset is fitted on.
+of a commissioned asset is fitted on. Both read each BIT against the discrepancy relearned
+without it; those are made once (:func:`held_out_discrepancies`) and handed to both.
 """
 
 from __future__ import annotations
@@ -150,9 +151,13 @@ def commission(params: ActuatorParams, datasheet: str, records: Sequence[BitReco
             "values are its last iterate (the record says converged: false); commission again "
             "from more BITs or check them")
     discrepancy, disc_summary = learn_discrepancy(ident, records, out, say)
-    detector = None if discrepancy is None else unit_detector(
-        ident, params, records, out / discrepancy, say, single_allowance)
-    wear = None if discrepancy is None else unit_wear(ident, records, out / discrepancy, say)
+    detector = wear = None
+    if discrepancy is not None:
+        bits = [r for r in records if (r.source, r.index) in used]
+        disc = dsc.Discrepancy.load(out / discrepancy)
+        held_out = held_out_discrepancies(ident, bits, disc)
+        detector = unit_detector(ident, params, bits, disc, held_out, say, single_allowance)
+        wear = unit_wear(ident, bits, disc, held_out, say)
     dictionary = calibration = None
     if spec is not None:
         dictionary, calibration = unit_dictionary(
@@ -184,17 +189,31 @@ def learn_discrepancy(ident: Identification, records: Sequence[BitRecord], out: 
     return DISCREPANCY_FILE, {"file": DISCREPANCY_FILE, **summary}
 
 
-def unit_detector(ident: Identification, datasheet: ActuatorParams,
-                  records: Sequence[BitRecord], discrepancy: Path, say: Say,
-                  allowance: bool = False) -> dict[str, Any] | None:
-    """The unit's anomaly detector (:func:`~.detector.calibrate`) on the BITs the
-    identification used, each read against the discrepancy ``discrepancy`` relearned without
-    it; what the record keeps, or None (said in one line) when there are too few BITs."""
-    used = {(b.source, b.index) for b in ident.bits}
-    bits = [r for r in records if (r.source, r.index) in used]
+def held_out_discrepancies(ident: Identification, bits: Sequence[BitRecord],
+                           disc: dsc.Discrepancy) -> list[dsc.Discrepancy] | None:
+    """``disc`` relearned without each of ``bits`` (those the identification used,
+    :func:`~.discrepancy.held_out_discrepancies`), made once for the detector and the wear
+    reading, which both read every commissioning BIT against the baseline that has not seen
+    it; None when there are too few BITs to hold one out (each step then says so)."""
+    if len(bits) < max(det.MIN_HELD_OUT, baseline_wear.MIN_HELD_OUT):
+        return None
     try:
-        d = det.calibrate(ident.params, datasheet, dsc.Discrepancy.load(discrepancy), bits,
-                          allowance=allowance)
+        return dsc.held_out_discrepancies(disc, ident.params, bits)
+    except ConfigError:
+        return None
+
+
+def unit_detector(ident: Identification, datasheet: ActuatorParams,
+                  bits: Sequence[BitRecord], disc: dsc.Discrepancy,
+                  held_out: Sequence[dsc.Discrepancy] | None, say: Say,
+                  allowance: bool = False) -> dict[str, Any] | None:
+    """The unit's anomaly detector (:func:`~.detector.calibrate`) on ``bits`` (those the
+    identification used), each read against ``disc`` relearned without it (``held_out``,
+    None: made here); what the record keeps, or None (said in one line) when there are too
+    few BITs."""
+    try:
+        d = det.calibrate(ident.params, datasheet, disc, bits, allowance=allowance,
+                          held_out=held_out)
     except ConfigError as error:
         say(f"no anomaly detector on the baseline: {error.detail}")
         return None
@@ -205,16 +224,14 @@ def unit_detector(ident: Identification, datasheet: ActuatorParams,
     return d.to_json()
 
 
-def unit_wear(ident: Identification, records: Sequence[BitRecord], discrepancy: Path, say: Say
-              ) -> dict[str, Any] | None:
-    """Each aging kind's wear reading against the baseline, its offset and sd measured on the
-    BITs the identification used, each read against the discrepancy ``discrepancy`` relearned
-    without it (:func:`~.wear.measure`); what the record keeps, or None (said in one line)
-    when there are too few BITs."""
-    used = {(b.source, b.index) for b in ident.bits}
-    bits = [r for r in records if (r.source, r.index) in used]
+def unit_wear(ident: Identification, bits: Sequence[BitRecord], disc: dsc.Discrepancy,
+              held_out: Sequence[dsc.Discrepancy] | None, say: Say) -> dict[str, Any] | None:
+    """Each aging kind's wear reading against the baseline, its offset and sd measured on
+    ``bits`` (those the identification used), each read against ``disc`` relearned without it
+    (``held_out``, None: made here; :func:`~.wear.measure`); what the record keeps, or None
+    (said in one line) when there are too few BITs."""
     try:
-        w = baseline_wear.measure(ident.params, dsc.Discrepancy.load(discrepancy), bits)
+        w = baseline_wear.measure(ident.params, disc, bits, held_out=held_out)
     except ConfigError as error:
         say(f"no wear reading on the baseline: {error.detail}")
         return None

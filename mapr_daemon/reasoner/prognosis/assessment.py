@@ -62,6 +62,7 @@ from mapr_daemon.reasoner.diagnosis.parts import PART_OF
 from mapr_daemon.reasoner.prognosis import fusion, trend
 from mapr_daemon.reasoner.prognosis.rul import RulEstimate
 from mapr_daemon.reasoner.prognosis.wear_noise import scaled_rows
+from mapr_daemon.reasoner.prognosis.wear_paths import PathNoise, Source
 
 if TYPE_CHECKING:
     from mapr_daemon.reasoner.prognosis.prognostic_model import PrognosticModel
@@ -99,8 +100,8 @@ def assess(model: PrognosticModel, flights: Sequence[float],
            estimates: Sequence[Mapping[str, float]], diagnosed: str | None = None,
            seed: int = 0, conditions: Sequence[Mapping[str, float] | None] = (),
            also: Sequence[str] = (),
-           inflight: Mapping[str, Sequence[tuple[float, ...]]] | None = None
-           ) -> Health:
+           inflight: Mapping[str, Sequence[tuple[float, ...]]] | None = None,
+           sources: Sequence[Mapping[str, Source] | None] = ()) -> Health:
     """Health after the last BIT of ``flights``/``estimates`` (oldest first); ``diagnosed``
     is the classifier's fault at that BIT (None when nominal), ``also`` the other fault of a
     compound diagnosis; ``conditions``: each BIT's
@@ -109,7 +110,9 @@ def assess(model: PrognosticModel, flights: Sequence[float],
     missing or None
     where not stored); ``inflight``: per kind the flights' in-flight observations
     ``(flight, h, sd)`` or ``(flight, h, sd_flight, sd_baseline)`` the RUL fuses with the
-    BITs (:mod:`.fusion`)."""
+    BITs (:mod:`.fusion`); ``sources``: per BIT, which path read each kind's estimate
+    (:mod:`.wear_paths`; missing or None: the path ``model`` has now), by whose noise and
+    offset it is weighed."""
     if diagnosed in TERMINAL:
         return Health(0.0, diagnosed, 0.0, 0.0, 0.0, note="terminal fault: the part has failed")
     if not flights:
@@ -122,14 +125,16 @@ def assess(model: PrognosticModel, flights: Sequence[float],
     modes: dict[str, dict[str, Any]] = {}
     candidates: list[tuple[float, float, str, RulEstimate | None]] = []
     readings: dict[str, tuple[float, float, FloatArray, FloatArray]] = {}
+    paths: dict[str, PathNoise] = {}
+    per_bit = [sources[i] if i < len(sources) else None for i in range(fl.size)]
     for kind in model.kinds:
         est = np.array([e.get(kind, math.nan) for e in estimates], dtype=np.float64)
         keep = np.isfinite(est)
         if keep.any():
-            h, z = _reading(model.noise[kind], est[keep], cond[keep])
+            paths[kind] = model.path_noise(kind, per_bit).take(keep)
+            h, z = _reading(paths[kind], est[keep], cond[keep])
             readings[kind] = (h, z, est, keep)
     for kind, (h, z, est, keep) in readings.items():
-        noise = model.noise[kind]
         obs = (inflight or {}).get(kind, ())
         evidenced = kind == diagnosed or z > _bar(kind, diagnosed, readings)
         row: dict[str, Any] = {"h": round(h, 4), "z": round(z, 2), "evidenced": evidenced}
@@ -139,12 +144,11 @@ def assess(model: PrognosticModel, flights: Sequence[float],
             row.update(rul=0.0, low=0.0, high=0.0)
         elif np.unique(np.concatenate((fl[keep], [o[0] for o in obs]))).size >= 3:
             aged = [(max(o[0] - FIRST_FLIGHT, 0.0), *o[1:]) for o in obs]
-            # a kind read against the unit's baseline: its offset is the unit's, measured
-            own = 0.0 if kind in model.own_offset else None
-            rul = fusion.fit_rul_fused(age[keep], est[keep], now - FIRST_FLIGHT, kind, noise,
-                                       model.priors.get(kind), aged, seed=seed,
-                                       horizon=horizon(model, kind), conditions=cond[keep],
-                                       offset_sd=own, offset_mean=own)
+            # a reading against the unit's baseline: its offset is the unit's, measured
+            # (its path takes no fleet offset, PathNoise.own)
+            rul = fusion.fit_rul_fused(age[keep], est[keep], now - FIRST_FLIGHT, kind,
+                                       paths[kind], model.priors.get(kind), aged, seed=seed,
+                                       horizon=horizon(model, kind), conditions=cond[keep])
             row.update(rul=_finite(rul.rul), low=_finite(rul.lower), high=_finite(rul.upper))
             share = trend.prior_share(model.priors.get(kind), kind, now - FIRST_FLIGHT, rul)
             if not math.isnan(share):
@@ -196,11 +200,13 @@ def _leans_on_prior(model: PrognosticModel, kind: str, row: Mapping[str, Any]) -
             "assets[].expected_life_flights for the fleet, or wait for more BITs)")
 
 
-def _reading(noise: trend.Noise, est: FloatArray, cond: FloatArray) -> tuple[float, float]:
+def _reading(paths: PathNoise, est: FloatArray, cond: FloatArray) -> tuple[float, float]:
     """``(h, z)`` of one kind: the inverse-variance weighted mean of its last :data:`RECENT`
-    readings, and that mean in standard errors above healthy."""
-    recent = noise.calibrate(est[-RECENT:], cond[-RECENT:])
-    sd = noise.h_sd(np.full(recent.size, max(float(np.mean(recent)), 0.0)), cond[-RECENT:])
+    readings (each calibrated and weighed by its path's noise), and that mean in standard
+    errors above healthy."""
+    last = paths.take(slice(-RECENT, None))
+    recent = last.calibrate(est[-RECENT:], cond[-RECENT:])
+    sd = last.h_sd(np.full(recent.size, max(float(np.mean(recent)), 0.0)), cond[-RECENT:])
     w = 1.0 / np.maximum(sd, 1e-9) ** 2   # a BIT flown where it reads poorly weighs little
     h = float(np.sum(w * recent) / np.sum(w))
     se = float(1.0 / np.sqrt(np.sum(w)))

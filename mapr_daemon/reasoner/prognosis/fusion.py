@@ -61,6 +61,7 @@ from mapr_daemon.arrays import FloatArray
 from mapr_daemon.ema.degradation import FAILURE
 from mapr_daemon.reasoner.prognosis import trend
 from mapr_daemon.reasoner.prognosis.rul import RulEstimate, quantiles
+from mapr_daemon.reasoner.prognosis.wear_paths import PathNoise
 
 RATIO: tuple[str, ...] = ("friction",)
 """In-flight parameters whose change is a ratio to the unit's baseline (the rest: a
@@ -129,7 +130,7 @@ def placed(kind: str, inflight: Sequence[Observation], z: float, sd_beta: float
 
 
 def fit_rul_fused(flights: FloatArray, h_est: FloatArray, now: float, kind: str,
-                  noise: trend.Noise, prior: trend.ShapePrior | None,
+                  noise: trend.Noise | PathNoise, prior: trend.ShapePrior | None,
                   inflight: Sequence[Observation], n_draws: int = 2000,
                   seed: int = 0, horizon: float = 2000.0,
                   conditions: FloatArray | None = None, offset_sd: float | None = None,
@@ -138,8 +139,8 @@ def fit_rul_fused(flights: FloatArray, h_est: FloatArray, now: float, kind: str,
     observations of the same kind (:data:`Observation`), the baseline's common error
     marginalised (:data:`STRATA`); with no in-flight observation, or a baseline too
     uncertain to place them (:data:`MAX_SD_BETA`), it is :func:`~.trend.fit_rul` itself.
-    ``offset_sd``/``offset_mean``: the BITs' unit offset prior, as :func:`~.trend.fit_rul`
-    takes it."""
+    ``noise`` and ``offset_sd``/``offset_mean``: the BITs' noise (one, or each BIT's path's)
+    and unit offset prior, as :func:`~.trend.fit_rul` takes them."""
     sd_beta = scale_sd(kind, inflight) if inflight else 0.0
     if not inflight or sd_beta > MAX_SD_BETA:
         return trend.fit_rul(flights, h_est, now, kind, noise, prior, n_draws, seed, horizon,

@@ -30,7 +30,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -40,7 +40,7 @@ from mapr_daemon.arrays import FloatArray
 from mapr_daemon.errors import ConfigError
 from mapr_daemon.reasoner.diagnosis import healthy_model
 from mapr_daemon.reasoner.diagnosis.dictionary import Dictionary
-from mapr_daemon.reasoner.prognosis import trend, wear_estimators, wear_noise
+from mapr_daemon.reasoner.prognosis import trend, wear_estimators, wear_noise, wear_paths
 
 FORMAT = "mapr-prognosis/2"
 AGING_KINDS: tuple[str, ...] = tuple(sorted(trend.SHAPES))
@@ -69,6 +69,10 @@ class PrognosticModel:
     offset is the unit's, measured and subtracted, so the trend puts no fleet unit offset
     on them (:data:`~.trend.UNIT_OFFSET_MEAN` and :data:`~.trend.UNIT_OFFSET_SD` are the
     estimators')."""
+    estimators_noise: dict[str, trend.Noise] = dataclasses.field(default_factory=dict)
+    """The estimators' own noise of each kind :attr:`noise` holds the baseline's for
+    (:meth:`against_baseline`): what a reading of that kind by the estimators is weighed by
+    (a BIT flown before the unit was commissioned, :mod:`.wear_paths`)."""
 
     @property
     def kinds(self) -> tuple[str, ...]:
@@ -136,7 +140,22 @@ class PrognosticModel:
         (:attr:`own_offset`). The fleet priors are unchanged."""
         mine = {k: n for k, n in noise.items() if k in self.noise}
         return dataclasses.replace(self, noise={**self.noise, **mine},
-                                   own_offset=self.own_offset | frozenset(mine))
+                                   own_offset=self.own_offset | frozenset(mine),
+                                   estimators_noise={**{k: self.noise[k] for k in mine},
+                                                     **self.estimators_noise})
+
+    def estimator_noise(self, kind: str) -> trend.Noise:
+        """The noise a reading of ``kind`` by the estimators is weighed by (the estimators'
+        own, also where this unit's readings are the baseline's)."""
+        return self.estimators_noise.get(kind, self.noise[kind])
+
+    def path_noise(self, kind: str, sources: Sequence[Mapping[str, wear_paths.Source] | None]
+                   ) -> wear_paths.PathNoise:
+        """Each BIT's reading of ``kind`` with the noise of the path that read it, from the
+        BITs' stored ``sources`` (:func:`~.wear_paths.for_kind`): the estimators', a
+        baseline's, or (unknown) this model's path now."""
+        return wear_paths.for_kind(kind, sources, self.estimator_noise(kind), self.noise[kind],
+                                   kind in self.own_offset)
 
     # --- persistence -----------------------------------------------------------------------
     def save(self, path: str | Path) -> None:

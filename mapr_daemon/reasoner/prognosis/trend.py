@@ -50,6 +50,7 @@ from mapr_daemon.ema.degradation import FAILURE
 from mapr_daemon.errors import ConfigError
 from mapr_daemon.reasoner.prognosis.rul import RulEstimate, quantiles
 from mapr_daemon.reasoner.prognosis.wear_noise import Noise as Noise
+from mapr_daemon.reasoner.prognosis.wear_paths import PathNoise
 
 SHAPES: dict[str, str] = {
     "capacitance": "exponential", "smps_ron_high": "exponential",
@@ -411,21 +412,23 @@ def _whiten(x: FloatArray, rho: float, chain: int | None = None) -> FloatArray:
     return out
 
 
-def _offset_column(n_obs: int, s: FloatArray, rho: float, chain: int | None) -> FloatArray:
+def _offset_column(n_obs: int, s: FloatArray, rho: float, chain: int | None,
+                   on: FloatArray | None = None) -> FloatArray:
     """The unit offset's column in the whitened least squares: 1 on every BIT of the chain
-    (the BIT estimator's bias), 0 on the extra observations (another estimator's), weighted
+    (the BIT estimator's bias; ``on``: only where it is 1, the BITs read by a path that
+    takes the fleet's offset), 0 on the extra observations (another estimator's), weighted
     and whitened as the residuals are."""
     k = n_obs if chain is None else min(chain, n_obs)
     ones = np.zeros(n_obs)
-    ones[:k] = 1.0
+    ones[:k] = 1.0 if on is None else np.asarray(on, dtype=np.float64)[:k]
     out: FloatArray = _whiten(ones * s, rho, chain)
     return out
 
 
 def _joint_draws(shape: str, n: FloatArray, y: FloatArray, w: FloatArray, prior: ShapePrior,
                  n_draws: int, rng: np.random.Generator, rho: float = 0.0,
-                 chain: int | None = None, offset_sd: float = 0.0
-                 ) -> tuple[FloatArray, FloatArray]:
+                 chain: int | None = None, offset_sd: float = 0.0,
+                 offset_on: FloatArray | None = None) -> tuple[FloatArray, FloatArray]:
     """Draws of ``(theta, A)`` from the posterior on the ``(theta, life)`` grid, where the
     amplitude is the one that puts ``h = 1`` at the life: ``A = 1/g_theta(life)``; the
     errors AR(1) with ``rho`` per successive BIT; the BITs' unit offset ``c ~ N(0,
@@ -438,7 +441,7 @@ def _joint_draws(shape: str, n: FloatArray, y: FloatArray, w: FloatArray, prior:
     sgg, sgy, syy = (g * g).sum(axis=1), g @ yw, float(yw @ yw)
     loglik = -0.5 * (syy - 2.0 * amp * sgy[:, None] + amp * amp * sgg[:, None])
     if offset_sd > 0.0:
-        o = _offset_column(y.size, s, rho, chain)
+        o = _offset_column(y.size, s, rho, chain, offset_on)
         soo = float(o @ o) + 1.0 / offset_sd ** 2
         proj = float(o @ yw) - amp * (g @ o)[:, None]   # o . (y - A g), whitened
         loglik = loglik + 0.5 * proj * proj / soo
@@ -458,7 +461,8 @@ def _joint_draws(shape: str, n: FloatArray, y: FloatArray, w: FloatArray, prior:
 
 def _grid_fit(shape: str, n: FloatArray, y: FloatArray, w: FloatArray,
               fixed_amp: float | None, rho: float = 0.0, chain: int | None = None,
-              offset_sd: float = 0.0) -> tuple[tuple[FloatArray, FloatArray], FloatArray]:
+              offset_sd: float = 0.0, offset_on: FloatArray | None = None
+              ) -> tuple[tuple[FloatArray, FloatArray], FloatArray]:
     """Per grid value: the amplitude's mean and precision, and the log marginal likelihood
     (weighted least squares, the errors AR(1) with ``rho`` per successive BIT; with
     ``offset_sd`` > 0 the BITs' unit offset ``c ~ N(0, offset_sd**2)`` is a second linear
@@ -468,7 +472,7 @@ def _grid_fit(shape: str, n: FloatArray, y: FloatArray, w: FloatArray,
     ok = np.isfinite(g).all(axis=1)
     g = np.where(np.isfinite(g), g, 0.0)
     s = np.sqrt(w)
-    o = _offset_column(y.size, s, rho, chain) if offset_sd > 0.0 else None
+    o = _offset_column(y.size, s, rho, chain, offset_on) if offset_sd > 0.0 else None
     soo = 0.0 if o is None else float(o @ o) + 1.0 / offset_sd ** 2
     if fixed_amp is not None:
         r = _whiten((y[None, :] - fixed_amp * g) * s, rho, chain)
@@ -497,15 +501,17 @@ def _grid_fit(shape: str, n: FloatArray, y: FloatArray, w: FloatArray,
 
 def _posterior_draws(shape: str, n: FloatArray, y: FloatArray, w: FloatArray,
                      prior: ShapePrior | None, fixed: float | None, n_draws: int,
-                     rng: np.random.Generator, rho: float, chain: int, offset_sd: float
-                     ) -> tuple[FloatArray, FloatArray]:
+                     rng: np.random.Generator, rho: float, chain: int, offset_sd: float,
+                     offset_on: FloatArray | None = None) -> tuple[FloatArray, FloatArray]:
     """Draws of ``(theta, A)`` given the observations' weights ``w``: on the joint
     ``(theta, life)`` grid where the prior holds a life (:func:`_joint_draws`), else on the
     shape's grid with the amplitude linear-Gaussian (or ``fixed``)."""
     if prior is not None and fixed is None and prior.life_sd > 0.0:
-        return _joint_draws(shape, n, y, w, prior, n_draws, rng, rho, chain, offset_sd)
+        return _joint_draws(shape, n, y, w, prior, n_draws, rng, rho, chain, offset_sd,
+                            offset_on)
     theta = _GRIDS[shape]
-    (amp, precision), loglik = _grid_fit(shape, n, y, w, fixed, rho, chain, offset_sd)
+    (amp, precision), loglik = _grid_fit(shape, n, y, w, fixed, rho, chain, offset_sd,
+                                         offset_on)
     if prior is not None:
         loglik = loglik + prior.logpdf(theta)
     post = np.exp(loglik - loglik.max())
@@ -522,7 +528,8 @@ def _posterior_draws(shape: str, n: FloatArray, y: FloatArray, w: FloatArray,
     return th, a
 
 
-def fit_rul(flights: FloatArray, h_est: FloatArray, now: float, kind: str, noise: Noise,
+def fit_rul(flights: FloatArray, h_est: FloatArray, now: float, kind: str,
+            noise: Noise | PathNoise,
             prior: ShapePrior | None = None, n_draws: int = 2000, seed: int = 0,
             horizon: float = 2000.0, conditions: FloatArray | None = None,
             rho: float | None = None,
@@ -539,7 +546,11 @@ def fit_rul(flights: FloatArray, h_est: FloatArray, now: float, kind: str, noise
     persistent unit offset ``c`` (None: the kind's :data:`UNIT_OFFSET_MEAN` and
     :data:`UNIT_OFFSET_SD`; sd 0: ``c`` fixed at the mean). A BIT's sd is read at the
     degradation the trend's own path puts it at, not at its reading, and times
-    :func:`flight_noise_factor` (the kind's flights' excess scatter)."""
+    :func:`flight_noise_factor` (the kind's flights' excess scatter). ``noise``: one for
+    every BIT, or each BIT's path's (:class:`~.wear_paths.PathNoise`: a unit commissioned
+    after it had flown has readings of both paths); the unit offset is then on the BITs of
+    the paths that take the fleet's (not on those read against the unit's own baseline),
+    one ``c`` for all of them (one chain of errors: the BITs in their order)."""
     if kind not in SHAPES:
         raise ConfigError(f"no aging shape for {kind!r}", field="kind")
     shape = SHAPES[kind]
@@ -551,26 +562,29 @@ def fit_rul(flights: FloatArray, h_est: FloatArray, now: float, kind: str, noise
     if np.unique(np.concatenate((n_all, xn))).size < 3 or (extra is None and n_all.size < 3):
         raise ConfigError("need at least three BITs (or flights observed) to trend",
                           field="flights")
-    cens = noise.censored(est) if est.size else np.zeros(0, dtype=bool)
+    paths = noise if isinstance(noise, PathNoise) else PathNoise.one(noise, est.size)
+    cens = paths.censored(est) if est.size else np.zeros(0, dtype=bool)
     if (~cens).sum() + xn.size < 2:  # nothing above the dead zone yet: no degradation to trend
         return RulEstimate(math.inf, math.inf, math.inf, np.full(n_draws, math.inf),
                            horizon=horizon)
+    kept = paths.take(~cens)
+    on = kept.fleet_offset   # 1 on the BITs whose path takes the fleet's unit offset
     c = None if conditions is None else np.asarray(conditions, dtype=np.float64)[~cens]
     mu_c = UNIT_OFFSET_MEAN.get(kind, 0.0) if offset_mean is None else offset_mean
-    y_bit = noise.calibrate(est[~cens], c) - mu_c if (~cens).any() else np.zeros(0)
+    y_bit = kept.calibrate(est[~cens], c) - mu_c * on if (~cens).any() else np.zeros(0)
     chain = y_bit.size   # the BITs' AR(1) chain comes first, the extra observations after
     n = np.concatenate((n_all[~cens], xn))
     y = np.concatenate((y_bit, xh))
     r1 = SERIAL_RHO if rho is None else rho
     fixed = FIXED_AMPLITUDE.get(kind)
     sd_c = UNIT_OFFSET_SD.get(kind, 0.0) if offset_sd is None else offset_sd
-    if chain == 0:
+    if chain == 0 or not on.any():
         sd_c = 0.0   # no BIT to carry the offset
 
     def weights(level: FloatArray) -> FloatArray:
         """Inverse variances of the observations, each read at degradation ``level``."""
         bit = level[:chain]
-        var = np.concatenate(((noise.h_sd(bit, c) * flight_noise_factor(kind, bit)) ** 2
+        var = np.concatenate(((kept.h_sd(bit, c) * flight_noise_factor(kind, bit)) ** 2
                               if chain else np.zeros(0), xsd ** 2))
         if prior is not None:
             var = var + prior.scatter(level) ** 2
@@ -582,7 +596,7 @@ def fit_rul(flights: FloatArray, h_est: FloatArray, now: float, kind: str, noise
         the generator they were drawn from."""
         gen = np.random.default_rng(seed)
         return (*_posterior_draws(shape, n, y, w, prior, fixed, n_draws, gen, r1, chain,
-                                  sd_c), gen)
+                                  sd_c, on), gen)
 
     # The noise grows with the degradation (friction's sd nearly doubles from new to the
     # threshold), so the sd of a reading is the sd at the unit's TRUE degradation, not at the
@@ -598,11 +612,12 @@ def fit_rul(flights: FloatArray, h_est: FloatArray, now: float, kind: str, noise
         path = a[:, None] * basis(shape, th, n)
         level = np.median(np.where(np.isfinite(path), path, 1e6), axis=0)
         th, a, rng = draws(weights(np.clip(level, 0.0, None)))
-    if cens.any() and noise.floor is not None:
+    if cens.any() and paths.has_floor:
         # censored BITs: weight each draw by P(its estimate would sit at the floor)
         h_c = a[:, None] * basis(shape, th, n_all[cens])
         h_c = np.where(np.isfinite(h_c), h_c, 1e6)
-        z = (noise.detection - h_c) / noise.detection_sd
+        detection, detection_sd = paths.take(cens).detection()
+        z = (detection - h_c) / detection_sd
         logw = np.log(np.maximum(ndtr(z), 1e-300)).sum(axis=1)
         wts = np.exp(logw - logw.max())
         pick = rng.choice(n_draws, size=n_draws, p=wts / wts.sum())
