@@ -96,7 +96,22 @@ def bit_record(row: Sequence[Any], conditions: str = "{}", wear_source: str = "{
     return BitRecord(rid, sid, tail, asset, t_ns, bus_ns, abs_ns, flight, hours, fault,
                      event_id, json.loads(wear),
                      Health(soh, mode, rul, low, high, rh, rhl, rhh, note, json.loads(modes)),
-                     json.loads(conditions), json.loads(wear_source))
+                     json.loads(conditions), wear_sources(wear_source))
+
+
+def wear_sources(text: str) -> dict[str, dict[str, Any]]:
+    """A stored ``wear_source`` cell as ``{kind: source}``, keeping only the kinds whose entry
+    is a JSON object: a cell or entry that is not (a file damaged or edited by hand) reads as
+    unknown, as a BIT stored before schema v10 does, so it can neither stop the daemon
+    resuming its trend nor a reader (the trend weighs an unknown reading by the asset's path
+    now, :mod:`~mapr_daemon.reasoner.prognosis.wear_paths`)."""
+    try:
+        doc = json.loads(text)
+    except (TypeError, ValueError):
+        return {}
+    if not isinstance(doc, dict):
+        return {}
+    return {str(k): v for k, v in doc.items() if isinstance(v, dict)}
 
 
 def equal_to(**columns: str | None) -> tuple[str, list[str]]:

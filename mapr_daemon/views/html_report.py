@@ -186,15 +186,21 @@ def _plot(reader: CatalogReader, a: ActuatorHealth) -> str:
     return f'<img alt="trend of {_e(a.name)}" src="data:image/png;base64,{data}">'
 
 
-def _kind_rul(kind: str, m: dict[str, Any], leading: str | None) -> tuple[str, str]:
-    """One kind's own RUL and what it is: the headline, a second part's projection, a
-    what-if for a part not wearing, or why there is none."""
+def _kind_rul(kind: str, m: dict[str, Any], headline: Health) -> tuple[str, str]:
+    """One kind's own RUL and what it is: the headline, the leading mode's figure the
+    headline withholds (its note says why), a second part's projection, a what-if for a part
+    not wearing, or why there is none."""
     if "rul" not in m:
         return "-", "none yet: BITs on fewer than three flights"
     if m["rul"] is None:
         return "-", "beyond the horizon: not reaching its threshold"
     figure = fmt_rul(Health(None, rul=m["rul"], rul_low=m.get("low"), rul_high=m.get("high")))
-    if kind == leading:
+    if kind == headline.mode and headline.rul is None:
+        share = m.get("prior_share")
+        spans = "" if not isinstance(share, (int, float)) else \
+            f"; its interval spans {100 * share:.0f} % of the assumed life's spread"
+        return figure, f"withheld from the headline (see why above){spans}; not a forecast"
+    if kind == headline.mode:
         return figure, "the headline RUL (leading mode)"
     if m.get("evidenced"):
         return figure, "its own projection: wearing, behind the leading mode"
@@ -203,8 +209,9 @@ def _kind_rul(kind: str, m: dict[str, Any], leading: str | None) -> tuple[str, s
 
 def _believe(h: Health, modes: dict[str, Any]) -> str:
     """Which RUL to believe, said where per-kind RULs stand next to the headline."""
-    others = [k for k, m in modes.items()
-              if isinstance(m, dict) and m.get("rul") is not None and k != h.mode]
+    others = [k for k, m in modes.items()   # the leading mode's too, where it is withheld
+              if isinstance(m, dict) and m.get("rul") is not None
+              and (k != h.mode or h.rul is None)]
     if not others:
         return ""
     if h.rul is None:
@@ -233,7 +240,7 @@ def _evidence(reader: CatalogReader, a: ActuatorHealth) -> str:
     for kind in sorted(set(last.wear) | set(modes)):
         m: dict[str, Any] = modes.get(kind, {})
         wear = last.wear.get(kind)
-        figure, what = _kind_rul(kind, m, a.health.mode) if m else ("-", "-")
+        figure, what = _kind_rul(kind, m, a.health) if m else ("-", "-")
         rows.append((kind, "-" if wear is None else f"{wear:.3f}",
                      "-" if m.get("h") is None else f"{m['h']:.3f}",
                      "-" if m.get("z") is None else f"{m['z']:.1f}",

@@ -70,3 +70,35 @@ def test_the_export_says_which_path_read_each_kind(tmp_path: Path) -> None:
     lines = [json.loads(line) for line in done.stdout.splitlines()]
     assert [line["wear_source"] for line in lines] == [
         {}, {"esr": BASELINE, "friction": {"path": "estimator"}}]
+
+
+def test_a_malformed_stored_source_is_read_as_unknown_not_a_crash(tmp_path: Path) -> None:
+    """A ``wear_source`` cell that is not a map of kind to source (a file edited or damaged
+    by hand) must not stop the daemon resuming, ``mapr health`` or the export: each kind
+    whose entry is not a source reads as unknown (the asset's path now), the rest as
+    stored."""
+    from mapr_daemon.pipeline.trending import history_from_bits
+
+    path = tmp_path / "c.sqlite"
+    cells = ['{"esr": "estimator", "friction": {"path": "estimator"}}', '{"esr": null}',
+             '["estimator"]', '"estimator"', 'null', '{"esr": 1', '']
+    with CatalogWriter(path) as writer:
+        writer.open_session(backend="replay", config_hash="x")
+        writer.add_bits([BitOutcome("EMA1", T0 + i * 10**12, tail="N101", flight=i + 1,
+                                    wear={"esr": 0.1, "friction": 0.2})
+                         for i in range(len(cells))])
+    conn = sqlite3.connect(path, isolation_level=None)
+    for i, cell in enumerate(cells):
+        conn.execute("UPDATE bits SET wear_source = ? WHERE flight = ?", (cell, i + 1))
+    conn.close()
+    with CatalogWriter(path) as writer:   # what the daemon reads to resume the trend
+        bits, _, _ = writer.history("N101")
+    assert [dict(b.wear_source) for b in bits] == [
+        {"friction": {"path": "estimator"}}, {}, {}, {}, {}, {}, {}]
+    history = history_from_bits(bits)["EMA1"]
+    assert history.sources == [{"friction": {"path": "estimator"}}] + [None] * 6
+    for what in (("health",), ("catalog", "trend", "N101/EMA1", "--json"),
+                 ("catalog", "export", "--what", "bits", "--format", "csv"),
+                 ("catalog", "export", "--what", "bits", "--format", "jsonl")):
+        done = mapr(*what, "--catalog", str(path))
+        assert done.returncode == 0, (what, done.stderr)

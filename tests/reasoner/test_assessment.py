@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import pytest
@@ -135,3 +136,18 @@ def test_a_stated_life_is_never_withheld(model: PrognosticModel) -> None:
     h = assess(model.with_lives({"friction": 60.0}), flights, wear)
     assert h.rul is not None and h.rul_low is not None and h.rul_high is not None
     assert h.rul_low <= 60.0 - 15.0 <= h.rul_high
+
+
+def test_a_trend_that_never_reaches_the_threshold_says_so_with_or_without_a_stated_life(
+        model: PrognosticModel) -> None:
+    """A kind the classifier names whose readings all sit at the estimator's floor: no
+    degradation to trend, every draw beyond the horizon. That is not the assumed life: the
+    note says the trend does not reach the threshold, whether or not the life was stated."""
+    floored = dataclasses.replace(model, noise={
+        **model.noise, "esr": trend.Noise(0.05, floor=0.0, detection=0.1)})
+    flights = [float(n) for n in range(1, 11)]
+    wear = [{"esr": 0.0, "friction": 0.0} for _ in flights]
+    for lives in (None, {"esr": 200.0}):
+        h = assess(floored.with_lives(lives), flights, wear, diagnosed="esr")
+        assert h.mode == "esr" and h.rul == math.inf, lives
+        assert h.note is not None and "does not reach the failure threshold" in h.note, lives

@@ -219,3 +219,38 @@ def test_report_renders_in_a_browser(tmp_path: Path, case: str) -> None:
     assert _share_near(pixels, (214, 39, 40)) > 1e-4    # tab:red
     # the overview's badges: "replace now" on red
     assert _share_near(pixels, (0xF8, 0xD0, 0xD0)) > 1e-4
+
+
+def test_a_withheld_headline_rul_is_not_shown_as_the_headline_in_the_per_kind_table(
+        tmp_path: Path) -> None:
+    """The headline RUL withheld (the trend leans on a life nobody stated): the leading kind's
+    own row keeps its figure, but must not call it the headline RUL, says how much of the
+    assumed life's spread it still spans, and the page says not to plan on it."""
+    from mapr_daemon.catalog import BitOutcome, CatalogWriter
+    from mapr_daemon.catalog.model import Flight
+    from mapr_daemon.findings import Health
+
+    note = ("the friction trend has not yet narrowed the part's life (its interval spans 48 % "
+            "of it): the figure would be the data sheet's assumed life of about 200 flights, "
+            "not this unit's (state assets[].expected_life_flights for the fleet, or wait for "
+            "more BITs)")
+    modes = {"friction": {"h": 0.21, "z": 7.5, "evidenced": True, "rul": 160.0, "low": 70.0,
+                          "high": 420.0, "prior_share": 0.48},
+             "esr": {"h": 0.01, "z": 0.3, "evidenced": False, "rul": None, "low": None,
+                     "high": None}}
+    path = tmp_path / "c.sqlite"
+    with CatalogWriter(path) as writer:
+        writer.open_session(backend="replay", config_hash="x", started_ns=T0)
+        writer.add_bits([BitOutcome("EMA1", T0 + k * 10**12, tail="N101", flight=k,
+                                    flight_hours=1.0, wear={"friction": 0.21, "esr": 0.0},
+                                    health=Health(0.79, "friction", note=note, modes=modes))
+                         for k in (1, 2, 3)],
+                        [Flight("N101", k, T0 + k * 10**12, T0 + k * 10**12 + 10**9, 1.0,
+                                "declared") for k in (1, 2, 3)])
+    text = _text(_build(path))
+    section = text[text.index("1. N101/EMA1"):]
+    assert f"No RUL: {note}." in section
+    assert "the headline RUL (leading mode)" not in section
+    assert "160 (70-420) flights withheld from the headline" in section
+    assert "48 %" in section.split("160 (70-420) flights", 1)[1]
+    assert f"No headline RUL ({note}). The per-kind RULs below are what-ifs" in section

@@ -186,9 +186,12 @@ def _leans_on_prior(model: PrognosticModel, kind: str, row: Mapping[str, Any]) -
     life (:attr:`PrognosticModel.assumed_lives`) and the unit's readings have narrowed the
     prior's spread of it by less than :data:`~.trend.LEANS` allows (``prior_share``; None:
     the draws run past the horizon), the figure would be the aging model's assumed life, not
-    this unit's trend. The mode's row keeps its figures."""
+    this unit's trend. The mode's row keeps its figures. A RUL whose median is beyond the
+    horizon (``rul`` None in the row: no degradation to trend yet, or wearing too slowly) is
+    not the assumed life: it keeps its own note, as with a stated life."""
     prior = model.priors.get(kind)
-    if prior is None or kind not in model.assumed_lives or "prior_share" not in row:
+    if prior is None or kind not in model.assumed_lives or "prior_share" not in row \
+            or row.get("rul") is None:
         return None
     share = row["prior_share"]
     if share is not None and share <= trend.LEANS:
