@@ -884,7 +884,7 @@ def print_prior_share(conn: sqlite3.Connection, units: Sequence[Unit],
           f"spans (prior_share; the headline withholds it above {trend.LEANS:g} where no "
           "life is stated), points from a quarter of life on:")
     for lo, hi in itertools.pairwise(SHARE_BINS):
-        m = (a[:, 0] >= lo) & (a[:, 0] < hi)
+        m = (a[:, 0] >= lo) & ((a[:, 0] < hi) | np.isinf(hi))   # the last bin takes inf
         if m.any():
             print(f"  share {lo:.2f}-{hi:.2f}: {int(m.sum()):4d} points, median stated/true "
                   f"RUL {np.median(a[m, 1]):.2f}x, within +-20 % {100 * a[m, 2].mean():.0f} %, "

@@ -294,8 +294,8 @@ trend: where nobody stated the life, the headline RUL is withheld with that reas
 ``bench/fleet_rul.py --readback --reassess`` (mean lives 70, 100 and 200 flights against the
 prior's 200; the true kind's RUL from a quarter of life on, as the bench prints it by share),
 RULs with a share under 0.10 were within 20 % of the truth at 55-69 % of the points (1.00-1.18x
-the truth, 90 % interval coverage 87-99 %); from 0.25 on at 0-11 % (1.4-4.2x), and on the
-70-flight units the interval held the truth at 17-89 % (the prior's life was wrong, and
+the truth, 90 % interval coverage 87-99 %); from 0.25 on at 0-11 % (1.4-4.7x), and on the
+70-flight units the interval held the truth at 9-89 % (the prior's life was wrong, and
 nothing in the readings said so yet). docs/reasoner-measured.md, "A RUL that is the prior's,
 not the unit's"."""
 
