@@ -87,7 +87,9 @@ class Reading:
     def least_cost(self) -> float:
         """The least cost of any single hypothesis flown (``cost`` unless the phase currents
         named the open switch): what the detector's ``explained`` statistic takes off."""
-        return min(self.cost, *self.costs.values())
+        if self.open_seen is None:
+            return self.cost
+        return min([self.cost, *self.costs.values()])
 
 
 def weights(params: ActuatorParams, disc: Discrepancy | None, decimate: int) -> FloatArray:
