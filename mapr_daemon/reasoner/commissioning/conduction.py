@@ -36,8 +36,8 @@ healthy and parametric-fault BITs the weakest direction reached 0.44 of the larg
 (1 % quantile 0.45, median 0.62-0.67); at :data:`OPEN_SHARE` 0.15 / 0.2 / 0.25 the opens named
 were 32 / 35 / 41 of 60 (aileron) and 29 / 31 / 33 of 60 (elevator), none of the 60 shorts
 and none of the healthy or parametric BITs; 0.2 keeps twice the margin below the weakest
-healthy direction. An open low side is named nearly always (its direction 0.01-0.13); an
-open high side about half the time (0.04-0.45: with complementary PWM the back-EMF drives
+healthy direction. An open low side is named nearly always (its direction 0.01-0.20); an
+open high side about half the time (0.04-0.44: with complementary PWM the back-EMF drives
 current through the leg's low switch); a stalled bridge (largest peak 0.1 A) never.
 """
 
