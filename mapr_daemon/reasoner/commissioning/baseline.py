@@ -114,7 +114,8 @@ class Baseline:
         parameter's value, and how much of the record the fault explains (``explained``: the
         mean square, in healthy spreads, of "no fault" minus that of the reading) and, when
         pairs were searched, the best pair (``pair``: both modes, their severities and its
-        cost, named or not)."""
+        cost, named or not) and, when the phase currents showed an open switch, what showed it
+        (``phase_currents``)."""
         if isinstance(reading, str):
             return {"unreadable": reading}
         value = None
@@ -126,6 +127,8 @@ class Baseline:
                                "severity": round(reading.severity, 4), "value": value,
                                "explained": round(reading.healthy_cost - reading.cost, 4),
                                "cost": round(reading.cost, 4)}
+        if reading.open_seen is not None:
+            out["phase_currents"] = reading.open_seen.to_json()
         if reading.pair is not None:
             p = reading.pair
             out["pair"] = {"modes": [p.first, p.second],

@@ -8,7 +8,8 @@ mean squares of the residual in units of the unit's held-out healthy spread:
   unit's healthy prediction. It catches a departure whatever causes it, one no fault
   hypothesis explains included;
 * ``explained`` — the generalized likelihood ratio statistic: the "no fault" cost minus the
-  best fault hypothesis's (``healthy_cost - cost``), how much of the departure one known fault
+  best fault hypothesis's (``healthy_cost - least_cost``: the least squares' best, also when
+  the phase currents named an open switch), how much of the departure one known fault
   takes away. It catches a small fault whose signature is a direction the healthy scatter
   does not go in, before the no-fault cost has grown out of the scatter.
 
@@ -120,7 +121,7 @@ the same BITs twice gives the same record."""
 def statistics(reading: Reading) -> dict[str, float]:
     """The reading's two detection statistics (module docstring)."""
     return {"no_fault": float(reading.healthy_cost),
-            "explained": float(max(reading.healthy_cost - reading.cost, 0.0))}
+            "explained": float(max(reading.healthy_cost - reading.least_cost, 0.0))}
 
 
 @dataclasses.dataclass(frozen=True)

@@ -41,6 +41,7 @@ from mapr_daemon.arrays import FloatArray
 from mapr_daemon.ema.faults import PARAMETRIC, SWITCHES, Fault, FaultSet, at_severity
 from mapr_daemon.ema.params import ActuatorParams
 from mapr_daemon.reasoner.commissioning.bits import FIT_SIGNALS, BitRecord
+from mapr_daemon.reasoner.commissioning.conduction import OpenSwitch, open_switch
 from mapr_daemon.reasoner.commissioning.departures import departures
 from mapr_daemon.reasoner.commissioning.discrepancy import Discrepancy, correction_for
 from mapr_daemon.reasoner.commissioning.flight import Flight, fly, noise_scale, recorded
@@ -76,6 +77,19 @@ class Reading:
     """Where the "no fault" residual lies: the signals and BIT stretches with the largest
     shares (:func:`~mapr_daemon.reasoner.commissioning.departures.departures`); what an
     unexplained event names."""
+    open_seen: OpenSwitch | None = None
+    """The open switch the recorded phase currents show
+    (:func:`~mapr_daemon.reasoner.commissioning.conduction.open_switch`); when set, the
+    reading is that open switch (``mode``, ``switch`` and ``cost`` are its), whatever
+    hypothesis the least squares preferred."""
+
+    @property
+    def least_cost(self) -> float:
+        """The least cost of any single hypothesis flown (``cost`` unless the phase currents
+        named the open switch): what the detector's ``explained`` statistic takes off."""
+        if self.open_seen is None:
+            return self.cost
+        return min([self.cost, *self.costs.values()])
 
 
 def weights(params: ActuatorParams, disc: Discrepancy | None, decimate: int) -> FloatArray:
@@ -153,7 +167,14 @@ def read(params: ActuatorParams, datasheet: ActuatorParams, disc: Discrepancy | 
         best_mode[mode] = cost
     pair = search(costs, datasheet, best_mode, kinds, pairs) if pairs > 0 else None
     where = departures(no_fault[0], FIT_SIGNALS, decimate, params.sensors.sample_rate_hz)
-    return Reading(mode, switch, float(severity), cost, float(c[0]), best_mode, pair, where)
+    seen = open_switch(params, bit.channels) if terminal else None
+    if seen is not None:
+        # the bridge says which switch is open; the motion that open left on this unit is not
+        # asked of the model (conduction module docstring)
+        mode, switch, severity = "open", seen.switch, 1.0
+        cost = float(c[hyps.index(("open", seen.switch, 1.0))])
+    return Reading(mode, switch, float(severity), cost, float(c[0]), best_mode, pair, where,
+                   seen)
 
 
 def _faults(datasheet: ActuatorParams, hyp: tuple[str, str, float]) -> FaultSet:

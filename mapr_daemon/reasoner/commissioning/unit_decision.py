@@ -39,6 +39,13 @@ because it takes most of a large departure away: what it leaves, beyond the heal
 and its own model error, is where a second fault hides. A short or an open is a gross change
 the parametric calibration does not measure: it keeps the older share rule below.
 
+**An open switch the phase currents show** (``Reading.open_seen``,
+:mod:`~mapr_daemon.reasoner.commissioning.conduction`: one switch's current direction never
+conducts while the other five do) explains the BIT under either rule, whatever the model's
+cost leaves, and before any pair: the bridge itself says which switch is open, and what the
+open did to the motion of a unit that is not the model's twin (a stall, or none) is not asked
+of the model.
+
 **Without an allowance** (a record written before it): the fault explains the BIT when it
 takes at least :data:`MIN_EXPLAINED` off the "no fault" cost and leaves at most
 :data:`MAX_LEFT` of it; a pair is named when it explains the BIT so, leaves at least
@@ -111,6 +118,8 @@ def explains(reading: Reading | str, allowance: Allowance | None = None) -> bool
     ``allowance`` when there is one (module docstring)."""
     if isinstance(reading, str) or reading.mode == HEALTHY:
         return False
+    if reading.open_seen is not None:
+        return True
     if allowance is not None and reading.mode not in TERMINAL:
         return _within(reading.cost, reading.healthy_cost, allowance, (reading.mode,))
     drop = reading.healthy_cost - reading.cost
@@ -137,6 +146,8 @@ def verdict(reading: Reading | str, allowance: Allowance | None = None) -> str:
     decision stands); against the unit's ``allowance`` when there is one."""
     if isinstance(reading, str):
         return "dictionary"
+    if reading.open_seen is not None:
+        return "single"
     if allowance is not None:
         if explains(reading, allowance):
             return "single"
