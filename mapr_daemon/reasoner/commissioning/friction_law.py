@@ -13,11 +13,13 @@ sticking law 5-16 %.
 
 :func:`choose` tries each law of :data:`LAWS` on the identified actuator: the two friction
 terms refitted from it under that law (the other parameters kept; each BIT keeps its own
-friction factor, the grease's scatter), and scores the fit by its Gaussian log-likelihood
-with one variance per fit signal, ``-sum_k log(mse_k)`` (every law refits the same two
-parameters, so the likelihood compares them as they stand). A sticking law is taken when it
-beats the smoothed law by more than :data:`MARGIN` in that score; otherwise the data sheet's
-law stays. The law is carried in the identified actuator
+friction factor, the grease's scatter), and scores the fit by a Gaussian log-likelihood with
+one variance per fit signal, ``-(n / 2) sum_k log(mse_k)`` over the ``n`` BITs, each BIT
+counted as one observation of each signal's misfit (within a BIT the model error is one
+smooth shape, not independent samples: the conservative count). A sticking law adds two
+parameters (breakaway and Stribeck speed), so it is taken when its score beats the smoothed
+law's by more than ``log n`` (the Bayesian information criterion's ``(2 / 2) log n``);
+otherwise the data sheet's law stays. The law is carried in the identified actuator
 (:attr:`~mapr_daemon.ema.params.MotorParams.breakaway_ratio`), so every model the baseline
 flies (the discrepancy, the fault readings, the detector's calibration, a dictionary built
 on it) has it.
@@ -40,13 +42,10 @@ if TYPE_CHECKING:
 
 LAWS: tuple[tuple[float, float], ...] = ((0.0, 2.0), (1.0, 5.0), (1.6, 5.0), (2.5, 5.0))
 """(breakaway over Coulomb, Stribeck speed rad/s at the motor) tried; (0, .) is the smoothed
-law. Our choice: no sticking, sticking at the Coulomb level, and two breakaway excesses over
-the range friction handbooks quote for lubricated contacts (static over kinetic 1-2.5)."""
+law. Our choice: no sticking, sticking at the Coulomb level, and two breakaway excesses up to
+2.5x, one Stribeck speed in the middle of the plant's decade (each law costs a refit)."""
 FRICTION_TOLERANCE_PCT = 40.0
 """The refit's band around the identified friction terms (the prior's own band)."""
-MARGIN = 2.0
-"""Least gain in ``-sum_k log(mse_k)`` (summed over the fit signals) for a sticking law to
-replace the smoothed one: a factor e^2 in the product of the signals' mean squares."""
 FRICTION_PATHS = ("motor.viscous_friction_nm_s", "motor.coulomb_friction_nm")
 
 
@@ -59,13 +58,13 @@ class LawChoice:
     params: ActuatorParams
     """The identified actuator under the chosen law, its friction terms refitted."""
     scores: tuple[tuple[float, float, float], ...]
-    """(breakaway, Stribeck speed, score) per law tried; score ``-sum_k log(mse_k)``."""
+    """(breakaway, Stribeck speed, score) per law tried; score ``-(n/2) sum_k log(mse_k)``."""
 
     def to_json(self) -> dict[str, object]:
         """The record's ``friction_law``."""
-        return {"criterion": "-sum over fit signals of log(mean square residual), the two "
-                             f"friction terms refitted under each law; a sticking law needs "
-                             f"{MARGIN:g} more than the smoothed one",
+        return {"criterion": "-(n/2) sum over fit signals of log(mean square residual) over "
+                             "the n BITs, the two friction terms refitted under each law; a "
+                             "sticking law needs log(n) more than the smoothed one (BIC)",
                 "breakaway_ratio": self.breakaway_ratio,
                 "stribeck_speed_rad_s": self.stribeck_speed_rad_s,
                 "scores": [{"breakaway_ratio": b, "stribeck_speed_rad_s": w,
@@ -78,9 +77,10 @@ def with_law(params: ActuatorParams, breakaway: float, stribeck: float) -> Actua
         params.motor, breakaway_ratio=breakaway, stribeck_speed_rad_s=stribeck))
 
 
-def score(residual_rms: dict[str, float]) -> float:
-    """``-sum_k log(mse_k)`` over the fit signals (higher is better)."""
-    return -sum(2.0 * math.log(max(residual_rms[k], 1e-300)) for k in FIT_SIGNALS)
+def score(residual_rms: dict[str, float], n_bits: int) -> float:
+    """``-(n/2) sum_k log(mse_k)`` over the fit signals (higher is better)."""
+    return -0.5 * n_bits * sum(2.0 * math.log(max(residual_rms[k], 1e-300))
+                               for k in FIT_SIGNALS)
 
 
 def choose(ident: Identification, bits: Sequence[BitRecord], options: FitOptions,
@@ -98,11 +98,11 @@ def choose(ident: Identification, bits: Sequence[BitRecord], options: FitOptions
     fitted: list[ActuatorParams] = []
     for breakaway, stribeck in laws:
         refit = identify(with_law(ident.params, breakaway, stribeck), mine, tol, opt)
-        scores.append((breakaway, stribeck, score(refit.residual_after)))
+        scores.append((breakaway, stribeck, score(refit.residual_after, len(refit.bits))))
         fitted.append(refit.params)
     smooth = next(i for i, (b, _, _) in enumerate(scores) if b == 0.0)
     best = max(range(len(scores)), key=lambda i: scores[i][2])
-    if best != smooth and scores[best][2] - scores[smooth][2] <= MARGIN:
+    if best != smooth and scores[best][2] - scores[smooth][2] <= math.log(max(len(mine), 2)):
         best = smooth
     b, w, _ = scores[best]
     params = fitted[best] if best != smooth else ident.params
