@@ -90,7 +90,8 @@ def score(residual_rms: dict[str, float], n_bits: int) -> float:
 def choose(ident: Identification, bits: Sequence[BitRecord], options: FitOptions,
            laws: Sequence[tuple[float, float]] = LAWS) -> LawChoice:
     """The law of ``laws`` the unit's healthy ``bits`` (those ``ident`` used) support best
-    (module docstring)."""
+    (module docstring); ``laws`` must hold the smoothed law (breakaway 0)."""
+    # identify() calls choose() after its fit: imported here, not at the top (a cycle)
     from mapr_daemon.reasoner.commissioning.identify import identify
 
     opt = dataclasses.replace(options, friction_laws=())
@@ -109,5 +110,6 @@ def choose(ident: Identification, bits: Sequence[BitRecord], options: FitOptions
     if best != smooth and scores[best][2] - scores[smooth][2] <= math.log(max(len(mine), 2)):
         best = smooth
     b, w, _ = scores[best]
-    params = fitted[best] if best != smooth else ident.params
+    keep = best == smooth and ident.params.motor.breakaway_ratio == 0.0
+    params = ident.params if keep else fitted[best]  # the fit itself when its law stands
     return LawChoice(b, w, params, tuple(scores))
