@@ -188,7 +188,10 @@ def main() -> int:
                     f"; a single fault may leave {al.healthy:.2f} + {al.share:.3f} x what it "
                     f"explains, per mode " + ", ".join(f"{k} {v:.3f}" for k, v in al.shares.items())
                     + f" ({sum(map(len, al.excess.values()))} added faults)")
-            print(f"  unit {u + 1}/{len(units)}: identified, discrepancy learned and detector "
+            law = bl.params.motor.breakaway_ratio
+            print(f"  unit {u + 1}/{len(units)}: identified (friction law "
+                  + (f"stiction {law:g} x Coulomb" if law > 0.0 else "smoothed") + "), "
+                  f"discrepancy learned and detector "
                   f"calibrated in {time.monotonic() - tc:.1f} s (detector {cpu:.1f} s CPU; "
                   f"thresholds {thr}; wall {time.monotonic() - start:.0f} s so far)",
                   flush=True)

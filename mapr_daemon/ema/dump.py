@@ -46,6 +46,8 @@ def dump_actuator(params: ActuatorParams, header: str = "",
         lines.append("")
         lines.append(f"{section}:")
         for f in dataclasses.fields(block):
+            if f.default is not dataclasses.MISSING and getattr(block, f.name) == f.default:
+                continue  # an optional key at its default: as a data sheet leaves it out
             text = f"  {f.name}: {_num(getattr(block, f.name))}"
             note = notes.get(f"{section}.{f.name}")
             lines.append(f"{text:<48}# {note}" if note else text)

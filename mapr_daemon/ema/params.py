@@ -78,6 +78,14 @@ class MotorParams:
     coulomb_friction_nm: float
     coulomb_speed_rad_s: float
     friction_flight_sd: float
+    breakaway_ratio: float = 0.0
+    """The friction law: 0 the smoothed Coulomb plus viscous law; >= 1 stiction, the shaft
+    held at rest up to this many times the Coulomb torque, the friction decaying to Coulomb
+    with the Stribeck speed (the plant's law of :class:`~mapr_daemon.ema.form.ModelForm`). A
+    data sheet leaves it out; commissioning chooses it from the unit's BITs
+    (:mod:`~mapr_daemon.reasoner.commissioning.friction_law`)."""
+    stribeck_speed_rad_s: float = 2.0
+    """Motor-shaft speed over which stiction decays to Coulomb (with a breakaway ratio)."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -276,7 +284,7 @@ _MAY_BE_ZERO_OR_NEGATIVE = {
     "ch0", "ch_delta_per_rad", "ambient_c", "loop_kd", "soft_start_s", "noise_rms",
     "drift_sd_v", "flight_mean_sd_v", "ripple_rms_v", "source_resistance_ohm",
     "switching_loss_w", "position_integral_hz", "friction_flight_sd", "ambient_flight_sd_k",
-    "ambient_min_c", "ambient_max_c",
+    "ambient_min_c", "ambient_max_c", "breakaway_ratio",
 }
 
 
@@ -315,7 +323,11 @@ def _section(cls: type[_T], node: yaml.Node, path: str, name: str) -> _T:
             raise ConfigError("unknown key", path=path, line=_line(key_node),
                               field=f"{name}.{key}")
     values: dict[str, float] = {}
+    optional = {f.name for f in dataclasses.fields(cls)  # type: ignore[arg-type]
+                if f.default is not dataclasses.MISSING}
     for key in wanted:
+        if key not in items and key in optional:
+            continue
         if key not in items:
             raise ConfigError("missing key", path=path, line=_line(node), field=f"{name}.{key}")
         values[key] = _number(items[key][1], path, f"{name}.{key}", key)

@@ -49,6 +49,7 @@ from mapr_daemon.ema.params import ActuatorParams
 from mapr_daemon.errors import ConfigError
 from mapr_daemon.reasoner.commissioning import prior as ip
 from mapr_daemon.reasoner.commissioning.bits import FIT_SIGNALS, BitRecord, unusable
+from mapr_daemon.reasoner.commissioning.friction_law import choose
 from mapr_daemon.reasoner.commissioning.problem import Evaluation, FitOptions, Problem
 
 __all__ = ["Estimate", "FitOptions", "Identification", "UsedBit", "identify"]
@@ -108,6 +109,10 @@ class Identification:
     converged: bool
     model_runs: int
     wall_s: float
+    friction_law: dict[str, object] | None = None
+    """The friction law chosen and every law's score
+    (:meth:`~mapr_daemon.reasoner.commissioning.friction_law.LawChoice.to_json`); None when
+    no choice was made (``FitOptions.friction_laws`` empty)."""
 
 
 def _solve(pr: Problem, e: Evaluation, progress: Callable[[str], None] | None
@@ -119,7 +124,7 @@ def _solve(pr: Problem, e: Evaluation, progress: Callable[[str], None] | None
         a, g = pr.normal(e)
         dx = np.linalg.solve(a + lam * np.diag(np.diag(a)), -g)
         x = e.x + dx
-        x[: pr.p] = np.minimum(x[: pr.p], pr.upper)
+        x[: pr.p] = np.clip(x[: pr.p], pr.lower, pr.upper)
         trial = pr.evaluate(x)
         if progress is not None:
             progress(f"iteration {it}: cost {trial.cost:.1f} (was {e.cost:.1f})")
@@ -216,8 +221,13 @@ def identify(params: ActuatorParams, bits: Sequence[BitRecord],
             break
         skipped += [(good[i].name(), why) for i, why in sorted(bad.items())]
         good = [b for i, b in enumerate(good) if i not in bad]
-    return _result(pr, first, e, skipped, iterations, converged, runs,
-                   time.monotonic() - start)
+    result = _result(pr, first, e, skipped, iterations, converged, runs,
+                     time.monotonic() - start)
+    if not opt.friction_laws:
+        return result
+    law = choose(result, good, opt, opt.friction_laws)
+    return dataclasses.replace(result, params=law.params, friction_law=law.to_json(),
+                               wall_s=time.monotonic() - start)
 
 
 def _result(pr: Problem, first: Evaluation, e: Evaluation, skipped: list[tuple[str, str]],

@@ -28,6 +28,7 @@ from mapr_daemon.reasoner.commissioning.flight import (
     noise_scale,
     recorded,
 )
+from mapr_daemon.reasoner.commissioning.friction_law import LAWS
 from mapr_daemon.reasoner.diagnosis.healthy_model import supply_floor_v
 
 SUPPLY_CHANNELS = ("dc_bus_voltage_v", "ripple_rms_v", "smps_input_current_a")
@@ -54,7 +55,18 @@ class FitOptions:
     identifiable_ratio: float = 0.5
     outlier_factor: float = 4.0
     friction_sigmas: float = 4.0
+    bound_sigmas: float = 4.0
+    """A parameter stays within this many prior sds of its prior mean (4: twice its
+    tolerance band's half-width beyond the centre). A value far outside the part-to-part
+    band is not the unit's part: it is the fit compensating a law our plant does not have
+    (on a design unit with a voltage-mode drive and stiction the winding resistance went to
+    4.5x, the model's drive then voltage-limited, and a friction fault moved its position
+    where the unit's moved its current); bounded, what the parameters cannot express is left
+    to the learned discrepancy."""
     chunk: int = 500
+    friction_laws: tuple[tuple[float, float], ...] = LAWS
+    """Friction laws the fit chooses among after it converges
+    (:mod:`~mapr_daemon.reasoner.commissioning.friction_law`); empty: the data sheet's."""
 
 
 @dataclasses.dataclass
@@ -92,8 +104,12 @@ class Problem:
         self.mask = np.array([[0.0 if (bus < floor and k in SUPPLY_CHANNELS) else 1.0
                                for k in FIT_SIGNALS] for _, bus in self.conditions])
         """(n_bits, K): 0 where a channel says nothing of the unit (see SUPPLY_CHANNELS)."""
-        self.upper = np.array([math.log(UPPER[p] / b) if p in UPPER else np.inf
-                               for p, b in zip(self.paths, self.base, strict=True)])
+        physical = np.array([math.log(UPPER[p] / b) if p in UPPER else np.inf
+                             for p, b in zip(self.paths, self.base, strict=True)])
+        self.upper = np.minimum(physical, self.mu + opt.bound_sigmas * self.s)
+        self.lower = self.mu - opt.bound_sigmas * self.s
+        """Bounds of the log parameters (:attr:`FitOptions.bound_sigmas`, and
+        :data:`UPPER`)."""
         self.runs = 0
 
     @property

@@ -102,6 +102,12 @@ def identification_notes(ident: Identification) -> dict[str, str]:
         else:
             out[e.path] = (f"data sheet (not identifiable: sd {100 * e.sd_rel:.2g} % of "
                            f"{100 * e.prior_sd_rel:.2g} % prior)")
+    if ident.friction_law is not None:
+        out["motor.breakaway_ratio"] = "friction law chosen from the BITs (stiction)"
+        if ident.params.motor.breakaway_ratio > 0.0:
+            # the friction terms were refitted under that law
+            for path in ("motor.viscous_friction_nm_s", "motor.coulomb_friction_nm"):
+                out[path] = out.get(path, "") + "; refitted under the chosen friction law"
     return out
 
 
@@ -139,6 +145,12 @@ def commission(params: ActuatorParams, datasheet: str, records: Sequence[BitReco
     mismatch bench it turned 11-17 % of true single faults into "unexplained").
     ConfigError (``field="bits"``) when no BIT can be used."""
     ident = identify(params, list(records), tolerances, progress=progress)
+    if ident.friction_law is not None:
+        m = ident.params.motor
+        say("friction law chosen from the BITs: " + (
+            f"stiction, breakaway {m.breakaway_ratio:g} x Coulomb, Stribeck speed "
+            f"{m.stribeck_speed_rad_s:g} rad/s" if m.breakaway_ratio > 0.0 else
+            "the data sheet's smoothed Coulomb + viscous"))
     for name, reason in ident.skipped:
         say(f"skipped {name}: {reason}")
     out.mkdir(parents=True, exist_ok=True)
