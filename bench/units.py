@@ -68,6 +68,7 @@ from mapr_daemon.reasoner.commissioning.baseline import Baseline
 from mapr_daemon.reasoner.commissioning.bits import from_runs
 from mapr_daemon.reasoner.commissioning.discrepancy import learn_unit
 from mapr_daemon.reasoner.commissioning.identify import FitOptions, identify
+from mapr_daemon.reasoner.commissioning.problem import CHOOSE_FRICTION_LAW
 from mapr_daemon.reasoner.commissioning.severity import Reading
 from mapr_daemon.reasoner.commissioning.unit_decision import explains, verdict
 from mapr_daemon.reasoner.diagnosis import classifier, parts
@@ -98,6 +99,9 @@ def main() -> int:
     ap.add_argument("--baseline", action="store_true",
                     help="also identify each unit, learn its discrepancy and decide with the "
                          "reading against its baseline (the daemon's assets[].commissioned)")
+    ap.add_argument("--friction-law", action="store_true",
+                    help="with --baseline: identify as `mapr commission --friction-law` does "
+                         "(the friction law chosen from the BITs, the parameters bounded)")
     ap.add_argument("--dump", type=Path,
                     help="with --baseline: each diagnosed BIT's detection statistics as JSON "
                          "lines")
@@ -177,7 +181,7 @@ def main() -> int:
         reasoner = None
         if args.baseline:
             tc = time.monotonic()
-            bl, cpu = _baseline(sheet, runs, comm)
+            bl, cpu = _baseline(sheet, runs, comm, args.friction_law)
             calib_cpu.append(cpu)
             reasoner = Reasoner(unit_d, sheet, baseline=bl)
             t_commission += time.monotonic() - tc
@@ -289,13 +293,15 @@ def _allowance(bl: Baseline) -> detector.Allowance | None:
     return None if bl.detector is None else bl.detector.allowance
 
 
-def _baseline(sheet: ActuatorParams, runs: Runs, comm: list[int]) -> tuple[Baseline, float]:
+def _baseline(sheet: ActuatorParams, runs: Runs, comm: list[int], friction_law: bool = False
+              ) -> tuple[Baseline, float]:
     """The unit's commissioned baseline as ``mapr commission`` writes it: the actuator
     identified from ``comm``, the discrepancy learned on the BITs the identification used and
     the unit's detector calibrated on them (fault ranges on the data sheet); and the
-    detector's calibration CPU seconds."""
+    detector's calibration CPU seconds. ``friction_law``: as ``mapr commission
+    --friction-law`` identifies."""
     bits = from_runs(runs, "bench", comm)
-    ident = identify(sheet, bits)
+    ident = identify(sheet, bits, options=CHOOSE_FRICTION_LAW if friction_law else None)
     used = [b for b in bits if b.index in {u.index for u in ident.bits}]
     disc = learn_unit(ident.params, used, FitOptions().decimate)
     c0 = time.process_time()

@@ -22,8 +22,9 @@ from mapr_daemon.reasoner.commissioning import discrepancy as dsc
 from mapr_daemon.reasoner.commissioning import severity
 from mapr_daemon.reasoner.commissioning.bits import BitRecord, from_runs
 from mapr_daemon.reasoner.commissioning.friction_law import FRICTION_PATHS
-from mapr_daemon.reasoner.commissioning.identify import FitOptions, Identification, identify
+from mapr_daemon.reasoner.commissioning.identify import Identification, identify
 from mapr_daemon.reasoner.commissioning.prior import Tolerance
+from mapr_daemon.reasoner.commissioning.problem import CHOOSE_FRICTION_LAW
 from mapr_daemon.reasoner.commissioning.unit_decision import explains
 from mapr_daemon.reasoner.training.corpus import simulate_bit
 
@@ -57,7 +58,7 @@ def unit() -> Unit:
 
 @pytest.fixture(scope="module")
 def fitted(unit: Unit) -> Identification:
-    return identify(unit.sheet, unit.learn, TOLERANCES)
+    return identify(unit.sheet, unit.learn, TOLERANCES, CHOOSE_FRICTION_LAW)
 
 
 def test_the_sticking_law_is_chosen_and_written(fitted: Identification) -> None:
@@ -82,6 +83,5 @@ def test_friction_fault_on_a_sticking_unit_is_read_as_friction(
 
 
 def test_without_the_choice_the_data_sheets_law_stays(unit: Unit) -> None:
-    plain = identify(unit.sheet, unit.learn[:3], TOLERANCES,
-                     FitOptions(friction_laws=()))
+    plain = identify(unit.sheet, unit.learn[:3], TOLERANCES)   # the default: not chosen
     assert plain.friction_law is None and plain.params.motor.breakaway_ratio == 0.0

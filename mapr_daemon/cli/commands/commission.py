@@ -24,7 +24,10 @@ of no BITs, that cannot be used is skipped with a one-line reason; the others go
 keeps it in the record: the unit's events then call a BIT no single fault explains within it
 a pair, else "anomaly, not explained" (docs/commissioning.md, "Two faults at once within the
 unit's single-fault allowance": more pairs answered honestly, more true single faults said
-"unexplained"; off by default).
+"unexplained"; off by default). ``--friction-law`` chooses the unit's friction law (the data
+sheet's smoothed Coulomb + viscous, or stiction) by BIC from its BITs and bounds the identified
+parameters at 4 prior sd (docs/commissioning.md, "The friction law on the mismatch bench";
+off by default).
 
 Exit codes: 0 done; 2 a file cannot be read or is neither a run file nor Chapter 10, or a bad
 ``--asset``; 65 no BIT to commission from (each file named on one line, with why); 78 a
@@ -68,6 +71,10 @@ def add_subparser(subparsers: Any) -> None:
     p.add_argument("--spec", type=Path, help="dictionary spec YAML (default: shipped)")
     p.add_argument("--no-dictionary", action="store_true",
                    help="identify only; do not build the dictionary")
+    p.add_argument("--friction-law", action="store_true",
+                   help="also choose the friction law (smoothed or sticking) from the BITs and "
+                        "bound the identified parameters (off by default: measured both ways "
+                        "in docs/commissioning.md)")
     p.add_argument("--single-allowance", action="store_true",
                    help="also calibrate the unit's single-fault allowance (pairs and "
                         "'unexplained' within it; fewer single faults named: off by default)")
@@ -188,7 +195,8 @@ def run(args: argparse.Namespace) -> int:
     try:
         done = commission(params, str(datasheet), records, tolerances, args.output, spec,
                           _say, progress=_say if sys.stderr.isatty() else None,
-                          single_allowance=args.single_allowance)
+                          single_allowance=args.single_allowance,
+                          friction_law=args.friction_law)
     except ConfigError as error:
         if error.field == "bits":
             _say(error.detail)

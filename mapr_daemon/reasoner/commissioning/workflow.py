@@ -39,6 +39,7 @@ from mapr_daemon.reasoner.commissioning.bits import FIT_SIGNALS, BitRecord, from
 from mapr_daemon.reasoner.commissioning.calibrate import MIN_BITS, calibrate_unit
 from mapr_daemon.reasoner.commissioning.identify import FitOptions, Identification, identify
 from mapr_daemon.reasoner.commissioning.prior import Tolerance
+from mapr_daemon.reasoner.commissioning.problem import CHOOSE_FRICTION_LAW
 from mapr_daemon.reasoner.commissioning.record import CommissioningRecord, write_record
 from mapr_daemon.reasoner.diagnosis.dictionary import DictionarySpec
 from mapr_daemon.reasoner.training.corpus import from_npz
@@ -136,15 +137,18 @@ def unit_dictionary(params: ActuatorParams, spec: DictionarySpec, out: Path,
 
 def commission(params: ActuatorParams, datasheet: str, records: Sequence[BitRecord],
                tolerances: tuple[Tolerance, ...], out: Path, spec: DictionarySpec | None,
-               say: Say, progress: Say | None = None, single_allowance: bool = False
-               ) -> Commissioned:
+               say: Say, progress: Say | None = None, single_allowance: bool = False,
+               friction_law: bool = False) -> Commissioned:
     """Identify ``params`` (the data sheet read from ``datasheet``) from ``records``, write
     the identified actuator and the record into ``out`` and, with a ``spec``, the unit's
     calibrated dictionary; with ``single_allowance`` the detector also keeps the unit's
     single-fault allowance (:func:`~.detector.single_allowance`; off by default: on the
-    mismatch bench it turned 11-17 % of true single faults into "unexplained").
+    mismatch bench it turned 11-17 % of true single faults into "unexplained"); with
+    ``friction_law`` the fit also chooses the friction law and bounds the parameters
+    (:data:`~.problem.CHOOSE_FRICTION_LAW`; off by default).
     ConfigError (``field="bits"``) when no BIT can be used."""
-    ident = identify(params, list(records), tolerances, progress=progress)
+    ident = identify(params, list(records), tolerances,
+                     CHOOSE_FRICTION_LAW if friction_law else None, progress=progress)
     if ident.friction_law is not None:
         m = ident.params.motor
         say("friction law chosen from the BITs: " + (
