@@ -67,8 +67,8 @@ from mapr_daemon.reasoner.commissioning import calibrate, detection, detector
 from mapr_daemon.reasoner.commissioning.baseline import Baseline
 from mapr_daemon.reasoner.commissioning.bits import from_runs
 from mapr_daemon.reasoner.commissioning.discrepancy import learn_unit
+from mapr_daemon.reasoner.commissioning.friction_law import identify_with_law
 from mapr_daemon.reasoner.commissioning.identify import FitOptions, identify
-from mapr_daemon.reasoner.commissioning.problem import CHOOSE_FRICTION_LAW
 from mapr_daemon.reasoner.commissioning.severity import Reading
 from mapr_daemon.reasoner.commissioning.unit_decision import explains, verdict
 from mapr_daemon.reasoner.diagnosis import classifier, parts
@@ -301,7 +301,7 @@ def _baseline(sheet: ActuatorParams, runs: Runs, comm: list[int], friction_law: 
     detector's calibration CPU seconds. ``friction_law``: as ``mapr commission
     --friction-law`` identifies."""
     bits = from_runs(runs, "bench", comm)
-    ident = identify(sheet, bits, options=CHOOSE_FRICTION_LAW if friction_law else None)
+    ident = identify_with_law(sheet, bits) if friction_law else identify(sheet, bits)
     used = [b for b in bits if b.index in {u.index for u in ident.bits}]
     disc = learn_unit(ident.params, used, FitOptions().decimate)
     c0 = time.process_time()

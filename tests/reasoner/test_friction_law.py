@@ -21,10 +21,9 @@ from mapr_daemon.ema.params import ActuatorParams, default_actuator_path, load_a
 from mapr_daemon.reasoner.commissioning import discrepancy as dsc
 from mapr_daemon.reasoner.commissioning import severity
 from mapr_daemon.reasoner.commissioning.bits import BitRecord, from_runs
-from mapr_daemon.reasoner.commissioning.friction_law import FRICTION_PATHS
+from mapr_daemon.reasoner.commissioning.friction_law import FRICTION_PATHS, identify_with_law
 from mapr_daemon.reasoner.commissioning.identify import Identification, identify
 from mapr_daemon.reasoner.commissioning.prior import Tolerance
-from mapr_daemon.reasoner.commissioning.problem import CHOOSE_FRICTION_LAW
 from mapr_daemon.reasoner.commissioning.unit_decision import explains
 from mapr_daemon.reasoner.training.corpus import simulate_bit
 
@@ -58,7 +57,7 @@ def unit() -> Unit:
 
 @pytest.fixture(scope="module")
 def fitted(unit: Unit) -> Identification:
-    return identify(unit.sheet, unit.learn, TOLERANCES, CHOOSE_FRICTION_LAW)
+    return identify_with_law(unit.sheet, unit.learn, TOLERANCES)
 
 
 def test_the_sticking_law_is_chosen_and_written(fitted: Identification) -> None:

@@ -49,7 +49,6 @@ from mapr_daemon.ema.params import ActuatorParams
 from mapr_daemon.errors import ConfigError
 from mapr_daemon.reasoner.commissioning import prior as ip
 from mapr_daemon.reasoner.commissioning.bits import FIT_SIGNALS, BitRecord, unusable
-from mapr_daemon.reasoner.commissioning.friction_law import choose
 from mapr_daemon.reasoner.commissioning.problem import Evaluation, FitOptions, Problem
 
 __all__ = ["Estimate", "FitOptions", "Identification", "UsedBit", "identify"]
@@ -112,7 +111,8 @@ class Identification:
     friction_law: dict[str, object] | None = None
     """The friction law chosen and every law's score
     (:meth:`~mapr_daemon.reasoner.commissioning.friction_law.LawChoice.to_json`); None when
-    no choice was made (``FitOptions.friction_laws`` empty)."""
+    no choice was made (:func:`identify` alone; the choice is
+    :func:`~mapr_daemon.reasoner.commissioning.friction_law.identify_with_law`)."""
 
 
 def _solve(pr: Problem, e: Evaluation, progress: Callable[[str], None] | None
@@ -221,13 +221,8 @@ def identify(params: ActuatorParams, bits: Sequence[BitRecord],
             break
         skipped += [(good[i].name(), why) for i, why in sorted(bad.items())]
         good = [b for i, b in enumerate(good) if i not in bad]
-    result = _result(pr, first, e, skipped, iterations, converged, runs,
-                     time.monotonic() - start)
-    if not opt.friction_laws:
-        return result
-    law = choose(result, good, opt, opt.friction_laws)
-    return dataclasses.replace(result, params=law.params, friction_law=law.to_json(),
-                               wall_s=time.monotonic() - start)
+    return _result(pr, first, e, skipped, iterations, converged, runs,
+                   time.monotonic() - start)
 
 
 def _result(pr: Problem, first: Evaluation, e: Evaluation, skipped: list[tuple[str, str]],

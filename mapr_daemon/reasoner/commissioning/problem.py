@@ -28,7 +28,6 @@ from mapr_daemon.reasoner.commissioning.flight import (
     noise_scale,
     recorded,
 )
-from mapr_daemon.reasoner.commissioning.friction_law import LAWS
 from mapr_daemon.reasoner.diagnosis.healthy_model import supply_floor_v
 
 SUPPLY_CHANNELS = ("dc_bus_voltage_v", "ripple_rms_v", "smps_input_current_a")
@@ -57,18 +56,14 @@ class FitOptions:
     friction_sigmas: float = 4.0
     bound_sigmas: float = math.inf
     """A parameter stays within this many prior sds of its prior mean (inf: unbounded, as
-    before; :data:`CHOOSE_FRICTION_LAW` bounds at 4, twice the tolerance band's half-width
-    beyond the centre). A value far outside the part-to-part band is not the unit's part: it
-    is the fit compensating a law our plant does not have (on a design unit with a
-    voltage-mode drive and stiction the winding resistance went to 4.5x, the model's drive
-    then voltage-limited, and a friction fault moved its position where the unit's moved its
-    current); bounded, what the parameters cannot express is left to the learned
-    discrepancy."""
+    before; :data:`~.friction_law.CHOOSE_FRICTION_LAW` bounds at 4, twice the tolerance
+    band's half-width beyond the centre). A value far outside the part-to-part band is not
+    the unit's part: it is the fit compensating a law our plant does not have (on a design
+    unit with a voltage-mode drive and stiction the winding resistance went to 4.5x, the
+    model's drive then voltage-limited, and a friction fault moved its position where the
+    unit's moved its current); bounded, what the parameters cannot express is left to the
+    learned discrepancy."""
     chunk: int = 500
-    friction_laws: tuple[tuple[float, float], ...] = ()
-    """Friction laws the fit chooses among after it converges
-    (:mod:`~mapr_daemon.reasoner.commissioning.friction_law`); empty (the default): the data
-    sheet's."""
 
 
 @dataclasses.dataclass
@@ -85,12 +80,6 @@ class Evaluation:
     cost: float
 
 
-CHOOSE_FRICTION_LAW = FitOptions(bound_sigmas=4.0, friction_laws=LAWS)
-"""The fit with the friction law chosen from the unit's healthy BITs and the parameters
-bounded (``mapr commission --friction-law``). Not the default: on the mismatch bench it took
-friction faults to the part 4/6 -> 6/6 on a design and a fresh seed, but on the fresh seed
-healthy alarms went 3 -> 5 of 60 and the other modes' detections 35 -> 32 of 42
-(docs/commissioning.md, "The friction law on the mismatch bench")."""
 
 
 class Problem:

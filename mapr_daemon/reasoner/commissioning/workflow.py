@@ -37,9 +37,9 @@ from mapr_daemon.reasoner.commissioning import discrepancy as dsc
 from mapr_daemon.reasoner.commissioning import wear as baseline_wear
 from mapr_daemon.reasoner.commissioning.bits import FIT_SIGNALS, BitRecord, from_runs
 from mapr_daemon.reasoner.commissioning.calibrate import MIN_BITS, calibrate_unit
+from mapr_daemon.reasoner.commissioning.friction_law import identify_with_law
 from mapr_daemon.reasoner.commissioning.identify import FitOptions, Identification, identify
 from mapr_daemon.reasoner.commissioning.prior import Tolerance
-from mapr_daemon.reasoner.commissioning.problem import CHOOSE_FRICTION_LAW
 from mapr_daemon.reasoner.commissioning.record import CommissioningRecord, write_record
 from mapr_daemon.reasoner.diagnosis.dictionary import DictionarySpec
 from mapr_daemon.reasoner.training.corpus import from_npz
@@ -145,10 +145,10 @@ def commission(params: ActuatorParams, datasheet: str, records: Sequence[BitReco
     single-fault allowance (:func:`~.detector.single_allowance`; off by default: on the
     mismatch bench it turned 11-17 % of true single faults into "unexplained"); with
     ``friction_law`` the fit also chooses the friction law and bounds the parameters
-    (:data:`~.problem.CHOOSE_FRICTION_LAW`; off by default).
+    (:func:`~.friction_law.identify_with_law`; off by default).
     ConfigError (``field="bits"``) when no BIT can be used."""
-    ident = identify(params, list(records), tolerances,
-                     CHOOSE_FRICTION_LAW if friction_law else None, progress=progress)
+    fit = identify_with_law if friction_law else identify
+    ident = fit(params, list(records), tolerances, progress=progress)
     if ident.friction_law is not None:
         m = ident.params.motor
         say("friction law chosen from the BITs: " + (
