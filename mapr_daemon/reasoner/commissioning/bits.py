@@ -33,6 +33,8 @@ FIT_CHANNELS: tuple[str, ...] = (
 """Channels the fit reads (through :func:`fit_signals`). Left out: the temperatures (a BIT is
 1.46 s, the thermal time constants are minutes) and the SMPS input voltage (the aircraft bus:
 an input of the model, read by :func:`condition`)."""
+PHASE_CHANNELS: tuple[str, ...] = ("phase_a_current_a", "phase_b_current_a", "phase_c_current_a")
+"""The phase-current channels, phases A, B, C in order."""
 PHASE_SUM = "phase_current_sum_a"
 FIT_SIGNALS: tuple[str, ...] = (
     "dc_link_current_a", PHASE_SUM, "position_deg", "dc_bus_voltage_v",
@@ -83,8 +85,7 @@ def fit_signals(channels: dict[str, FloatArray], phase_noise: float | None = Non
     the model's phase sum is the mean of that folded normal,
     ``i erf(i / (s sqrt 2)) + s sqrt(2/pi) exp(-i^2 / 2 s^2)``, not ``|i|``.
     """
-    phases = [channels[k] for k in ("phase_a_current_a", "phase_b_current_a",
-                                    "phase_c_current_a")]
+    phases = [channels[k] for k in PHASE_CHANNELS]
     if phase_noise is None or phase_noise <= 0.0:
         phase_sum = np.abs(phases[0]) + np.abs(phases[1]) + np.abs(phases[2])
     else:
@@ -98,14 +99,17 @@ def fit_signals(channels: dict[str, FloatArray], phase_noise: float | None = Non
 def signal_noise(params: ActuatorParams) -> dict[str, float]:
     """Per-sample noise sd of each fit signal: the channel's noise and quantisation (the
     phase sum: three channels' noise added in quadrature)."""
-    out = {}
-    for k in FIT_CHANNELS:
-        c = params.sensors.channels[k]
-        lsb = 2.0 * c.full_scale / 2.0**c.bits
-        out[k] = math.sqrt(c.noise_rms**2 + lsb**2 / 12.0)
-    phases = ("phase_a_current_a", "phase_b_current_a", "phase_c_current_a")
-    out[PHASE_SUM] = math.sqrt(sum(out[k] ** 2 for k in phases))
+    out = {k: channel_noise(params, k) for k in FIT_CHANNELS}
+    out[PHASE_SUM] = math.sqrt(sum(out[k] ** 2 for k in PHASE_CHANNELS))
     return {k: out[k] for k in FIT_SIGNALS}
+
+
+def channel_noise(params: ActuatorParams, channel: str) -> float:
+    """Per-sample noise sd of one recorded channel: its white noise and its quantisation
+    (``lsb / sqrt 12``) in quadrature."""
+    c = params.sensors.channels[channel]
+    lsb = 2.0 * c.full_scale / 2.0**c.bits
+    return math.sqrt(c.noise_rms**2 + lsb**2 / 12.0)
 
 
 def from_runs(runs: Runs, source: str, indices: Sequence[int] | None = None

@@ -53,9 +53,8 @@ import numpy as np
 from mapr_daemon.arrays import FloatArray
 from mapr_daemon.ema.faults import SWITCHES
 from mapr_daemon.ema.params import ActuatorParams
+from mapr_daemon.reasoner.commissioning.bits import PHASE_CHANNELS, channel_noise
 
-PHASE_CHANNELS: tuple[str, ...] = ("phase_a_current_a", "phase_b_current_a", "phase_c_current_a")
-"""The phase-current channels, in the order of the phases A, B, C of :data:`SWITCHES`."""
 PEAK_QUANTILE = 0.99
 """A direction's peak: the current exceeded for 1 % of the BIT (15 ms of a 1.46 s BIT), so a
 single noise spike does not count as conduction."""
@@ -99,12 +98,7 @@ class OpenSwitch:
 def phase_noise(params: ActuatorParams) -> float:
     """The phase-current channels' per-sample noise sd (white noise and quantisation; the
     largest of the three)."""
-    out = 0.0
-    for k in PHASE_CHANNELS:
-        c = params.sensors.channels[k]
-        lsb = 2.0 * c.full_scale / 2.0**c.bits
-        out = max(out, math.sqrt(c.noise_rms**2 + lsb**2 / 12.0))
-    return out
+    return max(channel_noise(params, k) for k in PHASE_CHANNELS)
 
 
 def peaks(channels: Mapping[str, FloatArray]) -> dict[str, float]:
