@@ -76,7 +76,7 @@ from mapr_daemon.reasoner.diagnosis.dictionary import Dictionary, DictionarySpec
 from mapr_daemon.reasoner.reasoner import Reasoner
 from mapr_daemon.reasoner.training.corpus import Runs, simulate_bit
 from mapr_daemon.reasoner.training.dictionary_build import build, run_matrices
-from mapr_daemon.testbed.mismatch import fleet
+from mapr_daemon.testbed.mismatch import fleet, twin
 
 MODES = ("capacitance", "esr", "smps_ron_high", "smps_ron_low", "inverter_ron_a_high",
          "friction", "short", "open")
@@ -102,13 +102,17 @@ def main() -> int:
     ap.add_argument("--friction-law", action="store_true",
                     help="with --baseline: identify as `mapr commission --friction-law` does "
                          "(the friction law chosen from the BITs, the parameters bounded)")
+    ap.add_argument("--twins", action="store_true",
+                    help="units that are the data sheet's exact twins (no tolerance, no model "
+                         "form): what the bench allows when the model is exact")
     ap.add_argument("--dump", type=Path,
                     help="with --baseline: each diagnosed BIT's detection statistics as JSON "
                          "lines")
     args = ap.parse_args()
     seed = master(args.seed, f"python3 bench/units.py --actuator {args.actuator} "
                   f"--dictionary {args.dictionary} --units {args.units}"
-                  + (" --baseline" if args.baseline else ""))
+                  + (" --baseline" if args.baseline else "")
+                  + (" --twins" if args.twins else ""))
     start, cpu0 = time.monotonic(), time.process_time()
     sheet = load_actuator(args.actuator)
     d = Dictionary.load(args.dictionary)
@@ -121,20 +125,24 @@ def main() -> int:
         return 2
     rng = np.random.default_rng(seed)
     units = fleet(sheet, args.units, int(rng.integers(2**31)))
+    if args.twins:
+        units = [twin(sheet, u.seed) for u in units]
     env = sheet.envelope
     specs: list[RunSpec] = []
     q: list[float] = []
     who: list[tuple[int, str, str, float]] = []  # unit, role, mode, magnitude
+    blind: list[list[str]] = []  # the modes the dictionary's map calls blind at the BIT's condition
 
     def add(u: int, role: str, faults: FaultSet, mode: str, mag: float) -> None:
         p = 0.0 if rng.random() < GROUND_SHARE else float(
             rng.uniform(0.0, env.max_dynamic_pressure_pa))
-        specs.append(units[u].spec(
-            faults, seed=int(rng.integers(10**9, 2**62)),
-            ambient_c=float(rng.uniform(env.ambient_min_c, env.ambient_max_c)),
-            bus_v=float(rng.uniform(sheet.bus.min_v, sheet.bus.max_v))))
+        amb = float(rng.uniform(env.ambient_min_c, env.ambient_max_c))
+        bus = float(rng.uniform(sheet.bus.min_v, sheet.bus.max_v))
+        specs.append(units[u].spec(faults, seed=int(rng.integers(10**9, 2**62)), ambient_c=amb,
+                                   bus_v=bus))
         q.append(p)
         who.append((u, role, mode, mag))
+        blind.append([] if d.detection is None else d.detection.blind(bus, amb))
 
     for u in range(len(units)):
         for _ in range(args.commission_bits):
@@ -229,6 +237,7 @@ def main() -> int:
           + ", ".join(f"{k} x{np.median(v):.2f} median, x{max(v):.2f} max"
                       for k, v in raised.items()))
     scored = [w for w in who if w[1] != "commission"]
+    scored_blind = [b for w, b in zip(who, blind, strict=True) if w[1] != "commission"]
     blocks = [("the data sheet's dictionary", before), ("calibrated to each unit", after)]
     if args.baseline:
         blocks.append(("calibrated to each unit + the reading against its baseline, the "
@@ -259,7 +268,7 @@ def main() -> int:
                 print(f"  healthy BITs' {k} / the unit's threshold: median {np.median(v):.2f},"
                       f" largest {max(v):.2f}; above it {sum(x > 1.0 for x in v)} of {len(v)}")
     for name, decs in blocks:
-        report_block(name, scored, decs)
+        report_block(name, scored, decs, scored_blind)
     if args.dump is not None:
         args.dump.write_text("".join(json.dumps(x) + "\n" for x in dumped))
     print(f"\ntotal wall {time.monotonic() - start:.1f} s, CPU {time.process_time() - cpu0:.1f}"
@@ -319,8 +328,10 @@ def _identified(sheet: ActuatorParams, runs: Runs, comm: list[int],
 
 
 def report_block(name: str, who: list[tuple[int, str, str, float]],
-                 decs: list[classifier.Decision | None]) -> None:
-    """Healthy alarms (overall, worst unit), and per mode detection and isolation."""
+                 decs: list[classifier.Decision | None], blind: list[list[str]]) -> None:
+    """Healthy alarms (overall, worst unit), per mode detection and isolation, and the same
+    where the data sheet's detection map says the bus can see the mode (``blind``: per BIT
+    the modes the map calls blind at its condition)."""
     print(f"\n== {name}")
     healthy = [(w[0], dec) for w, dec in zip(who, decs, strict=True) if w[1] == "healthy"]
     alarms = Counter(u for u, dec in healthy if dec is not None and dec.anomaly)
@@ -374,11 +385,30 @@ def report_block(name: str, who: list[tuple[int, str, str, float]],
         print(f"{'smps_ron_low':>20} where the dictionary's detection map says the bus can see "
               f"it: {sum(d.anomaly for d in seen)} of {len(seen)} detected "
               f"({len(low) - len(seen)} of {len(low)} BITs flown where it is blind)")
+    visible = [(w, dec) for w, dec, b in zip(who, decs, blind, strict=True)
+               if w[1] == "faulted" and dec is not None and w[2] not in b]
+    if visible:
+        print("  where the detection map says the bus can see the mode: BITs, detected, to "
+              "the part (and BITs flown where it is blind)")
+        for mode in MODES:
+            cell = [(w, dec) for w, dec in visible if w[2] == mode]
+            flown = sum(1 for w in who if w[1] == "faulted" and w[2] == mode)
+            if cell:
+                print(f"{mode:>20} {_seen_row(cell)}   blind {flown - len(cell)}")
+        print(f"{'visible, all modes':>20} {_seen_row(visible)}")
     ns = max(tot["n_seen"], 1)
     print(f"{'all but smps_ron_low':>20} {tot['n_seen']:5d} {tot['det_seen']:5d} "
           f"({100 * tot['det_seen'] / ns:5.1f}%) {'':>14} {tot['part_seen']:5d} "
           f"({100 * tot['part_seen'] / ns:5.1f}%)   severity error over the parametric modes "
           f"named right: mean {sev.split('/')[0]}, worst {sev.split('/')[-1]} of range")
+
+
+def _seen_row(rows: list[tuple[tuple[int, str, str, float], classifier.Decision]]) -> str:
+    """BITs, detected and named to the part, as a table row's cells."""
+    det = sum(d.anomaly for _, d in rows)
+    part = sum(d.anomaly and parts.same_part(w[2], d.fault) for w, d in rows)
+    n = len(rows)
+    return f"{n:5d} {det:5d} ({100 * det / n:5.1f}%) {part:5d} ({100 * part / n:5.1f}%)"
 
 
 if __name__ == "__main__":

@@ -232,6 +232,13 @@ def draw_unit(datasheet: ActuatorParams, seed: int,
     return Unit(seed, datasheet, params, draw_form(datasheet, rng, spread), factors)
 
 
+def twin(datasheet: ActuatorParams, seed: int) -> Unit:
+    """A unit that is the data sheet's exact twin: every factor 1, the plant's own form (what
+    a bench run on mismatched units allows when the model is exact)."""
+    params = dataclasses.replace(datasheet, name=f"{datasheet.name}#twin{seed}")
+    return Unit(seed, datasheet, params, ModelForm(), {})
+
+
 def fleet(datasheet: ActuatorParams, n: int, seed: int,
           spread: FormSpread = FormSpread()) -> list[Unit]:
     """``n`` units off one data sheet; unit ``k``'s seed is derived from ``seed`` and ``k``
