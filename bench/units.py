@@ -36,6 +36,15 @@ off the same BITs. The CPU time of each reading and of each unit's detector cali
 printed (mean and worst), and how the healthy BITs' two detection statistics sit against their
 unit's thresholds.
 
+Every faulted BIT is also flown on the data sheet's exact twin (the same fault, magnitude,
+condition and noise seed, the data sheet's parameters and the plant's own form) and decided
+by the data sheet's dictionary: the exact model's ceiling, printed last, and per table the
+detection and part among the BITs the twin's dictionary detected (what commissioning can be
+held to: a non-twin unit does not see what the exact model cannot). Each table also gives the
+per-mode figures where the dictionary's detection map says the bus can see the mode.
+``--twins`` draws units that are the data sheet's exact twins instead of mismatched ones (the
+bench's own ceiling for the commissioning path: 20 BITs, the calibration and the reading).
+
 Seeds: a master seed, drawn afresh unless ``--seed`` is given, is printed first; the fleet,
 conditions, magnitudes and per-run noise seeds (10^9..2^62) come from it.
 
@@ -62,6 +71,7 @@ from seeds import master
 
 from mapr_daemon.ema.batch import RunSpec
 from mapr_daemon.ema.faults import SWITCHES, Fault, FaultSet, at_severity
+from mapr_daemon.ema.form import ModelForm
 from mapr_daemon.ema.params import ActuatorParams, default_actuator_path, load_actuator
 from mapr_daemon.reasoner.commissioning import calibrate, detection, detector
 from mapr_daemon.reasoner.commissioning.baseline import Baseline
@@ -160,6 +170,17 @@ def main() -> int:
     t0 = time.monotonic()
     runs = simulate_bit(sheet, [], q, [], specs=specs)
     m = run_matrices(runs, d.window_starts, d.window_samples, d.signals)
+    # the same faulted BITs (fault, magnitude, condition, noise seed) flown on the data
+    # sheet's exact twin and decided by its own dictionary: what the exact model sees of them
+    paired = [i for i, w in enumerate(who) if w[1] == "faulted"]
+    twin_runs = simulate_bit(sheet, [], [q[i] for i in paired], [], specs=[
+        dataclasses.replace(specs[i], params=sheet, form=ModelForm()) for i in paired])
+    twin_m = run_matrices(twin_runs, d.window_starts, d.window_samples, d.signals)
+    twin_sees = [False] * len(who)
+    twin_decs: list[tuple[tuple[int, str, str, float], classifier.Decision]] = []
+    for j, i in enumerate(paired):
+        twin_decs.append((who[i], classifier.decide(d, twin_m[j], q[i])))
+        twin_sees[i] = twin_decs[-1][1].anomaly
     t_sim = time.monotonic() - t0
     print(f"{len(units)} units of {sheet.name}, {len(specs)} BITs simulated in {t_sim:.1f} s "
           f"({args.commission_bits} commissioning BITs per unit)")
@@ -238,6 +259,7 @@ def main() -> int:
                       for k, v in raised.items()))
     scored = [w for w in who if w[1] != "commission"]
     scored_blind = [b for w, b in zip(who, blind, strict=True) if w[1] != "commission"]
+    scored_twin = [t for w, t in zip(who, twin_sees, strict=True) if w[1] != "commission"]
     blocks = [("the data sheet's dictionary", before), ("calibrated to each unit", after)]
     if args.baseline:
         blocks.append(("calibrated to each unit + the reading against its baseline, the "
@@ -268,7 +290,18 @@ def main() -> int:
                 print(f"  healthy BITs' {k} / the unit's threshold: median {np.median(v):.2f},"
                       f" largest {max(v):.2f}; above it {sum(x > 1.0 for x in v)} of {len(v)}")
     for name, decs in blocks:
-        report_block(name, scored, decs, scored_blind)
+        report_block(name, scored, decs, scored_blind, scored_twin)
+    print("\n== the same faulted BITs flown on the data sheet's exact twin, decided by its own "
+          "dictionary (the exact model's ceiling): BITs, detected, to the part, severity error "
+          "mean/max where the mode was named")
+    for mode in MODES:
+        cell = [(w, dec) for w, dec in twin_decs if w[2] == mode]
+        err = [abs(dec.severity - w[3]) for w, dec in cell
+               if dec.anomaly and dec.fault == mode and dec.severity is not None]
+        sev = f"{np.mean(err):.3f}/{np.max(err):.3f}" if err else "-"
+        print(f"{mode:>20} {_seen_row(cell)}   {sev}")
+    others = [(w, dec) for w, dec in twin_decs if w[2] != "smps_ron_low"]
+    print(f"{'all but smps_ron_low':>20} {_seen_row(others)}")
     if args.dump is not None:
         args.dump.write_text("".join(json.dumps(x) + "\n" for x in dumped))
     print(f"\ntotal wall {time.monotonic() - start:.1f} s, CPU {time.process_time() - cpu0:.1f}"
@@ -328,10 +361,13 @@ def _identified(sheet: ActuatorParams, runs: Runs, comm: list[int],
 
 
 def report_block(name: str, who: list[tuple[int, str, str, float]],
-                 decs: list[classifier.Decision | None], blind: list[list[str]]) -> None:
-    """Healthy alarms (overall, worst unit), per mode detection and isolation, and the same
+                 decs: list[classifier.Decision | None], blind: list[list[str]],
+                 twin_sees: list[bool]) -> None:
+    """Healthy alarms (overall, worst unit), per mode detection and isolation, the same
     where the data sheet's detection map says the bus can see the mode (``blind``: per BIT
-    the modes the map calls blind at its condition)."""
+    the modes the map calls blind at its condition), and among the faulted BITs whose twin
+    (the same fault, magnitude, condition and noise on the data sheet's exact model) its own
+    dictionary detected (``twin_sees``)."""
     print(f"\n== {name}")
     healthy = [(w[0], dec) for w, dec in zip(who, decs, strict=True) if w[1] == "healthy"]
     alarms = Counter(u for u, dec in healthy if dec is not None and dec.anomaly)
@@ -396,6 +432,20 @@ def report_block(name: str, who: list[tuple[int, str, str, float]],
             if cell:
                 print(f"{mode:>20} {_seen_row(cell)}   blind {flown - len(cell)}")
         print(f"{'visible, all modes':>20} {_seen_row(visible)}")
+    seen_by_twin = [(w, dec) for w, dec, t in zip(who, decs, twin_sees, strict=True)
+                    if w[1] == "faulted" and dec is not None and t]
+    if seen_by_twin:
+        print("  the faulted BITs whose exact twin its own dictionary detected: BITs, detected, "
+              "to the part (and the twin's misses)")
+        for mode in MODES:
+            cell = [(w, dec) for w, dec in seen_by_twin if w[2] == mode]
+            flown = sum(1 for w in who if w[1] == "faulted" and w[2] == mode)
+            if cell:
+                print(f"{mode:>20} {_seen_row(cell)}   twin missed {flown - len(cell)}")
+        print(f"{'seen by the twin':>20} {_seen_row(seen_by_twin)}")
+        others = [(w, dec) for w, dec in seen_by_twin if w[2] != "smps_ron_low"]
+        if others:
+            print(f"{'... but smps_ron_low':>20} {_seen_row(others)}")
     ns = max(tot["n_seen"], 1)
     print(f"{'all but smps_ron_low':>20} {tot['n_seen']:5d} {tot['det_seen']:5d} "
           f"({100 * tot['det_seen'] / ns:5.1f}%) {'':>14} {tot['part_seen']:5d} "
