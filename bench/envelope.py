@@ -93,7 +93,10 @@ def main() -> int:
     args = ap.parse_args()
     seed = int(args.seed if args.seed is not None
                else np.random.SeedSequence().entropy % 2**63)  # type: ignore[operator]
-    print(f"master seed {seed}  (rerun: python3 bench/envelope.py --seed {seed})")
+    given = "".join(f" --{k.replace('_', '-')} {v}" for k, v in (
+        ("actuator", args.actuator), ("dictionary", args.dictionary),
+        ("healthy", args.healthy), ("per_mode", args.per_mode)) if v is not None)
+    print(f"master seed {seed}  (rerun: python3 bench/envelope.py{given} --seed {seed})")
     print(f"load average {' '.join(f'{x:.2f}' for x in os.getloadavg())} (2 cores, shared)")
     start, cpu0 = time.monotonic(), time.process_time()
     params = load_actuator(args.actuator or default_actuator_path())
