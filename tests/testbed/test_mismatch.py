@@ -17,7 +17,7 @@ from mapr_daemon.ema.params import ActuatorParams, default_actuator_path, load_a
 from mapr_daemon.ema.plant import EmaBatch
 from mapr_daemon.errors import ConfigError
 from mapr_daemon.reasoner.training.corpus import simulate_bit
-from mapr_daemon.testbed.mismatch import MAX_EFFICIENCY, TOLERANCES, draw_unit, fleet
+from mapr_daemon.testbed.mismatch import MAX_EFFICIENCY, TOLERANCES, draw_unit, fleet, twin
 from mapr_daemon.testbed.profiles import bit_profile
 
 ELEVATOR_PATH = default_actuator_path().parent / "elevator-uav.yaml"
@@ -114,6 +114,21 @@ def test_simulate_bit_flies_the_units_runspecs() -> None:
     assert ripple[2] > 2 * ripple[1]  # the third spec's ESR fault
     with pytest.raises(ConfigError):
         simulate_bit(ELEVATOR, [FaultSet()], [0.0], [1], specs=specs[:1])
+
+
+def test_a_twin_flies_exactly_as_the_data_sheet_does() -> None:
+    """The bench's ceiling (``bench/units.py --twins``) is only a ceiling if a twin's run is
+    the data sheet's own, sample for sample, while a drawn unit's is not."""
+    unit = twin(AILERON, 7)
+    assert flat(unit.params) == flat(AILERON) and unit.form == ModelForm() and not unit.factors
+    specs = [RunSpec(AILERON, seed=3, ambient_c=-5.0, bus_v=25.0),
+             unit.spec(seed=3, ambient_c=-5.0, bus_v=25.0),
+             draw_unit(AILERON, 7).spec(seed=3, ambient_c=-5.0, bus_v=25.0)]
+    runs = simulate_bit(AILERON, [], [800.0] * 3, [], specs=specs)
+    for name, v in runs.channels.items():
+        assert np.array_equal(v[0], v[1]), name
+    assert not np.array_equal(runs.channels["dc_link_current_a"][0],
+                              runs.channels["dc_link_current_a"][2])
 
 
 def test_mapr_simulate_unit_records_the_units_truth(tmp_path: Path) -> None:
