@@ -73,7 +73,7 @@ from mapr_daemon.ema.batch import RunSpec
 from mapr_daemon.ema.faults import SWITCHES, Fault, FaultSet, at_severity
 from mapr_daemon.ema.form import ModelForm
 from mapr_daemon.ema.params import ActuatorParams, default_actuator_path, load_actuator
-from mapr_daemon.reasoner.commissioning import calibrate, detection, detector
+from mapr_daemon.reasoner.commissioning import calibrate, detection, detector, visibility
 from mapr_daemon.reasoner.commissioning.baseline import Baseline
 from mapr_daemon.reasoner.commissioning.bits import from_runs
 from mapr_daemon.reasoner.commissioning.discrepancy import learn_unit
@@ -194,6 +194,8 @@ def main() -> int:
     over: dict[str, list[float]] = {k: [] for k in detector.STATISTICS}  # healthy value/thr
     dumped: list[dict[str, object]] = []
     t_commission = 0.0
+    unit_vis: list[visibility.Visibility] = []
+    vis_cpu: list[float] = []
     widened: list[int] = []
     raised: dict[str, list[float]] = {}
     t0 = time.monotonic()
@@ -204,6 +206,7 @@ def main() -> int:
         if args.identify:
             base = _identified(sheet, runs, comm, args.spec)
         unit_d, report = calibrate.calibrate_unit(base, m[comm], np.asarray(q)[comm])
+        bl = None
         widened.append(report.widened_cells)
         for stat, (old, new) in report.thresholds.items():
             raised.setdefault(stat, []).append(new / old)
@@ -228,6 +231,15 @@ def main() -> int:
                   f"calibrated in {time.monotonic() - tc:.1f} s (detector {cpu:.1f} s CPU; "
                   f"thresholds {thr}; wall {time.monotonic() - start:.0f} s so far)",
                   flush=True)
+        cv = time.process_time()
+        seen = visibility.measure(unit_d, sheet if bl is None else bl.params,
+                                  from_runs(runs, "bench", comm))
+        vis_cpu.append(time.process_time() - cv)
+        unit_vis.append(seen)
+        print(f"    unit {u + 1}: what its BITs can see, floor per mode ({vis_cpu[-1]:.1f} s "
+              "CPU): " + ", ".join(f"{k} " + ("never" if seen.floor(k) is None else
+                                             f"{seen.floor(k):.0%}") for k in seen.detected),
+              flush=True)
         for i in own:
             if who[i][1] == "commission":
                 continue
@@ -290,7 +302,7 @@ def main() -> int:
                 print(f"  healthy BITs' {k} / the unit's threshold: median {np.median(v):.2f},"
                       f" largest {max(v):.2f}; above it {sum(x > 1.0 for x in v)} of {len(v)}")
     for name, decs in blocks:
-        report_block(name, scored, decs, scored_blind, scored_twin)
+        report_block(name, scored, decs, scored_blind, scored_twin, unit_vis)
     print("\n== the same faulted BITs flown on the data sheet's exact twin, decided by its own "
           "dictionary (the exact model's ceiling): BITs, detected, to the part, severity error "
           "mean/max where the mode was named")
@@ -362,12 +374,14 @@ def _identified(sheet: ActuatorParams, runs: Runs, comm: list[int],
 
 def report_block(name: str, who: list[tuple[int, str, str, float]],
                  decs: list[classifier.Decision | None], blind: list[list[str]],
-                 twin_sees: list[bool]) -> None:
+                 twin_sees: list[bool], unit_vis: list[visibility.Visibility]) -> None:
     """Healthy alarms (overall, worst unit), per mode detection and isolation, the same
     where the data sheet's detection map says the bus can see the mode (``blind``: per BIT
     the modes the map calls blind at its condition), and among the faulted BITs whose twin
     (the same fault, magnitude, condition and noise on the data sheet's exact model) its own
-    dictionary detected (``twin_sees``)."""
+    dictionary detected (``twin_sees``), and above each unit's own floor (``unit_vis``, what
+    its commissioning measured its BITs can see), with the detection the floor's shares
+    predicted beside the one found."""
     print(f"\n== {name}")
     healthy = [(w[0], dec) for w, dec in zip(who, decs, strict=True) if w[1] == "healthy"]
     alarms = Counter(u for u, dec in healthy if dec is not None and dec.anomaly)
@@ -446,6 +460,27 @@ def report_block(name: str, who: list[tuple[int, str, str, float]],
         others = [(w, dec) for w, dec in seen_by_twin if w[2] != "smps_ron_low"]
         if others:
             print(f"{'... but smps_ron_low':>20} {_seen_row(others)}")
+    faulted = [(w, dec) for w, dec in zip(who, decs, strict=True)
+               if w[1] == "faulted" and dec is not None and w[2] in unit_vis[w[0]].detected]
+    if faulted:
+        print("  above each unit's own floor (what its commissioning measured its BITs can "
+              "see): BITs, detected, to the part; below it: BITs, detected; detection the "
+              "unit's measured shares predicted / found, all BITs")
+        for mode in MODES:
+            cell = [(w, dec) for w, dec in faulted if w[2] == mode]
+            if not cell:
+                continue
+            above = [(w, dec) for w, dec in cell if unit_vis[w[0]].sees(mode, w[3])]
+            below = [dec.anomaly for w, dec in cell if not unit_vis[w[0]].sees(mode, w[3])]
+            said = np.mean([unit_vis[w[0]].share_at(mode, w[3]) for w, _ in cell])
+            found = np.mean([dec.anomaly for _, dec in cell])
+            print(f"{mode:>20} " + (_seen_row(above) if above else f"{0:5d}" + " " * 34)
+                  + f"   below {len(below):3d} {sum(below):3d}   predicted {100 * said:5.1f}% "
+                  f"found {100 * found:5.1f}%")
+        above = [(w, dec) for w, dec in faulted if w[2] != "smps_ron_low"
+                 and unit_vis[w[0]].sees(w[2], w[3])]
+        if above:
+            print(f"{'above, but low side':>20} {_seen_row(above)}")
     ns = max(tot["n_seen"], 1)
     print(f"{'all but smps_ron_low':>20} {tot['n_seen']:5d} {tot['det_seen']:5d} "
           f"({100 * tot['det_seen'] / ns:5.1f}%) {'':>14} {tot['part_seen']:5d} "

@@ -15,7 +15,10 @@ discrepancy, the unit's own anomaly detector is calibrated on the same BITs read
 0.7-0.8 s CPU each) and kept in the record, and so is the measured noise of each aging
 kind's wear read against the baseline on the same BITs held out
 (:mod:`~mapr_daemon.reasoner.commissioning.wear`, about 0.5 s CPU per BIT): what the trend
-of a commissioned asset is fitted on. Both read each BIT against the discrepancy relearned
+of a commissioned asset is fitted on. With a dictionary, what the unit's BITs can see of each
+fault mode is measured on the calibrated dictionary
+(:mod:`~mapr_daemon.reasoner.commissioning.visibility`) and kept in the record
+(``unit_calibration.visibility``). Both read each BIT against the discrepancy relearned
 without it; those are made once (:func:`held_out_discrepancies`) and handed to both.
 """
 
@@ -34,6 +37,7 @@ from mapr_daemon.ema.params import ActuatorParams
 from mapr_daemon.errors import ConfigError
 from mapr_daemon.reasoner.commissioning import detector as det
 from mapr_daemon.reasoner.commissioning import discrepancy as dsc
+from mapr_daemon.reasoner.commissioning import visibility
 from mapr_daemon.reasoner.commissioning import wear as baseline_wear
 from mapr_daemon.reasoner.commissioning.bits import FIT_SIGNALS, BitRecord, from_runs
 from mapr_daemon.reasoner.commissioning.calibrate import MIN_BITS, calibrate_unit
@@ -132,7 +136,18 @@ def unit_dictionary(params: ActuatorParams, spec: DictionarySpec, out: Path,
         f"{report.offset_rms:.1f} healthy spreads (rms) from the model's, "
         f"{report.widened_cells} cells scatter more than twice the model's; thresholds "
         + ", ".join(f"{k} {a:.3g} -> {b:.3g}" for k, (a, b) in report.thresholds.items()))
-    return DICTIONARY_FILE, report.as_dict()
+    summary = report.as_dict()
+    try:
+        seen = visibility.measure(d, params, bits)
+    except ConfigError as error:
+        say(f"what the unit's BITs can see was not measured: {error.detail}")
+    else:
+        summary["visibility"] = seen.to_json()
+        say("what this unit's BITs can see (each mode's model departure added to its healthy "
+            "BITs, decided by its calibrated dictionary):")
+        for line in seen.lines():
+            say(f"  {line}")
+    return DICTIONARY_FILE, summary
 
 
 def commission(params: ActuatorParams, datasheet: str, records: Sequence[BitRecord],

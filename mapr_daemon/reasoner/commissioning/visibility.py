@@ -1,0 +1,207 @@
+"""What a commissioned unit's own BITs can see of each fault mode: its detection floor.
+
+The dictionary's detection map (:mod:`~mapr_daemon.reasoner.diagnosis.detection_map`) says where
+the *model* sees a mode. A commissioned unit decides with a dictionary calibrated to it
+(:mod:`~mapr_daemon.reasoner.commissioning.calibrate`): its thresholds rise with the unit's own
+scatter about the model (two to five times on the mismatch bench), so the unit sees less than
+the map says, and a maintainer reading "no anomaly" on that unit needs to know how much less.
+
+Measured at commissioning, on the unit's own healthy BITs: each carries in turn every
+parametric mode's departure at each of :data:`SEVERITIES` (fractions of the Table 1 range),
+the identified model flown through the BIT's own command and condition (its ambient and bus
+read from the record, its dynamic pressure) with and without the fault, noise-free
+(:func:`~mapr_daemon.reasoner.commissioning.prior.quiet`), the difference added to the
+recorded channels; the unit's calibrated dictionary decides. Per mode and severity, the share
+detected: :class:`Visibility`. A mode's *floor* is the least severity from which every larger
+one was detected on at least :data:`SEEN` of the BITs; a mode without one is not seen within
+its range on this unit (the SMPS low-side Ron on most: the BIT's load leaves its switch nearly
+idle). The unit's scatter stays in the BITs (they are the unit's own records) and the fault's
+departure is the identified model's, not the unit's own: the floor is as right as that model
+is near the unit (``bench/units.py`` prints detection on BITs above and below each unit's
+floor).
+
+Cost: one plant run per BIT, mode and severity, plus one healthy run per BIT (about 20 x
+(6 x 4 + 1) runs at commissioning, 10-20 s of CPU), and one dictionary decision each.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from mapr_daemon.arrays import FloatArray
+from mapr_daemon.ema.batch import RunSpec
+from mapr_daemon.ema.faults import PARAMETRIC, FaultSet, at_severity
+from mapr_daemon.ema.params import ActuatorParams
+from mapr_daemon.ema.plant import EmaBatch
+from mapr_daemon.errors import ConfigError, RecordError
+from mapr_daemon.reasoner.commissioning import prior as ip
+from mapr_daemon.reasoner.commissioning.bits import BitRecord, condition
+from mapr_daemon.reasoner.diagnosis import classifier
+from mapr_daemon.reasoner.diagnosis.dictionary import Dictionary
+
+__all__ = ["SEEN", "SEVERITIES", "Visibility", "measure"]
+
+SEVERITIES: tuple[float, ...] = (0.25, 0.5, 0.75, 1.0)
+"""Severities each mode is added at (fractions of the Table 1 range), from a quarter, the
+least a maintainer is promised detection at, to the range's end."""
+SEEN = 0.9
+"""A severity is seen on the unit when at least this share of its BITs detected it."""
+CHUNK = 500
+"""Samples advanced per plant call."""
+HELD = frozenset(("commutation_sector",))
+"""Channels whose departure is not added (a Hall sector is a count, not a level: the record's
+own is kept)."""
+
+
+@dataclasses.dataclass(frozen=True)
+class Visibility:
+    """Per parametric mode, the share of the unit's BITs its calibrated dictionary detected the
+    mode in, at each of :attr:`severities`."""
+
+    severities: tuple[float, ...]
+    detected: Mapping[str, tuple[float, ...]]
+    bits: int
+    """BITs each share is over."""
+
+    def floor(self, mode: str) -> float | None:
+        """The least severity from which every larger one was seen (:data:`SEEN`); None when
+        the range's end is not seen (or the mode was not measured)."""
+        shares = self.detected.get(mode)
+        if shares is None:
+            return None
+        out = None
+        for severity, share in reversed(list(zip(self.severities, shares, strict=True))):
+            if share < SEEN:
+                break
+            out = severity
+        return out
+
+    def sees(self, mode: str, severity: float) -> bool:
+        """Whether a ``mode`` fault at ``severity`` is at or above the unit's floor."""
+        f = self.floor(mode)
+        return f is not None and severity >= f - 1e-9
+
+    def share_at(self, mode: str, severity: float) -> float:
+        """The detected share expected at ``severity``: linear between the measured ones,
+        held beyond them (NaN for a mode not measured)."""
+        shares = self.detected.get(mode)
+        if shares is None:
+            return float("nan")
+        return float(np.interp(severity, self.severities, shares))
+
+    def lines(self) -> list[str]:
+        """One line per mode, as ``mapr commission`` says them."""
+        out = []
+        for mode, shares in self.detected.items():
+            f = self.floor(mode)
+            said = ", ".join(f"{s:.0%} of range {v:.0%}" for s, v in
+                             zip(self.severities, shares, strict=True))
+            out.append(f"{mode}: " + (f"seen from {f:.0%} of range" if f is not None else
+                                      "not seen within its range on this unit")
+                       + f" (detected on the unit's {self.bits} BITs at {said})")
+        return out
+
+    def to_json(self) -> dict[str, Any]:
+        return {"severities": list(self.severities), "seen": SEEN, "bits": self.bits,
+                "detected": {k: [round(v, 4) for v in x] for k, x in self.detected.items()},
+                "floor": {k: self.floor(k) for k in self.detected}}
+
+    @classmethod
+    def from_json(cls, doc: Any, path: str = "<record>") -> Visibility:
+        """Parse :meth:`to_json`'s output; :class:`ConfigError` naming what is wrong."""
+        try:
+            sev = tuple(float(s) for s in doc["severities"])
+            det = {str(k): tuple(float(v) for v in x) for k, x in doc["detected"].items()}
+            if any(len(x) != len(sev) or not all(0.0 <= v <= 1.0 for v in x)
+                   for x in det.values()):
+                raise ValueError("each mode needs one share in [0, 1] per severity")
+            return cls(sev, det, int(doc["bits"]))
+        except (KeyError, TypeError, ValueError, AttributeError) as error:
+            raise ConfigError(f"malformed visibility ({type(error).__name__}: {error})",
+                              path=path, field="visibility") from None
+
+
+def departures(params: ActuatorParams, bit: BitRecord, faults: Sequence[FaultSet]
+               ) -> list[dict[str, FloatArray]]:
+    """Each of ``faults``'s departure on ``bit``: the noise-free model ``params`` flown through
+    the BIT's command, dynamic pressure and recorded condition with the faults, minus the same
+    without them, per channel the plant gives."""
+    model = ip.quiet(params)
+    ambient, bus = condition(params, bit)
+    specs = [RunSpec(model, fs, seed=0, ambient_c=ambient, bus_v=bus)
+             for fs in (FaultSet(), *faults)]
+    plant = EmaBatch(specs)
+    command = np.asarray(bit.command_deg, dtype=np.float64)
+    n = command.size
+    parts: dict[str, list[FloatArray]] = {}
+    for start in range(0, n, CHUNK):
+        stop = min(n, start + CHUNK)
+        block = plant.advance(stop - start, np.tile(command[start:stop], (len(specs), 1)),
+                              bit.dynamic_pressure_pa)
+        for k, v in block.channels.items():
+            parts.setdefault(k, []).append(np.asarray(v, dtype=np.float64))
+    runs = {k: np.concatenate(v, axis=1) for k, v in parts.items()}
+    return [{k: v[j] - v[0] for k, v in runs.items()} for j in range(1, len(specs))]
+
+
+def _with(bit: BitRecord, departure: Mapping[str, FloatArray]) -> dict[str, FloatArray]:
+    """The record's channels plus ``departure`` (on the samples both have)."""
+    out = {}
+    for k, v in bit.channels.items():
+        d = departure.get(k)
+        if d is None or k in HELD:
+            out[k] = v
+            continue
+        n = min(v.shape[-1], d.shape[-1])
+        moved = np.array(v, dtype=np.float64)
+        moved[..., :n] += d[..., :n]
+        out[k] = moved
+    return out
+
+
+def measure(d: Dictionary, params: ActuatorParams, bits: Sequence[BitRecord],
+            modes: Sequence[str] | None = None,
+            severities: Sequence[float] = SEVERITIES) -> Visibility:
+    """The unit's :class:`Visibility`: ``d`` (its calibrated dictionary) deciding ``bits``
+    (its healthy commissioning BITs) with each mode's departure on the model ``params`` (the
+    identified one) added at each severity. ``modes``: the parametric modes to measure
+    (default every one the dictionary has a template of). A BIT the dictionary cannot read
+    (RecordError), calls inconclusive (a bus below the converter's headroom) or already
+    flags healthy is left out; ConfigError when none is left."""
+    kinds = [m for m in (modes or [t.kind for t in d.templates]) if m in PARAMETRIC]
+    kinds = list(dict.fromkeys(kinds))
+    faults = [FaultSet.of([at_severity(params, k, s)]) for k in kinds for s in severities]
+    hits = np.zeros((len(kinds), len(severities)))
+    used = 0
+    for bit in bits:
+        try:
+            base = classifier.decide(d, d.record_matrix(bit.channels, bit.command_deg),
+                                     bit.dynamic_pressure_pa)
+        except RecordError:
+            continue
+        if base.inconclusive or base.anomaly:
+            continue   # an alarm already on the healthy record says nothing of the fault
+        used += 1
+        for j, dep in enumerate(departures(params, bit, faults)):
+            m = d.record_matrix(_with(bit, dep), bit.command_deg)
+            hits.flat[j] += classifier.decide(d, m, bit.dynamic_pressure_pa).anomaly
+    if used == 0:
+        raise ConfigError("no BIT the dictionary could decide: no visibility",
+                          field="visibility")
+    shares = hits / used
+    return Visibility(tuple(float(s) for s in severities),
+                      {k: tuple(float(v) for v in shares[i]) for i, k in enumerate(kinds)},
+                      used)
+
+
+def ceiling_note(v: Visibility) -> str:
+    """One line: the modes this unit does not see at the range's start."""
+    late = [f"{k} ({'never' if v.floor(k) is None else format(v.floor(k), '.0%')})"
+            for k in v.detected if not v.sees(k, min(v.severities))]
+    return ("every mode seen from " + format(min(v.severities), ".0%") + " of range" if not late
+            else "seen later or not at all: " + ", ".join(late))
+
