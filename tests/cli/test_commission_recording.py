@@ -24,6 +24,7 @@ from mapr_daemon.icd import load_icd
 from mapr_daemon.reasoner.commissioning.bits import BitRecord, condition
 from mapr_daemon.reasoner.commissioning.discrepancy import Discrepancy
 from mapr_daemon.reasoner.commissioning.record import read_record
+from mapr_daemon.reasoner.commissioning.visibility import Visibility
 from mapr_daemon.reasoner.diagnosis.dictionary import Dictionary
 from mapr_daemon.testbed.aircraft import Aircraft
 from mapr_daemon.testbed.profiles import steady_profile
@@ -120,6 +121,12 @@ def test_the_bits_flown_are_found_in_the_recording_and_commissioned_from(
     assert rec.discrepancy is not None and rec.discrepancy["file"] == "discrepancy.npz"
     assert Discrepancy.load(out / "discrepancy.npz").bits == BITS
     assert "discrepancy learned" in cap.err and "fit converged in" in cap.out
+    # what the unit's BITs can see of each mode its dictionary knows, measured on the
+    # calibrated dictionary over the recorded BITs, said and kept
+    assert rec.unit_calibration is not None
+    seen = Visibility.from_json(rec.unit_calibration["visibility"])
+    assert list(seen.detected) == ["esr"] and seen.bits == BITS
+    assert "what this unit's BITs can see" in cap.err and "  esr: seen from" in cap.err
     # three BITs leave two per held-out reading: too few for the detector's tail, said so
     assert rec.detector is None
     assert "no anomaly detector on the baseline: 3 BITs" in cap.err

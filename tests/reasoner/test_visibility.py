@@ -1,0 +1,93 @@
+"""What a commissioned unit's own BITs can see of each fault mode
+(reasoner/commissioning/visibility.py)."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+
+import numpy as np
+import pytest
+
+from mapr_daemon.ema.faults import FaultSet, at_severity
+from mapr_daemon.errors import ConfigError
+from mapr_daemon.reasoner.commissioning import visibility
+from mapr_daemon.reasoner.commissioning.bits import BitRecord, from_runs
+from mapr_daemon.reasoner.commissioning.visibility import Visibility
+
+from .conftest import HELD_OUT, Bench
+
+
+def _healthy(bench: Bench, count: int) -> list[BitRecord]:
+    own = bench.runs.n - len(HELD_OUT)
+    picks = [i for i in range(own) if bench.runs.labels[i] == "healthy"][:count]
+    return from_runs(bench.runs, "bench", picks)
+
+
+def test_no_fault_departs_by_nothing_and_an_esr_fault_raises_the_ripple(bench: Bench) -> None:
+    (bit,) = _healthy(bench, 1)
+    none, esr = visibility.departures(bench.params, bit,
+                                      [FaultSet(), FaultSet.of([at_severity(bench.params,
+                                                                            "esr", 1.0)])])
+    assert all(not np.any(v) for v in none.values())
+    assert none.keys() == esr.keys() and "ripple_rms_v" in esr
+    assert esr["ripple_rms_v"].mean() > 0.0
+    assert esr["position_deg"].shape == bit.channels["position_deg"].shape
+
+
+def test_a_twin_sees_its_full_range_faults_and_not_a_departure_below_its_scatter(
+        bench: Bench) -> None:
+    bits = _healthy(bench, 4)
+    seen = visibility.measure(bench.dictionary, bench.params, bits,
+                              severities=(0.0, 0.01, 1.0))
+    assert list(seen.detected) == ["esr", "friction"] and seen.bits == 4
+    for none, _, full in seen.detected.values():
+        # the range's start is the data sheet's value: the records are decided as recorded
+        assert none == 0.0, seen.detected
+        # the range's end moves the record far outside a twin's healthy scatter
+        assert full >= visibility.SEEN, seen.detected
+    # a hundredth of the friction range does not (a hundredth of the ESR range is +19 %
+    # of its resistance, which the ripple shows)
+    assert seen.detected["friction"][1] < visibility.SEEN, seen.detected
+    assert seen.floor("friction") == 1.0 and not seen.sees("friction", 0.5)
+    # kept in the record and read back
+    back = Visibility.from_json(json.loads(json.dumps(seen.to_json())))
+    assert back == seen
+    assert seen.to_json()["floor"]["friction"] == 1.0
+
+
+def test_the_floor_needs_every_larger_severity_seen() -> None:
+    v = Visibility((0.25, 0.5, 1.0), {"gap": (1.0, 0.5, 1.0), "early": (0.95, 0.9, 1.0),
+                                      "never": (1.0, 1.0, 0.5)}, 20)
+    assert v.floor("gap") == 1.0 and v.floor("early") == 0.25 and v.floor("never") is None
+    assert v.floor("unmeasured") is None and not v.sees("unmeasured", 1.0)
+    assert v.sees("early", 0.3) and not v.sees("gap", 0.75)
+    assert v.share_at("gap", 0.75) == pytest.approx(0.75)
+    assert v.share_at("early", 0.1) == pytest.approx(0.95)
+    lines = v.lines()
+    assert lines[0].startswith("gap: seen from 100% of range (detected on the unit's 20 BITs")
+    assert lines[2].startswith("never: not seen within its range on this unit")
+
+
+def test_bits_the_dictionary_cannot_read_are_left_out_and_none_left_is_one_error(
+        bench: Bench) -> None:
+    good = _healthy(bench, 2)
+    short = [dataclasses.replace(b, channels={k: v[:100] for k, v in b.channels.items()},
+                                 command_deg=b.command_deg[:100]) for b in good]
+    seen = visibility.measure(bench.dictionary, bench.params, [*short[:1], *good],
+                              modes=["esr"], severities=(1.0,))
+    assert seen.bits == 2 and list(seen.detected) == ["esr"]
+    with pytest.raises(ConfigError, match="no BIT the dictionary could decide"):
+        visibility.measure(bench.dictionary, bench.params, short, severities=(1.0,))
+
+
+@pytest.mark.parametrize("doc", [
+    {"severities": [0.5, 1.0], "detected": {"esr": [0.5]}, "bits": 3},
+    {"severities": [1.0], "detected": {"esr": [1.5]}, "bits": 3},
+    {"severities": [1.0], "detected": {"esr": [1.0]}},
+    "visibility",
+])
+def test_a_malformed_visibility_is_one_config_error(doc: object) -> None:
+    with pytest.raises(ConfigError, match="malformed visibility") as caught:
+        Visibility.from_json(doc, "unit/commissioning.json")
+    assert caught.value.path == "unit/commissioning.json"
