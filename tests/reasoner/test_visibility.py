@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import shutil
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -12,10 +14,12 @@ import pytest
 from mapr_daemon.ema.faults import FaultSet, at_severity
 from mapr_daemon.errors import ConfigError
 from mapr_daemon.reasoner.commissioning import visibility
+from mapr_daemon.reasoner.commissioning.baseline import Baseline
 from mapr_daemon.reasoner.commissioning.bits import BitRecord, from_runs
 from mapr_daemon.reasoner.commissioning.visibility import Visibility
+from mapr_daemon.reasoner.reasoner import Reasoner
 
-from .conftest import HELD_OUT, Bench
+from .conftest import HELD_OUT, Bench, commissioned_folder
 
 
 def _healthy(bench: Bench, count: int) -> list[BitRecord]:
@@ -91,3 +95,57 @@ def test_a_malformed_visibility_is_one_config_error(doc: object) -> None:
     with pytest.raises(ConfigError, match="malformed visibility") as caught:
         Visibility.from_json(doc, "unit/commissioning.json")
     assert caught.value.path == "unit/commissioning.json"
+
+
+@pytest.fixture(scope="module")
+def unit_folder(bench: Bench, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    return commissioned_folder(bench, tmp_path_factory.mktemp("seen"), detector=True)
+
+
+def _with_visibility(folder: Path, doc: object) -> Path:
+    record = json.loads((folder / "commissioning.json").read_text())
+    record["unit_calibration"] = {"visibility": doc}
+    (folder / "commissioning.json").write_text(json.dumps(record))
+    return folder
+
+
+def test_a_nominal_bit_names_what_the_unit_does_not_see_and_its_floor(
+        bench: Bench, unit_folder: Path, tmp_path: Path) -> None:
+    i = bench.runs.n - len(HELD_OUT)   # the first held-out healthy run
+    channels = {k: v[i] for k, v in bench.runs.channels.items()}
+    q = float(bench.runs.dynamic_pressure_pa[i])
+    before = Reasoner(bench.dictionary, bench.params, baseline=Baseline.load(unit_folder))
+    plain = before.diagnose(channels, bench.runs.command_deg, q)
+    assert not plain.anomaly and "not_seen_on_this_unit" not in plain.evidence
+    seen = Visibility((0.25, 0.5, 1.0), {"esr": (1.0, 1.0, 1.0), "friction": (0.2, 0.95, 1.0),
+                                         "smps_ron_low": (0.0, 0.0, 0.1)}, 20)
+    folder = tmp_path / "unit"
+    shutil.copytree(unit_folder, folder)
+    baseline = Baseline.load(_with_visibility(folder, seen.to_json()))
+    assert baseline.visibility == seen
+    out = Reasoner(bench.dictionary, bench.params, baseline=baseline).diagnose(
+        channels, bench.runs.command_deg, q)
+    assert not out.anomaly
+    said = out.evidence["not_seen_on_this_unit"]
+    assert said["floors"] == {"friction": 0.5, "smps_ron_low": None}, said
+    # everything else about the decision is as before
+    assert {k: v for k, v in out.evidence.items() if k != "not_seen_on_this_unit"} == \
+        plain.evidence
+    # a unit that sees every mode from a quarter of its range says nothing more
+    folder2 = tmp_path / "all"
+    shutil.copytree(unit_folder, folder2)
+    everything = Visibility((0.25, 1.0), {"esr": (1.0, 1.0)}, 20)
+    out = Reasoner(bench.dictionary, bench.params, baseline=Baseline.load(
+        _with_visibility(folder2, everything.to_json()))).diagnose(
+        channels, bench.runs.command_deg, q)
+    assert "not_seen_on_this_unit" not in out.evidence
+
+
+def test_a_record_with_a_malformed_visibility_is_refused_naming_it(
+        unit_folder: Path, tmp_path: Path) -> None:
+    folder = tmp_path / "bad"
+    shutil.copytree(unit_folder, folder)
+    _with_visibility(folder, {"severities": [1.0], "detected": {"esr": ["x"]}, "bits": 2})
+    with pytest.raises(ConfigError, match="malformed visibility") as caught:
+        Baseline.load(folder)
+    assert caught.value.path == str(folder / "commissioning.json")

@@ -36,6 +36,7 @@ from mapr_daemon.reasoner.commissioning.discrepancy import Discrepancy
 from mapr_daemon.reasoner.commissioning.pairs import TOP
 from mapr_daemon.reasoner.commissioning.record import read_record
 from mapr_daemon.reasoner.commissioning.severity import HEALTHY, Reading, read
+from mapr_daemon.reasoner.commissioning.visibility import Visibility
 from mapr_daemon.reasoner.commissioning.wear import BaselineWear, baseline_estimates
 
 RECORD_FILE = "commissioning.json"
@@ -60,6 +61,10 @@ class Baseline:
     ``commissioning.json`` (:func:`record_digest`). Each BIT's wear read against this baseline
     names it (:mod:`~mapr_daemon.reasoner.prognosis.wear_paths`), so readings against an
     older commissioning of the same unit are told apart."""
+    visibility: Visibility | None = None
+    """What the unit's BITs can see of each mode (the record's
+    ``unit_calibration.visibility``); None in a record written before, or commissioned
+    without a dictionary."""
 
     @classmethod
     def load(cls, folder: str | Path) -> Baseline:
@@ -79,7 +84,9 @@ class Baseline:
             record.detector, str(d / RECORD_FILE))
         wear = None if record.wear is None else BaselineWear.from_json(
             record.wear, str(d / RECORD_FILE))
-        return cls(params, datasheet, disc, detector, wear, record_digest(d / RECORD_FILE))
+        seen = (record.unit_calibration or {}).get("visibility")
+        return cls(params, datasheet, disc, detector, wear, record_digest(d / RECORD_FILE),
+                   None if seen is None else Visibility.from_json(seen, str(d / RECORD_FILE)))
 
     def read(self, channels: dict[str, FloatArray], command_deg: FloatArray,
              dynamic_pressure_pa: float, pairs: int = TOP) -> Reading | str:

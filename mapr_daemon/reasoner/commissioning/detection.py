@@ -28,7 +28,11 @@ An anomaly then goes through
 the reading when it explains the BIT; "anomaly, not explained by any known fault mode"
 otherwise). The event's ``evidence.detection`` says which detector fired: the dictionary's
 alarm, each baseline statistic with its threshold, everything above its threshold
-(``fired``), what the rule counted (``decided_by``: empty for a nominal BIT) and the rule.
+(``fired``), what the rule counted (``decided_by``: empty for a nominal BIT) and the rule. A
+nominal BIT of a unit whose record measured what its BITs can see
+(:mod:`~mapr_daemon.reasoner.commissioning.visibility`) names the modes it does not see from
+a quarter of their range, with each one's floor (``evidence.not_seen_on_this_unit``): what
+that "no anomaly" does not clear.
 """
 
 from __future__ import annotations
@@ -39,6 +43,7 @@ from typing import Any
 from mapr_daemon.reasoner.commissioning.baseline import Baseline
 from mapr_daemon.reasoner.commissioning.severity import Reading
 from mapr_daemon.reasoner.commissioning.unit_decision import combine
+from mapr_daemon.reasoner.commissioning.visibility import SEEN
 from mapr_daemon.reasoner.diagnosis.classifier import Decision
 
 RULES = ("dictionary", "union", "explained", "baseline")
@@ -65,7 +70,7 @@ def decide(dec: Decision, reading: Reading | str, baseline: Baseline,
     if dec.inconclusive:
         return dec
     if detector is None or isinstance(reading, str):
-        return combine(dec, reading, baseline) if dec.anomaly else dec
+        return combine(dec, reading, baseline) if dec.anomaly else _unseen(dec, baseline)
     fired = detector.fired(reading)
     everything = (["dictionary"] if dec.anomaly else []) + [f"baseline.{k}" for k in fired]
     counted = {"dictionary": ["dictionary"] if dec.anomaly else [], "union": everything,
@@ -82,9 +87,9 @@ def decide(dec: Decision, reading: Reading | str, baseline: Baseline,
         if dec.anomaly:
             evidence["vetoed"] = {"fault": dec.fault, "confidence": round(dec.confidence, 4)}
             confidence = 1.0 - dec.confidence
-        return dataclasses.replace(dec, anomaly=False, fault=None, switch=None, severity=None,
-                                   value=None, unit=None, pair=None, kind_residuals={},
-                                   confidence=confidence, evidence=evidence)
+        return _unseen(dataclasses.replace(
+            dec, anomaly=False, fault=None, switch=None, severity=None, value=None, unit=None,
+            pair=None, kind_residuals={}, confidence=confidence, evidence=evidence), baseline)
     if not dec.anomaly:
         # the unit's detector alone: as sure as its fitted tail makes the departure rare; an
         # anomaly not explained until the reading explains it (combine then drops the words)
@@ -97,3 +102,22 @@ def decide(dec: Decision, reading: Reading | str, baseline: Baseline,
                                                        for k in counted), evidence=said)
     out = combine(dec, reading, baseline)
     return dataclasses.replace(out, evidence={**out.evidence, "detection": detection})
+
+
+def _unseen(dec: Decision, baseline: Baseline) -> Decision:
+    """A nominal decision with what this unit's BITs do not see (its record's visibility):
+    ``evidence.not_seen_on_this_unit`` maps each mode not seen from the least measured
+    severity to its floor (a fraction of range; None: not within its range). Unchanged when
+    the record has no visibility, or the unit sees every mode from there."""
+    seen = baseline.visibility
+    if seen is None or dec.anomaly or dec.inconclusive:
+        return dec
+    start = min(seen.severities)
+    unseen = {k: seen.floor(k) for k in seen.detected if not seen.sees(k, start)}
+    if not unseen:
+        return dec
+    return dataclasses.replace(dec, evidence={**dec.evidence, "not_seen_on_this_unit": {
+        "floors": unseen,
+        "rule": f"a fault of these modes below its floor (a fraction of range; null: not "
+                f"within its range) was detected on under {SEEN:.0%} of this unit's "
+                f"commissioning BITs with it added (mapr commission)"}})
