@@ -94,7 +94,10 @@ class Reasoner:
     CPU per BIT) and the anomaly decision is
     :func:`~mapr_daemon.reasoner.commissioning.detection.decide`'s (``evidence.detection``
     says which detector fired); without it only the BITs the dictionary flags are read and
-    detection is the dictionary's. When the baseline's record measured the wear reading's noise
+    detection is the dictionary's. Either way a nominal BIT of a unit whose record measured
+    what its BITs can see names the modes they do not
+    (:func:`~mapr_daemon.reasoner.commissioning.detection.unseen`). When the baseline's
+    record measured the wear reading's noise
     (:mod:`~mapr_daemon.reasoner.commissioning.wear`) and a prognostic model is set, every
     BIT's wear of the kinds it resolves is read against the baseline too (about 0.36 s CPU
     per BIT), in place of the estimators' (:meth:`baseline_wear`). Without a baseline nothing
@@ -141,9 +144,13 @@ class Reasoner:
         if not (math.isfinite(dec.score) and math.isfinite(dec.confidence)):
             raise RecordError(f"the classifier's statistic is not finite (score {dec.score}, "
                               f"confidence {dec.confidence})", field="classifier")
-        if self.baseline is not None and not dec.inconclusive and (
-                dec.anomaly or self.baseline.detector is not None):
-            dec = self.against_baseline(dec, channels, command_deg, dynamic_pressure_pa)
+        if self.baseline is not None and not dec.inconclusive:
+            if dec.anomaly or self.baseline.detector is not None:
+                dec = self.against_baseline(dec, channels, command_deg, dynamic_pressure_pa)
+            else:
+                # no detector to weigh a nominal BIT: only what the unit does not see
+                from mapr_daemon.reasoner.commissioning.detection import unseen
+                dec = unseen(dec, self.baseline)
         diagnosis = self.event(dec, est)
         if est is not None:
             diagnosis = diagnosis.with_evidence(**self._adapt(est))

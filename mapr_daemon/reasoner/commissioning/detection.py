@@ -70,7 +70,7 @@ def decide(dec: Decision, reading: Reading | str, baseline: Baseline,
     if dec.inconclusive:
         return dec
     if detector is None or isinstance(reading, str):
-        return combine(dec, reading, baseline) if dec.anomaly else _unseen(dec, baseline)
+        return combine(dec, reading, baseline) if dec.anomaly else unseen(dec, baseline)
     fired = detector.fired(reading)
     everything = (["dictionary"] if dec.anomaly else []) + [f"baseline.{k}" for k in fired]
     counted = {"dictionary": ["dictionary"] if dec.anomaly else [], "union": everything,
@@ -87,7 +87,7 @@ def decide(dec: Decision, reading: Reading | str, baseline: Baseline,
         if dec.anomaly:
             evidence["vetoed"] = {"fault": dec.fault, "confidence": round(dec.confidence, 4)}
             confidence = 1.0 - dec.confidence
-        return _unseen(dataclasses.replace(
+        return unseen(dataclasses.replace(
             dec, anomaly=False, fault=None, switch=None, severity=None, value=None, unit=None,
             pair=None, kind_residuals={}, confidence=confidence, evidence=evidence), baseline)
     if not dec.anomaly:
@@ -104,8 +104,10 @@ def decide(dec: Decision, reading: Reading | str, baseline: Baseline,
     return dataclasses.replace(out, evidence={**out.evidence, "detection": detection})
 
 
-def _unseen(dec: Decision, baseline: Baseline) -> Decision:
-    """A nominal decision with what this unit's BITs do not see (its record's visibility):
+def unseen(dec: Decision, baseline: Baseline) -> Decision:
+    """A nominal decision with what this unit's BITs do not see (its record's visibility;
+    also what :meth:`~mapr_daemon.reasoner.reasoner.Reasoner.diagnose` applies to a unit
+    without a detector, whose nominal BITs are not read against the baseline):
     ``evidence.not_seen_on_this_unit`` maps each mode not seen from the least measured
     severity to its floor (a fraction of range; None: not within its range). Unchanged when
     the record has no visibility, or the unit sees every mode from there."""
@@ -113,11 +115,11 @@ def _unseen(dec: Decision, baseline: Baseline) -> Decision:
     if seen is None or dec.anomaly or dec.inconclusive:
         return dec
     start = min(seen.severities)
-    unseen = {k: seen.floor(k) for k in seen.detected if not seen.sees(k, start)}
-    if not unseen:
+    floors = {k: seen.floor(k) for k in seen.detected if not seen.sees(k, start)}
+    if not floors:
         return dec
     return dataclasses.replace(dec, evidence={**dec.evidence, "not_seen_on_this_unit": {
-        "floors": unseen,
+        "floors": floors,
         "rule": f"a fault of these modes below its floor (a fraction of range; null: not "
                 f"within its range) was detected on under {SEEN:.0%} of this unit's "
                 f"commissioning BITs with it added (mapr commission)"}})
