@@ -90,6 +90,13 @@ def test_bits_the_dictionary_cannot_read_are_left_out_and_none_left_is_one_error
     {"severities": [1.0], "detected": {"esr": [1.5]}, "bits": 3},
     {"severities": [1.0], "detected": {"esr": [1.0]}},
     "visibility",
+    # what the decision reads severities as: one or more fractions of range, increasing
+    {"severities": [], "detected": {}, "bits": 3},
+    {"severities": [1.0, 0.5], "detected": {"esr": [1.0, 0.0]}, "bits": 3},
+    {"severities": [0.5, 0.5], "detected": {"esr": [1.0, 1.0]}, "bits": 3},
+    {"severities": [0.5, 2.0], "detected": {"esr": [1.0, 1.0]}, "bits": 3},
+    {"severities": [float("nan")], "detected": {"esr": [1.0]}, "bits": 3},
+    {"severities": [1.0], "detected": {"esr": [1.0]}, "bits": 0},
 ])
 def test_a_malformed_visibility_is_one_config_error(doc: object) -> None:
     with pytest.raises(ConfigError, match="malformed visibility") as caught:
@@ -165,3 +172,4 @@ def test_a_unit_without_a_detector_names_what_it_does_not_see_too(
         channels, bench.runs.command_deg, float(bench.runs.dynamic_pressure_pa[i]))
     assert not out.anomaly
     assert out.evidence["not_seen_on_this_unit"]["floors"] == {"friction": None}
+

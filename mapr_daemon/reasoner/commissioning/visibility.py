@@ -27,6 +27,7 @@ Cost: one plant run per BIT, mode and severity, plus one healthy run per BIT (ab
 from __future__ import annotations
 
 import dataclasses
+import itertools
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -115,11 +116,18 @@ class Visibility:
         """Parse :meth:`to_json`'s output; :class:`ConfigError` naming what is wrong."""
         try:
             sev = tuple(float(s) for s in doc["severities"])
+            if not sev or not all(0.0 <= s <= 1.0 for s in sev) or \
+                    any(b <= a for a, b in itertools.pairwise(sev)):
+                # a decision reads the least and each larger one: fractions of range, rising
+                raise ValueError("severities must be one or more increasing fractions of range")
             det = {str(k): tuple(float(v) for v in x) for k, x in doc["detected"].items()}
             if any(len(x) != len(sev) or not all(0.0 <= v <= 1.0 for v in x)
                    for x in det.values()):
                 raise ValueError("each mode needs one share in [0, 1] per severity")
-            return cls(sev, det, int(doc["bits"]))
+            bits = int(doc["bits"])
+            if bits < 1:
+                raise ValueError(f"{bits} BITs")
+            return cls(sev, det, bits)
         except (KeyError, TypeError, ValueError, AttributeError) as error:
             raise ConfigError(f"malformed visibility ({type(error).__name__}: {error})",
                               path=path, field="visibility") from None
