@@ -173,3 +173,15 @@ def test_a_unit_without_a_detector_names_what_it_does_not_see_too(
     assert not out.anomaly
     assert out.evidence["not_seen_on_this_unit"]["floors"] == {"friction": None}
 
+
+@pytest.mark.parametrize("calibration", ["calibrated", [1, 2]])
+def test_a_record_whose_unit_calibration_is_not_a_mapping_is_refused_naming_it(
+        unit_folder: Path, tmp_path: Path, calibration: object) -> None:
+    folder = tmp_path / "odd"
+    shutil.copytree(unit_folder, folder)
+    record = json.loads((folder / "commissioning.json").read_text())
+    record["unit_calibration"] = calibration
+    (folder / "commissioning.json").write_text(json.dumps(record))
+    with pytest.raises(ConfigError, match="unit_calibration") as caught:
+        Baseline.load(folder)
+    assert caught.value.path == str(folder / "commissioning.json")

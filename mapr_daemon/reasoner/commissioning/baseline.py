@@ -84,7 +84,11 @@ class Baseline:
             record.detector, str(d / RECORD_FILE))
         wear = None if record.wear is None else BaselineWear.from_json(
             record.wear, str(d / RECORD_FILE))
-        seen = (record.unit_calibration or {}).get("visibility")
+        calibration = record.unit_calibration or {}
+        if not isinstance(calibration, dict):
+            raise ConfigError(f"expected a mapping, got {type(calibration).__name__}",
+                              path=str(d / RECORD_FILE), field="unit_calibration")
+        seen = calibration.get("visibility")
         return cls(params, datasheet, disc, detector, wear, record_digest(d / RECORD_FILE),
                    None if seen is None else Visibility.from_json(seen, str(d / RECORD_FILE)))
 
