@@ -179,7 +179,7 @@ def measure(d: Dictionary, params: ActuatorParams, bits: Sequence[BitRecord],
     identified one) added at each severity. ``modes``: the parametric modes to measure
     (default every one the dictionary has a template of). A BIT the dictionary cannot read
     (RecordError), calls inconclusive (a bus below the converter's headroom) or already
-    flags healthy is left out; ConfigError when none is left."""
+    flags as an anomaly (healthy as it is) is left out; ConfigError when none is left."""
     kinds = [m for m in (modes or [t.kind for t in d.templates]) if m in PARAMETRIC]
     kinds = list(dict.fromkeys(kinds))
     faults = [FaultSet.of([at_severity(params, k, s)]) for k in kinds for s in severities]
