@@ -119,9 +119,15 @@ def main() -> int:
                     help="with --baseline: each diagnosed BIT's detection statistics as JSON "
                          "lines")
     args = ap.parse_args()
+    # every option that changes what is flown or how it is decided, so the rerun is this run
     seed = master(args.seed, f"python3 bench/units.py --actuator {args.actuator} "
-                  f"--dictionary {args.dictionary} --units {args.units}"
+                  f"--dictionary {args.dictionary} --units {args.units} "
+                  f"--commission-bits {args.commission_bits} --healthy {args.healthy} "
+                  f"--faulted {args.faulted}"
+                  + (" --identify" if args.identify else "")
+                  + (f" --spec {args.spec}" if args.spec is not None else "")
                   + (" --baseline" if args.baseline else "")
+                  + (" --friction-law" if args.friction_law else "")
                   + (" --twins" if args.twins else ""))
     start, cpu0 = time.monotonic(), time.process_time()
     sheet = load_actuator(args.actuator)
