@@ -185,3 +185,13 @@ def test_a_record_whose_unit_calibration_is_not_a_mapping_is_refused_naming_it(
     with pytest.raises(ConfigError, match="unit_calibration") as caught:
         Baseline.load(folder)
     assert caught.value.path == str(folder / "commissioning.json")
+
+
+def test_a_bit_recorded_at_another_rate_than_the_model_is_left_out(bench: Bench) -> None:
+    """The departure is flown at the model's rate: added sample for sample to a record at
+    another rate it would land at the wrong times, and the floor would be wrong unsaid."""
+    good = _healthy(bench, 2)
+    other = dataclasses.replace(good[0], sample_rate_hz=2.0 * good[0].sample_rate_hz)
+    seen = visibility.measure(bench.dictionary, bench.params, [other, good[1]],
+                              modes=["esr"], severities=(1.0,))
+    assert seen.bits == 1

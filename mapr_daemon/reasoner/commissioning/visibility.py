@@ -177,15 +177,19 @@ def measure(d: Dictionary, params: ActuatorParams, bits: Sequence[BitRecord],
     """The unit's :class:`Visibility`: ``d`` (its calibrated dictionary) deciding ``bits``
     (its healthy commissioning BITs) with each mode's departure on the model ``params`` (the
     identified one) added at each severity. ``modes``: the parametric modes to measure
-    (default every one the dictionary has a template of). A BIT the dictionary cannot read
-    (RecordError), calls inconclusive (a bus below the converter's headroom) or already
-    flags as an anomaly (healthy as it is) is left out; ConfigError when none is left."""
+    (default every one the dictionary has a template of). A BIT recorded at another rate
+    than ``params``'s, one the dictionary cannot read (RecordError), calls inconclusive (a
+    bus below the converter's headroom) or already flags as an anomaly (healthy as it is)
+    is left out; ConfigError when none is left."""
     kinds = [m for m in (modes or [t.kind for t in d.templates]) if m in PARAMETRIC]
     kinds = list(dict.fromkeys(kinds))
     faults = [FaultSet.of([at_severity(params, k, s)]) for k in kinds for s in severities]
     hits = np.zeros((len(kinds), len(severities)))
     used = 0
+    rate = params.sensors.sample_rate_hz
     for bit in bits:
+        if abs(bit.sample_rate_hz - rate) > 1e-9 * rate:
+            continue   # the departure is flown at the model's rate: it would land off time
         try:
             base = classifier.decide(d, d.record_matrix(bit.channels, bit.command_deg),
                                      bit.dynamic_pressure_pa)
