@@ -44,6 +44,10 @@ held to: a non-twin unit does not see what the exact model cannot). Each table a
 per-mode figures where the dictionary's detection map says the bus can see the mode.
 ``--twins`` draws units that are the data sheet's exact twins instead of mismatched ones (the
 bench's own ceiling for the commissioning path: 20 BITs, the calibration and the reading).
+Each unit's visibility is measured on its commissioning BITs and calibrated dictionary as
+``mapr commission`` does (:func:`mapr_daemon.reasoner.commissioning.visibility.measure`): its
+floor per mode is printed, and each table gives per mode the detection above and below the
+unit's floor, and the detection the measured shares predicted beside the one found.
 
 Seeds: a master seed, drawn afresh unless ``--seed`` is given, is printed first; the fleet,
 conditions, magnitudes and per-run noise seeds (10^9..2^62) come from it.
