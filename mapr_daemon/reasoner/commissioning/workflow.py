@@ -15,11 +15,11 @@ discrepancy, the unit's own anomaly detector is calibrated on the same BITs read
 0.7-0.8 s CPU each) and kept in the record, and so is the measured noise of each aging
 kind's wear read against the baseline on the same BITs held out
 (:mod:`~mapr_daemon.reasoner.commissioning.wear`, about 0.5 s CPU per BIT): what the trend
-of a commissioned asset is fitted on. With a dictionary, what the unit's BITs can see of each
-fault mode is measured on the calibrated dictionary
-(:mod:`~mapr_daemon.reasoner.commissioning.visibility`) and kept in the record
-(``unit_calibration.visibility``). Both read each BIT against the discrepancy relearned
-without it; those are made once (:func:`held_out_discrepancies`) and handed to both.
+of a commissioned asset is fitted on. Both read each BIT against the discrepancy relearned
+without it; those are made once (:func:`held_out_discrepancies`) and handed to both. With a
+dictionary, what the unit's BITs can see of each fault mode is measured on the calibrated
+dictionary (:mod:`~mapr_daemon.reasoner.commissioning.visibility`) and kept in the record
+(``unit_calibration.visibility``).
 """
 
 from __future__ import annotations
