@@ -212,9 +212,9 @@ def main() -> int:
     for u in range(len(units)):
         own = [i for i, w in enumerate(who) if w[0] == u]
         comm = [i for i in own if who[i][1] == "commission"]
-        base = d
+        base, model = d, sheet
         if args.identify:
-            base = _identified(sheet, runs, comm, args.spec)
+            base, model = _identified(sheet, runs, comm, args.spec)
         unit_d, report = calibrate.calibrate_unit(base, m[comm], np.asarray(q)[comm])
         bl = None
         widened.append(report.widened_cells)
@@ -242,7 +242,8 @@ def main() -> int:
                   f"thresholds {thr}; wall {time.monotonic() - start:.0f} s so far)",
                   flush=True)
         cv = time.process_time()
-        seen = visibility.measure(unit_d, sheet if bl is None else bl.params,
+        # the departures flown on the identified model where there is one, as mapr commission
+        seen = visibility.measure(unit_d, model if bl is None else bl.params,
                                   from_runs(runs, "bench", comm))
         vis_cpu.append(time.process_time() - cv)
         unit_vis.append(seen)
@@ -374,12 +375,13 @@ def _baseline(sheet: ActuatorParams, runs: Runs, comm: list[int], friction_law: 
 
 
 def _identified(sheet: ActuatorParams, runs: Runs, comm: list[int],
-                spec_path: Path | None) -> Dictionary:
-    """The dictionary ``mapr commission`` builds: on the actuator identified from ``comm``."""
+                spec_path: Path | None) -> tuple[Dictionary, ActuatorParams]:
+    """The dictionary ``mapr commission`` builds and the actuator it is built on, the one
+    identified from ``comm``."""
     root = Path(__file__).resolve().parents[1]
     spec = DictionarySpec.load(spec_path or root / "configs/reasoner/dictionary.yaml")
     ident = identify(sheet, from_runs(runs, "bench", comm))
-    return build(ident.params, spec)
+    return build(ident.params, spec), ident.params
 
 
 def report_block(name: str, who: list[tuple[int, str, str, float]],
