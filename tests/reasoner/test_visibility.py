@@ -163,13 +163,21 @@ def test_a_unit_without_a_detector_names_what_it_does_not_see_too(
     """A unit commissioned from too few BITs for a detector still measured its visibility
     (mapr commission from 3 BITs does): its nominal BITs must say it as well."""
     folder = commissioned_folder(bench, tmp_path, count=3)
+    i = bench.runs.n - len(HELD_OUT)
+    channels = {k: v[i] for k, v in bench.runs.channels.items()}
+    q = float(bench.runs.dynamic_pressure_pa[i])
+    # a record without one (written before) decides exactly as the dictionary alone
+    alone = Reasoner(bench.dictionary, bench.params).diagnose(channels, bench.runs.command_deg,
+                                                              q)
+    before = Reasoner(bench.dictionary, bench.params, baseline=Baseline.load(folder)).diagnose(
+        channels, bench.runs.command_deg, q)
+    assert not before.anomaly and before.evidence == alone.evidence
+    assert before.confidence == alone.confidence
     seen = Visibility((0.25, 1.0), {"esr": (1.0, 1.0), "friction": (0.0, 0.5)}, 3)
     baseline = Baseline.load(_with_visibility(folder, seen.to_json()))
     assert baseline.detector is None
-    i = bench.runs.n - len(HELD_OUT)
-    channels = {k: v[i] for k, v in bench.runs.channels.items()}
     out = Reasoner(bench.dictionary, bench.params, baseline=baseline).diagnose(
-        channels, bench.runs.command_deg, float(bench.runs.dynamic_pressure_pa[i]))
+        channels, bench.runs.command_deg, q)
     assert not out.anomaly
     assert out.evidence["not_seen_on_this_unit"]["floors"] == {"friction": None}
 
