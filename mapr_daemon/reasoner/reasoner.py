@@ -215,7 +215,7 @@ class Reasoner:
         cannot read (a channel it needs missing, a numerical refusal) keeps the dictionary's
         decision, the reason in ``evidence.baseline.unreadable`` when the dictionary flagged
         it."""
-        from mapr_daemon.reasoner.commissioning.detection import decide
+        from mapr_daemon.reasoner.commissioning.detection import decide, unseen
         from mapr_daemon.reasoner.commissioning.unit_decision import combine
 
         assert self.baseline is not None
@@ -226,7 +226,9 @@ class Reasoner:
             # the detector or the decision on the reading (a record's thresholds, a mode it
             # has no range for) raised: the dictionary's decision stands, never lost
             why = f"{type(error).__name__}: {error}"
-            return combine(dec, why, self.baseline) if dec.anomaly else dec
+            if dec.anomaly:
+                return combine(dec, why, self.baseline)
+            return unseen(dec, self.baseline)   # what its "no anomaly" does not clear
 
     def baseline_reading(self, channels: Mapping[str, FloatArray], command_deg: FloatArray,
                          dynamic_pressure_pa: float) -> Reading | str:

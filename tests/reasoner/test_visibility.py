@@ -203,3 +203,26 @@ def test_a_bit_recorded_at_another_rate_than_the_model_is_left_out(bench: Bench)
     seen = visibility.measure(bench.dictionary, bench.params, [other, good[1]],
                               modes=["esr"], severities=(1.0,))
     assert seen.bits == 1
+
+
+def test_a_nominal_bit_whose_detector_cannot_decide_still_names_what_is_not_seen(
+        bench: Bench, unit_folder: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+        ) -> None:
+    """The detector raising leaves the dictionary's nominal decision (never lost): what that
+    "no anomaly" does not clear is still said."""
+    from mapr_daemon.reasoner.commissioning.detector import Detector
+
+    def broken(self: Detector, reading: object) -> dict[str, float]:
+        raise KeyError("no_fault")
+
+    folder = tmp_path / "unit"
+    shutil.copytree(unit_folder, folder)
+    seen = Visibility((0.25, 1.0), {"friction": (0.0, 1.0)}, 20)
+    baseline = Baseline.load(_with_visibility(folder, seen.to_json()))
+    monkeypatch.setattr(Detector, "fired", broken)
+    i = bench.runs.n - len(HELD_OUT)
+    out = Reasoner(bench.dictionary, bench.params, baseline=baseline).diagnose(
+        {k: v[i] for k, v in bench.runs.channels.items()}, bench.runs.command_deg,
+        float(bench.runs.dynamic_pressure_pa[i]))
+    assert not out.anomaly
+    assert out.evidence["not_seen_on_this_unit"]["floors"] == {"friction": 1.0}
