@@ -77,6 +77,7 @@ from mapr_daemon.ema.batch import RunSpec
 from mapr_daemon.ema.faults import SWITCHES, Fault, FaultSet, at_severity
 from mapr_daemon.ema.form import ModelForm
 from mapr_daemon.ema.params import ActuatorParams, default_actuator_path, load_actuator
+from mapr_daemon.errors import ConfigError
 from mapr_daemon.reasoner.commissioning import calibrate, detection, detector, visibility
 from mapr_daemon.reasoner.commissioning.baseline import Baseline
 from mapr_daemon.reasoner.commissioning.bits import from_runs
@@ -243,8 +244,11 @@ def main() -> int:
                   flush=True)
         cv = time.process_time()
         # the departures flown on the identified model where there is one, as mapr commission
-        seen = visibility.measure(unit_d, model if bl is None else bl.params,
-                                  from_runs(runs, "bench", comm))
+        try:
+            seen = visibility.measure(unit_d, model if bl is None else bl.params,
+                                      from_runs(runs, "bench", comm))
+        except ConfigError:   # every commissioning BIT alarmed or was inconclusive
+            seen = visibility.Visibility(visibility.SEVERITIES, {}, 1)
         vis_cpu.append(time.process_time() - cv)
         unit_vis.append(seen)
         print(f"    unit {u + 1}: what its BITs can see, floor per mode ({vis_cpu[-1]:.1f} s "

@@ -71,6 +71,10 @@ def test_the_floor_needs_every_larger_severity_seen() -> None:
     lines = v.lines()
     assert lines[0].startswith("gap: seen from 100% of range (detected on the unit's 20 BITs")
     assert lines[2].startswith("never: not seen within its range on this unit")
+    # a record keeps the rule it was measured with: its own share, not today's default
+    lenient = Visibility(v.severities, v.detected, 20, seen=0.5)
+    assert lenient.floor("gap") == 0.25 and lenient.floor("never") == 0.25
+    assert Visibility.from_json(lenient.to_json()) == lenient
 
 
 def test_bits_the_dictionary_cannot_read_are_left_out_and_none_left_is_one_error(

@@ -43,7 +43,6 @@ from typing import Any
 from mapr_daemon.reasoner.commissioning.baseline import Baseline
 from mapr_daemon.reasoner.commissioning.severity import Reading
 from mapr_daemon.reasoner.commissioning.unit_decision import combine
-from mapr_daemon.reasoner.commissioning.visibility import SEEN
 from mapr_daemon.reasoner.diagnosis.classifier import Decision
 
 RULES = ("dictionary", "union", "explained", "baseline")
@@ -120,6 +119,7 @@ def unseen(dec: Decision, baseline: Baseline) -> Decision:
         return dec
     return dataclasses.replace(dec, evidence={**dec.evidence, "not_seen_on_this_unit": {
         "floors": floors,
-        "rule": f"a fault of these modes below its floor (a fraction of range; null: not "
-                f"within its range) was detected on under {SEEN:.0%} of this unit's "
-                f"commissioning BITs with it added (mapr commission)"}})
+        "rule": f"each mode's floor (a fraction of range; null: not within its range) is the "
+                f"least severity from which every larger one, added to this unit's "
+                f"commissioning BITs, was detected on at least {seen.seen:.0%} of them by its "
+                f"calibrated dictionary (mapr commission); a fault below it may go unseen"}})

@@ -67,16 +67,19 @@ class Visibility:
     detected: Mapping[str, tuple[float, ...]]
     bits: int
     """BITs each share is over."""
+    seen: float = SEEN
+    """The share a severity needs to count as seen (the record's own: a record keeps the rule
+    it was measured with)."""
 
     def floor(self, mode: str) -> float | None:
-        """The least severity from which every larger one was seen (:data:`SEEN`); None when
+        """The least severity from which every larger one was seen (:attr:`seen`); None when
         the range's end is not seen (or the mode was not measured)."""
         shares = self.detected.get(mode)
         if shares is None:
             return None
         out = None
         for severity, share in reversed(list(zip(self.severities, shares, strict=True))):
-            if share < SEEN:
+            if share < self.seen:
                 break
             out = severity
         return out
@@ -107,7 +110,7 @@ class Visibility:
         return out
 
     def to_json(self) -> dict[str, Any]:
-        return {"severities": list(self.severities), "seen": SEEN, "bits": self.bits,
+        return {"severities": list(self.severities), "seen": self.seen, "bits": self.bits,
                 "detected": {k: [round(v, 4) for v in x] for k, x in self.detected.items()},
                 "floor": {k: self.floor(k) for k in self.detected}}
 
@@ -127,7 +130,10 @@ class Visibility:
             bits = int(doc["bits"])
             if bits < 1:
                 raise ValueError(f"{bits} BITs")
-            return cls(sev, det, bits)
+            seen = float(doc.get("seen", SEEN))
+            if not 0.0 < seen <= 1.0:
+                raise ValueError(f"seen {seen} (a share in (0, 1])")
+            return cls(sev, det, bits, seen)
         except (KeyError, TypeError, ValueError, AttributeError) as error:
             raise ConfigError(f"malformed visibility ({type(error).__name__}: {error})",
                               path=path, field="visibility") from None
@@ -208,12 +214,3 @@ def measure(d: Dictionary, params: ActuatorParams, bits: Sequence[BitRecord],
     return Visibility(tuple(float(s) for s in severities),
                       {k: tuple(float(v) for v in shares[i]) for i, k in enumerate(kinds)},
                       used)
-
-
-def ceiling_note(v: Visibility) -> str:
-    """One line: the modes this unit does not see at the range's start."""
-    late = [f"{k} ({'never' if v.floor(k) is None else format(v.floor(k), '.0%')})"
-            for k in v.detected if not v.sees(k, min(v.severities))]
-    return ("every mode seen from " + format(min(v.severities), ".0%") + " of range" if not late
-            else "seen later or not at all: " + ", ".join(late))
-
