@@ -453,29 +453,17 @@ def report_block(name: str, who: list[tuple[int, str, str, float]],
               f"({len(low) - len(seen)} of {len(low)} BITs flown where it is blind)")
     visible = [(w, dec) for w, dec, b in zip(who, decs, blind, strict=True)
                if w[1] == "faulted" and dec is not None and w[2] not in b]
-    if visible:
-        print("  where the detection map says the bus can see the mode: BITs, detected, to "
-              "the part (and BITs flown where it is blind)")
-        for mode in MODES:
-            cell = [(w, dec) for w, dec in visible if w[2] == mode]
-            flown = sum(1 for w in who if w[1] == "faulted" and w[2] == mode)
-            if cell:
-                print(f"{mode:>20} {_seen_row(cell)}   blind {flown - len(cell)}")
-        print(f"{'visible, all modes':>20} {_seen_row(visible)}")
+    _subset("where the detection map says the bus can see the mode: BITs, detected, to the "
+            "part (and BITs flown where it is blind)", who, visible, "blind",
+            "visible, all modes")
     seen_by_twin = [(w, dec) for w, dec, t in zip(who, decs, twin_sees, strict=True)
                     if w[1] == "faulted" and dec is not None and t]
-    if seen_by_twin:
-        print("  the faulted BITs whose exact twin its own dictionary detected: BITs, detected, "
-              "to the part (and the twin's misses)")
-        for mode in MODES:
-            cell = [(w, dec) for w, dec in seen_by_twin if w[2] == mode]
-            flown = sum(1 for w in who if w[1] == "faulted" and w[2] == mode)
-            if cell:
-                print(f"{mode:>20} {_seen_row(cell)}   twin missed {flown - len(cell)}")
-        print(f"{'seen by the twin':>20} {_seen_row(seen_by_twin)}")
-        others = [(w, dec) for w, dec in seen_by_twin if w[2] != "smps_ron_low"]
-        if others:
-            print(f"{'... but smps_ron_low':>20} {_seen_row(others)}")
+    _subset("the faulted BITs whose exact twin its own dictionary detected: BITs, detected, "
+            "to the part (and the twin's misses)", who, seen_by_twin, "twin missed",
+            "seen by the twin")
+    others = [(w, dec) for w, dec in seen_by_twin if w[2] != "smps_ron_low"]
+    if others:
+        print(f"{'... but smps_ron_low':>20} {_seen_row(others)}")
     faulted = [(w, dec) for w, dec in zip(who, decs, strict=True)
                if w[1] == "faulted" and dec is not None and w[2] in unit_vis[w[0]].detected]
     if faulted:
@@ -496,12 +484,28 @@ def report_block(name: str, who: list[tuple[int, str, str, float]],
         above = [(w, dec) for w, dec in faulted if w[2] != "smps_ron_low"
                  and unit_vis[w[0]].sees(w[2], w[3])]
         if above:
-            print(f"{'above, but low side':>20} {_seen_row(above)}")
+            print(f"{'above, all but low':>20} {_seen_row(above)}")
     ns = max(tot["n_seen"], 1)
     print(f"{'all but smps_ron_low':>20} {tot['n_seen']:5d} {tot['det_seen']:5d} "
           f"({100 * tot['det_seen'] / ns:5.1f}%) {'':>14} {tot['part_seen']:5d} "
           f"({100 * tot['part_seen'] / ns:5.1f}%)   severity error over the parametric modes "
           f"named right: mean {sev.split('/')[0]}, worst {sev.split('/')[-1]} of range")
+
+
+def _subset(title: str, who: list[tuple[int, str, str, float]],
+            kept: list[tuple[tuple[int, str, str, float], classifier.Decision]], left: str,
+            total: str) -> None:
+    """Per mode and in all, BITs, detected and to the part among the faulted BITs ``kept``,
+    with how many of the mode's were left out (``left`` names why)."""
+    if not kept:
+        return
+    print(f"  {title}")
+    for mode in MODES:
+        cell = [(w, dec) for w, dec in kept if w[2] == mode]
+        flown = sum(1 for w in who if w[1] == "faulted" and w[2] == mode)
+        if cell:
+            print(f"{mode:>20} {_seen_row(cell)}   {left} {flown - len(cell)}")
+    print(f"{total:>20} {_seen_row(kept)}")
 
 
 def _seen_row(rows: list[tuple[tuple[int, str, str, float], classifier.Decision]]) -> str:
