@@ -245,8 +245,9 @@ def main() -> int:
         cv = time.process_time()
         # the departures flown on the identified model where there is one, as mapr commission
         try:
-            seen = visibility.measure(unit_d, model if bl is None else bl.params,
-                                      from_runs(runs, "bench", comm))
+            seen = visibility.measure(
+                unit_d, model if bl is None else bl.params, from_runs(runs, "bench", comm),
+                held_out=calibrate.without_each(base, m[comm], np.asarray(q)[comm]))
         except ConfigError:   # every commissioning BIT alarmed or was inconclusive
             seen = visibility.Visibility(visibility.SEVERITIES, {}, 1)
         vis_cpu.append(time.process_time() - cv)

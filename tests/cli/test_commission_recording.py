@@ -126,6 +126,7 @@ def test_the_bits_flown_are_found_in_the_recording_and_commissioned_from(
     assert rec.unit_calibration is not None
     seen = Visibility.from_json(rec.unit_calibration["visibility"])
     assert list(seen.detected) == ["esr"] and seen.bits == BITS
+    assert not seen.held_out  # three BITs: leaving one out leaves too few to calibrate on
     assert "what this unit's BITs can see" in cap.err and "  esr: seen from" in cap.err
     # three BITs leave two per held-out reading: too few for the detector's tail, said so
     assert rec.detector is None

@@ -13,7 +13,7 @@ import pytest
 
 from mapr_daemon.ema.faults import FaultSet, at_severity
 from mapr_daemon.errors import ConfigError
-from mapr_daemon.reasoner.commissioning import visibility
+from mapr_daemon.reasoner.commissioning import calibrate, visibility
 from mapr_daemon.reasoner.commissioning.baseline import Baseline
 from mapr_daemon.reasoner.commissioning.bits import BitRecord, from_runs
 from mapr_daemon.reasoner.commissioning.visibility import Visibility
@@ -230,3 +230,22 @@ def test_a_nominal_bit_whose_detector_cannot_decide_still_names_what_is_not_seen
         float(bench.runs.dynamic_pressure_pa[i]))
     assert not out.anomaly
     assert out.evidence["not_seen_on_this_unit"]["floors"] == {"friction": 1.0}
+
+
+def test_each_bit_can_be_decided_by_a_calibration_that_never_saw_it(bench: Bench) -> None:
+    own = bench.runs.n - len(HELD_OUT)
+    picks = [i for i in range(own) if bench.runs.labels[i] == "healthy"][:5]
+    bits = from_runs(bench.runs, "bench", picks)
+    m, q = bench.m[picks], bench.runs.dynamic_pressure_pa[picks]
+    assert calibrate.without_each(bench.dictionary, m[:3], q[:3]) is None  # 2 left: too few
+    held = calibrate.without_each(bench.dictionary, m, q)
+    assert held is not None and len(held) == 5
+    assert all(h.healthy is not None and h.healthy.unit_coef is not None for h in held)
+    unit, _ = calibrate.calibrate_unit(bench.dictionary, m, q)
+    seen = visibility.measure(unit, bench.params, bits, modes=["friction"],
+                              severities=(0.0, 1.0), held_out=held)
+    assert seen.held_out and seen.detected["friction"][0] == 0.0
+    assert seen.detected["friction"][1] >= visibility.SEEN
+    assert Visibility.from_json(json.loads(json.dumps(seen.to_json()))) == seen
+    with pytest.raises(ValueError, match="4 held-out dictionaries for 5 BITs"):
+        visibility.measure(unit, bench.params, bits, held_out=held[:4])

@@ -70,6 +70,9 @@ class Visibility:
     seen: float = SEEN
     """The share a severity needs to count as seen (the record's own: a record keeps the rule
     it was measured with)."""
+    held_out: bool = False
+    """Whether each BIT was decided by the dictionary calibrated without it (from more than
+    three BITs, as ``mapr commission`` does) rather than by the one calibrated on all."""
 
     def floor(self, mode: str) -> float | None:
         """The least severity from which every larger one was seen (:attr:`seen`); None when
@@ -111,6 +114,7 @@ class Visibility:
 
     def to_json(self) -> dict[str, Any]:
         return {"severities": list(self.severities), "seen": self.seen, "bits": self.bits,
+                "held_out": self.held_out,
                 "detected": {k: [round(v, 4) for v in x] for k, x in self.detected.items()},
                 "floor": {k: self.floor(k) for k in self.detected}}
 
@@ -133,7 +137,7 @@ class Visibility:
             seen = float(doc.get("seen", SEEN))
             if not 0.0 < seen <= 1.0:
                 raise ValueError(f"seen {seen} (a share in (0, 1])")
-            return cls(sev, det, bits, seen)
+            return cls(sev, det, bits, seen, bool(doc.get("held_out", False)))
         except (KeyError, TypeError, ValueError, AttributeError) as error:
             raise ConfigError(f"malformed visibility ({type(error).__name__}: {error})",
                               path=path, field="visibility") from None
@@ -179,25 +183,31 @@ def _with(bit: BitRecord, departure: Mapping[str, FloatArray]) -> dict[str, Floa
 
 def measure(d: Dictionary, params: ActuatorParams, bits: Sequence[BitRecord],
             modes: Sequence[str] | None = None,
-            severities: Sequence[float] = SEVERITIES) -> Visibility:
+            severities: Sequence[float] = SEVERITIES,
+            held_out: Sequence[Dictionary] | None = None) -> Visibility:
     """The unit's :class:`Visibility`: ``d`` (its calibrated dictionary) deciding ``bits``
     (its healthy commissioning BITs) with each mode's departure on the model ``params`` (the
     identified one) added at each severity. ``modes``: the parametric modes to measure
-    (default every one the dictionary has a template of). A BIT recorded at another rate
-    than ``params``'s, one the dictionary cannot read (RecordError), calls inconclusive (a
-    bus below the converter's headroom) or already flags as an anomaly (healthy as it is)
-    is left out; ConfigError when none is left."""
+    (default every one the dictionary has a template of); ``held_out``: per BIT the
+    dictionary calibrated without it (:func:`~.calibrate.without_each`), which then decides
+    that BIT in place of ``d``, so no BIT is decided by a calibration that saw it. A BIT
+    recorded at another rate than ``params``'s, one the dictionary cannot read
+    (RecordError), calls inconclusive (a bus below the converter's headroom) or already flags
+    as an anomaly (healthy as it is) is left out; ConfigError when none is left."""
+    if held_out is not None and len(held_out) != len(bits):
+        raise ValueError(f"{len(held_out)} held-out dictionaries for {len(bits)} BITs")
     kinds = [m for m in (modes or [t.kind for t in d.templates]) if m in PARAMETRIC]
     kinds = list(dict.fromkeys(kinds))
     faults = [FaultSet.of([at_severity(params, k, s)]) for k in kinds for s in severities]
     hits = np.zeros((len(kinds), len(severities)))
     used = 0
     rate = params.sensors.sample_rate_hz
-    for bit in bits:
+    for i, bit in enumerate(bits):
         if abs(bit.sample_rate_hz - rate) > 1e-9 * rate:
             continue   # the departure is flown at the model's rate: it would land off time
+        judge = d if held_out is None else held_out[i]
         try:
-            base = classifier.decide(d, d.record_matrix(bit.channels, bit.command_deg),
+            base = classifier.decide(judge, judge.record_matrix(bit.channels, bit.command_deg),
                                      bit.dynamic_pressure_pa)
         except RecordError:
             continue
@@ -205,12 +215,12 @@ def measure(d: Dictionary, params: ActuatorParams, bits: Sequence[BitRecord],
             continue   # an alarm already on the healthy record says nothing of the fault
         used += 1
         for j, dep in enumerate(departures(params, bit, faults)):
-            m = d.record_matrix(_with(bit, dep), bit.command_deg)
-            hits.flat[j] += classifier.decide(d, m, bit.dynamic_pressure_pa).anomaly
+            m = judge.record_matrix(_with(bit, dep), bit.command_deg)
+            hits.flat[j] += classifier.decide(judge, m, bit.dynamic_pressure_pa).anomaly
     if used == 0:
         raise ConfigError("no BIT the dictionary could decide: no visibility",
                           field="visibility")
     shares = hits / used
     return Visibility(tuple(float(s) for s in severities),
                       {k: tuple(float(v) for v in shares[i]) for i, k in enumerate(kinds)},
-                      used)
+                      used, held_out=held_out is not None)

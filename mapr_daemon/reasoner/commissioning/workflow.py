@@ -40,7 +40,7 @@ from mapr_daemon.reasoner.commissioning import discrepancy as dsc
 from mapr_daemon.reasoner.commissioning import visibility
 from mapr_daemon.reasoner.commissioning import wear as baseline_wear
 from mapr_daemon.reasoner.commissioning.bits import FIT_SIGNALS, BitRecord, from_runs
-from mapr_daemon.reasoner.commissioning.calibrate import MIN_BITS, calibrate_unit
+from mapr_daemon.reasoner.commissioning.calibrate import MIN_BITS, calibrate_unit, without_each
 from mapr_daemon.reasoner.commissioning.friction_law import identify_with_law
 from mapr_daemon.reasoner.commissioning.identify import FitOptions, Identification, identify
 from mapr_daemon.reasoner.commissioning.prior import Tolerance
@@ -130,6 +130,7 @@ def unit_dictionary(params: ActuatorParams, spec: DictionarySpec, out: Path,
         return DICTIONARY_FILE, {"skipped": reason}
     m = np.stack([d.record_matrix(b.channels, b.command_deg) for b in bits])
     q = np.array([b.dynamic_pressure_pa for b in bits])
+    built = d
     d, report = calibrate_unit(d, m, q)
     d.save(out / DICTIONARY_FILE)
     say(f"dictionary calibrated to the unit on {report.bits} BITs: its cells sit "
@@ -138,7 +139,7 @@ def unit_dictionary(params: ActuatorParams, spec: DictionarySpec, out: Path,
         + ", ".join(f"{k} {a:.3g} -> {b:.3g}" for k, (a, b) in report.thresholds.items()))
     summary = report.as_dict()
     try:
-        seen = visibility.measure(d, params, bits)
+        seen = visibility.measure(d, params, bits, held_out=without_each(built, m, q))
     except ConfigError as error:
         say(f"what the unit's BITs can see was not measured: {error.detail}")
     else:
