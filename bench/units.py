@@ -253,8 +253,9 @@ def main() -> int:
         vis_cpu.append(time.process_time() - cv)
         unit_vis.append(seen)
         print(f"    unit {u + 1}: what its BITs can see, floor per mode ({vis_cpu[-1]:.1f} s "
-              "CPU): " + ", ".join(f"{k} " + ("never" if seen.floor(k) is None else
-                                             f"{seen.floor(k):.0%}") for k in seen.detected),
+              f"CPU; {seen.alarmed} of its healthy BITs alarmed held out): "
+              + ", ".join(f"{k} " + ("never" if seen.floor(k) is None else
+                                     f"{seen.floor(k):.0%}") for k in seen.detected),
               flush=True)
         for i in own:
             if who[i][1] == "commission":
@@ -319,6 +320,15 @@ def main() -> int:
                       f" largest {max(v):.2f}; above it {sum(x > 1.0 for x in v)} of {len(v)}")
     for name, decs in blocks:
         report_block(name, scored, decs, scored_blind, scored_twin, unit_vis)
+    product = older if args.baseline else after
+    print("\n== per unit: its own healthy BITs flagged at commissioning by the dictionary "
+          "calibrated without each (what mapr commission warns of) against its healthy BITs "
+          "flagged after, by the product")
+    for u, seen in enumerate(unit_vis):
+        flagged = [dec is not None and dec.anomaly for w, dec in zip(scored, product, strict=True)
+                   if w[0] == u and w[1] == "healthy"]
+        print(f"  unit {u + 1}: {seen.alarmed} of {seen.alarmed + seen.bits} at commissioning; "
+              f"{sum(flagged)} of {len(flagged)} after")
     print("\n== the same faulted BITs flown on the data sheet's exact twin, decided by its own "
           "dictionary (the exact model's ceiling): BITs, detected, to the part, severity error "
           "mean/max where the mode was named")

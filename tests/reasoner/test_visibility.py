@@ -17,6 +17,7 @@ from mapr_daemon.reasoner.commissioning import calibrate, visibility
 from mapr_daemon.reasoner.commissioning.baseline import Baseline
 from mapr_daemon.reasoner.commissioning.bits import BitRecord, from_runs
 from mapr_daemon.reasoner.commissioning.visibility import Visibility
+from mapr_daemon.reasoner.diagnosis import classifier
 from mapr_daemon.reasoner.reasoner import Reasoner
 
 from .conftest import HELD_OUT, Bench, commissioned_folder
@@ -249,3 +250,29 @@ def test_each_bit_can_be_decided_by_a_calibration_that_never_saw_it(bench: Bench
     assert Visibility.from_json(json.loads(json.dumps(seen.to_json()))) == seen
     with pytest.raises(ValueError, match="4 held-out dictionaries for 5 BITs"):
         visibility.measure(unit, bench.params, bits, held_out=held[:4])
+
+
+def test_healthy_bits_a_held_out_calibration_flags_are_counted_and_warned_of(
+        bench: Bench) -> None:
+    bits = _healthy(bench, 4)
+    # a dictionary whose healthy-residual threshold is next to nothing: each healthy BIT
+    # flagged as recorded
+    deaf = dataclasses.replace(bench.dictionary, calibration={
+        **bench.dictionary.calibration, "null_threshold": 1e-12})
+    b = bits[0]
+    assert classifier.decide(deaf, deaf.record_matrix(b.channels, b.command_deg),
+                             b.dynamic_pressure_pa).anomaly
+    with pytest.raises(ConfigError, match=r"no BIT the dictionary could decide.*4 of 4 "
+                                          r"healthy BITs flagged"):
+        visibility.measure(deaf, bench.params, bits, severities=(1.0,))
+    seen = visibility.measure(bench.dictionary, bench.params, bits, severities=(1.0,),
+                              held_out=[deaf, bench.dictionary, bench.dictionary,
+                                        bench.dictionary])
+    assert seen.alarmed == 1 and seen.bits == 3
+    note = seen.false_alarm_note()
+    assert note is not None and note.startswith(
+        "1 of the unit's 4 healthy BITs were flagged by the dictionary calibrated without each")
+    assert "about 25% of its BITs" in note
+    assert Visibility.from_json(seen.to_json()).alarmed == 1
+    assert visibility.measure(bench.dictionary, bench.params, bits,
+                              severities=(1.0,)).false_alarm_note() is None

@@ -73,6 +73,20 @@ class Visibility:
     held_out: bool = False
     """Whether each BIT was decided by the dictionary calibrated without it (from more than
     three BITs, as ``mapr commission`` does) rather than by the one calibrated on all."""
+    alarmed: int = 0
+    """Healthy BITs the dictionary flagged as they were recorded (held out: calibrated
+    without them), left out of the shares: a sign of the false alarms this unit will give."""
+
+    def false_alarm_note(self) -> str | None:
+        """One line when some of the unit's own healthy BITs alarmed, else None."""
+        if not self.alarmed:
+            return None
+        n = self.alarmed + self.bits
+        how = ("the dictionary calibrated without each" if self.held_out
+               else "its calibrated dictionary")
+        return (f"{self.alarmed} of the unit's {n} healthy BITs were flagged by {how}: expect "
+                f"false alarms from this unit at about {self.alarmed / n:.0%} of its BITs "
+                "(commission from more BITs, or check those BITs)")
 
     def floor(self, mode: str) -> float | None:
         """The least severity from which every larger one was seen (:attr:`seen`); None when
@@ -114,7 +128,7 @@ class Visibility:
 
     def to_json(self) -> dict[str, Any]:
         return {"severities": list(self.severities), "seen": self.seen, "bits": self.bits,
-                "held_out": self.held_out,
+                "held_out": self.held_out, "alarmed": self.alarmed,
                 "detected": {k: [round(v, 4) for v in x] for k, x in self.detected.items()},
                 "floor": {k: self.floor(k) for k in self.detected}}
 
@@ -137,7 +151,10 @@ class Visibility:
             seen = float(doc.get("seen", SEEN))
             if not 0.0 < seen <= 1.0:
                 raise ValueError(f"seen {seen} (a share in (0, 1])")
-            return cls(sev, det, bits, seen, bool(doc.get("held_out", False)))
+            alarmed = int(doc.get("alarmed", 0))
+            if alarmed < 0:
+                raise ValueError(f"{alarmed} alarmed BITs")
+            return cls(sev, det, bits, seen, bool(doc.get("held_out", False)), alarmed)
         except (KeyError, TypeError, ValueError, AttributeError) as error:
             raise ConfigError(f"malformed visibility ({type(error).__name__}: {error})",
                               path=path, field="visibility") from None
@@ -200,7 +217,7 @@ def measure(d: Dictionary, params: ActuatorParams, bits: Sequence[BitRecord],
     kinds = list(dict.fromkeys(kinds))
     faults = [FaultSet.of([at_severity(params, k, s)]) for k in kinds for s in severities]
     hits = np.zeros((len(kinds), len(severities)))
-    used = 0
+    used = alarmed = 0
     rate = params.sensors.sample_rate_hz
     for i, bit in enumerate(bits):
         if abs(bit.sample_rate_hz - rate) > 1e-9 * rate:
@@ -211,6 +228,7 @@ def measure(d: Dictionary, params: ActuatorParams, bits: Sequence[BitRecord],
                                      bit.dynamic_pressure_pa)
         except RecordError:
             continue
+        alarmed += bool(base.anomaly and not base.inconclusive)
         if base.inconclusive or base.anomaly:
             continue   # an alarm already on the healthy record says nothing of the fault
         used += 1
@@ -218,9 +236,9 @@ def measure(d: Dictionary, params: ActuatorParams, bits: Sequence[BitRecord],
             m = judge.record_matrix(_with(bit, dep), bit.command_deg)
             hits.flat[j] += classifier.decide(judge, m, bit.dynamic_pressure_pa).anomaly
     if used == 0:
-        raise ConfigError("no BIT the dictionary could decide: no visibility",
-                          field="visibility")
+        raise ConfigError(f"no BIT the dictionary could decide: no visibility ({alarmed} of "
+                          f"{len(bits)} healthy BITs flagged as recorded)", field="visibility")
     shares = hits / used
     return Visibility(tuple(float(s) for s in severities),
                       {k: tuple(float(v) for v in shares[i]) for i, k in enumerate(kinds)},
-                      used, held_out=held_out is not None)
+                      used, held_out=held_out is not None, alarmed=alarmed)

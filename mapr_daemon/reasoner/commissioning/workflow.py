@@ -148,6 +148,9 @@ def unit_dictionary(params: ActuatorParams, spec: DictionarySpec, out: Path,
             "BITs, decided by its calibrated dictionary):")
         for line in seen.lines():
             say(f"  {line}")
+        note = seen.false_alarm_note()
+        if note is not None:
+            say(note)
     return DICTIONARY_FILE, summary
 
 
