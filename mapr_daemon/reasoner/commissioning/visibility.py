@@ -75,18 +75,19 @@ class Visibility:
     three BITs, as ``mapr commission`` does) rather than by the one calibrated on all."""
     alarmed: int = 0
     """Healthy BITs the dictionary flagged as they were recorded (held out: calibrated
-    without them), left out of the shares: a sign of the false alarms this unit will give."""
+    without them), left out of the shares."""
 
     def false_alarm_note(self) -> str | None:
-        """One line when some of the unit's own healthy BITs alarmed, else None."""
+        """One line when some of the unit's own healthy BITs alarmed, else None. It states
+        what happened, not a rate to expect: on the mismatch bench the count did not tell
+        which units would alarm in service (docs/reasoner-measured.md)."""
         if not self.alarmed:
             return None
         n = self.alarmed + self.bits
         how = ("the dictionary calibrated without each" if self.held_out
                else "its calibrated dictionary")
-        return (f"{self.alarmed} of the unit's {n} healthy BITs were flagged by {how}: expect "
-                f"false alarms from this unit at about {self.alarmed / n:.0%} of its BITs "
-                "(commission from more BITs, or check those BITs)")
+        return (f"{self.alarmed} of the unit's {n} healthy BITs were flagged by {how} "
+                "(left out of what its BITs can see; check those BITs)")
 
     def floor(self, mode: str) -> float | None:
         """The least severity from which every larger one was seen (:attr:`seen`); None when
