@@ -89,18 +89,30 @@ def flown(specs: Sequence[RunSpec], command_deg: FloatArray, dynamic_pressure_pa
     ``command_deg`` at ``dynamic_pressure_pa[i]``, advanced ``chunk`` samples at a time; its
     fit signals, ``(n, K, T)`` in channel units (FIT_SIGNALS order), ``decimate``-sample
     means. What :func:`fly` and the identification's Jacobian runs both fly."""
+    channels = flown_channels(specs, command_deg, dynamic_pressure_pa, FIT_CHANNELS, chunk)
+    sig = fit_signals(channels, phase_noise)
+    return np.stack([decimated(sig[k], decimate) for k in FIT_SIGNALS], axis=1)
+
+
+def flown_channels(specs: Sequence[RunSpec], command_deg: FloatArray,
+                   dynamic_pressure_pa: FloatArray | float,
+                   channels: Sequence[str] | None = None,
+                   chunk: int = CHUNK) -> dict[str, FloatArray]:
+    """One batched plant call, as :func:`flown`, its raw ``channels`` (None: every channel
+    the plant gives) at the plant's rate, ``(n, samples)`` each: what the fit and the
+    visibility's added departures (:mod:`~mapr_daemon.reasoner.commissioning.visibility`)
+    both fly."""
     plant = EmaBatch(list(specs))
     q = np.asarray(dynamic_pressure_pa, dtype=np.float64).reshape(-1, 1)
     n = command_deg.shape[1]
-    parts: dict[str, list[FloatArray]] = {k: [] for k in FIT_CHANNELS}
+    parts: dict[str, list[FloatArray]] = {}
     for start in range(0, n, chunk):
         stop = min(n, start + chunk)
         block = plant.advance(stop - start, np.ascontiguousarray(command_deg[:, start:stop]),
                               q)
-        for k in FIT_CHANNELS:
-            parts[k].append(block.channels[k])
-    sig = fit_signals({k: np.concatenate(v, axis=1) for k, v in parts.items()}, phase_noise)
-    return np.stack([decimated(sig[k], decimate) for k in FIT_SIGNALS], axis=1)
+        for k in (block.channels if channels is None else channels):
+            parts.setdefault(k, []).append(np.asarray(block.channels[k], dtype=np.float64))
+    return {k: np.concatenate(v, axis=1) for k, v in parts.items()}
 
 
 def noise_scale(params: ActuatorParams, decimate: int) -> FloatArray:

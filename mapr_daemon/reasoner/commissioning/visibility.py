@@ -42,10 +42,10 @@ from mapr_daemon.arrays import FloatArray
 from mapr_daemon.ema.batch import RunSpec
 from mapr_daemon.ema.faults import PARAMETRIC, FaultSet, at_severity
 from mapr_daemon.ema.params import ActuatorParams
-from mapr_daemon.ema.plant import EmaBatch
 from mapr_daemon.errors import ConfigError, RecordError
 from mapr_daemon.reasoner.commissioning import prior as ip
 from mapr_daemon.reasoner.commissioning.bits import BitRecord, condition
+from mapr_daemon.reasoner.commissioning.flight import flown_channels
 from mapr_daemon.reasoner.diagnosis import classifier
 from mapr_daemon.reasoner.diagnosis.dictionary import Dictionary
 
@@ -56,8 +56,6 @@ SEVERITIES: tuple[float, ...] = (0.25, 0.5, 0.75, 1.0)
 least a maintainer is promised detection at, to the range's end."""
 SEEN = 0.9
 """A severity is seen on the unit when at least this share of its BITs detected it."""
-CHUNK = 500
-"""Samples advanced per plant call."""
 HELD = frozenset(("commutation_sector",))
 """Channels whose departure is not added (a Hall sector is a count, not a level: the record's
 own is kept)."""
@@ -175,17 +173,9 @@ def departures(params: ActuatorParams, bit: BitRecord, faults: Sequence[FaultSet
     ambient, bus = condition(params, bit)
     specs = [RunSpec(model, fs, seed=0, ambient_c=ambient, bus_v=bus)
              for fs in (FaultSet(), *faults)]
-    plant = EmaBatch(specs)
     command = np.asarray(bit.command_deg, dtype=np.float64)
-    n = command.size
-    parts: dict[str, list[FloatArray]] = {}
-    for start in range(0, n, CHUNK):
-        stop = min(n, start + CHUNK)
-        block = plant.advance(stop - start, np.tile(command[start:stop], (len(specs), 1)),
-                              bit.dynamic_pressure_pa)
-        for k, v in block.channels.items():
-            parts.setdefault(k, []).append(np.asarray(v, dtype=np.float64))
-    runs = {k: np.concatenate(v, axis=1) for k, v in parts.items()}
+    runs = flown_channels(specs, np.tile(command, (len(specs), 1)),
+                          np.full(len(specs), bit.dynamic_pressure_pa))
     return [{k: v[j] - v[0] for k, v in runs.items()} for j in range(1, len(specs))]
 
 
